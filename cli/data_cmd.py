@@ -1,0 +1,46 @@
+"""``viscore data list | export NAME -o FILE``: the built-in scenes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import trimesh
+
+from viscore import InputError, load_mesh, scene_descriptions
+
+from ._common import emit, write_atomic
+
+
+def add_parser(sub, common) -> None:
+    p = sub.add_parser("data", help="list or export the built-in scenes")
+    dsub = p.add_subparsers(dest="data_command", metavar="ACTION")
+    dsub.required = True
+    lp = dsub.add_parser("list", parents=[common], help="name the built-in scenes")
+    lp.set_defaults(run=run_list)
+    ep = dsub.add_parser("export", parents=[common], help="write a built-in scene to a file")
+    ep.add_argument("name")
+    ep.add_argument("-o", "--output", required=True, help="output file (.ply, .obj, .stl, .glb)")
+    ep.set_defaults(run=run_export)
+
+
+def run_list(args) -> int:
+    scenes = scene_descriptions()
+    width = max(map(len, scenes))
+    emit({"scenes": [{"name": k, "description": v} for k, v in scenes.items()]}, args.json,
+         "\n".join(f"{k:<{width}}  {v}" for k, v in scenes.items()))
+    return 0
+
+
+def run_export(args) -> int:
+    if args.name not in scene_descriptions():
+        raise InputError(f"{args.name}: not a built-in scene (see 'viscore data list')")
+    mesh = load_mesh(args.name)
+    suffix = Path(args.output).suffix.lower().lstrip(".")
+    if suffix not in {"ply", "obj", "stl", "glb", "off"}:
+        raise InputError(f"{args.output}: unknown mesh format '.{suffix}'; use .ply, .obj, "
+                         ".stl, .glb or .off")
+    data = trimesh.exchange.export.export_mesh(mesh, None, file_type=suffix)
+    write_atomic(args.output, data if isinstance(data, bytes) else data.encode())
+    emit({"name": args.name, "output": args.output, "triangles": len(mesh.faces)}, args.json,
+         f"wrote {args.output} ({len(mesh.faces)} triangles)")
+    return 0

@@ -1,0 +1,26 @@
+import json
+
+import trimesh
+
+from cli.main import main
+
+
+def test_data_list_json_names_builtin_scenes(capsys):
+    assert main(["data", "list", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    names = [s["name"] for s in doc["scenes"]]
+    assert {"fat-torus", "sponge", "bunny"} <= set(names)
+
+
+def test_data_export_writes_loadable_mesh(tmp_path, capsys):
+    out = tmp_path / "t.ply"
+    assert main(["data", "export", "fat-torus", "-o", str(out)]) == 0
+    assert len(trimesh.load(out).faces) == 2304
+
+
+def test_data_export_unknown_scene_exit_2_one_line(tmp_path, capsys):
+    out = tmp_path / "x.ply"
+    assert main(["data", "export", "nope", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "nope" in err[0]
+    assert not out.exists()

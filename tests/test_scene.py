@@ -1,0 +1,98 @@
+import numpy as np
+import pytest
+import trimesh
+
+from viscore import InputError, Scene
+
+
+def test_first_hit_box_distances(cube):
+    scene = Scene(cube)
+    origins = np.array([[0.3, -0.2, -5.0], [0.0, 0.0, 5.0], [3.0, 3.0, -5.0]])
+    dirs = np.array([[0, 0, 1], [0, 0, -1], [0, 0, 1]])
+    t, tri = scene.first_hit(origins, dirs)
+    assert t[0] == pytest.approx(4.0, abs=1e-5)
+    assert t[1] == pytest.approx(4.0, abs=1e-5)
+    assert t[2] == np.inf and tri[2] == -1
+    # the hit triangle's plane is the face z = -1 for the first ray
+    assert cube.face_normals[tri[0]][2] == pytest.approx(-1.0)
+
+
+def test_first_hit_unnormalised_directions_give_world_distances(cube):
+    t, _ = Scene(cube).first_hit([[0, 0, -5.0]], [[0, 0, 10.0]])
+    assert t[0] == pytest.approx(4.0, abs=1e-5)
+
+
+def test_first_hit_max_distance(cube):
+    scene = Scene(cube)
+    t, tri = scene.first_hit([[0, 0, -5.0]] * 2, [[0, 0, 1]] * 2, max_distance=[3.9, 4.1])
+    assert t[0] == np.inf and tri[0] == -1
+    assert t[1] == pytest.approx(4.0, abs=1e-5)
+
+
+def test_any_hit_segment_length(cube):
+    scene = Scene(cube)
+    occ = scene.any_hit([[0, 0, -5.0]] * 3, [[0, 0, 1], [0, 0, 1], [1, 0, 0]],
+                        max_distance=[3.5, 4.5, 100])
+    assert occ.tolist() == [False, True, False]
+
+
+def test_all_hits_counts_and_sorted(cube, rng):
+    scene = Scene(cube)
+    n = 500
+    origins = np.column_stack([rng.uniform(-0.9, 0.9, (n, 2)), np.full(n, -5.0)])
+    hits = scene.all_hits(origins, np.tile([0, 0, 1.0], (n, 1)))
+    assert hits.count.tolist() == [2] * n  # enter and leave, shared diagonal edges not doubled
+    t = hits.t.reshape(n, 2)
+    np.testing.assert_allclose(t[:, 0], 4.0, atol=1e-5)
+    np.testing.assert_allclose(t[:, 1], 6.0, atol=1e-5)
+    assert not hits.truncated
+
+
+def test_all_hits_parity_inside_outside(unit_sphere, rng):
+    scene = Scene(unit_sphere)
+    pts = rng.uniform(-1.2, 1.2, (2000, 3))
+    r = np.linalg.norm(pts, axis=1)
+    pts = pts[np.abs(r - 1) > 0.01]  # away from the polygonal surface
+    hits = scene.all_hits(pts, np.tile([0.3, 0.5, 0.81], (len(pts), 1)))
+    inside = hits.count % 2 == 1
+    assert (inside == (np.linalg.norm(pts, axis=1) < 1)).all()
+
+
+def test_all_hits_truncated_flag(cube):
+    hits = Scene(cube).all_hits([[0, 0, -5.0]], [[0, 0, 1]], max_hits=1)
+    assert hits.count.tolist() == [1] and hits.truncated
+
+
+def test_scene_threads_agree_with_one_worker(unit_sphere, rng):
+    o = rng.uniform(-2, 2, (40000, 3))
+    d = rng.normal(size=(40000, 3))
+    t1, i1 = Scene(unit_sphere, workers=1).first_hit(o, d)
+    t2, i2 = Scene(unit_sphere, workers=2).first_hit(o, d)
+    np.testing.assert_array_equal(i1, i2)
+    np.testing.assert_array_equal(t1, t2)
+
+
+def test_scene_far_from_origin_keeps_precision():
+    box = trimesh.creation.box(extents=(2.0, 2.0, 2.0))
+    box.apply_translation([1e5, 1e5, 1e5])
+    t, _ = Scene(box).first_hit([[1e5, 1e5, 1e5 - 5]], [[0, 0, 1]])
+    assert t[0] == pytest.approx(4.0, abs=1e-4)
+
+
+def test_scene_empty_batch(cube):
+    t, tri = Scene(cube).first_hit(np.zeros((0, 3)), np.zeros((0, 3)))
+    assert t.shape == (0,) and tri.shape == (0,)
+
+
+def test_scene_invalid_input(cube):
+    scene = Scene(cube)
+    with pytest.raises(InputError, match="origins"):
+        scene.first_hit([[0, 0, np.nan]], [[0, 0, 1]])
+    with pytest.raises(InputError, match="directions"):
+        scene.first_hit([[0, 0, 0]], [[0, 0, 0]])
+    with pytest.raises(InputError, match=r"\(n, 3\)"):
+        scene.first_hit([[0, 0]], [[0, 0, 1]])
+    with pytest.raises(InputError, match="lengths differ"):
+        scene.first_hit(np.zeros((2, 3)), np.ones((3, 3)))
+    with pytest.raises(InputError):
+        Scene("not a mesh")

@@ -1,0 +1,36 @@
+"""viscore: the ray-cast core of the toolkit. Geometry in, rays and images out.
+
+Meshes are triangle soups loaded and validated by :func:`load_mesh`; a
+:class:`Scene` owns the Embree handle and answers batched ray queries;
+cameras make ray bundles; :mod:`viscore.images` turns them into coverage and
+depth images; :mod:`viscore.voxels` voxelizes; samplers are seeded.
+"""
+
+from ._validate import InputError
+from .cameras import OrthoCamera, PerspectiveCamera, camera_basis, cube_cameras
+from .images import coverage_image, depth_image
+from .mesh_io import load_mesh, validate_mesh
+from .provenance import provenance
+from .samplers import directions_fibonacci, directions_uniform, grid_positions, rays_between
+from .scene import AllHits, Scene, get_workers, set_workers
+from .scenes import scene_descriptions, scene_names, scene_path
+from .voxels import (
+    VoxelGrid,
+    Voxelization,
+    inner_voxels_six_direction,
+    inside_voxels_parity,
+    outside_voxels,
+    surface_voxels,
+    voxel_boundary_mesh,
+    voxel_grid,
+    voxelize,
+)
+
+__all__ = [
+    "InputError", "load_mesh", "validate_mesh", "Scene", "AllHits", "set_workers", "get_workers",
+    "OrthoCamera", "PerspectiveCamera", "cube_cameras", "camera_basis", "coverage_image",
+    "depth_image", "directions_uniform", "directions_fibonacci", "grid_positions",
+    "rays_between", "provenance", "scene_names", "scene_path", "scene_descriptions",
+    "VoxelGrid", "Voxelization", "voxel_grid", "surface_voxels", "outside_voxels",
+    "inner_voxels_six_direction", "inside_voxels_parity", "voxelize", "voxel_boundary_mesh",
+]

@@ -1,0 +1,101 @@
+"""Input checks shared by every public function of viscore, metrics and generators.
+
+Validate once, at the public boundary: coerce, check shape, finiteness and
+emptiness, and raise the single :class:`InputError` naming the argument, what
+was expected and what was got. Private helpers trust their callers.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["InputError", "as_points", "as_vector", "as_unit_vectors", "as_positive",
+           "as_positive_int", "as_fraction"]
+
+
+class InputError(ValueError):
+    """Bad input: an argument, file or parameter that cannot be used.
+
+    The message says which argument or file, what was expected and what was
+    got. The command line maps it to exit code 2 with one line on stderr.
+    """
+
+
+def as_points(value: npt.ArrayLike, name: str, *, allow_empty: bool = False) -> np.ndarray:
+    """Coerce to a finite ``(n, 3) float64`` array or raise :class:`InputError`."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name}: expected an (n, 3) array of numbers, got {value!r:.80}") from exc
+    if arr.ndim == 1 and arr.shape[0] == 3:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise InputError(f"{name}: expected shape (n, 3), got {arr.shape}")
+    if not allow_empty and len(arr) == 0:
+        raise InputError(f"{name}: expected at least one point, got none")
+    if not np.isfinite(arr).all():
+        raise InputError(f"{name}: contains NaN or infinite values")
+    return arr
+
+
+def as_vector(value: npt.ArrayLike, name: str) -> np.ndarray:
+    """Coerce to a finite ``(3,) float64`` vector or raise :class:`InputError`."""
+    try:
+        arr = np.asarray(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name}: expected 3 numbers, got {value!r:.80}") from exc
+    if arr.shape != (3,):
+        raise InputError(f"{name}: expected 3 numbers, got {arr.size}")
+    if not np.isfinite(arr).all():
+        raise InputError(f"{name}: contains NaN or infinite values")
+    return arr
+
+
+def as_unit_vectors(value: npt.ArrayLike, name: str) -> np.ndarray:
+    """Coerce to ``(n, 3)`` unit vectors; zero-length vectors raise :class:`InputError`."""
+    arr = as_points(value, name, allow_empty=True)
+    norm2 = np.einsum("ij,ij->i", arr, arr)
+    if len(arr) == 0:
+        return arr
+    if norm2.min() <= 0:
+        raise InputError(f"{name}: contains zero-length direction vectors")
+    if np.abs(norm2 - 1.0).max() < 1e-12:  # already unit: no copy
+        return arr
+    return arr / np.sqrt(norm2)[:, None]
+
+
+def as_positive(value: object, name: str) -> float:
+    """A finite number > 0, or :class:`InputError`."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{name}: expected a positive number, got {value!r}")
+    value = float(value)
+    if not np.isfinite(value) or value <= 0:
+        raise InputError(f"{name}: expected a positive finite number, got {value}")
+    return value
+
+
+def as_positive_int(value: object, name: str, *, maximum: int | None = None) -> int:
+    """An integer >= 1 (and <= ``maximum`` when given), or :class:`InputError`."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise InputError(f"{name}: expected a positive integer, got {value!r}")
+    value = int(value)
+    if value < 1:
+        raise InputError(f"{name}: expected a positive integer, got {value}")
+    if maximum is not None and value > maximum:
+        raise InputError(f"{name}: at most {maximum} allowed, got {value}")
+    return value
+
+
+def as_fraction(value: object, name: str, *, open_low: bool = False) -> float:
+    """A number in [0, 1] (or (0, 1] with ``open_low``), or :class:`InputError`."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{name}: expected a number in [0, 1], got {value!r}")
+    value = float(value)
+    low_ok = value > 0 if open_low else value >= 0
+    if not (np.isfinite(value) and low_ok and value <= 1):
+        bracket = "(" if open_low else "["
+        raise InputError(f"{name}: expected a number in {bracket}0, 1], got {value}")
+    return value

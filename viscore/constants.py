@@ -1,0 +1,34 @@
+"""Tolerances shared across viscore, metrics and generators.
+
+Each value states its unit and why it has that value.
+"""
+
+#: Relative ray offset past a hit when collecting all hits along a ray, as a
+#: fraction of the scene's bounding-box diagonal. Embree works in float32
+#: (about 7 significant digits); 1e-6 of the diagonal is a few ulps of the
+#: largest coordinate after the scene is centred, enough to step past the hit
+#: triangle without skipping a distinct surface further than that.
+RAY_STEP_RELATIVE = 1e-6
+
+#: Maximum number of hits collected along one ray by ``Scene.all_hits``. The
+#: loop that steps past each hit is bounded by it so that it always ends.
+MAX_HITS = 256
+
+#: Relative tolerance of the conservativeness check (fraction of the
+#: bounding-box diagonal): an occluder hit counts as a violation only when it
+#: is nearer than the original's hit by more than this. Covers float32
+#: rounding of coincident surfaces (an occluder equal to the mesh).
+CONSERVATIVE_EPS_RELATIVE = 1e-5
+
+#: Triangles whose area is below this fraction of the squared bounding-box
+#: diagonal are degenerate and dropped at load time (their normals are
+#: undefined and they block no ray).
+DEGENERATE_AREA_RELATIVE = 1e-14
+
+#: Ray batches smaller than this run on the calling thread: splitting them
+#: over the pool costs more than it saves.
+MIN_RAYS_PER_TASK = 16384
+
+#: Voxel grids above this many cells are refused (about 2 GiB of working
+#: memory at the ~8 bytes per cell that voxelization uses).
+MAX_VOXEL_CELLS = 256_000_000

@@ -1,0 +1,153 @@
+"""Seeded samplers: view directions, view positions and rays between regions.
+
+Every random sampler takes ``seed`` and calls ``np.random.default_rng(seed)``
+once, so the same seed reproduces the samples bit for bit (DESIGN.md, "The
+core"). Uniform directions serve the orbit protocol and the occlusion measure
+(seed 000, secs. 3 and 6.1); grid positions the volume protocol (seed 001,
+sec. 3.2); random rays the ray-wise conservativeness check.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from ._validate import InputError, as_positive, as_positive_int, as_vector
+
+__all__ = ["directions_uniform", "directions_fibonacci", "grid_positions", "rays_between"]
+
+_GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
+
+
+def directions_uniform(n: int, *, seed: int | None = 0) -> np.ndarray:
+    """``n`` independent directions uniform on the unit sphere.
+
+    Parameters
+    ----------
+    n : int
+        Number of directions.
+    seed : int, optional
+        Seed of ``np.random.default_rng``; default 0.
+
+    Returns
+    -------
+    directions : (n, 3) float64
+        Unit vectors.
+
+    Examples
+    --------
+    >>> d = directions_uniform(4, seed=1)
+    >>> bool(np.allclose(np.linalg.norm(d, axis=1), 1))
+    True
+    """
+    n = as_positive_int(n, "n")
+    rng = np.random.default_rng(seed)
+    z = rng.uniform(-1.0, 1.0, n)
+    phi = rng.uniform(0.0, 2 * np.pi, n)
+    s = np.sqrt(1.0 - z * z)
+    return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
+
+
+def directions_fibonacci(n: int, *, seed: int | None = None) -> np.ndarray:
+    """``n`` well-spread directions on the Fibonacci spiral (deterministic).
+
+    Parameters
+    ----------
+    n : int
+        Number of directions.
+    seed : int, optional
+        If given, the spiral is rotated by a seeded uniform random rotation
+        (randomised quasi-Monte-Carlo: unbiased and low variance).
+
+    Returns
+    -------
+    directions : (n, 3) float64
+        Unit vectors; the i-th has z = 1 - (2 i + 1) / n before rotation.
+    """
+    n = as_positive_int(n, "n")
+    i = np.arange(n)
+    z = 1.0 - (2.0 * i + 1.0) / n
+    s = np.sqrt(1.0 - z * z)
+    phi = _GOLDEN_ANGLE * i
+    d = np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
+    if seed is not None:
+        q, r = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))
+        q = q * np.sign(np.diag(r))  # Haar-distributed orthogonal matrix
+        if np.linalg.det(q) < 0:
+            q[:, 0] = -q[:, 0]
+        d = d @ q.T
+    return d
+
+
+def grid_positions(lo: npt.ArrayLike, hi: npt.ArrayLike, spacing: float) -> np.ndarray:
+    """Centres of the cubic cells of side ``spacing`` that tile the box [lo, hi].
+
+    The grid is centred in the box: ``ceil(extent / spacing)`` cells per axis
+    (at least one), so its cells may overhang the box by less than one
+    ``spacing`` in total per axis.
+
+    Returns
+    -------
+    positions : (m, 3) float64
+        World units, x varying slowest.
+
+    Raises
+    ------
+    InputError
+        If ``hi < lo`` on an axis, ``spacing <= 0``, or the grid would have
+        more than 50 million positions.
+
+    Examples
+    --------
+    >>> grid_positions((0, 0, 0), (1, 1, 1), 0.5).shape
+    (8, 3)
+    """
+    lo = as_vector(lo, "lo")
+    hi = as_vector(hi, "hi")
+    spacing = as_positive(spacing, "spacing")
+    if (hi < lo).any():
+        raise InputError(f"hi: must be >= lo on every axis, got lo={lo}, hi={hi}")
+    counts = np.maximum(1, np.ceil((hi - lo) / spacing - 1e-9)).astype(np.int64)
+    total = int(np.prod(counts))
+    if total > 50_000_000:
+        raise InputError(f"spacing: {spacing} gives {total:,} grid positions (limit 50,000,000)")
+    start = 0.5 * (lo + hi) - 0.5 * spacing * (counts - 1)
+    axes = [start[k] + spacing * np.arange(counts[k]) for k in range(3)]
+    g = np.meshgrid(*axes, indexing="ij")
+    return np.stack([a.reshape(-1) for a in g], axis=1)
+
+
+def rays_between(box_a: npt.ArrayLike, box_b: npt.ArrayLike, n: int, *,
+                 seed: int | None = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Random segments from a uniform point in box A to a uniform point in box B.
+
+    Parameters
+    ----------
+    box_a, box_b : (2, 3) float
+        Lower and upper corners, world units.
+    n : int
+        Number of rays.
+    seed : int, optional
+        Default 0.
+
+    Returns
+    -------
+    origins : (n, 3) float64
+    directions : (n, 3) float64
+        Unit vectors from origin to target (a coincident pair gets +Z).
+    lengths : (n,) float64
+        Distance from origin to target, world units.
+    """
+    n = as_positive_int(n, "n")
+    a = np.asarray(box_a, dtype=np.float64)
+    b = np.asarray(box_b, dtype=np.float64)
+    for name, box in (("box_a", a), ("box_b", b)):
+        if box.shape != (2, 3) or not np.isfinite(box).all() or (box[1] < box[0]).any():
+            raise InputError(f"{name}: expected finite (2, 3) corners with lo <= hi")
+    rng = np.random.default_rng(seed)
+    origins = rng.uniform(a[0], a[1], (n, 3))
+    targets = rng.uniform(b[0], b[1], (n, 3))
+    v = targets - origins
+    lengths = np.linalg.norm(v, axis=1)
+    dirs = np.where(lengths[:, None] > 0, v / np.maximum(lengths, 1e-300)[:, None], [0, 0, 1])
+    return origins, dirs, lengths
