@@ -120,3 +120,12 @@ def test_voxel_grid_invalid_input():
         voxel_grid(np.array([[0, 0, 0], [1, 1, 1.0]]), resolution=0)
     with pytest.raises(InputError, match="pitch"):
         voxel_grid(np.array([[0, 0, 0], [1, 1, 1.0]]), pitch=-1.0)
+
+
+def test_points_inside_parity_sphere(unit_sphere, rng):
+    from viscore import points_inside_parity
+
+    pts = rng.uniform(-1.3, 1.3, (3000, 3))
+    pts = pts[np.abs(np.linalg.norm(pts, axis=1) - 1) > 0.01]
+    got = points_inside_parity(Scene(unit_sphere), pts)
+    np.testing.assert_array_equal(got, np.linalg.norm(pts, axis=1) < 1)

@@ -6,7 +6,7 @@ cameras make ray bundles; :mod:`viscore.images` turns them into coverage and
 depth images; :mod:`viscore.voxels` voxelizes; samplers are seeded.
 """
 
-from ._validate import InputError
+from ._validate import InputError, as_fraction, as_positive, as_positive_int
 from .cameras import OrthoCamera, PerspectiveCamera, camera_basis, cube_cameras
 from .images import coverage_image, depth_image
 from .mesh_io import load_mesh, validate_mesh
@@ -20,6 +20,7 @@ from .voxels import (
     inner_voxels_six_direction,
     inside_voxels_parity,
     outside_voxels,
+    points_inside_parity,
     surface_voxels,
     voxel_boundary_mesh,
     voxel_grid,
@@ -27,10 +28,11 @@ from .voxels import (
 )
 
 __all__ = [
-    "InputError", "load_mesh", "validate_mesh", "Scene", "AllHits", "set_workers", "get_workers",
-    "OrthoCamera", "PerspectiveCamera", "cube_cameras", "camera_basis", "coverage_image",
-    "depth_image", "directions_uniform", "directions_fibonacci", "grid_positions",
-    "rays_between", "provenance", "scene_names", "scene_path", "scene_descriptions",
-    "VoxelGrid", "Voxelization", "voxel_grid", "surface_voxels", "outside_voxels",
-    "inner_voxels_six_direction", "inside_voxels_parity", "voxelize", "voxel_boundary_mesh",
+    "InputError", "as_positive", "as_positive_int", "as_fraction", "load_mesh", "validate_mesh",
+    "Scene", "AllHits", "set_workers", "get_workers", "OrthoCamera", "PerspectiveCamera",
+    "cube_cameras", "camera_basis", "coverage_image", "depth_image", "directions_uniform",
+    "directions_fibonacci", "grid_positions", "rays_between", "provenance", "scene_names",
+    "scene_path", "scene_descriptions", "VoxelGrid", "Voxelization", "voxel_grid",
+    "surface_voxels", "outside_voxels", "inner_voxels_six_direction", "inside_voxels_parity",
+    "points_inside_parity", "voxelize", "voxel_boundary_mesh",
 ]

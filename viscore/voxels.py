@@ -30,7 +30,7 @@ from ._validate import InputError, as_positive, as_positive_int
 from .constants import MAX_VOXEL_CELLS
 
 __all__ = ["VoxelGrid", "Voxelization", "voxel_grid", "surface_voxels", "outside_voxels",
-           "inner_voxels_six_direction", "inside_voxels_parity", "voxelize",
+           "inner_voxels_six_direction", "inside_voxels_parity", "points_inside_parity", "voxelize",
            "voxel_boundary_mesh"]
 
 _log = logging.getLogger(__name__)
@@ -306,6 +306,41 @@ def inside_voxels_parity(scene, grid: VoxelGrid, *, min_votes: int = 4) -> np.nd
         v = (before % 2) + (after % 2)  # (columns, shape[axis])
         v = v.reshape(shape[b], shape[c], shape[axis])
         votes += np.moveaxis(v, (0, 1, 2), (b, c, axis)).astype(np.int8)
+    return votes >= min_votes
+
+
+#: Directions of the point-parity rays: the six axes, tilted slightly so that
+#: they do not run along the faces of axis-aligned meshes.
+_PARITY_AXES = np.array([[1, 0.0123, 0.0271], [-1, -0.0271, 0.0123], [0.0123, 1, -0.0314],
+                         [-0.0314, -1, 0.0123], [0.0271, -0.0123, 1], [-0.0123, 0.0314, -1]])
+
+
+def points_inside_parity(scene, points: np.ndarray, *, min_votes: int = 4) -> np.ndarray:
+    """Inside classification of arbitrary points by ray-parity votes.
+
+    Six rays leave each point along (slightly tilted) +-X, +-Y, +-Z; a ray
+    with an odd number of hits votes inside. Same rule and default majority
+    as :func:`inside_voxels_parity`.
+
+    Parameters
+    ----------
+    scene : Scene
+    points : (n, 3) float
+    min_votes : int, optional
+        Votes needed, 1 to 6. Default 4.
+
+    Returns
+    -------
+    inside : (n,) bool
+    """
+    min_votes = as_positive_int(min_votes, "min_votes", maximum=6)
+    pts = np.asarray(points, dtype=np.float64)
+    votes = np.zeros(len(pts), dtype=np.int8)
+    if len(pts) == 0:
+        return votes.astype(bool)
+    for axis in _PARITY_AXES:
+        hits = scene.all_hits(pts, np.broadcast_to(axis, pts.shape))
+        votes += (hits.count % 2).astype(np.int8)
     return votes >= min_votes
 
 

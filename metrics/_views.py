@@ -1,0 +1,38 @@
+"""Ray casting of both meshes for a batch of cameras (shared by orbit and volume)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import trimesh
+
+from viscore import InputError, Scene, validate_mesh
+
+
+def scene_of(mesh: trimesh.Trimesh | Scene | None, name: str) -> Scene | None:
+    """A Scene for a mesh; None for an empty occluder (it covers nothing)."""
+    if mesh is None or isinstance(mesh, Scene):
+        return mesh
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise InputError(f"{name}: expected a trimesh.Trimesh, got {type(mesh).__name__}")
+    if len(mesh.faces) == 0:
+        if name == "mesh":
+            raise InputError("mesh: the original mesh is empty")
+        return None
+    return Scene(validate_mesh(mesh, name=name))
+
+
+def depths(scene: Scene | None, cameras: list, timing: dict) -> np.ndarray:
+    """``(len(cameras), R, R)`` depth images (inf where empty) in one batched cast."""
+    r = cameras[0].resolution
+    if scene is None:
+        return np.full((len(cameras), r, r), np.inf)
+    rays = [c.rays() for c in cameras]
+    o = np.concatenate([x[0] for x in rays])
+    d = np.concatenate([x[1] for x in rays])
+    start = time.perf_counter()
+    t, _ = scene.first_hit(o, d)
+    timing["seconds_rays"] = timing.get("seconds_rays", 0.0) + time.perf_counter() - start
+    timing["rays"] = timing.get("rays", 0) + len(o)
+    return t.reshape(len(cameras), r, r)

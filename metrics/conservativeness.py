@@ -1,0 +1,225 @@
+"""Ray-wise conservativeness: is the occluder ever hit before the original?
+
+DESIGN.md, "Conservativeness": along a ray from the evaluation domain, the
+occluder must not be hit before the original; a violation is
+t_occluder < t_original - eps (a miss is t = inf). The rate comes with a
+one-sided Clopper-Pearson upper bound. Conservative occluders are the goal of
+the occluder-skins paper (sec. 4, seeds/002) and the box-filling note
+(seeds/003); the building-occluders paper calls the same property
+conservative enforcement (sec. 3.1, seeds/001).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+from scipy import stats
+
+from viscore import (
+    InputError,
+    Scene,
+    as_fraction,
+    as_positive_int,
+    directions_uniform,
+    points_inside_parity,
+)
+from viscore.constants import CONSERVATIVE_EPS_RELATIVE
+
+from ._views import scene_of
+from .orbit import orbit_frame
+
+__all__ = ["ConservativenessReport", "check_conservative", "assert_conservative",
+           "clopper_pearson_upper"]
+
+#: Worst violating rays kept in the report.
+WORST_RAYS = 10
+
+
+def clopper_pearson_upper(violations: int, rays: int, confidence: float) -> float:
+    """One-sided Clopper-Pearson upper bound on a binomial rate.
+
+    Examples
+    --------
+    >>> round(clopper_pearson_upper(0, 1000, 0.95), 5)   # the "rule of three": ~3 / n
+    0.00299
+    """
+    if violations >= rays:
+        return 1.0
+    return float(stats.beta.ppf(confidence, violations + 1, rays - violations))
+
+
+@dataclass(frozen=True)
+class ConservativenessReport:
+    """Outcome of a ray-wise conservativeness check.
+
+    Attributes
+    ----------
+    rays : int
+        Rays cast.
+    violations : int
+        Rays on which the occluder is hit more than ``eps`` before the original.
+    violation_rate : float
+        violations / rays.
+    violation_upper_bound : float
+        One-sided Clopper-Pearson upper bound at ``confidence``.
+    confidence : float
+    domain : {'orbit', 'volume'}
+    worst : list of dict
+        Up to 10 violating rays, worst first: ``origin``, ``direction``,
+        ``t_original``, ``t_occluder`` (world units; None for a miss).
+    eps : float
+        Tolerance, world units.
+    seed : int
+    seconds : float
+    """
+
+    rays: int
+    violations: int
+    violation_rate: float
+    violation_upper_bound: float
+    confidence: float
+    domain: str
+    worst: list
+    eps: float
+    seed: int
+    seconds: float
+
+    def summary(self) -> str:
+        """One paragraph for people: rate, bound and the worst ray."""
+        text = (f"{self.violations} of {self.rays:,} rays hit the occluder before the original "
+                f"(rate {self.violation_rate:.3g}; {100 * self.confidence:g}% upper bound "
+                f"{self.violation_upper_bound:.3g}; {self.domain} domain, seed {self.seed})")
+        if self.worst:
+            w = self.worst[0]
+            text += (f"\nworst ray: origin {np.round(w['origin'], 6).tolist()}, direction "
+                     f"{np.round(w['direction'], 6).tolist()}, occluder at {w['t_occluder']:.6g}"
+                     f", original at {w['t_original']}")
+        return text
+
+
+def _domain_rays(mesh, scene: Scene, n: int, domain: str, rng: np.random.Generator):
+    if domain == "orbit":
+        center, extent = orbit_frame(mesh)
+        radius = 0.5 * extent
+        origins = center + radius * directions_uniform(n, seed=int(rng.integers(2**31)))
+        targets = center + radius * np.cbrt(rng.random(n))[:, None] * directions_uniform(
+            n, seed=int(rng.integers(2**31)))
+        d = targets - origins
+        return origins, d / np.linalg.norm(d, axis=1)[:, None]
+    lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
+    pad = float((hi - lo).min()) or 0.04 * float(np.linalg.norm(hi - lo))
+    origins = np.zeros((0, 3))
+    for _ in range(20):  # rejection of points inside the mesh
+        cand = rng.uniform(lo - pad, hi + pad, (max(n - len(origins), 1) * 2, 3))
+        cand = cand[~points_inside_parity(scene, cand)]
+        origins = np.concatenate([origins, cand])[:n]
+        if len(origins) == n:
+            break
+    else:
+        raise InputError("mesh: the volume domain is almost all inside the mesh")
+    return origins, directions_uniform(n, seed=int(rng.integers(2**31)))
+
+
+def check_conservative(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None, *,
+                       rays: int = 100_000, confidence: float = 0.95, domain: str = "orbit",
+                       seed: int = 0, eps: float | None = None) -> ConservativenessReport:
+    """Cast random rays and count those that hit the occluder before the original.
+
+    Parameters
+    ----------
+    mesh, occluder : trimesh.Trimesh
+        Original and occluder (None or empty: never violates).
+    rays : int, optional
+        Default 100,000.
+    confidence : float, optional
+        Of the one-sided upper bound, in (0, 1). Default 0.95.
+    domain : {'orbit', 'volume'}, optional
+        'orbit': rays from uniform points on the orbit sphere (enclosing sphere
+        x 1.01) towards uniform points inside it. 'volume': uniform origins in
+        the padded bounding box outside the mesh, uniform directions.
+    seed : int, optional
+    eps : float, optional
+        Tolerance in world units; default 1e-5 x bounding-box diagonal.
+
+    Returns
+    -------
+    ConservativenessReport
+
+    Examples
+    --------
+    >>> box = trimesh.creation.box()
+    >>> inner = box.copy(); _ = inner.apply_scale(0.5)
+    >>> check_conservative(box, inner, rays=1000).violations
+    0
+    """
+    rays = as_positive_int(rays, "rays")
+    confidence = as_fraction(confidence, "confidence", open_low=True)
+    if confidence >= 1:
+        raise InputError("confidence: expected a number in (0, 1), got 1")
+    if domain not in ("orbit", "volume"):
+        raise InputError(f"domain: expected 'orbit' or 'volume', got {domain!r}")
+    start = time.perf_counter()
+    original = scene_of(mesh, "mesh")
+    other = scene_of(occluder, "occluder")
+    eps = CONSERVATIVE_EPS_RELATIVE * original.diagonal if eps is None else float(eps)
+    rng = np.random.default_rng(seed)
+    o, d = _domain_rays(mesh, original, rays, domain, rng)
+    t_orig, _ = original.first_hit(o, d)
+    if other is None:
+        t_occ = np.full(rays, np.inf)
+    else:
+        t_occ, _ = other.first_hit(o, d)
+    with np.errstate(invalid="ignore"):  # both miss: inf - inf = nan, not a violation
+        gap = t_orig - t_occ  # occluder hit, original missed: inf, a violation
+    bad = np.flatnonzero(gap > eps)
+    worst = bad[np.argsort(-gap[bad], kind="stable")][:WORST_RAYS]
+    return ConservativenessReport(
+        rays=rays, violations=len(bad), violation_rate=len(bad) / rays,
+        violation_upper_bound=clopper_pearson_upper(len(bad), rays, confidence),
+        confidence=confidence, domain=domain,
+        worst=[{"origin": o[i].tolist(), "direction": d[i].tolist(),
+                "t_original": None if np.isinf(t_orig[i]) else float(t_orig[i]),
+                "t_occluder": float(t_occ[i])} for i in worst],
+        eps=eps, seed=seed, seconds=time.perf_counter() - start)
+
+
+def assert_conservative(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None, *,
+                        max_rate: float = 0.0, rays: int = 100_000, confidence: float = 0.95,
+                        domain: str = "orbit", seed: int = 0) -> ConservativenessReport:
+    """Raise AssertionError when the occluder is not conservative enough; for test suites.
+
+    Fails when the one-sided upper bound on the violation rate exceeds
+    ``max_rate``, or, with the default ``max_rate=0``, when any ray violates
+    (a bound is never 0, so zero tolerance means zero violations).
+
+    Returns
+    -------
+    ConservativenessReport
+        When the check passes.
+
+    Raises
+    ------
+    AssertionError
+        With the report's summary (rate, bound, worst ray).
+
+    Examples
+    --------
+    >>> box = trimesh.creation.box()
+    >>> big = box.copy(); _ = big.apply_scale(2.0)
+    >>> assert_conservative(box, big, rays=1000)
+    Traceback (most recent call last):
+    ...
+    AssertionError: ...
+    """
+    max_rate = as_fraction(max_rate, "max_rate")
+    report = check_conservative(mesh, occluder, rays=rays, confidence=confidence,
+                                domain=domain, seed=seed)
+    failed = report.violations > 0 if max_rate == 0 else (
+        report.violation_upper_bound > max_rate)
+    if failed:
+        raise AssertionError(f"occluder is not conservative (max rate {max_rate:g}): "
+                             + report.summary())
+    return report

@@ -1,0 +1,69 @@
+"""Result type of the quad precision/recall protocols (orbit and volume).
+
+Precision P = Nt / (Nt + Nf) and recall R = Nt / (Nt + Pf), Silvennoinen et
+al. 2014, sec. 6.1 (seeds/000); per position and averaged over the domain in
+the building-occluders paper, sec. 3.2, eqs. 4-7 (seeds/001).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["PrecisionRecall", "ratio"]
+
+
+def ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
+    """Elementwise num / den with NaN where den == 0."""
+    num = np.asarray(num, dtype=np.float64)
+    den = np.asarray(den, dtype=np.float64)
+    out = np.full(np.broadcast(num, den).shape, np.nan)
+    np.divide(num, den, out=out, where=den > 0)
+    return out
+
+
+@dataclass(frozen=True)
+class PrecisionRecall:
+    """Precision and recall of an occluder against its original, with per-view counts.
+
+    Attributes
+    ----------
+    precision, recall : float
+        Orbit: pooled over views. Volume: volume-weighted mean of the
+        per-position values where defined (seed 001, eqs. 5 and 7). NaN when
+        undefined.
+    precision_ci, recall_ci : list of 2 float
+        95% percentile bootstrap intervals over views (positions).
+    per_view : dict of lists
+        ``nt``, ``pf``, ``nf`` (pixel counts), ``precision``, ``recall``
+        (NaN where undefined), ``weight`` (block volume in voxels of the
+        finest grid; 1 for orbit views), and ``direction`` (orbit) or
+        ``position`` (volume), one entry per view.
+    protocol : {'orbit', 'volume'}
+    depth_aware : bool
+    seed : int
+    params : dict
+        Resolution, views, quads and the protocol's other settings.
+    seconds : float
+        Wall time of the evaluation.
+    timing : dict
+        ``seconds_rays`` and ``seconds_quads``, and ``rays`` cast.
+    """
+
+    precision: float
+    recall: float
+    precision_ci: list
+    recall_ci: list
+    per_view: dict
+    protocol: str
+    depth_aware: bool
+    seed: int
+    params: dict
+    seconds: float
+    timing: dict = field(default_factory=dict)
+
+    @property
+    def views(self) -> int:
+        """Number of views (positions) evaluated."""
+        return len(self.per_view["nt"])
