@@ -1,0 +1,122 @@
+"""numba kernels of the greedy maximal-box growth (seeds 002 sec. 4 and 003).
+
+The per-voxel box search (for a seed voxel, the largest box with that voxel
+as its lower corner, found from per-axis run lengths along +X) cannot be
+vectorised with numpy; numba compiles it.
+"""
+
+from __future__ import annotations
+
+import heapq
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True)
+def runs_along_x(avail):
+    """Run length of available voxels along +X from each voxel (0 if unavailable)."""
+    nx, ny, nz = avail.shape
+    d = np.zeros((nx, ny, nz), np.int32)
+    for y in range(ny):
+        for z in range(nz):
+            run = 0
+            for x in range(nx - 1, -1, -1):
+                if avail[x, y, z]:
+                    run += 1
+                else:
+                    run = 0
+                d[x, y, z] = run
+    return d
+
+
+@numba.njit(cache=True)
+def _best_box_at(dx, x, y, z, ymax, zmax):
+    """Largest box with lower corner (x, y, z): returns volume, X, Y, Z (voxels)."""
+    ny = dx.shape[1]
+    nz = dx.shape[2]
+    ylim = min(ymax, ny - y)
+    zlim = min(zmax, nz - z)
+    colmin = np.full(ylim, 2**30, np.int64)
+    best, bx, by, bz = 0, 0, 0, 0
+    for zz in range(zlim):
+        run = 2**30
+        for yy in range(ylim):
+            v = dx[x, y + yy, z + zz]
+            if v < colmin[yy]:
+                colmin[yy] = v
+            if colmin[yy] < run:
+                run = colmin[yy]
+            if run == 0:
+                ylim = yy
+                break
+            vol = (yy + 1) * (zz + 1) * run
+            if vol > best:
+                best, bx, by, bz = vol, run, yy + 1, zz + 1
+        if ylim == 0:
+            break
+    return best, bx, by, bz
+
+
+@numba.njit(cache=True)
+def grow_boxes(avail, max_boxes, min_voxels, target_voxels):
+    """Greedy boxes of maximal volume over available voxels, marking each taken.
+
+    Lazy greedy: the heap holds upper bounds (the product of the per-axis run
+    lengths, or an exact value from an earlier step; values only shrink as
+    voxels are taken); an entry computed at the current step is the maximum.
+
+    Returns an (k, 6) int64 array of boxes [x0, y0, z0, x1, y1, z1) in voxels.
+    """
+    avail = avail.copy()
+    nx, ny, nz = avail.shape
+    dx = runs_along_x(avail)
+    dy = runs_along_x(avail.transpose(1, 0, 2).copy()).transpose(1, 0, 2)
+    dz = runs_along_x(avail.transpose(2, 1, 0).copy()).transpose(2, 1, 0)
+    heap = [(np.int64(0), np.int64(0), np.int64(0), np.int64(0), np.int64(0))]
+    heap.pop()
+    for x in range(nx):
+        for y in range(ny):
+            for z in range(nz):
+                if avail[x, y, z]:
+                    ub = np.int64(dx[x, y, z]) * dy[x, y, z] * dz[x, y, z]
+                    heap.append((-ub, np.int64(-1), np.int64(x), np.int64(y), np.int64(z)))
+    heapq.heapify(heap)
+    boxes = np.zeros((max_boxes, 6), np.int64)
+    k = 0
+    covered = 0
+    step = 0
+    while k < max_boxes and covered < target_voxels and len(heap) > 0:
+        negv, epoch, x, y, z = heapq.heappop(heap)
+        if not avail[x, y, z]:
+            continue
+        if epoch != step:
+            vol, bx, by, bz = _best_box_at(dx, x, y, z, dy[x, y, z], dz[x, y, z])
+            if vol > 0:
+                heapq.heappush(heap, (np.int64(-vol), np.int64(step), x, y, z))
+            continue
+        vol, bx, by, bz = _best_box_at(dx, x, y, z, dy[x, y, z], dz[x, y, z])
+        if vol < min_voxels:
+            break
+        boxes[k, 0], boxes[k, 1], boxes[k, 2] = x, y, z
+        boxes[k, 3], boxes[k, 4], boxes[k, 5] = x + bx, y + by, z + bz
+        k += 1
+        covered += vol
+        for a in range(x, x + bx):
+            for b in range(y, y + by):
+                for c in range(z, z + bz):
+                    avail[a, b, c] = False
+        # runs along +X change only in the box's rows, at x below the box's end
+        for b in range(y, y + by):
+            for c in range(z, z + bz):
+                run = 0
+                if x + bx < nx:
+                    run = dx[x + bx, b, c] if avail[x + bx, b, c] else 0
+                for a in range(x + bx - 1, -1, -1):
+                    if avail[a, b, c]:
+                        run += 1
+                    else:
+                        run = 0
+                    dx[a, b, c] = run
+        step += 1
+    return boxes[:k]

@@ -1,0 +1,100 @@
+"""Baselines every study includes: quadric decimation, the bounding box, the original.
+
+- ``qem``: quadric edge-collapse decimation (pymeshlab) down to the triangle
+  budget; the stand-in for the commercial simplifiers that seed 000 (Table 1,
+  "Max") and seed 001 (Table 2) compare against. Not conservative.
+- ``bbox``: the mesh's axis-aligned bounding box, 12 triangles; the
+  non-conservative extreme (precision low, recall 1 on the orbit protocol).
+- ``original``: the mesh itself; P = R = 1, a check on the metrics.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import trimesh
+
+from viscore import InputError, as_positive_int, validate_mesh
+
+from .occluder import Occluder
+
+__all__ = ["generate_qem", "generate_bbox", "generate_original"]
+
+#: Default triangle budget of the baselines when none is given.
+DEFAULT_BUDGET = 256
+
+
+def generate_qem(mesh: trimesh.Trimesh, *, budget: int = DEFAULT_BUDGET, seed: int = 0
+                 ) -> Occluder:
+    """Quadric edge-collapse decimation to at most ``budget`` triangles (pymeshlab).
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    budget : int, optional
+        Target triangle count, default 256. The result may end under it, and
+        on meshes pymeshlab cannot collapse further, over it (reported).
+    seed : int, optional
+        Unused (deterministic); accepted for the common signature.
+
+    Returns
+    -------
+    Occluder
+        Double-sided (decimation can open the surface).
+
+    Examples
+    --------
+    >>> occ = generate_qem(trimesh.creation.icosphere(subdivisions=3), budget=100)
+    >>> occ.triangles <= 100
+    True
+    """
+    import pymeshlab
+
+    budget = as_positive_int(budget, "budget")
+    start = time.perf_counter()
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=np.asarray(mesh.vertices, dtype=np.float64),
+                               face_matrix=np.asarray(mesh.faces, dtype=np.int32)))
+    if len(mesh.faces) > budget:
+        ms.meshing_remove_duplicate_vertices()
+        ms.meshing_decimation_quadric_edge_collapse(
+            targetfacenum=budget, preserveboundary=True, preservenormal=True,
+            optimalplacement=True, planarquadric=True, autoclean=True)
+    m = ms.current_mesh()
+    out = trimesh.Trimesh(m.vertex_matrix(), m.face_matrix(), process=False)
+    if len(out.faces) == 0:
+        raise InputError("mesh: decimation removed every triangle")
+    out = validate_mesh(out, name="qem")
+    return Occluder(mesh=out, method="qem", params={"budget": budget}, double_sided=True,
+                    seconds=time.perf_counter() - start,
+                    info={"over_budget": len(out.faces) > budget})
+
+
+def generate_bbox(mesh: trimesh.Trimesh, *, budget: int | None = None, seed: int = 0
+                  ) -> Occluder:
+    """The axis-aligned bounding box of the mesh as a closed 12-triangle box.
+
+    Examples
+    --------
+    >>> generate_bbox(trimesh.creation.icosphere()).triangles
+    12
+    """
+    start = time.perf_counter()
+    lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
+    box = trimesh.creation.box(bounds=np.stack([lo, hi]))
+    return Occluder(mesh=box, method="bbox", params={}, double_sided=False,
+                    seconds=time.perf_counter() - start, parts={"boxes": np.stack([lo, hi])[None]})
+
+
+def generate_original(mesh: trimesh.Trimesh, *, budget: int | None = None, seed: int = 0
+                      ) -> Occluder:
+    """The mesh itself (a check on the metrics: P = R = 1).
+
+    Examples
+    --------
+    >>> generate_original(trimesh.creation.box()).triangles
+    12
+    """
+    return Occluder(mesh=mesh.copy(), method="original", params={}, double_sided=True,
+                    seconds=0.0)
