@@ -18,6 +18,14 @@ def add_parser(sub, common) -> None:
     v = bsub.add_parser("voxels", parents=[common], help="voxelization time at 64^3 and 128^3")
     v.add_argument("--mesh", default="bunny")
     v.set_defaults(run=run_voxels)
+    e = bsub.add_parser("evaluate", parents=[common],
+                        help="orbit protocol, bunny vs 64-triangle QEM (target < 15 s)")
+    e.set_defaults(run=run_evaluate)
+    g = bsub.add_parser("generate", parents=[common], help="generator speed and coverage")
+    g.add_argument("method", choices=["aabb-skins"])
+    g.add_argument("--models", default="../shared/models",
+                   help="folder of benchmark meshes (default ../shared/models)")
+    g.set_defaults(run=run_generate)
 
 
 def run_rays(args) -> int:
@@ -45,5 +53,38 @@ def run_voxels(args) -> int:
                      + (f" (target < {tgt:.0f} s)" if tgt else "")
                      + f", {row['seconds_parity']:.2f} s parity; {row['surface_voxels']:,} "
                      f"surface, {row['solid_voxels']:,} solid voxels")
+    emit(r, args.json, "\n".join(lines))
+    return 0
+
+
+def run_evaluate(args) -> int:
+    from generators.benchmarks import bench_evaluate
+
+    r = bench_evaluate(seed=args.seed)
+    other = r["seconds"] - r["seconds_rays"] - r["seconds_quads"]
+    text = (f"orbit protocol, bunny vs {r['occluder_triangles']}-triangle QEM, {r['views']} "
+            f"views x {r['quads']:,} quads at {r['resolution']} px\n"
+            f"  wall {r['seconds']:.2f} s (target < 15 s): rays {r['seconds_rays']:.2f} s, "
+            f"quads {r['seconds_quads']:.2f} s, other {other:.2f} s\n"
+            f"  {r['mrays_per_second']:.2f} Mrays/s in the evaluation vs "
+            f"{r['bench_rays_mrays_all']:.2f} Mrays/s in bench rays (same run)\n"
+            f"  precision {r['precision']:.4f}, recall {r['recall']:.4f}")
+    emit(r, args.json, text)
+    return 0
+
+
+def run_generate(args) -> int:
+    from generators.benchmarks import bench_generate_aabb_skins
+
+    r = bench_generate_aabb_skins(args.models)
+    lines = [f"aabb-skins on {r['source']}; peer (melt) at diag/128: "
+             f"{r['peer_seconds_128'][0]}-{r['peer_seconds_128'][1]} s to 80%",
+             f"{'mesh':<18} {'voxel':<9} {'boxes':>5} {'tris':>5} {'volume':>7} {'peer':>6} "
+             f"{'fill':>6} {'inside':<10} {'seconds':>7}"]
+    for row in r["rows"]:
+        peer = "-" if row["peer_volume_share"] is None else f"{row['peer_volume_share']:.3f}"
+        lines.append(f"{row['mesh']:<18} {row['voxel_size']:<9} {row['boxes']:>5} "
+                     f"{row['triangles']:>5} {row['volume_share']:>7.3f} {peer:>6} "
+                     f"{row['fill']:>6.3f} {row['inside']:<10} {row['seconds']:>7.3f}")
     emit(r, args.json, "\n".join(lines))
     return 0

@@ -32,3 +32,19 @@ def test_measure_bad_file_exit_2(tmp_path, capsys):
     assert main(["measure", str(p), "--json"]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and len(captured.err.strip().splitlines()) == 1
+
+
+def test_generate_aabb_skins_writes_conservative_occluder(tmp_path, capsys):
+    out = tmp_path / "skins.ply"
+    assert main(["generate", "aabb-skins", "fat-torus", "-o", str(out), "--voxels", "32",
+                 "--max-boxes", "4", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["boxes"] == 4 and doc["triangles"] == 48
+    assert len(trimesh.load(out).faces) == 48
+    assert main(["validate", "fat-torus", str(out), "--rays", "20000", "--max-rate", "0"]) == 0
+
+
+def test_generate_option_not_taken_exit_2(tmp_path, capsys):
+    out = tmp_path / "q.ply"
+    assert main(["generate", "qem", "cow", "-o", str(out), "--max-boxes", "3"]) == 2
+    assert not out.exists()
