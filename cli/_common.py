@@ -64,3 +64,26 @@ def fail(message: str, code: int = 2) -> int:
     """One line on stderr; returns the exit code."""
     print(f"viscore: error: {message}", file=sys.stderr)
     return code
+
+
+#: Mesh formats the CLI writes.
+MESH_FORMATS = {"ply", "obj", "stl", "glb", "off"}
+
+
+def check_mesh_path(path: str | os.PathLike) -> str:
+    """The format of an output mesh path, or InputError for an unknown suffix."""
+    from viscore import InputError
+
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in MESH_FORMATS:
+        raise InputError(f"{path}: unknown mesh format '.{suffix}'; use "
+                         + ", ".join(f".{f}" for f in sorted(MESH_FORMATS)))
+    return suffix
+
+
+def write_mesh(path: str | os.PathLike, mesh) -> None:
+    """Export a trimesh mesh atomically in the format its suffix names."""
+    import trimesh
+
+    data = trimesh.exchange.export.export_mesh(mesh, None, file_type=check_mesh_path(path))
+    write_atomic(path, data if isinstance(data, bytes) else data.encode())

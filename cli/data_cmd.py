@@ -2,13 +2,9 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import trimesh
-
 from viscore import InputError, load_mesh, scene_descriptions
 
-from ._common import emit, write_atomic
+from ._common import check_mesh_path, emit, write_mesh
 
 
 def add_parser(sub, common) -> None:
@@ -34,13 +30,9 @@ def run_list(args) -> int:
 def run_export(args) -> int:
     if args.name not in scene_descriptions():
         raise InputError(f"{args.name}: not a built-in scene (see 'viscore data list')")
+    check_mesh_path(args.output)
     mesh = load_mesh(args.name)
-    suffix = Path(args.output).suffix.lower().lstrip(".")
-    if suffix not in {"ply", "obj", "stl", "glb", "off"}:
-        raise InputError(f"{args.output}: unknown mesh format '.{suffix}'; use .ply, .obj, "
-                         ".stl, .glb or .off")
-    data = trimesh.exchange.export.export_mesh(mesh, None, file_type=suffix)
-    write_atomic(args.output, data if isinstance(data, bytes) else data.encode())
+    write_mesh(args.output, mesh)
     emit({"name": args.name, "output": args.output, "triangles": len(mesh.faces)}, args.json,
          f"wrote {args.output} ({len(mesh.faces)} triangles)")
     return 0

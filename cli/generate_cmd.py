@@ -3,14 +3,11 @@
 from __future__ import annotations
 
 import logging
-from pathlib import Path
-
-import trimesh
 
 from generators import REGISTRY, get_generator
 from viscore import InputError, load_mesh, provenance
 
-from ._common import emit, write_atomic
+from ._common import check_mesh_path, emit, write_mesh
 
 _log = logging.getLogger("viscore")
 
@@ -34,9 +31,7 @@ def add_parser(sub, common) -> None:
 
 def run_generate(args) -> int:
     spec = get_generator(args.method)
-    suffix = Path(args.output).suffix.lower().lstrip(".")
-    if suffix not in {"ply", "obj", "stl", "glb", "off"}:
-        raise InputError(f"{args.output}: unknown mesh format '.{suffix}'")
+    check_mesh_path(args.output)
     if spec.experimental:
         _log.warning("%s is experimental: not yet validated", spec.name)
     names = {"budget": "budget", "voxels": "voxels", "voxel_size": "voxel_size",
@@ -51,8 +46,7 @@ def run_generate(args) -> int:
     if occ.triangles == 0:
         raise InputError(f"{args.mesh}: {args.method} produced no triangles "
                          f"({', '.join(f'{k}={v}' for k, v in occ.info.items())})")
-    data = trimesh.exchange.export.export_mesh(occ.mesh, None, file_type=suffix)
-    write_atomic(args.output, data if isinstance(data, bytes) else data.encode())
+    write_mesh(args.output, occ.mesh)
     doc = {"mesh": args.mesh, "output": args.output, **occ.summary(), "seed": args.seed,
            "provenance": provenance()}
     emit(doc, args.json, f"{args.method}: {occ.triangles} triangles in {occ.seconds:.2f} s -> "

@@ -93,18 +93,13 @@ def bench_generate_aabb_skins(models: str | Path = "../shared/models") -> dict:
         diag = float(np.linalg.norm(mesh.extents))
         counts = [b for b, _ in PEER_FIGURES.get(name, [])] or [16]
         generate_aabb_skins(mesh, voxel_size=diag / 16, max_boxes=1)  # numba warm-up
-        for boxes in counts:
-            occ = generate_aabb_skins(mesh, voxel_size=diag / 64, max_boxes=boxes, fill=1.0)
-            peer = dict(PEER_FIGURES.get(name, [])).get(boxes)
-            rows.append({"mesh": name, "voxel_size": "diag/64", "max_boxes": boxes,
+        peers = dict(PEER_FIGURES.get(name, []))
+        settings = [("diag/64", 64, b, 1.0) for b in counts] + [("diag/128", 128, None, 0.8)]
+        for label, div, boxes, fill in settings:
+            occ = generate_aabb_skins(mesh, voxel_size=diag / div, max_boxes=boxes, fill=fill)
+            rows.append({"mesh": name, "voxel_size": label, "max_boxes": boxes,
                          "boxes": occ.info["boxes"], "triangles": occ.triangles,
                          "volume_share": occ.info["volume_share"], "fill": occ.info["fill"],
                          "inside": occ.info["inside"], "seconds": occ.seconds,
-                         "peer_volume_share": peer})
-        occ = generate_aabb_skins(mesh, voxel_size=diag / 128, max_boxes=None, fill=0.8)
-        rows.append({"mesh": name, "voxel_size": "diag/128", "max_boxes": None,
-                     "boxes": occ.info["boxes"], "triangles": occ.triangles,
-                     "volume_share": occ.info["volume_share"], "fill": occ.info["fill"],
-                     "inside": occ.info["inside"], "seconds": occ.seconds,
-                     "peer_volume_share": None})
+                         "peer_volume_share": peers.get(boxes)})
     return {"source": source, "peer_seconds_128": PEER_SECONDS_128, "rows": rows}
