@@ -129,3 +129,18 @@ def test_points_inside_parity_sphere(unit_sphere, rng):
     pts = pts[np.abs(np.linalg.norm(pts, axis=1) - 1) > 0.01]
     got = points_inside_parity(Scene(unit_sphere), pts)
     np.testing.assert_array_equal(got, np.linalg.norm(pts, axis=1) < 1)
+
+
+def test_surface_voxels_kernel_matches_vectorised_sat(rng):
+    from viscore.voxels import _sat_overlap
+
+    grid = VoxelGrid(np.array([-0.3, -0.2, -0.1]), 0.37, (9, 8, 10))
+    tris = rng.uniform(-0.5, 3.3, (40, 3, 3))
+    tris[:10] = tris[:10, :1] + 0.05 * (tris[:10] - tris[:10, :1])  # small ones too
+    got = surface_voxels(tris.reshape(-1, 3), np.arange(120).reshape(40, 3), grid)
+    idx = np.argwhere(np.ones(grid.shape, bool))
+    expected = np.zeros(grid.shape, bool)
+    for t in tris:
+        hit = _sat_overlap(np.repeat(t[None], len(idx), 0), grid.centers(idx), grid.pitch / 2)
+        expected[tuple(idx[hit].T)] = True
+    np.testing.assert_array_equal(got, expected)

@@ -26,6 +26,7 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
+from ._sat_kernel import surface_voxels_kernel
 from ._validate import InputError, as_positive, as_positive_int
 from .constants import MAX_VOXEL_CELLS
 
@@ -34,9 +35,6 @@ __all__ = ["VoxelGrid", "Voxelization", "voxel_grid", "surface_voxels", "outside
            "voxel_boundary_mesh"]
 
 _log = logging.getLogger(__name__)
-
-#: Candidate (triangle, voxel) pairs tested per vectorised chunk.
-_PAIRS_PER_CHUNK = 1_000_000
 
 #: Touching counts as overlap: boxes are grown by this fraction of the pitch
 #: in the separating-axis test so that float rounding never loses a contact.
@@ -174,43 +172,20 @@ def surface_voxels(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGrid) -> 
 
     Notes
     -----
-    Candidates are the voxels of each triangle's bounding box; all of them
-    are tested with the 13-axis separating-axis test in vectorised chunks.
-    A large triangle tilted against the axes has many candidates: the cost
-    grows with its area over pitch squared times its thickness in voxels.
+    Candidates are the voxels of each triangle's bounding box, tested with
+    the 13-axis separating-axis test (the plane test first) in a numba loop;
+    :func:`_sat_overlap` is the same test vectorised, kept as the reference.
     """
     tri = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]
     shape = np.array(grid.shape)
-    out = np.zeros(grid.shape, dtype=bool)
     # a triangle on a voxel boundary touches the voxels on both sides: widen by a hair
     slack = _TOUCH_TOLERANCE * 10
     lo = np.floor((tri.min(axis=1) - grid.origin) / grid.pitch - slack).astype(np.int64)
     hi = np.floor((tri.max(axis=1) - grid.origin) / grid.pitch + slack).astype(np.int64)
     lo = np.clip(lo, 0, shape - 1)
     hi = np.clip(hi, 0, shape - 1)
-    dims = hi - lo + 1
-    counts = dims.prod(axis=1)
-    ends = np.cumsum(counts)
-    start_tri = 0
-    half = 0.5 * grid.pitch
-    while start_tri < len(tri):
-        base = ends[start_tri - 1] if start_tri else 0
-        stop = int(np.searchsorted(ends, base + _PAIRS_PER_CHUNK, side="right"))
-        stop = max(stop, start_tri + 1)
-        idx = np.arange(start_tri, stop)
-        c = counts[idx]
-        pair_tri = np.repeat(idx, c)
-        local = np.arange(int(c.sum())) - np.repeat(np.cumsum(c) - c, c)
-        d = dims[pair_tri]
-        iz = local % d[:, 2]
-        iy = (local // d[:, 2]) % d[:, 1]
-        ix = local // (d[:, 2] * d[:, 1])
-        vox = lo[pair_tri] + np.stack([ix, iy, iz], axis=1)
-        hit = _sat_overlap(tri[pair_tri], grid.centers(vox), half)
-        v = vox[hit]
-        out[v[:, 0], v[:, 1], v[:, 2]] = True
-        start_tri = stop
-    return out
+    return surface_voxels_kernel(tri, lo, hi, grid.origin, grid.pitch,
+                                 0.5 * grid.pitch * (1.0 + _TOUCH_TOLERANCE), grid.shape)
 
 
 def outside_voxels(surface: np.ndarray) -> np.ndarray:

@@ -1,0 +1,80 @@
+"""numba kernel of the exact triangle/box overlap voxelization.
+
+Per triangle, loops over the voxels of its bounding box, rejects most with
+the triangle-plane test and runs the nine edge-axis tests of the
+separating-axis theorem (Akenine-Moeller) on the rest. A numpy version needs
+every (triangle, voxel) candidate in memory, which explodes for long thin
+triangles tilted against the axes (a hairball's tubes); the loop does not.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, inline="always")
+def _axis_ok(p0, p1, p2, r):
+    lo = min(p0, min(p1, p2))
+    hi = max(p0, max(p1, p2))
+    return lo <= r and hi >= -r
+
+
+@numba.njit(cache=True)
+def mark_surface_voxels(tri, lo, hi, origin, pitch, h, out):
+    """Set out[x, y, z] for every voxel (closed cube of half-size h) a triangle touches."""
+    for t in range(tri.shape[0]):
+        ax, ay, az = tri[t, 0, 0], tri[t, 0, 1], tri[t, 0, 2]
+        bx, by, bz = tri[t, 1, 0], tri[t, 1, 1], tri[t, 1, 2]
+        cx, cy, cz = tri[t, 2, 0], tri[t, 2, 1], tri[t, 2, 2]
+        e0x, e0y, e0z = bx - ax, by - ay, bz - az
+        e1x, e1y, e1z = cx - bx, cy - by, cz - bz
+        e2x, e2y, e2z = ax - cx, ay - cy, az - cz
+        nx = e0y * e1z - e0z * e1y
+        ny = e0z * e1x - e0x * e1z
+        nz = e0x * e1y - e0y * e1x
+        rn = h * (abs(nx) + abs(ny) + abs(nz))
+        for i in range(lo[t, 0], hi[t, 0] + 1):
+            px = origin[0] + (i + 0.5) * pitch
+            for j in range(lo[t, 1], hi[t, 1] + 1):
+                py = origin[1] + (j + 0.5) * pitch
+                for k in range(lo[t, 2], hi[t, 2] + 1):
+                    if out[i, j, k]:
+                        continue
+                    pz = origin[2] + (k + 0.5) * pitch
+                    vax, vay, vaz = ax - px, ay - py, az - pz
+                    if abs(nx * vax + ny * vay + nz * vaz) > rn:
+                        continue  # the triangle's plane misses the box
+                    vbx, vby, vbz = bx - px, by - py, bz - pz
+                    vcx, vcy, vcz = cx - px, cy - py, cz - pz
+                    ok = True
+                    for ex, ey, ez in ((e0x, e0y, e0z), (e1x, e1y, e1z), (e2x, e2y, e2z)):
+                        # axis x cross e = (0, -ez, ey)
+                        if not _axis_ok(-ez * vay + ey * vaz, -ez * vby + ey * vbz,
+                                        -ez * vcy + ey * vcz, h * (abs(ez) + abs(ey))):
+                            ok = False
+                            break
+                        # axis y cross e = (ez, 0, -ex)
+                        if not _axis_ok(ez * vax - ex * vaz, ez * vbx - ex * vbz,
+                                        ez * vcx - ex * vcz, h * (abs(ez) + abs(ex))):
+                            ok = False
+                            break
+                        # axis z cross e = (-ey, ex, 0)
+                        if not _axis_ok(-ey * vax + ex * vay, -ey * vbx + ex * vby,
+                                        -ey * vcx + ex * vcy, h * (abs(ey) + abs(ex))):
+                            ok = False
+                            break
+                    if ok:
+                        out[i, j, k] = True
+    return out
+
+
+def surface_voxels_kernel(tri: np.ndarray, lo: np.ndarray, hi: np.ndarray, origin: np.ndarray,
+                          pitch: float, half: float, shape: tuple) -> np.ndarray:
+    """Boolean grid of surface voxels (see :func:`mark_surface_voxels`)."""
+    out = np.zeros(shape, dtype=np.bool_)
+    return mark_surface_voxels(np.ascontiguousarray(tri, dtype=np.float64),
+                               np.ascontiguousarray(lo, dtype=np.int64),
+                               np.ascontiguousarray(hi, dtype=np.int64),
+                               np.asarray(origin, dtype=np.float64), float(pitch), float(half),
+                               out)
