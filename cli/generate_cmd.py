@@ -26,6 +26,8 @@ def add_parser(sub, common) -> None:
                    help="aabb-skins: stop at this share of the inner volume")
     g.add_argument("--min-volume", type=float, default=None,
                    help="aabb-skins: smallest box volume, world units^3")
+    g.add_argument("--seed-voxel", choices=["max-volume", "densest"], default=None,
+                   help="aabb-skins: largest box over all voxels, or grow from the densest")
     g.set_defaults(run=run_generate)
 
 
@@ -35,7 +37,8 @@ def run_generate(args) -> int:
     if spec.experimental:
         _log.warning("%s is experimental: not yet validated", spec.name)
     names = {"budget": "budget", "voxels": "voxels", "voxel_size": "voxel_size",
-             "max_boxes": "max_boxes", "fill": "fill", "min_volume": "min_volume"}
+             "max_boxes": "max_boxes", "fill": "fill", "min_volume": "min_volume",
+             "seed_voxel": "seed_voxel"}
     params = {k: getattr(args, a) for a, k in names.items() if getattr(args, a) is not None}
     params["seed"] = args.seed
     mesh = load_mesh(args.mesh)

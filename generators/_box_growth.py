@@ -120,3 +120,72 @@ def grow_boxes(avail, max_boxes, min_voxels, target_voxels):
                     dx[a, b, c] = run
         step += 1
     return boxes[:k]
+
+
+@numba.njit(cache=True)
+def _slab_free(avail, lo, hi, axis, at):
+    """Whether the one-voxel slab at index ``at`` along ``axis`` over the box is available."""
+    if at < 0 or at >= avail.shape[axis]:
+        return False
+    a0, a1 = lo[0], hi[0]
+    b0, b1 = lo[1], hi[1]
+    c0, c1 = lo[2], hi[2]
+    if axis == 0:
+        a0, a1 = at, at + 1
+    elif axis == 1:
+        b0, b1 = at, at + 1
+    else:
+        c0, c1 = at, at + 1
+    for a in range(a0, a1):
+        for b in range(b0, b1):
+            for c in range(c0, c1):
+                if not avail[a, b, c]:
+                    return False
+    return True
+
+
+@numba.njit(cache=True)
+def grow_boxes_from_seeds(avail, seeds, max_boxes, min_voxels, target_voxels):
+    """Boxes grown from seed voxels in the given order (seed 002, sec. 4).
+
+    Each box starts as its seed voxel and expands by one voxel layer in each of
+    the six directions in turn while the new layer is all available, until no
+    direction can grow; its voxels are then taken. Seeds already taken are
+    skipped. Returns (k, 6) int64 boxes [x0, y0, z0, x1, y1, z1).
+    """
+    avail = avail.copy()
+    boxes = np.zeros((max_boxes, 6), np.int64)
+    k = 0
+    covered = 0
+    lo = np.zeros(3, np.int64)
+    hi = np.zeros(3, np.int64)
+    for s in range(seeds.shape[0]):
+        if k >= max_boxes or covered >= target_voxels:
+            break
+        x, y, z = seeds[s, 0], seeds[s, 1], seeds[s, 2]
+        if not avail[x, y, z]:
+            continue
+        lo[0], lo[1], lo[2] = x, y, z
+        hi[0], hi[1], hi[2] = x + 1, y + 1, z + 1
+        grown = True
+        while grown:
+            grown = False
+            for axis in range(3):
+                if _slab_free(avail, lo, hi, axis, hi[axis]):
+                    hi[axis] += 1
+                    grown = True
+                if _slab_free(avail, lo, hi, axis, lo[axis] - 1):
+                    lo[axis] -= 1
+                    grown = True
+        vol = (hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2])
+        if vol < min_voxels:
+            break  # seed 002: a box under the minimum stops the search
+        for a in range(lo[0], hi[0]):
+            for b in range(lo[1], hi[1]):
+                for c in range(lo[2], hi[2]):
+                    avail[a, b, c] = False
+        boxes[k, 0], boxes[k, 1], boxes[k, 2] = lo[0], lo[1], lo[2]
+        boxes[k, 3], boxes[k, 4], boxes[k, 5] = hi[0], hi[1], hi[2]
+        k += 1
+        covered += vol
+    return boxes[:k]

@@ -93,3 +93,25 @@ def test_registry_names_and_unknown():
     assert {"aabb-skins", "qem", "bbox", "original"} <= set(REGISTRY)
     with pytest.raises(InputError, match="registered"):
         generate("nope", trimesh.creation.box())
+
+
+def test_aabb_skins_densest_seed_conservative_and_first_box_not_larger():
+    mesh = load_mesh("cow")
+    dense = generate_aabb_skins(mesh, voxels=40, max_boxes=6, seed_voxel="densest")
+    best = generate_aabb_skins(mesh, voxels=40, max_boxes=6)
+    vol = lambda b: np.prod(b[:, 1] - b[:, 0], axis=1)  # noqa: E731
+    assert dense.info["boxes"] == 6
+    assert vol(best.parts["boxes"])[0] >= vol(dense.parts["boxes"])[0] - 1e-12
+    assert check_conservative(mesh, dense.mesh, rays=20000).violations == 0
+    with pytest.raises(InputError, match="seed_voxel"):
+        generate_aabb_skins(mesh, seed_voxel="random")
+
+
+def test_six_direction_distance_centre_of_cube_is_deepest():
+    from generators.aabb_skins import _six_direction_distance
+
+    s = np.zeros((9, 9, 9), bool)
+    s[0], s[-1], s[:, 0], s[:, -1], s[:, :, 0], s[:, :, -1] = (True,) * 6
+    d = _six_direction_distance(s)
+    assert np.unravel_index(np.argmax(np.where(s, -1, d)), s.shape) == (4, 4, 4)
+    assert d[4, 4, 4] == 4.0
