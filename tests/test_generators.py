@@ -107,11 +107,12 @@ def test_aabb_skins_densest_seed_conservative_and_first_box_not_larger():
         generate_aabb_skins(mesh, seed_voxel="random")
 
 
-def test_six_direction_distance_centre_of_cube_is_deepest():
-    from generators.aabb_skins import _six_direction_distance
+def test_densest_order_starts_at_centre_of_hollow_cube():
+    from generators.aabb_skins import _densest_order, _six_direction_distance
 
     s = np.zeros((9, 9, 9), bool)
     s[0], s[-1], s[:, 0], s[:, -1], s[:, :, 0], s[:, :, -1] = (True,) * 6
-    d = _six_direction_distance(s)
-    assert np.unravel_index(np.argmax(np.where(s, -1, d)), s.shape) == (4, 4, 4)
-    assert d[4, 4, 4] == 4.0
+    order = _densest_order(~s, s)
+    assert order[0].tolist() == [4, 4, 4]
+    # along one axis the two distances always add up to the width between the walls
+    assert np.unique(_six_direction_distance(s)[~s]).tolist() == [4.0]
