@@ -12,10 +12,10 @@ import sys
 
 from viscore import InputError, set_workers
 
-from . import bench_cmd, compare_cmd, data_cmd, generate_cmd, metrics_cmd
+from . import bench_cmd, compare_cmd, data_cmd, generate_cmd, metrics_cmd, uncertainty_cmd
 
 #: Subcommand modules; each has ``add_parser(subparsers)`` and ``run(args) -> int``.
-_COMMANDS = [compare_cmd, generate_cmd, metrics_cmd, data_cmd, bench_cmd]
+_COMMANDS = [compare_cmd, generate_cmd, metrics_cmd, uncertainty_cmd, data_cmd, bench_cmd]
 
 
 class _Parser(argparse.ArgumentParser):

@@ -6,6 +6,9 @@ seed 000 sec. 6.1, the volume protocol of seed 001 sec. 3.2 (and the
 depth-aware variant of both), and the ray-wise conservativeness check.
 """
 
+from .ablation import AblationResult, ablation_plot, convergence_ablation
+from .bayes import BetaModelSummary, hierarchical_beta_model
+from .bootstrap import bootstrap_ratio
 from .conservativeness import (
     ConservativenessReport,
     assert_conservative,
@@ -18,9 +21,11 @@ from .occlusion_measure import (
     erosion_curve,
     occlusion_measure,
 )
-from .orbit import orbit_frame, orbit_precision_recall
+from .orbit import orbit_frame, orbit_precision_recall, view_counts
+from .paired import PairedDifference, paired_difference
 from .precision_recall import PrecisionRecall
 from .quads import QuadCounts, classify_quads, classify_quads_depth, sample_quads
+from .uncertainty import distribution_plot, uncertainty_report
 from .volume import volume_positions, volume_precision_recall
 
 __all__ = [
@@ -28,7 +33,10 @@ __all__ = [
     "clopper_pearson_upper", "OcclusionMeasure", "occlusion_measure",
     "directional_occlusion_measure", "erosion_curve", "orbit_frame", "orbit_precision_recall",
     "PrecisionRecall", "QuadCounts", "classify_quads", "classify_quads_depth", "sample_quads",
-    "volume_positions", "volume_precision_recall", "evaluate",
+    "volume_positions", "volume_precision_recall", "evaluate", "view_counts",
+    "bootstrap_ratio", "PairedDifference", "paired_difference", "BetaModelSummary",
+    "hierarchical_beta_model", "AblationResult", "convergence_ablation", "ablation_plot",
+    "uncertainty_report", "distribution_plot",
 ]
 
 

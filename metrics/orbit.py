@@ -16,12 +16,12 @@ import trimesh
 
 from viscore import OrthoCamera, as_positive_int, directions_uniform
 
-from ._bootstrap import ratio_interval
 from ._views import depths, scene_of
+from .bootstrap import bootstrap_ratio
 from .precision_recall import PrecisionRecall, ratio
-from .quads import classify_quads, classify_quads_depth, sample_quads
+from .quads import QuadCounts, classify_quads, classify_quads_depth, sample_quads
 
-__all__ = ["orbit_precision_recall", "orbit_frame"]
+__all__ = ["orbit_precision_recall", "orbit_frame", "view_counts"]
 
 #: Extent of the orthographic window as a multiple of the enclosing sphere's
 #: diameter (DESIGN.md, orbit protocol).
@@ -43,6 +43,26 @@ def orbit_frame(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
     """
     center, radius = trimesh.nsphere.minimum_nsphere(mesh)
     return np.asarray(center, dtype=np.float64), float(2 * radius * EXTENT_FACTOR)
+
+
+def view_counts(d_orig: np.ndarray, d_occ: np.ndarray, quads: int, rng: np.random.Generator, *,
+                depth_aware: bool = False, depth_levels: int = 32) -> QuadCounts:
+    """Nt, Pf, Nf of one orbit view from its two depth images (inf where empty).
+
+    The quads lie in the screen bounding box of the original's covered
+    pixels (seed 000, sec. 6.1); a view where the original covers nothing
+    gets no quads and zero counts.
+    """
+    covered = np.isfinite(d_orig)
+    rows = np.flatnonzero(covered.any(axis=1))
+    if len(rows) == 0:
+        return QuadCounts(0, 0, 0, 0)
+    cols = np.flatnonzero(covered.any(axis=0))
+    box = (rows[0], cols[0], rows[-1] + 1, cols[-1] + 1)
+    q = sample_quads(box, quads, rng)
+    if depth_aware:
+        return classify_quads_depth(d_orig, d_occ, q, rng, depth_levels=depth_levels)
+    return classify_quads(covered, np.isfinite(d_occ), q)
 
 
 def orbit_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None, *,
@@ -106,6 +126,7 @@ def orbit_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | No
     nt = np.zeros(views, dtype=np.int64)
     pf = np.zeros(views, dtype=np.int64)
     nf = np.zeros(views, dtype=np.int64)
+    qcount = np.zeros((views, 3), dtype=np.int64)  # q_orig, q_occ, q_both
     timing: dict = {}
     t_quads = 0.0
     for b0 in range(0, views, _VIEWS_PER_BATCH):
@@ -115,31 +136,24 @@ def orbit_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | No
         d_occ = depths(other, cams, timing)
         t0 = time.perf_counter()
         for j, k in enumerate(ks):
-            covered = np.isfinite(d_orig[j])
-            rows = np.flatnonzero(covered.any(axis=1))
-            if len(rows) == 0:
-                continue
-            cols = np.flatnonzero(covered.any(axis=0))
-            box = (rows[0], cols[0], rows[-1] + 1, cols[-1] + 1)
             rng = np.random.default_rng(children[k])
-            q = sample_quads(box, quads, rng)
-            if depth_aware:
-                c = classify_quads_depth(d_orig[j], d_occ[j], q, rng, depth_levels=depth_levels)
-            else:
-                c = classify_quads(covered, np.isfinite(d_occ[j]), q)
+            c = view_counts(d_orig[j], d_occ[j], quads, rng, depth_aware=depth_aware,
+                            depth_levels=depth_levels)
             nt[k], pf[k], nf[k] = c.nt, c.pf, c.nf
+            qcount[k] = c.q_orig, c.q_occ, c.q_both
         t_quads += time.perf_counter() - t0
     timing["seconds_quads"] = t_quads
     per_view = {
         "nt": nt, "pf": pf, "nf": nf,
         "precision": ratio(nt, nt + nf), "recall": ratio(nt, nt + pf),
         "weight": np.ones(views), "direction": directions,
+        "quads_orig": qcount[:, 0], "quads_occ": qcount[:, 1], "quads_both": qcount[:, 2],
     }
     return PrecisionRecall(
         precision=float(ratio(nt.sum(), nt.sum() + nf.sum())),
         recall=float(ratio(nt.sum(), nt.sum() + pf.sum())),
-        precision_ci=list(ratio_interval(nt, nt + nf, seed=seed)),
-        recall_ci=list(ratio_interval(nt, nt + pf, seed=seed)),
+        precision_ci=list(bootstrap_ratio(nt, nt + nf, seed=seed)),
+        recall_ci=list(bootstrap_ratio(nt, nt + pf, seed=seed)),
         per_view=per_view, protocol="orbit", depth_aware=bool(depth_aware), seed=seed,
         params={"views": views, "quads": quads, "resolution": resolution,
                 "center": center.tolist(), "extent": extent,

@@ -38,8 +38,10 @@ class PrecisionRecall:
     per_view : dict of lists
         ``nt``, ``pf``, ``nf`` (pixel counts), ``precision``, ``recall``
         (NaN where undefined), ``weight`` (block volume in voxels of the
-        finest grid; 1 for orbit views), and ``direction`` (orbit) or
-        ``position`` (volume), one entry per view.
+        finest grid; 1 for orbit views), ``direction`` (orbit) or
+        ``position`` (volume), and the quad tallies ``quads_orig``,
+        ``quads_occ``, ``quads_both`` (see :class:`metrics.QuadCounts`),
+        one entry per view.
     protocol : {'orbit', 'volume'}
     depth_aware : bool
     seed : int

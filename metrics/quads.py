@@ -41,12 +41,24 @@ class QuadCounts:
         Unoccluded-by-original pixels of quads the occluder occludes (false occlusion).
     quads : int
         Quads sampled.
+    q_orig : int
+        Quads fully occluded by the original (a == n).
+    q_occ : int
+        Quads fully occluded by the occluder (b == n).
+    q_both : int
+        Quads fully occluded by both. Per-quad recall of the view is
+        q_both / q_orig and per-quad precision q_both / q_occ: quads are
+        independent draws given the view, so these are binomial counts
+        (the Bayesian models of :mod:`metrics.bayes` use them).
     """
 
     nt: int
     pf: int
     nf: int
     quads: int
+    q_orig: int = 0
+    q_occ: int = 0
+    q_both: int = 0
 
 
 def summed_area_table(image: np.ndarray) -> np.ndarray:
@@ -101,13 +113,13 @@ def sample_quads(box: tuple[int, int, int, int], count: int, rng: np.random.Gene
     return np.stack([y, x, y + h, x + w], axis=1)
 
 
-def _tally(n: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[int, int, int]:
+def _tally(n: np.ndarray, a: np.ndarray, b: np.ndarray) -> QuadCounts:
     full_a = a == n
     full_b = b == n
-    nt = int(n[full_a & full_b].sum())
-    pf = int(n[full_a & ~full_b].sum())
-    nf = int((n - a)[full_b & ~full_a].sum())
-    return nt, pf, nf
+    both = full_a & full_b
+    return QuadCounts(nt=int(n[both].sum()), pf=int(n[full_a & ~full_b].sum()),
+                      nf=int((n - a)[full_b & ~full_a].sum()), quads=len(n),
+                      q_orig=int(full_a.sum()), q_occ=int(full_b.sum()), q_both=int(both.sum()))
 
 
 def classify_quads(original: np.ndarray, occluder: np.ndarray, quads: np.ndarray) -> QuadCounts:
@@ -128,13 +140,13 @@ def classify_quads(original: np.ndarray, occluder: np.ndarray, quads: np.ndarray
     --------
     >>> orig = np.ones((4, 4), bool); occ = orig.copy(); occ[0, 0] = False
     >>> classify_quads(orig, occ, np.array([[0, 0, 2, 2], [2, 2, 4, 4]]))
-    QuadCounts(nt=4, pf=4, nf=0, quads=2)
+    QuadCounts(nt=4, pf=4, nf=0, quads=2, q_orig=2, q_occ=1, q_both=1)
     """
     r0, c0, r1, c1 = quads.T
     n = (r1 - r0) * (c1 - c0)
     a = _rect_sum(summed_area_table(original), r0, c0, r1, c1)
     b = _rect_sum(summed_area_table(occluder), r0, c0, r1, c1)
-    return QuadCounts(*_tally(n, a, b), quads=len(quads))
+    return _tally(n, a, b)
 
 
 def classify_quads_depth(original_depth: np.ndarray, occluder_depth: np.ndarray,
@@ -176,4 +188,4 @@ def classify_quads_depth(original_depth: np.ndarray, occluder_depth: np.ndarray,
         args = (r0[sel], c0[sel], r1[sel], c1[sel])
         a[sel] = _rect_sum(summed_area_table(original_depth < levels[k]), *args)
         b[sel] = _rect_sum(summed_area_table(occluder_depth < levels[k]), *args)
-    return QuadCounts(*_tally(n, a, b), quads=len(quads))
+    return _tally(n, a, b)

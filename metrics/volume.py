@@ -31,8 +31,8 @@ from viscore import (
     points_inside_parity,
 )
 
-from ._bootstrap import weighted_mean_interval
 from ._views import depths, scene_of
+from .bootstrap import bootstrap_ratio
 from .precision_recall import PrecisionRecall, ratio
 from .quads import classify_quads, classify_quads_depth, sample_quads
 
@@ -49,7 +49,8 @@ _FRUSTA_PER_BATCH = 24
 
 def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
                      padding: float | None = None, merge_views: bool = False,
-                     scene=None) -> tuple[np.ndarray, np.ndarray]:
+                     scene=None, offset: np.ndarray | None = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """View positions of the volume protocol and their volume weights.
 
     Parameters
@@ -65,6 +66,10 @@ def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
         Merge 2 x 2 x 2 blocks as an octree (seed 001, sec. 3.3).
     scene : Scene, optional
         Scene of ``mesh``, to reuse.
+    offset : (3,) float, optional
+        Shift of the whole grid in units of dx, each in [-0.5, 0.5): a
+        randomly shifted grid makes the positions an unbiased sample of the
+        domain (used by the spacing ablation). Default: no shift.
 
     Returns
     -------
@@ -85,6 +90,8 @@ def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
         raise InputError(f"padding: expected a finite number >= 0, got {padding}")
     box_lo, box_hi = lo - pad, hi + pad
     pts = grid_positions(box_lo, box_hi, dx)
+    if offset is not None:
+        pts = pts + dx * np.asarray(offset, dtype=np.float64)
     counts = np.maximum(1, np.ceil((box_hi - box_lo) / dx - 1e-9)).astype(np.int64)
     valid = ~points_inside_parity(scene, pts).reshape(counts)
     first = pts[0]
@@ -145,7 +152,8 @@ def volume_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | N
                             spacing: float | None = None, padding: float | None = None,
                             quads: int = 5000, resolution: int = 256, seed: int = 0,
                             depth_aware: bool = False, depth_levels: int = 32,
-                            merge_views: bool = True) -> PrecisionRecall:
+                            merge_views: bool = True, jitter: bool = False
+                            ) -> PrecisionRecall:
     """Precision and recall of an occluder from positions filling the space around it.
 
     Parameters
@@ -170,6 +178,9 @@ def volume_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | N
         Quad depth values of the depth-aware variant (default 32).
     merge_views : bool, optional
         Octree view merging with volume weights (default True).
+    jitter : bool, optional
+        Shift the position grid by a seeded uniform offset of up to half a
+        spacing per axis (default False: the grid is centred in the domain).
 
     Returns
     -------
@@ -188,8 +199,9 @@ def volume_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | N
     start = time.perf_counter()
     original = scene_of(mesh, "mesh")
     other = scene_of(occluder, "occluder")
+    offset = np.random.default_rng([seed, 1]).uniform(-0.5, 0.5, 3) if jitter else None
     positions, weights = volume_positions(mesh, spacing=spacing, padding=padding,
-                                          merge_views=merge_views, scene=original)
+                                          merge_views=merge_views, scene=original, offset=offset)
     n = len(positions)
     if n == 0:
         raise InputError("spacing: no view position lies outside the mesh; use a smaller spacing")
@@ -197,11 +209,12 @@ def volume_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | N
     hi = np.asarray(mesh.bounds[1], dtype=np.float64)
     if other is not None:
         lo, hi = np.minimum(lo, other.bounds[0]), np.maximum(hi, other.bounds[1])
-    _log.info("volume protocol: %d positions, up to %.3g rays", n, 12.0 * n * resolution**2)
+    _log.debug("volume protocol: %d positions, up to %.3g rays", n, 12.0 * n * resolution**2)
     children = np.random.SeedSequence(seed).spawn(n)
     nt = np.zeros(n, dtype=np.int64)
     pf = np.zeros(n, dtype=np.int64)
     nf = np.zeros(n, dtype=np.int64)
+    qcount = np.zeros((n, 3), dtype=np.int64)  # q_orig, q_occ, q_both
     tasks = []  # (position index, camera)
     for i, p in enumerate(positions):
         for cam in cube_cameras(p, resolution):
@@ -228,6 +241,7 @@ def volume_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | N
             nt[i] += c.nt
             pf[i] += c.pf
             nf[i] += c.nf
+            qcount[i] += (c.q_orig, c.q_occ, c.q_both)
         t_quads += time.perf_counter() - t0
     timing["seconds_quads"] = t_quads
     p_x, r_x = ratio(nt, nt + nf), ratio(nt, nt + pf)
@@ -236,14 +250,20 @@ def volume_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | N
         ok = np.isfinite(v)
         return float((v[ok] * weights[ok]).sum() / weights[ok].sum()) if ok.any() else np.nan
 
+    def interval(v):  # weighted mean of the defined values = ratio of sums
+        ok = np.isfinite(v)
+        return list(bootstrap_ratio(np.where(ok, v, 0.0) * weights, np.where(ok, weights, 0.0),
+                                    seed=seed))
+
     return PrecisionRecall(
         precision=wmean(p_x), recall=wmean(r_x),
-        precision_ci=list(weighted_mean_interval(p_x, weights, seed=seed)),
-        recall_ci=list(weighted_mean_interval(r_x, weights, seed=seed)),
+        precision_ci=interval(p_x), recall_ci=interval(r_x),
         per_view={"nt": nt, "pf": pf, "nf": nf, "precision": p_x, "recall": r_x,
-                  "weight": weights, "position": positions},
+                  "weight": weights, "position": positions, "quads_orig": qcount[:, 0],
+                  "quads_occ": qcount[:, 1], "quads_both": qcount[:, 2]},
         protocol="volume", depth_aware=bool(depth_aware), seed=seed,
         params={"spacing": spacing, "padding": padding, "quads": quads,
                 "resolution": resolution, "merge_views": merge_views, "positions": n,
+                "jitter": jitter,
                 **({"depth_levels": depth_levels} if depth_aware else {})},
         seconds=time.perf_counter() - start, timing=timing)
