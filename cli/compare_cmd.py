@@ -2,13 +2,22 @@
 
 from __future__ import annotations
 
+from dataclasses import asdict
 from pathlib import Path
 
 from generators import REGISTRY
 from viscore import InputError, as_positive_int, load_mesh, provenance, scene_names
 
 from ._common import dumps, emit, write_atomic
-from .study import StudySettings, recall_plot, run_study, table_csv, table_markdown
+from .study import (
+    StudySettings,
+    budget_plot,
+    recall_plot,
+    run_study,
+    silhouette_plot,
+    table_csv,
+    table_markdown,
+)
 
 #: Built-in scenes of the default study (each under a minute at the defaults).
 DEFAULT_SCENES = ["fat-torus", "box-with-hole", "sponge", "terrain", "hairball", "buildings",
@@ -22,13 +31,16 @@ def add_parser(sub, common) -> None:
                    help="mesh files or built-in scenes (default: the built-in scenes)")
     c.add_argument("--methods", default=",".join(REGISTRY),
                    help=f"comma-separated (default: all of {', '.join(REGISTRY)})")
-    c.add_argument("--budget", type=int, default=256, help="triangle budget (default 256)")
+    c.add_argument("--budget", default="64,256",
+                   help="triangle budget(s), comma-separated (default 64,256)")
     c.add_argument("--protocol", choices=["orbit", "volume"], default="orbit")
     c.add_argument("--views", type=int, default=128, help="orbit views (default 128)")
     c.add_argument("--quads", type=int, default=16000, help="quads per view (default 16000)")
     c.add_argument("--res", type=int, default=256, help="pixels per side (default 256)")
     c.add_argument("--rays", type=int, default=100_000, help="conservativeness rays")
     c.add_argument("--jobs", type=int, default=1, help="parallel jobs (processes)")
+    c.add_argument("--scheduler", default=None,
+                   help="dask.distributed scheduler address: run the jobs on that cluster")
     c.add_argument("--out", default="viscore-study",
                    help="study directory (default ./viscore-study)")
     c.set_defaults(run=run_compare)
@@ -47,16 +59,30 @@ def run_compare(args) -> int:
                              quads=as_positive_int(args.quads, "quads"),
                              resolution=as_positive_int(args.res, "res", maximum=4096),
                              rays=as_positive_int(args.rays, "rays"),
-                             budget=as_positive_int(args.budget, "budget"), seed=args.seed)
+                             budgets=_budgets(args.budget), seed=args.seed)
     out = Path(args.out)
     rows = run_study(meshes, methods, settings, out, jobs=as_positive_int(args.jobs, "jobs"),
-                     progress=not (args.quiet or args.json))
-    doc = {"settings": settings.__dict__, "rows": rows, "provenance": provenance()}
+                     scheduler=args.scheduler, progress=not (args.quiet or args.json))
+    doc = {"settings": asdict(settings), "rows": rows, "provenance": provenance()}
     write_atomic(out / "results.json", dumps(doc).encode())
     write_atomic(out / "results.csv", table_csv(rows).encode())
     md = table_markdown(rows)
     write_atomic(out / "results.md", md.encode())
     recall_plot(rows, out / "recall.png")
+    budget_plot(rows, out / "budget.png")
+    for mesh in meshes[:2]:
+        silhouette_plot(rows, out, mesh, out / f"silhouettes_{Path(mesh).stem}.png",
+                        seed=args.seed)
     emit(doc, args.json, md + f"\nintervals: 95% bootstrap over views; wrote {out}/results."
-         "{csv,json,md} and recall.png")
+         "{csv,json,md}, recall.png, budget.png and silhouettes_*.png")
     return 0
+
+
+def _budgets(text: str) -> tuple[int, ...]:
+    try:
+        values = tuple(int(v) for v in str(text).split(",") if v.strip())
+    except ValueError as exc:
+        raise InputError(f"--budget: expected comma-separated integers, got {text!r}") from exc
+    if not values:
+        raise InputError("--budget: no budget given")
+    return tuple(sorted({as_positive_int(v, "budget") for v in values}))

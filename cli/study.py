@@ -1,10 +1,13 @@
 """Comparison studies: every registered method on every mesh, evaluated and stored.
 
 The orchestration of ``viscore compare`` (DESIGN.md data flow: metrics ->
-cli for tables, plots, studies). Each (mesh, method, parameters, seed) job
-runs generate -> precision/recall -> occlusion measure -> conservativeness,
-and its row is committed to the study's SQLite file when it finishes, so a
-re-run resumes and a killed run loses nothing that finished.
+cli for tables, plots, studies). Each (mesh, method, budget, settings, seed)
+job runs generate -> precision/recall -> occlusion measure -> conservativeness.
+Its row is committed to the study's SQLite file, and its occluder written
+under ``occluders/``, when it finishes: a re-run resumes, and a killed run
+loses nothing that finished. Jobs run in a local process pool, or on a
+dask.distributed cluster with ``scheduler``; each job is deterministic given
+its settings, so both give identical rows.
 """
 
 from __future__ import annotations
@@ -13,18 +16,22 @@ import hashlib
 import json
 import os
 import sqlite3
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ._common import dumps
+from ._common import dumps, write_atomic
 
 #: Columns of the printed and written table, in order.
-TABLE_COLUMNS = ["mesh", "method", "triangles", "precision", "precision_ci", "recall",
+TABLE_COLUMNS = ["mesh", "method", "budget", "triangles", "precision", "precision_ci", "recall",
                  "recall_ci", "occlusion_measure", "occlusion_measure_se",
                  "violation_upper_bound", "seconds"]
+
+#: Views shown in the silhouette plots (seed 000, Figure 7).
+SILHOUETTE_VIEWS = 3
 
 
 @dataclass(frozen=True)
@@ -37,33 +44,57 @@ class StudySettings:
     resolution: int = 256
     directions: int = 32
     rays: int = 100_000
-    budget: int = 256
+    budgets: tuple = (64, 256)
     seed: int = 0
 
-    def key(self, mesh: str, method: str) -> str:
-        text = json.dumps({"mesh": mesh, "method": method, **self.__dict__}, sort_keys=True)
+    def key(self, mesh: str, method: str, budget: int | None) -> str:
+        d = {k: v for k, v in asdict(self).items() if k != "budgets"}
+        text = json.dumps({"mesh": mesh, "method": method, "budget": budget, **d},
+                          sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
-def run_job(mesh_name: str, method: str, settings: StudySettings, workers: int | None) -> dict:
-    """Generate, evaluate and check one occluder; returns the result row."""
+@dataclass(frozen=True)
+class Job:
+    mesh: str
+    method: str
+    budget: int | None
+    settings: StudySettings = field(repr=False)
+
+    @property
+    def key(self) -> str:
+        return self.settings.key(self.mesh, self.method, self.budget)
+
+    @property
+    def occluder_file(self) -> str:
+        safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in Path(self.mesh).stem)
+        return f"{safe}__{self.method}__{self.budget or 'any'}__{self.key[:8]}.ply"
+
+
+def run_job(job: Job, workers: int | None = None) -> tuple[dict, bytes]:
+    """Generate, evaluate and check one occluder; returns the row and the occluder PLY."""
+    import trimesh
+
     from generators import get_generator
     from metrics import check_conservative, evaluate, occlusion_measure
     from viscore import load_mesh, set_workers
 
+    s = job.settings
     set_workers(workers)
-    mesh = load_mesh(mesh_name)
-    occ = get_generator(method).function(mesh, budget=settings.budget, seed=settings.seed)
+    mesh = load_mesh(job.mesh)
+    params = {"seed": s.seed} | ({"budget": job.budget} if job.budget else {})
+    occ = get_generator(job.method).function(mesh, **params)
     target = occ.mesh if occ.triangles else None
-    params = dict(seed=settings.seed, quads=settings.quads, resolution=settings.resolution)
-    if settings.protocol == "orbit":
-        params["views"] = settings.views
-    pr = evaluate(mesh, target, protocol=settings.protocol, **params)
-    om = (occlusion_measure(target, directions=settings.directions, resolution=settings.resolution,
-                            seed=settings.seed) if target is not None else None)
-    cons = check_conservative(mesh, target, rays=settings.rays, seed=settings.seed)
-    return {
-        "mesh": mesh_name, "method": method, "triangles": occ.triangles,
+    kw = dict(seed=s.seed, quads=s.quads, resolution=s.resolution)
+    if s.protocol == "orbit":
+        kw["views"] = s.views
+    pr = evaluate(mesh, target, protocol=s.protocol, **kw)
+    om = (occlusion_measure(target, directions=s.directions, resolution=s.resolution,
+                            seed=s.seed) if target is not None else None)
+    cons = check_conservative(mesh, target, rays=s.rays, seed=s.seed)
+    row = {
+        "key": job.key, "mesh": job.mesh, "method": job.method, "budget": job.budget,
+        "triangles": occ.triangles,
         "precision": pr.precision, "precision_ci": pr.precision_ci,
         "recall": pr.recall, "recall_ci": pr.recall_ci,
         "occlusion_measure": om.occlusion_measure if om else 0.0,
@@ -71,25 +102,25 @@ def run_job(mesh_name: str, method: str, settings: StudySettings, workers: int |
         "violation_rate": cons.violation_rate,
         "violation_upper_bound": cons.violation_upper_bound,
         "seconds": occ.seconds, "seconds_evaluate": pr.seconds,
-        "params": occ.params, "info": occ.info,
-        "per_view": {"precision": pr.per_view["precision"], "recall": pr.per_view["recall"]},
-        "settings": settings.__dict__,
+        "params": occ.params, "info": occ.info, "occluder_file": job.occluder_file,
+        "per_view": {k: pr.per_view[k] for k in ("nt", "pf", "nf", "precision", "recall")},
+        "settings": asdict(s),
     }
+    ply = trimesh.exchange.ply.export_ply(occ.mesh, encoding="binary") if occ.triangles else b""
+    return json.loads(dumps(row)), ply
 
 
 class ResultStore:
     """One SQLite file per study directory; a row per finished job, committed at once."""
 
     def __init__(self, path: Path) -> None:
-        self.path = path
         self._db = sqlite3.connect(path)
         self._db.execute("CREATE TABLE IF NOT EXISTS results (key TEXT PRIMARY KEY, "
                          "mesh TEXT, method TEXT, row TEXT NOT NULL)")
         self._db.commit()
 
     def get(self, key: str) -> dict | None:
-        cur = self._db.execute("SELECT row FROM results WHERE key = ?", (key,))
-        found = cur.fetchone()
+        found = self._db.execute("SELECT row FROM results WHERE key = ?", (key,)).fetchone()
         return json.loads(found[0]) if found else None
 
     def put(self, key: str, row: dict) -> None:
@@ -101,40 +132,81 @@ class ResultStore:
         self._db.close()
 
 
+def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings) -> list[Job]:
+    """One job per mesh, method and budget (one budget-less job for unbudgeted methods)."""
+    from generators import get_generator
+
+    jobs = []
+    for mesh in meshes:
+        for method in methods:
+            budgets = settings.budgets if get_generator(method).budgeted else (None,)
+            jobs += [Job(mesh, method, b, settings) for b in budgets]
+    return jobs
+
+
+def _local(pending: list[Job], jobs: int, per_job: int) -> Iterator[tuple[Job, tuple]]:
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        futures = {pool.submit(run_job, j, per_job): j for j in pending}
+        for fut in as_completed(futures):
+            yield futures[fut], fut.result()
+
+
+def _dask(pending: list[Job], scheduler) -> Iterator[tuple[Job, tuple]]:
+    from distributed import Client
+    from distributed import as_completed as dask_completed
+
+    client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
+    try:
+        futures = {client.submit(run_job, j, None, pure=False): j for j in pending}
+        for fut in dask_completed(list(futures)):
+            yield futures[fut], fut.result()
+    finally:
+        if not isinstance(scheduler, Client):
+            client.close()
+
+
 def run_study(meshes: list[str], methods: list[str], settings: StudySettings, out_dir: Path, *,
-              jobs: int = 1, progress: bool = True) -> list[dict]:
-    """Run (or resume) every (mesh, method) job; returns the rows in mesh, method order."""
+              jobs: int = 1, scheduler=None, progress: bool = True,
+              on_row: Callable[[dict], None] | None = None) -> list[dict]:
+    """Run (or resume) every job; returns the rows in mesh, method, budget order.
+
+    ``scheduler`` is a dask.distributed address (or Client); None runs a local
+    process pool of ``jobs`` processes.
+    """
     from tqdm import tqdm
 
     out_dir.mkdir(parents=True, exist_ok=True)
     store = ResultStore(out_dir / "results.sqlite")
-    todo = [(m, k) for m in meshes for k in methods]
-    rows: dict[tuple[str, str], dict] = {}
+    todo = study_jobs(meshes, methods, settings)
+    rows: dict[str, dict] = {}
     pending = []
-    for mesh, method in todo:
-        found = store.get(settings.key(mesh, method))
-        if found is not None:
-            rows[(mesh, method)] = found
+    for job in todo:
+        found = store.get(job.key)
+        if found is not None and (not found.get("triangles") or
+                                  (out_dir / "occluders" / job.occluder_file).is_file()):
+            rows[job.key] = found
         else:
-            pending.append((mesh, method))
+            pending.append(job)
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     per_job = max(1, (cores or 1) // jobs)
     bar = tqdm(total=len(todo), initial=len(todo) - len(pending), disable=not progress,
                desc="compare", unit="job")
+    results = _dask(pending, scheduler) if scheduler is not None else _local(pending, jobs,
+                                                                            per_job)
     try:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            futures = {pool.submit(run_job, m, k, settings, per_job): (m, k) for m, k in pending}
-            for fut in as_completed(futures):
-                mesh, method = futures[fut]
-                row = json.loads(dumps(fut.result()))
-                store.put(settings.key(mesh, method), row)
-                rows[(mesh, method)] = row
-                bar.set_postfix_str(f"{mesh}/{method}")
-                bar.update(1)
+        for job, (row, ply) in results:
+            if ply:  # the file first: a stored row always has its occluder
+                write_atomic(out_dir / "occluders" / job.occluder_file, ply)
+            store.put(job.key, row)
+            rows[job.key] = row
+            if on_row:
+                on_row(row)
+            bar.set_postfix_str(f"{job.mesh}/{job.method}/{job.budget or '-'}")
+            bar.update(1)
     finally:
         bar.close()
         store.close()
-    return [rows[t] for t in todo]
+    return [rows[j.key] for j in todo]
 
 
 def _fmt(value, digits=4) -> str:
@@ -175,27 +247,113 @@ def table_csv(rows: list[dict]) -> str:
     return buf.getvalue()
 
 
-def recall_plot(rows: list[dict], path: Path) -> None:
-    """Per-method distribution of per-view recall, one panel per mesh (seed 000 Fig. 11)."""
+def _pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    return plt
+
+
+def _save(fig, path: Path) -> None:
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    write_atomic(path, buf.getvalue())
+
+
+def _largest_budget(rows: list[dict]) -> list[dict]:
+    """One row per (mesh, method): the largest budget."""
+    best: dict = {}
+    for r in rows:
+        k = (r["mesh"], r["method"])
+        if k not in best or (r["budget"] or 0) > (best[k]["budget"] or 0):
+            best[k] = r
+    return list(best.values())
+
+
+def _panels(plt, count: int, size: float = 3.0):
+    cols = min(3, count)
+    rows = -(-count // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(size * cols + 0.4, size * rows), squeeze=False)
+    for ax in axes.flat[count:]:
+        ax.set_axis_off()
+    return fig, axes.flat
+
+
+def recall_plot(rows: list[dict], path: Path) -> None:
+    """Per-method distribution of per-view recall, one panel per mesh (seed 000 Fig. 11)."""
+    plt = _pyplot()
+    rows = _largest_budget(rows)
     meshes = list(dict.fromkeys(r["mesh"] for r in rows))
-    fig, axes = plt.subplots(1, len(meshes), figsize=(3.2 * len(meshes), 3.2), squeeze=False)
-    for ax, mesh in zip(axes[0], meshes, strict=True):
+    fig, axes = _panels(plt, len(meshes))
+    for ax, mesh in zip(axes, meshes, strict=False):
         sub = [r for r in rows if r["mesh"] == mesh]
         data = [np.array([v for v in r["per_view"]["recall"] if v is not None]) for r in sub]
         data = [d if len(d) else np.array([np.nan]) for d in data]
         ax.boxplot(data, showfliers=False)
-        ax.set_xticks(range(1, len(sub) + 1), [r["method"] for r in sub], rotation=45,
-                      fontsize=8)
+        ax.set_xticks(range(1, len(sub) + 1), [r["method"] for r in sub], fontsize=7)
         ax.set_ylim(-0.02, 1.02)
-        ax.set_title(mesh, fontsize=9)
-        ax.set_ylabel("recall per view")
+        ax.set_title(Path(mesh).stem, fontsize=9)
+        ax.set_ylabel("recall per view", fontsize=8)
     fig.tight_layout()
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=100)
+    _save(fig, path)
     plt.close(fig)
-    os.replace(tmp, path)
+
+
+def budget_plot(rows: list[dict], path: Path) -> None:
+    """Recall (solid) and precision (dashed) against occluder triangles, a panel per mesh."""
+    plt = _pyplot()
+    meshes = list(dict.fromkeys(r["mesh"] for r in rows))
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    fig, axes = _panels(plt, len(meshes))
+    for ax, mesh in zip(axes, meshes, strict=False):
+        for c, method in enumerate(methods):
+            sub = sorted((r for r in rows if r["mesh"] == mesh and r["method"] == method),
+                         key=lambda r: r["triangles"])
+            if not sub:
+                continue
+            x = [max(1, r["triangles"]) for r in sub]
+            for key, style in (("recall", "o-"), ("precision", "s--")):
+                y = [np.nan if r[key] is None else r[key] for r in sub]
+                ax.plot(x, y, style, ms=3, color=f"C{c}",
+                        label=method if key == "recall" else None)
+        ax.set_xscale("log")
+        ax.minorticks_off()
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_title(Path(mesh).stem, fontsize=9)
+        ax.set_xlabel("occluder triangles", fontsize=8)
+    axes[0].legend(fontsize=7, title="recall -, precision --", title_fontsize=7)
+    fig.tight_layout()
+    _save(fig, path)
+    plt.close(fig)
+
+
+def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
+                    resolution: int = 160, seed: int = 0) -> None:
+    """Seed 000 Figure 7 colour coding for a few views of one mesh, one row per method."""
+    import trimesh
+
+    from metrics import silhouette_image
+    from viscore import directions_uniform, load_mesh
+
+    plt = _pyplot()
+    sub = [r for r in _largest_budget(rows) if r["mesh"] == mesh]
+    original = load_mesh(mesh)
+    dirs = directions_uniform(SILHOUETTE_VIEWS, seed=seed)
+    fig, axes = plt.subplots(len(sub), SILHOUETTE_VIEWS, figsize=(2.2 * SILHOUETTE_VIEWS,
+                                                                 2.2 * len(sub)), squeeze=False)
+    for i, r in enumerate(sub):
+        file = out_dir / "occluders" / r["occluder_file"]
+        occ = trimesh.load(file, force="mesh") if r["triangles"] and file.is_file() else None
+        for j, d in enumerate(dirs):
+            axes[i, j].imshow(silhouette_image(original, occ, d, resolution=resolution))
+            axes[i, j].set_axis_off()
+        axes[i, 0].set_title(f"{r['method']} ({r['triangles']} tris)", fontsize=8, loc="left")
+    fig.suptitle(f"{Path(mesh).stem}: black original only, yellow both, blue occluder only",
+                 fontsize=8)
+    fig.tight_layout()
+    _save(fig, path)
+    plt.close(fig)

@@ -33,8 +33,10 @@ def generate_qem(mesh: trimesh.Trimesh, *, budget: int = DEFAULT_BUDGET, seed: i
     ----------
     mesh : trimesh.Trimesh
     budget : int, optional
-        Target triangle count, default 256. The result may end under it, and
-        on meshes pymeshlab cannot collapse further, over it (reported).
+        Target triangle count, default 256. Boundaries are preserved when
+        the budget allows and collapsed in a second pass when it does not.
+        The result may end under the budget, and on meshes pymeshlab cannot
+        collapse further, over it (``info["over_budget"]``).
     seed : int, optional
         Unused (deterministic); accepted for the common signature.
 
@@ -58,9 +60,14 @@ def generate_qem(mesh: trimesh.Trimesh, *, budget: int = DEFAULT_BUDGET, seed: i
                                face_matrix=np.asarray(mesh.faces, dtype=np.int32)))
     if len(mesh.faces) > budget:
         ms.meshing_remove_duplicate_vertices()
-        ms.meshing_decimation_quadric_edge_collapse(
-            targetfacenum=budget, preserveboundary=True, preservenormal=True,
-            optimalplacement=True, planarquadric=True, autoclean=True)
+        # keep open boundaries where the budget allows; open sheets (terrain, walls)
+        # cannot reach small budgets that way, so a second pass may collapse them
+        for preserve in (True, False):
+            ms.meshing_decimation_quadric_edge_collapse(
+                targetfacenum=budget, preserveboundary=preserve, preservenormal=True,
+                optimalplacement=True, planarquadric=True, autoclean=True)
+            if ms.current_mesh().face_number() <= budget:
+                break
     m = ms.current_mesh()
     out = trimesh.Trimesh(m.vertex_matrix(), m.face_matrix(), process=False)
     if len(out.faces) == 0:

@@ -25,6 +25,7 @@ from .orbit import orbit_frame, orbit_precision_recall, view_counts
 from .paired import PairedDifference, paired_difference
 from .precision_recall import PrecisionRecall
 from .quads import QuadCounts, classify_quads, classify_quads_depth, sample_quads
+from .silhouettes import SILHOUETTE_COLOURS, silhouette_image
 from .uncertainty import distribution_plot, uncertainty_report
 from .volume import volume_positions, volume_precision_recall
 
@@ -36,7 +37,7 @@ __all__ = [
     "volume_positions", "volume_precision_recall", "evaluate", "view_counts",
     "bootstrap_ratio", "PairedDifference", "paired_difference", "BetaModelSummary",
     "hierarchical_beta_model", "AblationResult", "convergence_ablation", "ablation_plot",
-    "uncertainty_report", "distribution_plot",
+    "uncertainty_report", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",
 ]
 
 

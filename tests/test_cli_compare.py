@@ -13,7 +13,8 @@ def test_compare_writes_outputs_and_resumes(tmp_path, capsys):
     rows = {r["method"]: r for r in doc["rows"]}
     assert rows["original"]["precision"] == 1.0 and rows["original"]["recall"] == 1.0
     assert rows["bbox"]["triangles"] == 12 and rows["bbox"]["recall"] == 1.0
-    for name in ("results.csv", "results.json", "results.md", "recall.png", "results.sqlite"):
+    for name in ("results.csv", "results.json", "results.md", "recall.png", "results.sqlite",
+                 "budget.png", "silhouettes_buildings.png"):
         assert (out / name).is_file()
     # a re-run resumes: the stored rows are reused unchanged, none added
     with sqlite3.connect(out / "results.sqlite") as db:
@@ -29,3 +30,33 @@ def test_compare_writes_outputs_and_resumes(tmp_path, capsys):
 def test_compare_unknown_method_exit_2(tmp_path, capsys):
     assert main(["compare", "cow", "--methods", "magic", "--out", str(tmp_path)]) == 2
     assert "magic" in capsys.readouterr().err
+
+
+def test_compare_budgets_run_budgeted_methods_once_per_budget(tmp_path, capsys):
+    out = tmp_path / "study"
+    assert main(["compare", "cow", "--methods", "qem,bbox", "--budget", "32,128", "--views",
+                 "4", "--quads", "300", "--res", "32", "--rays", "1000", "--out", str(out),
+                 "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["rows"]
+    assert [(r["method"], r["budget"]) for r in rows] == [("qem", 32), ("qem", 128),
+                                                         ("bbox", None)]
+    assert rows[0]["triangles"] <= 32 < rows[1]["triangles"] <= 128
+    assert len(list((out / "occluders").glob("*.ply"))) == 3
+
+
+def test_dask_cluster_gives_identical_rows(tmp_path):
+    from distributed import Client, LocalCluster
+
+    from cli.study import StudySettings, run_study
+
+    settings = StudySettings(views=4, quads=300, resolution=24, directions=2, rays=1000,
+                             budgets=(48,))
+    local = run_study(["fat-torus"], ["aabb-skins", "bbox"], settings, tmp_path / "a",
+                      progress=False)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        remote = run_study(["fat-torus"], ["aabb-skins", "bbox"], settings, tmp_path / "b",
+                           scheduler=client, progress=False)
+    strip = lambda rows: [{k: v for k, v in r.items() if not k.startswith("seconds")}  # noqa: E731
+                          for r in rows]
+    assert strip(local) == strip(remote)
