@@ -12,6 +12,8 @@ from ._common import dumps, emit, write_atomic
 from .study import (
     StudySettings,
     budget_plot,
+    paired_markdown,
+    paired_rows,
     recall_plot,
     run_study,
     silhouette_plot,
@@ -39,6 +41,8 @@ def add_parser(sub, common) -> None:
     c.add_argument("--res", type=int, default=256, help="pixels per side (default 256)")
     c.add_argument("--rays", type=int, default=100_000, help="conservativeness rays")
     c.add_argument("--jobs", type=int, default=1, help="parallel jobs (processes)")
+    c.add_argument("--versus", default="qem",
+                   help="reference method of the paired comparisons (default qem)")
     c.add_argument("--scheduler", default=None,
                    help="dask.distributed scheduler address: run the jobs on that cluster")
     c.add_argument("--out", default="viscore-study",
@@ -63,10 +67,15 @@ def run_compare(args) -> int:
     out = Path(args.out)
     rows = run_study(meshes, methods, settings, out, jobs=as_positive_int(args.jobs, "jobs"),
                      scheduler=args.scheduler, progress=not (args.quiet or args.json))
-    doc = {"settings": asdict(settings), "rows": rows, "provenance": provenance()}
+    paired = paired_rows(rows, args.versus) if args.versus in methods else []
+    doc = {"settings": asdict(settings), "rows": rows, "paired": paired,
+           "provenance": provenance()}
     write_atomic(out / "results.json", dumps(doc).encode())
     write_atomic(out / "results.csv", table_csv(rows).encode())
     md = table_markdown(rows)
+    if paired:
+        md += (f"\nPaired against {args.versus} on the same views (difference, 95% bootstrap "
+               "interval, bootstrap probability of being better):\n\n" + paired_markdown(paired))
     write_atomic(out / "results.md", md.encode())
     recall_plot(rows, out / "recall.png")
     budget_plot(rows, out / "budget.png")

@@ -103,7 +103,9 @@ def run_job(job: Job, workers: int | None = None) -> tuple[dict, bytes]:
         "violation_upper_bound": cons.violation_upper_bound,
         "seconds": occ.seconds, "seconds_evaluate": pr.seconds,
         "params": occ.params, "info": occ.info, "occluder_file": job.occluder_file,
-        "per_view": {k: pr.per_view[k] for k in ("nt", "pf", "nf", "precision", "recall")},
+        "per_view": {k: pr.per_view[k] for k in ("nt", "pf", "nf", "precision", "recall",
+                                                 "weight", "direction", "position")
+                     if k in pr.per_view},
         "settings": asdict(s),
     }
     ply = trimesh.exchange.ply.export_ply(occ.mesh, encoding="binary") if occ.triangles else b""
@@ -207,6 +209,59 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings, ou
         bar.close()
         store.close()
     return [rows[j.key] for j in todo]
+
+
+def _as_result(row: dict):
+    """A PrecisionRecall rebuilt from a stored row (enough for paired comparisons)."""
+    from metrics import PrecisionRecall
+
+    pv = {k: np.asarray([np.nan if v is None else v for v in vals], dtype=np.float64)
+          if k in ("precision", "recall") else np.asarray(vals)
+          for k, vals in row["per_view"].items()}
+    return PrecisionRecall(precision=row["precision"], recall=row["recall"],
+                           precision_ci=row["precision_ci"], recall_ci=row["recall_ci"],
+                           per_view=pv, protocol=row["settings"]["protocol"], depth_aware=False,
+                           seed=row["settings"]["seed"], params={}, seconds=0.0)
+
+
+def paired_rows(rows: list[dict], reference: str = "qem") -> list[dict]:
+    """Each method against ``reference`` on the same mesh and views (paired bootstrap).
+
+    Budgeted methods are paired with the reference at the same budget; the
+    others with the reference at its largest budget.
+    """
+    from metrics import paired_difference
+
+    out = []
+    refs = {(r["mesh"], r["budget"]): r for r in rows if r["method"] == reference}
+    for r in rows:
+        if r["method"] == reference:
+            continue
+        ref = refs.get((r["mesh"], r["budget"]))
+        if ref is None:
+            cands = [v for (m, _), v in refs.items() if m == r["mesh"]]
+            ref = max(cands, key=lambda v: v["budget"] or 0, default=None)
+        if ref is None or "nt" not in r["per_view"]:
+            continue
+        d = paired_difference(_as_result(r), _as_result(ref), seed=r["settings"]["seed"])
+        out.append({"mesh": r["mesh"], "method": r["method"], "budget": r["budget"],
+                    "versus": reference, "versus_budget": ref["budget"],
+                    "recall_diff": d.recall_diff, "recall_diff_ci": d.recall_diff_ci,
+                    "prob_better_recall": d.prob_a_better_recall,
+                    "precision_diff": d.precision_diff,
+                    "precision_diff_ci": d.precision_diff_ci,
+                    "prob_better_precision": d.prob_a_better_precision})
+    return out
+
+
+def paired_markdown(rows: list[dict]) -> str:
+    """Paired differences as Markdown."""
+    cols = ["mesh", "method", "budget", "versus", "versus_budget", "recall_diff",
+            "recall_diff_ci", "prob_better_recall", "precision_diff", "precision_diff_ci",
+            "prob_better_precision"]
+    head = "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n"
+    return head + "".join("| " + " | ".join(_fmt(r.get(c)) for c in cols) + " |\n"
+                          for r in rows)
 
 
 def _fmt(value, digits=4) -> str:

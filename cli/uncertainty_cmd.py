@@ -5,7 +5,14 @@ from __future__ import annotations
 from dataclasses import asdict
 from pathlib import Path
 
-from metrics import ablation_plot, convergence_ablation, distribution_plot, uncertainty_report
+from metrics import (
+    ablation_plot,
+    convergence_ablation,
+    distribution_plot,
+    evaluate,
+    paired_difference,
+    uncertainty_report,
+)
 from viscore import InputError, load_mesh, provenance
 
 from ._common import dumps, emit, write_atomic
@@ -30,6 +37,8 @@ def add_parser(sub, common) -> None:
     u.add_argument("--steps", type=int, default=4000, help="emcee steps per walker")
     u.add_argument("--repeats", type=int, default=10, help="ablation: repeats per setting")
     u.add_argument("--factors", default="quads,views,spacing", help="ablation: which factors")
+    u.add_argument("--versus", default=None, metavar="OCCLUDER_B",
+                   help="paired comparison: a second occluder of the same mesh, same views")
     u.add_argument("--out", default="viscore-uncertainty", help="folder for tables and plots")
     u.set_defaults(run=run_uncertainty)
 
@@ -49,7 +58,15 @@ def run_uncertainty(args) -> int:
         mesh, occ, protocol=args.protocol, views=args.views, quads=args.quads,
         resolution=args.res, directions=args.directions, threshold=args.threshold,
         steps=args.steps, seed=args.seed)
-    doc = {"mesh": items[0], "occluder": items[1], **report,
+    paired = None
+    if args.versus:
+        other = evaluate(mesh, load_mesh(args.versus), protocol=args.protocol,
+                         **{k: v for k, v in result.params.items()
+                            if k in ("views", "quads", "resolution", "spacing")},
+                         seed=args.seed)
+        paired = asdict(paired_difference(result, other, seed=args.seed))
+        paired["versus"] = args.versus
+    doc = {"mesh": items[0], "occluder": items[1], **report, "paired": paired,
            "per_view": {k: result.per_view[k] for k in
                         ("precision", "recall", "quads_orig", "quads_occ", "quads_both")},
            "provenance": provenance()}
@@ -72,6 +89,12 @@ def run_uncertainty(args) -> int:
             f"acceptance {m.acceptance_fraction:.2f}, tau {max(m.autocorr_time):.1f}, "
             f"ESS {m.effective_samples:.0f}" + ("" if m.converged else
                                                  "  WARNING: " + "; ".join(m.warnings)))
+    if paired:
+        lines.append(
+            f"  vs {args.versus} (same views): recall {paired['recall_diff']:+.4f} "
+            f"{_iv(paired['recall_diff_ci'])}, P(better) {paired['prob_a_better_recall']:.3f}; "
+            f"precision {paired['precision_diff']:+.4f} {_iv(paired['precision_diff_ci'])}, "
+            f"P(better) {paired['prob_a_better_precision']:.3f}")
     lines.append(f"wrote {out}/uncertainty.json and per_view.png")
     emit(doc, args.json, "\n".join(lines))
     return 0

@@ -60,3 +60,44 @@ def test_dask_cluster_gives_identical_rows(tmp_path):
     strip = lambda rows: [{k: v for k, v in r.items() if not k.startswith("seconds")}  # noqa: E731
                           for r in rows]
     assert strip(local) == strip(remote)
+
+
+def test_interrupted_study_keeps_finished_rows_and_resumes(tmp_path):
+    import pytest
+
+    from cli.study import StudySettings, run_study
+
+    settings = StudySettings(views=4, quads=300, resolution=24, directions=2, rays=1000,
+                             budgets=(48,))
+    out = tmp_path / "s"
+    seen = []
+
+    def crash(row):
+        seen.append(row["method"])
+        raise KeyboardInterrupt  # killed right after the first row was committed
+
+    with pytest.raises(KeyboardInterrupt):
+        run_study(["cow"], ["original", "bbox", "qem"], settings, out, progress=False,
+                  on_row=crash)
+    with sqlite3.connect(out / "results.sqlite") as db:
+        assert db.execute("SELECT COUNT(*) FROM results").fetchone()[0] == 1
+    assert not list(out.rglob("*.tmp"))  # no half-written file
+    done = []
+    rows = run_study(["cow"], ["original", "bbox", "qem"], settings, out, progress=False,
+                     on_row=lambda r: done.append(r["method"]))
+    assert seen[0] not in done and len(done) == 2  # only the unfinished jobs ran
+    clean = run_study(["cow"], ["original", "bbox", "qem"], settings, tmp_path / "c",
+                      progress=False)
+    strip = lambda rs: [{k: v for k, v in r.items() if not k.startswith("seconds")}  # noqa: E731
+                        for r in rs]
+    assert strip(rows) == strip(clean)
+
+
+def test_compare_paired_against_reference(tmp_path, capsys):
+    assert main(["compare", "fat-torus", "--methods", "original,bbox", "--versus", "original",
+                 "--views", "6", "--quads", "500", "--res", "32", "--rays", "1000",
+                 "--out", str(tmp_path), "--json"]) == 0
+    paired = json.loads(capsys.readouterr().out)["paired"]
+    assert len(paired) == 1 and paired[0]["method"] == "bbox"
+    assert paired[0]["precision_diff"] < 0 and paired[0]["prob_better_precision"] == 0.0
+    assert paired[0]["recall_diff"] == 0.0
