@@ -23,16 +23,21 @@ def scene_of(mesh: trimesh.Trimesh | Scene | None, name: str) -> Scene | None:
     return Scene(validate_mesh(mesh, name=name))
 
 
+def cast_depths(scene: Scene | None, origins: np.ndarray, directions: np.ndarray, images: int,
+                resolution: int, timing: dict) -> np.ndarray:
+    """``(images, R, R)`` depth images (inf where empty) from concatenated pixel rays."""
+    if scene is None:
+        return np.full((images, resolution, resolution), np.inf)
+    start = time.perf_counter()
+    t, _ = scene.first_hit(origins, directions)
+    timing["seconds_rays"] = timing.get("seconds_rays", 0.0) + time.perf_counter() - start
+    timing["rays"] = timing.get("rays", 0) + len(origins)
+    return t.reshape(images, resolution, resolution)
+
+
 def depths(scene: Scene | None, cameras: list, timing: dict) -> np.ndarray:
     """``(len(cameras), R, R)`` depth images (inf where empty) in one batched cast."""
-    r = cameras[0].resolution
-    if scene is None:
-        return np.full((len(cameras), r, r), np.inf)
     rays = [c.rays() for c in cameras]
     o = np.concatenate([x[0] for x in rays])
     d = np.concatenate([x[1] for x in rays])
-    start = time.perf_counter()
-    t, _ = scene.first_hit(o, d)
-    timing["seconds_rays"] = timing.get("seconds_rays", 0.0) + time.perf_counter() - start
-    timing["rays"] = timing.get("rays", 0) + len(o)
-    return t.reshape(len(cameras), r, r)
+    return cast_depths(scene, o, d, len(cameras), cameras[0].resolution, timing)
