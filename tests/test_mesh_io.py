@@ -67,3 +67,21 @@ def test_load_mesh_glb_scene_concatenated(tmp_path):
     p = tmp_path / "two.glb"
     trimesh.Scene([a, b]).export(p)
     assert len(load_mesh(p).faces) == 24
+
+
+@pytest.mark.slow
+def test_wheel_ships_every_procedural_scene(tmp_path):
+    import subprocess
+    import sys
+    import zipfile
+    from pathlib import Path
+
+    from viscore.scenes import _PROCEDURAL
+
+    root = Path(__file__).resolve().parent.parent
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w",
+                    str(tmp_path), str(root)], check=True)
+    names = zipfile.ZipFile(next(tmp_path.glob("viscore-*.whl"))).namelist()
+    for file, _ in _PROCEDURAL.values():
+        assert f"viscore/_scenes/{file}" in names
+    assert not any(n.startswith("data/") for n in names)  # never an import package "data"

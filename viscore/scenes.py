@@ -7,7 +7,6 @@ inside the pymeshlab wheel are resolved from the installed pymeshlab.
 
 from __future__ import annotations
 
-import importlib.resources
 import importlib.util
 from pathlib import Path
 
@@ -37,13 +36,11 @@ _PYMESHLAB = {
 
 def _procedural_dir() -> Path:
     """Folder of the procedural scene files: inside the wheel, else the checkout's data/."""
-    try:
-        folder = Path(str(importlib.resources.files("viscore._scenes")))
-        if (folder / "make_scenes.py").is_file():
-            return folder
-    except ModuleNotFoundError:
-        pass
-    return Path(__file__).resolve().parent.parent / "data"
+    here = Path(__file__).resolve().parent
+    packaged = here / "_scenes"  # the wheel maps data/ to viscore/_scenes/
+    if (packaged / "make_scenes.py").is_file():
+        return packaged
+    return here.parent / "data"
 
 
 def _pymeshlab_samples() -> Path | None:
