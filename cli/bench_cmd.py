@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from viscore import provenance
 from viscore.benchmarks import bench_rays, bench_voxels
 
 from ._common import emit
@@ -36,7 +37,7 @@ def run_rays(args) -> int:
             f"(x{r['ratio_vs_bare']:.2f} of bare, target >= 0.90)\n"
             f"  Scene, {r['workers']} workers       : {r['scene_mrays_all']:.2f} Mrays/s  "
             f"(x{r['scaling']:.2f} of 1 worker, target >= 1.8 on 2 cores)")
-    emit(r, args.json, text)
+    emit({**r, "provenance": provenance()}, args.json, text)
     return 0
 
 
@@ -53,7 +54,7 @@ def run_voxels(args) -> int:
                      + (f" (target < {tgt:.0f} s)" if tgt else "")
                      + f", {row['seconds_parity']:.2f} s parity; {row['surface_voxels']:,} "
                      f"surface, {row['solid_voxels']:,} solid voxels")
-    emit(r, args.json, "\n".join(lines))
+    emit({**r, "provenance": provenance()}, args.json, "\n".join(lines))
     return 0
 
 
@@ -69,7 +70,7 @@ def run_evaluate(args) -> int:
             f"  {r['mrays_per_second']:.2f} Mrays/s in the evaluation vs "
             f"{r['bench_rays_mrays_all']:.2f} Mrays/s in bench rays (same run)\n"
             f"  precision {r['precision']:.4f}, recall {r['recall']:.4f}")
-    emit(r, args.json, text)
+    emit({**r, "provenance": provenance()}, args.json, text)
     return 0
 
 
@@ -86,5 +87,5 @@ def run_generate(args) -> int:
         lines.append(f"{row['mesh']:<18} {row['voxel_size']:<9} {row['boxes']:>5} "
                      f"{row['triangles']:>5} {row['volume_share']:>7.3f} {peer:>6} "
                      f"{row['fill']:>6.3f} {row['inside']:<10} {row['seconds']:>7.3f}")
-    emit(r, args.json, "\n".join(lines))
+    emit({**r, "provenance": provenance()}, args.json, "\n".join(lines))
     return 0

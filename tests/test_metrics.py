@@ -145,6 +145,9 @@ def test_orbit_seed_reproducible_and_prefix_stable(cube):
     a = orbit_precision_recall(cube, inner, views=6, quads=500, resolution=32, seed=4)
     b = orbit_precision_recall(cube, inner, views=6, quads=500, resolution=32, seed=4)
     np.testing.assert_array_equal(a.per_view["pf"], b.per_view["pf"])
+    more = orbit_precision_recall(cube, inner, views=9, quads=500, resolution=32, seed=4)
+    np.testing.assert_array_equal(more.per_view["direction"][:6], a.per_view["direction"])
+    np.testing.assert_array_equal(more.per_view["pf"][:6], a.per_view["pf"])
 
 
 def test_volume_identical_and_shrunk(unit_sphere):

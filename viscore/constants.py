@@ -25,8 +25,9 @@ CONSERVATIVE_EPS_RELATIVE = 1e-5
 #: undefined and they block no ray).
 DEGENERATE_AREA_RELATIVE = 1e-14
 
-#: Ray batches smaller than this run on the calling thread: splitting them
-#: over the pool costs more than it saves.
+#: Rays per Embree call: batches are cut into chunks of about this size, so
+#: that one chunk's float32 copies stay in cache and the chunks spread over
+#: the thread pool; a batch no larger than this runs on the calling thread.
 MIN_RAYS_PER_TASK = 16384
 
 #: Voxel grids above this many cells are refused (about 2 GiB of working

@@ -32,7 +32,8 @@ def directions_uniform(n: int, *, seed: int | None = 0) -> np.ndarray:
     Returns
     -------
     directions : (n, 3) float64
-        Unit vectors.
+        Unit vectors. The first k of n directions equal ``directions_uniform(k)``
+        with the same seed.
 
     Examples
     --------
@@ -41,9 +42,9 @@ def directions_uniform(n: int, *, seed: int | None = 0) -> np.ndarray:
     True
     """
     n = as_positive_int(n, "n")
-    rng = np.random.default_rng(seed)
-    z = rng.uniform(-1.0, 1.0, n)
-    phi = rng.uniform(0.0, 2 * np.pi, n)
+    u = np.random.default_rng(seed).random((n, 2))  # row by row: prefixes agree across n
+    z = 2.0 * u[:, 0] - 1.0
+    phi = 2.0 * np.pi * u[:, 1]
     s = np.sqrt(1.0 - z * z)
     return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
 
