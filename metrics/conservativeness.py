@@ -24,7 +24,7 @@ from viscore import (
     as_fraction,
     as_positive_int,
     directions_uniform,
-    points_inside_parity,
+    points_inside,
 )
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 
@@ -124,7 +124,7 @@ def _domain_rays(mesh, scene: Scene, n: int, domain: str, rng: np.random.Generat
     origins = np.zeros((0, 3))
     for _ in range(20):  # rejection of points inside the mesh
         cand = rng.uniform(lo - pad, hi + pad, (max(n - len(origins), 1) * 2, 3))
-        cand = cand[~points_inside_parity(scene, cand)]
+        cand = cand[~points_inside(scene, cand)]
         origins = np.concatenate([origins, cand])[:n]
         if len(origins) == n:
             break

@@ -28,7 +28,7 @@ from viscore import (
     as_positive,
     as_positive_int,
     cube_cameras,
-    points_inside_parity,
+    points_inside,
 )
 
 from ._views import cast_depths, scene_of
@@ -93,7 +93,7 @@ def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
     if offset is not None:
         pts = pts + dx * np.asarray(offset, dtype=np.float64)
     counts = np.maximum(1, np.ceil((box_hi - box_lo) / dx - 1e-9)).astype(np.int64)
-    valid = ~points_inside_parity(scene, pts).reshape(counts)
+    valid = ~points_inside(scene, pts).reshape(counts)
     first = pts[0]
     if not merge_views:
         return pts[valid.ravel()], np.ones(int(valid.sum()))
@@ -110,7 +110,7 @@ def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
         size = 2 ** len(levels)
         idx = np.argwhere(parent)
         centres = first + (idx * size + (size - 1) / 2) * dx
-        ok = ~points_inside_parity(scene, centres)
+        ok = ~points_inside(scene, centres)
         parent[tuple(idx[~ok].T)] = False
         levels.append(parent)
     assigned = np.zeros(valid.shape, dtype=bool)

@@ -15,9 +15,10 @@ def test_aabb_skins_single_box_exact_for_box_mesh():
     assert occ.info["boxes"] == 1 and occ.triangles == 12
     lo, hi = occ.parts["boxes"][0]
     pitch = occ.info["pitch"]
-    # the box fills everything but the two surface-touching layers of each face
-    np.testing.assert_allclose(lo, [-1 + pitch, -0.5 + pitch, -0.5 + pitch], atol=1e-9)
-    np.testing.assert_allclose(hi, [1 - pitch, 0.5 - pitch, 0.5 - pitch], atol=1e-9)
+    # the faces pass through voxel centres: the box fills all but that half voxel
+    np.testing.assert_allclose(lo, [-1 + pitch / 2, -0.5 + pitch / 2, -0.5 + pitch / 2],
+                               atol=1e-9)
+    np.testing.assert_allclose(hi, [1 - pitch / 2, 0.5 - pitch / 2, 0.5 - pitch / 2], atol=1e-9)
 
 
 @pytest.mark.parametrize("name", WATERTIGHT_SCENES)

@@ -26,8 +26,10 @@ from .voxels import (
     voxel_grid,
     voxelize,
 )
+from .winding import points_inside, winding_numbers
 
 __all__ = [
+    "points_inside", "winding_numbers",
     "InputError", "as_positive", "as_positive_int", "as_fraction", "load_mesh", "validate_mesh",
     "Scene", "AllHits", "set_workers", "get_workers", "OrthoCamera", "PerspectiveCamera",
     "cube_cameras", "camera_basis", "coverage_image", "depth_image", "directions_uniform",

@@ -12,9 +12,11 @@
 - The voxel mesh: two triangles per face between a solid and an empty voxel,
   oriented towards the empty one; closed (seed 000, sec. 4.1).
 
-The grid is padded with two layers on every side: the mesh's extreme faces
-lie on voxel boundaries and touch the first layer, so the second layer, the
-grid border, is always outside.
+The mesh's bounding box is centred in the grid, whose size is one voxel more
+than the box needs, so the box's faces pass through voxel centres (an
+axis-aligned face touches one layer of voxels, not the two on either side of
+a voxel boundary); two more layers pad every side, so the grid border is
+always outside.
 """
 
 from __future__ import annotations
@@ -81,7 +83,7 @@ class VoxelGrid:
 
 def voxel_grid(bounds: np.ndarray, *, resolution: int | None = None,
                pitch: float | None = None) -> VoxelGrid:
-    """Grid covering ``bounds`` with two voxel layers of padding on every side.
+    """Grid covering ``bounds``, its faces through voxel centres, padded by two layers.
 
     Parameters
     ----------
@@ -107,7 +109,7 @@ def voxel_grid(bounds: np.ndarray, *, resolution: int | None = None,
     Examples
     --------
     >>> voxel_grid(np.array([[0, 0, 0], [1, 1, 0.5]]), resolution=4).shape
-    (8, 8, 6)
+    (9, 9, 7)
     """
     bounds = np.asarray(bounds, dtype=np.float64)
     extent = bounds[1] - bounds[0]
@@ -118,7 +120,9 @@ def voxel_grid(bounds: np.ndarray, *, resolution: int | None = None,
         pitch = as_positive(pitch, "pitch")
     if pitch <= 0:
         raise InputError("bounds: zero extent, cannot voxelize")
-    inner = np.maximum(1, np.ceil(extent / pitch - 1e-9)).astype(np.int64)
+    # one voxel more than the extent needs, so that the bounding box's faces pass through
+    # voxel centres: an axis-aligned face then touches one voxel layer, not two
+    inner = np.maximum(1, np.ceil(extent / pitch - 1e-9)).astype(np.int64) + 1
     shape = inner + 2 * _PADDING
     cells = int(np.prod(shape.astype(object)))
     if cells > MAX_VOXEL_CELLS:
@@ -290,12 +294,24 @@ _PARITY_AXES = np.array([[1, 0.0123, 0.0271], [-1, -0.0271, 0.0123], [0.0123, 1,
                          [-0.0314, -1, 0.0123], [0.0271, -0.0123, 1], [-0.0123, 0.0314, -1]])
 
 
+def parity_votes(scene, points: np.ndarray) -> np.ndarray:
+    """``(n,) int8``: how many of six rays from each point see an odd number of hits."""
+    pts = np.asarray(points, dtype=np.float64)
+    votes = np.zeros(len(pts), dtype=np.int8)
+    for axis in (_PARITY_AXES if len(pts) else ()):
+        hits = scene.all_hits(pts, np.broadcast_to(axis, pts.shape))
+        votes += (hits.count % 2).astype(np.int8)
+    return votes
+
+
 def points_inside_parity(scene, points: np.ndarray, *, min_votes: int = 4) -> np.ndarray:
     """Inside classification of arbitrary points by ray-parity votes.
 
     Six rays leave each point along (slightly tilted) +-X, +-Y, +-Z; a ray
     with an odd number of hits votes inside. Same rule and default majority
-    as :func:`inside_voxels_parity`.
+    as :func:`inside_voxels_parity`. Coincident faces (touching parts) are
+    counted once and can flip votes: :func:`viscore.points_inside` settles
+    split votes with the winding number.
 
     Parameters
     ----------
@@ -309,14 +325,7 @@ def points_inside_parity(scene, points: np.ndarray, *, min_votes: int = 4) -> np
     inside : (n,) bool
     """
     min_votes = as_positive_int(min_votes, "min_votes", maximum=6)
-    pts = np.asarray(points, dtype=np.float64)
-    votes = np.zeros(len(pts), dtype=np.int8)
-    if len(pts) == 0:
-        return votes.astype(bool)
-    for axis in _PARITY_AXES:
-        hits = scene.all_hits(pts, np.broadcast_to(axis, pts.shape))
-        votes += (hits.count % 2).astype(np.int8)
-    return votes >= min_votes
+    return parity_votes(scene, points) >= min_votes
 
 
 @dataclass(frozen=True, eq=False)
@@ -376,7 +385,7 @@ def voxelize(mesh: trimesh.Trimesh, *, resolution: int | None = None,
     --------
     >>> v = voxelize(trimesh.creation.box(extents=(1, 1, 1)), resolution=4)
     >>> v.grid.shape, int(v.solid.sum()), v.leaks
-    ((8, 8, 8), 216, False)
+    ((9, 9, 9), 125, False)
     """
     grid = voxel_grid(np.asarray(mesh.bounds), resolution=resolution, pitch=pitch)
     surface = surface_voxels(mesh.vertices, mesh.faces, grid)
