@@ -101,12 +101,20 @@ def test_six_direction_rule_hollow_shell():
 
 
 def test_voxel_boundary_mesh_closed_and_volume():
-    rng = np.random.default_rng(5)
-    solid = rng.random((8, 9, 7)) < 0.5
-    grid = VoxelGrid(np.array([1.0, -2.0, 0.5]), 0.25, solid.shape)
+    # a voxel ball has no edge-only contacts: the voxel mesh is a closed 2-manifold
+    n = 12
+    c = np.indices((n, n, n)).transpose(1, 2, 3, 0) - (n - 1) / 2
+    ball = (c**2).sum(axis=-1) < 20
+    grid = VoxelGrid(np.array([1.0, -2.0, 0.5]), 0.25, ball.shape)
+    mesh = voxel_boundary_mesh(ball, grid)
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    assert mesh.volume == pytest.approx(ball.sum() * 0.25**3, rel=1e-9)  # outward-oriented
+    # any solid: every edge is shared by an even number of faces, volume still exact
+    solid = np.random.default_rng(5).random((8, 9, 7)) < 0.5
     mesh = voxel_boundary_mesh(solid, grid)
-    assert mesh.is_watertight or len(mesh.faces) > 0  # edge-touching cells are non-manifold
-    # the signed volume of a consistently oriented closed surface equals the cell volume
+    edges = np.sort(mesh.edges, axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert (counts % 2 == 0).all()
     assert mesh.volume == pytest.approx(solid.sum() * 0.25**3, rel=1e-9)
 
 
