@@ -37,6 +37,12 @@ def add_parser(sub, common) -> None:
     u.add_argument("--steps", type=int, default=4000, help="emcee steps per walker")
     u.add_argument("--repeats", type=int, default=10, help="ablation: repeats per setting")
     u.add_argument("--factors", default="quads,views,spacing", help="ablation: which factors")
+    u.add_argument("--quads-list", default=None,
+                   help="ablation: quads per view, e.g. 100,1000,5000,10000,20000,30000,100000")
+    u.add_argument("--views-list", default=None, help="ablation: orbit views, e.g. 16,64,256")
+    u.add_argument("--spacings", default=None,
+                   help="ablation: view spacings as fractions of the diagonal (default "
+                        "0.16,0.08,0.04; seed 001 goes to 0.005, each halving costs 8x)")
     u.add_argument("--versus", default=None, metavar="OCCLUDER_B",
                    help="paired comparison: a second occluder of the same mesh, same views")
     u.add_argument("--out", default="viscore-uncertainty", help="folder for tables and plots")
@@ -113,8 +119,21 @@ def _ablation(args, mesh, occ, items, out) -> int:
     if bad or not factors:
         raise InputError(f"--factors: expected some of quads,views,spacing, got {args.factors!r}")
     quiet = args.quiet or args.json
+    lists = {}
+    for name, arg, kind in (("quads_list", args.quads_list, int),
+                            ("views_list", args.views_list, int),
+                            ("spacing_list", args.spacings, float)):
+        if arg:
+            try:
+                values = tuple(kind(v) for v in arg.split(",") if v.strip())
+            except ValueError as exc:
+                raise InputError(f"--{name.replace('_', '-')}: expected numbers, got {arg!r}"
+                                 ) from exc
+            if not values or min(values) <= 0:
+                raise InputError(f"--{name.replace('_', '-')}: expected positive numbers")
+            lists[name] = values
     result = convergence_ablation(
-        mesh, occ, factors=factors, repeats=args.repeats, seed=args.seed,
+        mesh, occ, factors=factors, repeats=args.repeats, seed=args.seed, **lists,
         progress=None if quiet else (lambda text: print(f"ablation: {text}", file=sys.stderr)))
     out.mkdir(parents=True, exist_ok=True)
     doc = {"mesh": items[0], "occluder": items[1], **asdict(result), "provenance": provenance()}

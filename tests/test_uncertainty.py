@@ -147,3 +147,16 @@ def test_cli_uncertainty_json(tmp_path, capsys):
 
 def test_cli_uncertainty_usage_error(capsys):
     assert main(["uncertainty", "cow"]) == 2
+
+
+def test_cli_uncertainty_ablation_writes_table_and_plot(tmp_path, capsys):
+    assert main(["uncertainty", "ablation", "cow", "fat-torus", "--factors", "quads",
+                 "--quads-list", "100,3000", "--repeats", "3", "--out", str(tmp_path),
+                 "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [r["value"] for r in doc["rows"]] == [100, 3000]
+    assert all(r["repeats"] == 3 for r in doc["rows"])
+    lines = (tmp_path / "ablation.csv").read_text().splitlines()
+    assert lines[0].startswith("factor,value") and len(lines) == 3
+    assert (tmp_path / "ablation.png").stat().st_size > 1000
+    assert main(["uncertainty", "ablation", "cow", "cow", "--spacings", "x"]) == 2

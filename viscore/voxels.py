@@ -54,6 +54,12 @@ _BYTES_PER_CELL = 8
 _PARITY_JITTER = (0.5 + 0.01234, 0.5 + 0.02718)
 
 
+#: Directions of the point-parity rays: the six axes, tilted slightly so that
+#: they do not run along the faces of axis-aligned meshes.
+_PARITY_AXES = np.array([[1, 0.0123, 0.0271], [-1, -0.0271, 0.0123], [0.0123, 1, -0.0314],
+                         [-0.0314, -1, 0.0123], [0.0271, -0.0123, 1], [-0.0123, 0.0314, -1]])
+
+
 @dataclass(frozen=True, eq=False)
 class VoxelGrid:
     """A regular grid of cubic voxels.
@@ -286,12 +292,6 @@ def inside_voxels_parity(scene, grid: VoxelGrid, *, min_votes: int = 4) -> np.nd
         v = v.reshape(shape[b], shape[c], shape[axis])
         votes += np.moveaxis(v, (0, 1, 2), (b, c, axis)).astype(np.int8)
     return votes >= min_votes
-
-
-#: Directions of the point-parity rays: the six axes, tilted slightly so that
-#: they do not run along the faces of axis-aligned meshes.
-_PARITY_AXES = np.array([[1, 0.0123, 0.0271], [-1, -0.0271, 0.0123], [0.0123, 1, -0.0314],
-                         [-0.0314, -1, 0.0123], [0.0271, -0.0123, 1], [-0.0123, 0.0314, -1]])
 
 
 def parity_votes(scene, points: np.ndarray) -> np.ndarray:
