@@ -21,10 +21,6 @@ from .study import (
     table_markdown,
 )
 
-#: Built-in scenes of the default study (each under a minute at the defaults).
-DEFAULT_SCENES = ["fat-torus", "box-with-hole", "sponge", "terrain", "hairball", "buildings",
-                  "city-block", "bunny", "cow"]
-
 
 def add_parser(sub, common) -> None:
     c = sub.add_parser("compare", parents=[common],
@@ -56,7 +52,7 @@ def run_compare(args) -> int:
     if unknown or not methods:
         raise InputError(f"--methods: unknown {', '.join(unknown) or '(none given)'} "
                          f"(registered: {', '.join(REGISTRY)})")
-    meshes = args.meshes or [s for s in DEFAULT_SCENES if s in scene_names()]
+    meshes = args.meshes or scene_names()
     for m in meshes:  # refuse bad input before any work
         load_mesh(m)
     settings = StudySettings(protocol=args.protocol, views=as_positive_int(args.views, "views"),
