@@ -34,12 +34,22 @@ def common_options() -> argparse.ArgumentParser:
     return p
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("viscore")
+    except PackageNotFoundError:  # pragma: no cover - running from a bare checkout
+        return "unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="viscore", description=(
         "Monte-Carlo visibility toolkit: generate occluders, measure them, compare methods."))
     parser.add_argument("--workers", type=int, default=None,
                         help="ray-casting threads (default: one per core)")
     parser.add_argument("--verbose", action="store_true", help="log details on stderr")
+    parser.add_argument("--version", action="version", version=f"viscore {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     common = common_options()
