@@ -87,3 +87,16 @@ def write_mesh(path: str | os.PathLike, mesh) -> None:
 
     data = trimesh.exchange.export.export_mesh(mesh, None, file_type=check_mesh_path(path))
     write_atomic(path, data if isinstance(data, bytes) else data.encode())
+
+
+def parse_list(text: str, kind: type, option: str) -> tuple:
+    """Comma-separated positive numbers of an option, or InputError naming it."""
+    from viscore import InputError
+
+    try:
+        values = tuple(kind(v) for v in str(text).split(",") if v.strip())
+    except ValueError as exc:
+        raise InputError(f"{option}: expected comma-separated numbers, got {text!r}") from exc
+    if not values or min(values) <= 0:
+        raise InputError(f"{option}: expected positive numbers, got {text!r}")
+    return values

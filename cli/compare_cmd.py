@@ -8,7 +8,7 @@ from pathlib import Path
 from generators import REGISTRY
 from viscore import InputError, as_positive_int, load_mesh, provenance, scene_names
 
-from ._common import dumps, emit, write_atomic
+from ._common import dumps, emit, parse_list, write_atomic
 from .study import (
     StudySettings,
     budget_plot,
@@ -59,7 +59,8 @@ def run_compare(args) -> int:
                              quads=as_positive_int(args.quads, "quads"),
                              resolution=as_positive_int(args.res, "res", maximum=4096),
                              rays=as_positive_int(args.rays, "rays"),
-                             budgets=_budgets(args.budget), seed=args.seed)
+                             budgets=tuple(sorted(set(parse_list(args.budget, int, "--budget")))),
+                             seed=args.seed)
     out = Path(args.out)
     rows = run_study(meshes, methods, settings, out, jobs=as_positive_int(args.jobs, "jobs"),
                      scheduler=args.scheduler, progress=not (args.quiet or args.json))
@@ -82,12 +83,3 @@ def run_compare(args) -> int:
          "{csv,json,md}, recall.png, budget.png and silhouettes_*.png")
     return 0
 
-
-def _budgets(text: str) -> tuple[int, ...]:
-    try:
-        values = tuple(int(v) for v in str(text).split(",") if v.strip())
-    except ValueError as exc:
-        raise InputError(f"--budget: expected comma-separated integers, got {text!r}") from exc
-    if not values:
-        raise InputError("--budget: no budget given")
-    return tuple(sorted({as_positive_int(v, "budget") for v in values}))

@@ -15,7 +15,7 @@ from metrics import (
 )
 from viscore import InputError, load_mesh, provenance
 
-from ._common import dumps, emit, write_atomic
+from ._common import dumps, emit, parse_list, write_atomic
 
 
 def add_parser(sub, common) -> None:
@@ -119,19 +119,10 @@ def _ablation(args, mesh, occ, items, out) -> int:
     if bad or not factors:
         raise InputError(f"--factors: expected some of quads,views,spacing, got {args.factors!r}")
     quiet = args.quiet or args.json
-    lists = {}
-    for name, arg, kind in (("quads_list", args.quads_list, int),
-                            ("views_list", args.views_list, int),
-                            ("spacing_list", args.spacings, float)):
-        if arg:
-            try:
-                values = tuple(kind(v) for v in arg.split(",") if v.strip())
-            except ValueError as exc:
-                raise InputError(f"--{name.replace('_', '-')}: expected numbers, got {arg!r}"
-                                 ) from exc
-            if not values or min(values) <= 0:
-                raise InputError(f"--{name.replace('_', '-')}: expected positive numbers")
-            lists[name] = values
+    lists = {name: parse_list(arg, kind, option) for name, arg, kind, option in (
+        ("quads_list", args.quads_list, int, "--quads-list"),
+        ("views_list", args.views_list, int, "--views-list"),
+        ("spacing_list", args.spacings, float, "--spacings")) if arg}
     result = convergence_ablation(
         mesh, occ, factors=factors, repeats=args.repeats, seed=args.seed, **lists,
         progress=None if quiet else (lambda text: print(f"ablation: {text}", file=sys.stderr)))

@@ -100,17 +100,9 @@ def paired_difference(a: PrecisionRecall, b: PrecisionRecall, *, confidence: flo
     n = a.views
     idx = np.random.default_rng(seed).integers(0, n, size=(resamples, n))
     alpha = (1 - confidence) / 2
-    w = np.asarray(a.per_view["weight"], dtype=np.float64)
 
     def stat(r: PrecisionRecall, which: str, rows=None):
-        nt = np.asarray(r.per_view["nt"], dtype=np.float64)
-        other = np.asarray(r.per_view["nf" if which == "precision" else "pf"], dtype=np.float64)
-        if r.protocol == "orbit":
-            num, den = nt, nt + other
-        else:  # weighted mean of per-position ratios where defined
-            val = np.asarray(r.per_view[which], dtype=np.float64)
-            ok = np.isfinite(val)
-            num, den = np.where(ok, val, 0.0) * w, np.where(ok, w, 0.0)
+        num, den = r.ratio_parts(which)
         if rows is None:
             return num.sum() / den.sum() if den.sum() > 0 else np.nan
         d = den[rows].sum(axis=1)

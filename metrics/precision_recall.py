@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["PrecisionRecall", "ratio"]
+__all__ = ["PrecisionRecall", "ratio", "pooled_parts"]
 
 
 def ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
@@ -21,6 +21,18 @@ def ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
     out = np.full(np.broadcast(num, den).shape, np.nan)
     np.divide(num, den, out=out, where=den > 0)
     return out
+
+
+def pooled_parts(per_view: dict, protocol: str, which: str) -> tuple[np.ndarray, np.ndarray]:
+    """Per-view (numerator, denominator) of pooled ``which`` ('precision' or 'recall')."""
+    if protocol == "orbit":
+        nt = np.asarray(per_view["nt"], dtype=np.float64)
+        other = np.asarray(per_view["nf" if which == "precision" else "pf"], dtype=np.float64)
+        return nt, nt + other
+    value = np.asarray(per_view[which], dtype=np.float64)
+    weight = np.asarray(per_view["weight"], dtype=np.float64)
+    ok = np.isfinite(value)
+    return np.where(ok, value, 0.0) * weight, np.where(ok, weight, 0.0)
 
 
 @dataclass(frozen=True)
@@ -69,3 +81,12 @@ class PrecisionRecall:
     def views(self) -> int:
         """Number of views (positions) evaluated."""
         return len(self.per_view["nt"])
+
+    def ratio_parts(self, which: str) -> tuple[np.ndarray, np.ndarray]:
+        """Per-view numerator and denominator whose sums' ratio is the pooled figure.
+
+        Orbit: Nt and Nt + Nf (precision) or Nt + Pf (recall). Volume: w x P_x
+        and w where P_x is defined, 0 elsewhere (the weighted mean of eq. 7).
+        Resampling views and summing both gives the bootstrap replicates.
+        """
+        return pooled_parts(self.per_view, self.protocol, which)

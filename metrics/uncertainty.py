@@ -47,19 +47,9 @@ def uncertainty_report(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, *,
     if protocol == "orbit":
         result = orbit_precision_recall(mesh, occluder, views=views, quads=quads or 32000,
                                         resolution=resolution, seed=seed)
-        num_p, den_p = result.per_view["nt"], result.per_view["nt"] + result.per_view["nf"]
-        num_r, den_r = result.per_view["nt"], result.per_view["nt"] + result.per_view["pf"]
     else:
         result = volume_precision_recall(mesh, occluder, quads=quads or 5000,
                                          resolution=resolution, seed=seed, spacing=spacing)
-        w = result.per_view["weight"]
-
-        def parts(v):
-            ok = np.isfinite(v)
-            return np.where(ok, v, 0.0) * w, np.where(ok, w, 0.0)
-
-        num_p, den_p = parts(result.per_view["precision"])
-        num_r, den_r = parts(result.per_view["recall"])
     om = occlusion_measure(occluder, directions=directions, resolution=resolution, seed=seed)
     per_dir = 4 * np.pi * om.per_view["measure"]
     ones = np.ones_like(per_dir)
@@ -69,8 +59,10 @@ def uncertainty_report(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, *,
         "protocol": protocol, "views": result.views, "seed": seed,
         "precision": result.precision, "recall": result.recall,
         "precision_ci": result.precision_ci, "recall_ci": result.recall_ci,
-        "precision_ci_bca": list(bootstrap_ratio(num_p, den_p, method="bca", seed=seed)),
-        "recall_ci_bca": list(bootstrap_ratio(num_r, den_r, method="bca", seed=seed)),
+        "precision_ci_bca": list(bootstrap_ratio(*result.ratio_parts("precision"),
+                                                 method="bca", seed=seed)),
+        "recall_ci_bca": list(bootstrap_ratio(*result.ratio_parts("recall"), method="bca",
+                                              seed=seed)),
         "occlusion_measure": om.occlusion_measure,
         "occlusion_measure_se": om.occlusion_measure_se,
         "occlusion_measure_ci": list(bootstrap_ratio(per_dir, ones, seed=seed)),

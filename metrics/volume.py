@@ -33,7 +33,7 @@ from viscore import (
 
 from ._views import cast_depths, scene_of
 from .bootstrap import bootstrap_ratio
-from .precision_recall import PrecisionRecall, ratio
+from .precision_recall import PrecisionRecall, pooled_parts, ratio
 from .quads import classify_quads, classify_quads_depth, sample_quads
 
 __all__ = ["volume_precision_recall", "volume_positions"]
@@ -255,21 +255,16 @@ def volume_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | N
     timing["seconds_quads"] = t_quads
     p_x, r_x = ratio(nt, nt + nf), ratio(nt, nt + pf)
 
-    def wmean(v):
-        ok = np.isfinite(v)
-        return float((v[ok] * weights[ok]).sum() / weights[ok].sum()) if ok.any() else np.nan
-
-    def interval(v):  # weighted mean of the defined values = ratio of sums
-        ok = np.isfinite(v)
-        return list(bootstrap_ratio(np.where(ok, v, 0.0) * weights, np.where(ok, weights, 0.0),
-                                    seed=seed))
-
+    per_view = {"nt": nt, "pf": pf, "nf": nf, "precision": p_x, "recall": r_x,
+                "weight": weights, "position": positions, "quads_orig": qcount[:, 0],
+                "quads_occ": qcount[:, 1], "quads_both": qcount[:, 2]}
+    pooled = {k: pooled_parts(per_view, "volume", k) for k in ("precision", "recall")}
     return PrecisionRecall(
-        precision=wmean(p_x), recall=wmean(r_x),
-        precision_ci=interval(p_x), recall_ci=interval(r_x),
-        per_view={"nt": nt, "pf": pf, "nf": nf, "precision": p_x, "recall": r_x,
-                  "weight": weights, "position": positions, "quads_orig": qcount[:, 0],
-                  "quads_occ": qcount[:, 1], "quads_both": qcount[:, 2]},
+        precision=float(ratio(pooled["precision"][0].sum(), pooled["precision"][1].sum())),
+        recall=float(ratio(pooled["recall"][0].sum(), pooled["recall"][1].sum())),
+        precision_ci=list(bootstrap_ratio(*pooled["precision"], seed=seed)),
+        recall_ci=list(bootstrap_ratio(*pooled["recall"], seed=seed)),
+        per_view=per_view,
         protocol="volume", depth_aware=bool(depth_aware), seed=seed,
         params={"spacing": spacing, "padding": padding, "quads": quads,
                 "resolution": resolution, "merge_views": merge_views, "positions": n,
