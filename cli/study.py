@@ -206,6 +206,7 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings, ou
             bar.set_postfix_str(f"{job.mesh}/{job.method}/{job.budget or '-'}")
             bar.update(1)
     finally:
+        results.close()  # stops the pool or the dask client now, not at garbage collection
         bar.close()
         store.close()
     return [rows[j.key] for j in todo]
