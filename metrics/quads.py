@@ -149,6 +149,16 @@ def classify_quads(original: np.ndarray, occluder: np.ndarray, quads: np.ndarray
     return _tally(n, a, b)
 
 
+def _level_sums(depth: np.ndarray, levels: np.ndarray, level: np.ndarray, r0, c0, r1, c1
+                ) -> np.ndarray:
+    """Pixels nearer than each quad's depth level, from one stacked summed-area table."""
+    table = np.zeros((len(levels), depth.shape[0] + 1, depth.shape[1] + 1), dtype=np.int32)
+    nearer = depth[None, :, :] < levels[:, None, None]
+    np.cumsum(np.cumsum(nearer, axis=1, dtype=np.int32), axis=2, out=table[:, 1:, 1:])
+    return (table[level, r1, c1] - table[level, r0, c1] - table[level, r1, c0]
+            + table[level, r0, c0]).astype(np.int64)
+
+
 def classify_quads_depth(original_depth: np.ndarray, occluder_depth: np.ndarray,
                          quads: np.ndarray, rng: np.random.Generator, *,
                          depth_levels: int = 32) -> QuadCounts:
@@ -181,11 +191,6 @@ def classify_quads_depth(original_depth: np.ndarray, occluder_depth: np.ndarray,
     level = rng.integers(0, depth_levels, size=len(quads))
     r0, c0, r1, c1 = quads.T
     n = (r1 - r0) * (c1 - c0)
-    a = np.empty(len(quads), dtype=np.int64)
-    b = np.empty(len(quads), dtype=np.int64)
-    for k in np.unique(level):
-        sel = level == k
-        args = (r0[sel], c0[sel], r1[sel], c1[sel])
-        a[sel] = _rect_sum(summed_area_table(original_depth < levels[k]), *args)
-        b[sel] = _rect_sum(summed_area_table(occluder_depth < levels[k]), *args)
+    a = _level_sums(original_depth, levels, level, r0, c0, r1, c1)
+    b = _level_sums(occluder_depth, levels, level, r0, c0, r1, c1)
     return _tally(n, a, b)
