@@ -24,10 +24,26 @@ from .constants import MAX_HITS, MIN_RAYS_PER_TASK, RAY_STEP_RELATIVE
 
 __all__ = ["Scene", "AllHits", "set_workers", "get_workers"]
 
+#: Squared-norm tolerance of directions taken as unit in float32 (a few ulps).
+_UNIT_TOLERANCE_F32 = 1e-6
+
 #: Embree reports a miss as this tfar (its initial "infinite" distance).
 _EMBREE_MISS_T = 1e30
 
 _workers: int | None = None
+
+
+def _as_rows(value, name: str) -> np.ndarray:
+    """float64 (n, 3) without value checks (those run per chunk in ``Scene._cast``)."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name}: expected an (n, 3) array of numbers") from exc
+    if arr.ndim == 1 and arr.shape[0] == 3:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise InputError(f"{name}: expected shape (n, 3), got {arr.shape}")
+    return arr
 
 
 def set_workers(workers: int | None) -> None:
@@ -135,9 +151,19 @@ class Scene:
         return self
 
     # ------------------------------------------------------------------ internals
-    def _prepare(self, origins, directions):
-        o = as_points(origins, "origins", allow_empty=True)
-        d = as_unit_vectors(directions, "directions")
+    def _prepare(self, origins, directions, *, check_values: bool = True):
+        """Coerce to float64 (n, 3) pairs; with ``check_values`` also finite and unit.
+
+        ``first_hit`` and ``any_hit`` pass ``check_values=False`` and let
+        :meth:`_cast` check each cache-sized chunk instead (same checks, one
+        pass less over memory).
+        """
+        if check_values:
+            o = as_points(origins, "origins", allow_empty=True)
+            d = as_unit_vectors(directions, "directions")
+        else:
+            o = _as_rows(origins, "origins")
+            d = _as_rows(directions, "directions")
         if len(o) != len(d):
             if len(o) == 1:
                 o = np.broadcast_to(o, d.shape)
@@ -145,7 +171,8 @@ class Scene:
                 raise InputError(f"origins and directions: lengths differ ({len(o)} vs {len(d)})")
         return o, d
 
-    def _cast(self, o: np.ndarray, d: np.ndarray, tfar: np.ndarray | None, intersect: bool):
+    def _cast(self, o: np.ndarray, d: np.ndarray, tfar: np.ndarray | None, intersect: bool,
+              check_values: bool = False):
         """One Embree pass over float64 world-space rays; chunks over the pool.
 
         Returns (t, tri) for ``intersect`` (t = inf, tri = -1 on a miss), else a
@@ -163,15 +190,29 @@ class Scene:
             hit_out = np.empty(n, dtype=bool)
 
         def run(sl: slice) -> None:
-            # conversion happens per chunk, so that it runs on the pool too
+            # checks and conversion happen per chunk, in cache, and on the pool too
             o32 = np.ascontiguousarray(o[sl] - offset, dtype=np.float32)
             d32 = np.ascontiguousarray(d[sl], dtype=np.float32)
+            if check_values:
+                if not np.isfinite(o32).all():  # also coordinates beyond float32's range
+                    raise InputError("origins: contains NaN or infinite values")
+                norm2 = np.einsum("ij,ij->i", d32, d32)
+                if not np.isfinite(norm2).all():
+                    raise InputError("directions: contains NaN or infinite values")
+                if norm2.min() <= 0:
+                    raise InputError("directions: contains zero-length direction vectors")
+                if np.abs(norm2 - 1.0).max() > _UNIT_TOLERANCE_F32:
+                    dc = d[sl]
+                    d32 = np.ascontiguousarray(
+                        dc / np.sqrt(np.einsum("ij,ij->i", dc, dc))[:, None], dtype=np.float32)
             dists = None if tfar is None else np.ascontiguousarray(
                 np.minimum(tfar[sl], _EMBREE_MISS_T), dtype=np.float32)
             if intersect:
                 res = scene.run(o32, d32, dists=dists, output=1)
-                tri_out[sl] = res["primID"]
-                t_out[sl] = res["tfar"]
+                tri, t = res["primID"], res["tfar"]
+                t[tri < 0] = np.inf
+                tri_out[sl] = tri
+                t_out[sl] = t
             else:
                 hit_out[sl] = scene.run(o32, d32, dists=dists, query="OCCLUDED") >= 0
 
@@ -186,10 +227,7 @@ class Scene:
         else:
             with ThreadPoolExecutor(max_workers=workers) as pool:
                 list(pool.map(run, slices))
-        if intersect:
-            t_out[tri_out < 0] = np.inf
-            return t_out, tri_out
-        return hit_out
+        return (t_out, tri_out) if intersect else hit_out
 
     # ------------------------------------------------------------------ queries
     def first_hit(self, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
@@ -217,10 +255,10 @@ class Scene:
         InputError
             On shapes other than (n, 3), NaN/inf values or zero directions.
         """
-        o, d = self._prepare(origins, directions)
+        o, d = self._prepare(origins, directions, check_values=False)
         tfar = None if max_distance is None else np.broadcast_to(
             np.asarray(max_distance, dtype=np.float64), (len(o),))
-        return self._cast(o, d, tfar, intersect=True)
+        return self._cast(o, d, tfar, intersect=True, check_values=True)
 
     def any_hit(self, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
                 max_distance: npt.ArrayLike | None = None) -> np.ndarray:
@@ -237,10 +275,10 @@ class Scene:
         -------
         occluded : (n,) bool
         """
-        o, d = self._prepare(origins, directions)
+        o, d = self._prepare(origins, directions, check_values=False)
         tfar = None if max_distance is None else np.broadcast_to(
             np.asarray(max_distance, dtype=np.float64), (len(o),))
-        return self._cast(o, d, tfar, intersect=False)
+        return self._cast(o, d, tfar, intersect=False, check_values=True)
 
     def all_hits(self, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
                  max_hits: int = MAX_HITS) -> AllHits:
