@@ -70,6 +70,10 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as exc:
         print(f"viscore: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # unwritable output, full disk, unreadable input
+        where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+        print(f"viscore: error: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("viscore: interrupted", file=sys.stderr)
         return 130

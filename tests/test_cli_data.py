@@ -24,3 +24,9 @@ def test_data_export_unknown_scene_exit_2_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "nope" in err[0]
     assert not out.exists()
+
+
+def test_unwritable_output_exit_2_one_line(capsys):
+    assert main(["data", "export", "cow", "-o", "/proc/viscore-test/x.ply"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("viscore: error:")
