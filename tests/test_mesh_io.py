@@ -44,6 +44,12 @@ def test_load_mesh_nan_coordinates(tmp_path):
         load_mesh(p)
 
 
+def test_validate_mesh_coordinates_beyond_float32():
+    m = trimesh.Trimesh([[0, 0, 0], [1e300, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False)
+    with pytest.raises(InputError, match="float32"):
+        validate_mesh(m)
+
+
 def test_validate_mesh_zero_extent():
     m = trimesh.Trimesh(np.zeros((3, 3)), [[0, 1, 2]], process=False)
     with pytest.raises(InputError, match="zero extent"):

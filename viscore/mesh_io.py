@@ -23,6 +23,10 @@ __all__ = ["load_mesh", "validate_mesh"]
 
 _log = logging.getLogger(__name__)
 
+#: Largest coordinate accepted: float32 holds ~3.4e38, and ray distances and
+#: squared norms must stay finite, so leave many orders of margin.
+_MAX_COORDINATE = 1e18
+
 
 def validate_mesh(mesh: trimesh.Trimesh, *, name: str = "mesh") -> trimesh.Trimesh:
     """Check a triangle soup and return a cleaned copy.
@@ -45,8 +49,9 @@ def validate_mesh(mesh: trimesh.Trimesh, *, name: str = "mesh") -> trimesh.Trime
     Raises
     ------
     InputError
-        If the mesh has no faces, NaN or infinite coordinates, zero extent,
-        or no face left after dropping degenerate ones.
+        If the mesh has no faces, NaN or infinite coordinates, coordinates
+        beyond 1e18 (float32 ray tracing), zero extent, or no face left after
+        dropping degenerate ones.
 
     Examples
     --------
@@ -67,6 +72,9 @@ def validate_mesh(mesh: trimesh.Trimesh, *, name: str = "mesh") -> trimesh.Trime
     used = vertices[np.unique(faces)]
     if not np.isfinite(used).all():
         raise InputError(f"{name}: vertex coordinates contain NaN or infinite values")
+    if np.abs(used).max() > _MAX_COORDINATE:
+        raise InputError(f"{name}: coordinates up to {np.abs(used).max():.3g} exceed the "
+                         f"{_MAX_COORDINATE:.0e} that Embree's float32 arithmetic can trace")
     extent = used.max(axis=0) - used.min(axis=0)
     diagonal = float(np.linalg.norm(extent))
     if diagonal <= 0:
