@@ -24,8 +24,13 @@ class InputError(ValueError):
     """
 
 
-def as_points(value: npt.ArrayLike, name: str, *, allow_empty: bool = False) -> np.ndarray:
-    """Coerce to a finite ``(n, 3) float64`` array or raise :class:`InputError`."""
+def as_points(value: npt.ArrayLike, name: str, *, allow_empty: bool = False,
+              finite: bool = True) -> np.ndarray:
+    """Coerce to a finite ``(n, 3) float64`` array or raise :class:`InputError`.
+
+    ``finite=False`` checks the shape only, for callers that check the values
+    later on smaller pieces (``Scene`` checks each chunk of rays).
+    """
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -36,7 +41,7 @@ def as_points(value: npt.ArrayLike, name: str, *, allow_empty: bool = False) -> 
         raise InputError(f"{name}: expected shape (n, 3), got {arr.shape}")
     if not allow_empty and len(arr) == 0:
         raise InputError(f"{name}: expected at least one point, got none")
-    if not np.isfinite(arr).all():
+    if finite and not np.isfinite(arr).all():
         raise InputError(f"{name}: contains NaN or infinite values")
     return arr
 

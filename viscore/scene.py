@@ -33,19 +33,6 @@ _EMBREE_MISS_T = 1e30
 _workers: int | None = None
 
 
-def _as_rows(value, name: str) -> np.ndarray:
-    """float64 (n, 3) without value checks (those run per chunk in ``Scene._cast``)."""
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name}: expected an (n, 3) array of numbers") from exc
-    if arr.ndim == 1 and arr.shape[0] == 3:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise InputError(f"{name}: expected shape (n, 3), got {arr.shape}")
-    return arr
-
-
 def set_workers(workers: int | None) -> None:
     """Set the default number of ray-casting threads (``None``: one per core).
 
@@ -162,8 +149,8 @@ class Scene:
             o = as_points(origins, "origins", allow_empty=True)
             d = as_unit_vectors(directions, "directions")
         else:
-            o = _as_rows(origins, "origins")
-            d = _as_rows(directions, "directions")
+            o = as_points(origins, "origins", allow_empty=True, finite=False)
+            d = as_points(directions, "directions", allow_empty=True, finite=False)
         if len(o) != len(d):
             if len(o) == 1:
                 o = np.broadcast_to(o, d.shape)
