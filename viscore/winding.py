@@ -18,7 +18,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ._validate import as_points, as_positive_int
+from ._validate import as_points
 
 __all__ = ["winding_numbers", "points_inside"]
 
@@ -79,7 +79,7 @@ def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points) -> np.ndarr
     return _winding(np.ascontiguousarray(pts), tri)
 
 
-def points_inside(scene, points, *, min_votes: int = 4) -> np.ndarray:
+def points_inside(scene, points) -> np.ndarray:
     """Inside test of points: unanimous parity votes, else the winding number.
 
     Parameters
@@ -87,9 +87,6 @@ def points_inside(scene, points, *, min_votes: int = 4) -> np.ndarray:
     scene : Scene
         Scene of the mesh (its vertices and faces give the winding number).
     points : (n, 3) float
-    min_votes : int, optional
-        Unused when the winding number decides; kept for the parity-only
-        callers' signature. Default 4.
 
     Returns
     -------
@@ -99,7 +96,6 @@ def points_inside(scene, points, *, min_votes: int = 4) -> np.ndarray:
     """
     from .voxels import parity_votes
 
-    as_positive_int(min_votes, "min_votes", maximum=6)
     pts = as_points(points, "points", allow_empty=True)
     votes = parity_votes(scene, pts)
     inside = votes == 6
