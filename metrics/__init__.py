@@ -27,7 +27,7 @@ from .precision_recall import PrecisionRecall
 from .quads import QuadCounts, classify_quads, classify_quads_depth, sample_quads
 from .silhouettes import SILHOUETTE_COLOURS, silhouette_image
 from .uncertainty import distribution_plot, uncertainty_report
-from .volume import volume_positions, volume_precision_recall
+from .volume import evaluation_box, volume_positions, volume_precision_recall
 
 __all__ = [
     "ConservativenessReport", "check_conservative", "assert_conservative",
@@ -38,6 +38,7 @@ __all__ = [
     "bootstrap_ratio", "PairedDifference", "paired_difference", "BetaModelSummary",
     "hierarchical_beta_model", "AblationResult", "convergence_ablation", "ablation_plot",
     "uncertainty_report", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",
+    "evaluation_box",
 ]
 
 

@@ -30,6 +30,7 @@ from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 
 from ._views import scene_of
 from .orbit import orbit_frame
+from .volume import evaluation_box
 
 __all__ = ["ConservativenessReport", "check_conservative", "assert_conservative",
            "clopper_pearson_upper"]
@@ -119,11 +120,10 @@ def _domain_rays(mesh, scene: Scene, n: int, domain: str, rng: np.random.Generat
             n, seed=int(rng.integers(2**31)))
         d = targets - origins
         return origins, d / np.linalg.norm(d, axis=1)[:, None]
-    lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
-    pad = float((hi - lo).min()) or 0.04 * float(np.linalg.norm(hi - lo))
+    lo, hi, _ = evaluation_box(mesh)
     origins = np.zeros((0, 3))
     for _ in range(20):  # rejection of points inside the mesh
-        cand = rng.uniform(lo - pad, hi + pad, (max(n - len(origins), 1) * 2, 3))
+        cand = rng.uniform(lo, hi, (max(n - len(origins), 1) * 2, 3))
         cand = cand[~points_inside(scene, cand)]
         origins = np.concatenate([origins, cand])[:n]
         if len(origins) == n:

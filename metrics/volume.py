@@ -36,7 +36,7 @@ from .bootstrap import bootstrap_ratio
 from .precision_recall import PrecisionRecall, pooled_parts, ratio
 from .quads import classify_quads, classify_quads_depth, sample_quads
 
-__all__ = ["volume_precision_recall", "volume_positions"]
+__all__ = ["volume_precision_recall", "volume_positions", "evaluation_box"]
 
 _log = logging.getLogger(__name__)
 
@@ -45,6 +45,28 @@ SPACING_FRACTION = 0.04
 
 #: Frusta cast in one Embree batch (one position has six).
 _FRUSTA_PER_BATCH = 24
+
+
+def evaluation_box(mesh: trimesh.Trimesh, *, spacing: float | None = None,
+                   padding: float | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """The padded bounding box B' of the volume protocol and the view spacing dx.
+
+    Returns
+    -------
+    lo, hi : (3,) float64
+        The mesh's bounding box grown by ``padding`` on every side (default
+        its smallest side, or dx if that is zero; seed 001, sec. 4).
+    dx : float
+        ``spacing``, default 4% of the bounding-box diagonal (seed 001, sec. 4.1).
+    """
+    lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
+    diag = float(np.linalg.norm(hi - lo))
+    dx = SPACING_FRACTION * diag if spacing is None else as_positive(spacing, "spacing")
+    smallest = float((hi - lo).min())
+    pad = (smallest if smallest > 0 else dx) if padding is None else float(padding)
+    if pad < 0 or not np.isfinite(pad):
+        raise InputError(f"padding: expected a finite number >= 0, got {padding}")
+    return lo - pad, hi + pad, dx
 
 
 def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
@@ -81,14 +103,7 @@ def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
     from viscore import Scene, grid_positions
 
     scene = scene or Scene(mesh)
-    lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
-    diag = float(np.linalg.norm(hi - lo))
-    dx = SPACING_FRACTION * diag if spacing is None else as_positive(spacing, "spacing")
-    smallest = float((hi - lo).min())
-    pad = (smallest if smallest > 0 else dx) if padding is None else float(padding)
-    if pad < 0 or not np.isfinite(pad):
-        raise InputError(f"padding: expected a finite number >= 0, got {padding}")
-    box_lo, box_hi = lo - pad, hi + pad
+    box_lo, box_hi, dx = evaluation_box(mesh, spacing=spacing, padding=padding)
     pts = grid_positions(box_lo, box_hi, dx)
     if offset is not None:
         pts = pts + dx * np.asarray(offset, dtype=np.float64)
