@@ -27,10 +27,14 @@ __all__ = ["OcclusionMeasure", "directional_occlusion_measure", "occlusion_measu
            "erosion_curve"]
 
 
-def _edt(covered: np.ndarray, pixel: float) -> np.ndarray:
-    """Distance (world units) from each covered pixel centre to the nearest uncovered one."""
-    padded = np.pad(covered, 1)
-    return ndimage.distance_transform_edt(padded, sampling=pixel)[1:-1, 1:-1]
+def _erosion_radius(covered: np.ndarray, pixel: float) -> np.ndarray:
+    """Radius (world units) at which erosion removes each pixel; 0 outside I_d.
+
+    The EDT between pixel centres less half a pixel (the mean offset of the
+    true boundary), clipped at 0; the image is padded so its border is empty.
+    """
+    d = ndimage.distance_transform_edt(np.pad(covered, 1), sampling=pixel)[1:-1, 1:-1]
+    return np.where(covered, np.maximum(d - 0.5 * pixel, 0.0), 0.0)
 
 
 def directional_occlusion_measure(covered: np.ndarray, pixel: float) -> tuple[float, float]:
@@ -64,8 +68,7 @@ def directional_occlusion_measure(covered: np.ndarray, pixel: float) -> tuple[fl
     >>> round(m, 3), a
     (0.167, 1.0)
     """
-    d = _edt(covered, pixel)
-    d = np.where(covered, np.maximum(d - 0.5 * pixel, 0.0), 0.0)
+    d = _erosion_radius(covered, pixel)
     return float(d.sum() * pixel**2), float(covered.sum() * pixel**2)
 
 
@@ -77,8 +80,7 @@ def erosion_curve(covered: np.ndarray, pixel: float, radii: np.ndarray) -> np.nd
     area : (len(radii),) float64
         World units^2; non-increasing in r, and its integral over r is M(d).
     """
-    d = np.where(covered, np.maximum(_edt(covered, pixel) - 0.5 * pixel, 0.0), 0.0)
-    values = np.sort(d[covered])
+    values = np.sort(_erosion_radius(covered, pixel)[covered])
     radii = np.asarray(radii, dtype=np.float64)
     above = len(values) - np.searchsorted(values, radii, side="right")
     return above * pixel**2
