@@ -59,7 +59,7 @@ def run_voxels(args) -> int:
 
 
 def run_evaluate(args) -> int:
-    from generators.benchmarks import bench_evaluate
+    from viscore.generators.benchmarks import bench_evaluate
 
     r = bench_evaluate(seed=args.seed)
     other = r["seconds"] - r["seconds_rays"] - r["seconds_quads"]
@@ -75,7 +75,7 @@ def run_evaluate(args) -> int:
 
 
 def run_generate(args) -> int:
-    from generators.benchmarks import bench_generate_aabb_skins
+    from viscore.generators.benchmarks import bench_generate_aabb_skins
 
     r = bench_generate_aabb_skins(args.models)
     lines = [f"aabb-skins on {r['source']}; peer (melt) at diag/128: "

@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import asdict
 from pathlib import Path
 
-from generators import REGISTRY
+from viscore.generators import REGISTRY
+
 from viscore import InputError, as_positive_int, load_mesh, provenance, scene_names
 
 from ._common import dumps, emit, parse_list, write_atomic

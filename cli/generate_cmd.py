@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import logging
 
-from generators import REGISTRY, get_generator
+from viscore.generators import REGISTRY, get_generator
+
 from viscore import InputError, load_mesh, provenance
 
 from ._common import check_mesh_path, emit, write_mesh

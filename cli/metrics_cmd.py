@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from dataclasses import asdict
 
-from metrics import check_conservative, evaluate, occlusion_measure
+from viscore.metrics import check_conservative, evaluate, occlusion_measure
+
 from viscore import load_mesh, provenance
 
 from ._common import emit

@@ -74,9 +74,9 @@ class Job:
 def run_job(job: Job, workers: int | None = None) -> tuple[dict, bytes]:
     """Generate, evaluate and check one occluder; returns the row and the occluder PLY."""
     import trimesh
+    from viscore.generators import get_generator
+    from viscore.metrics import check_conservative, evaluate, occlusion_measure
 
-    from generators import get_generator
-    from metrics import check_conservative, evaluate, occlusion_measure
     from viscore import load_mesh, set_workers
 
     s = job.settings
@@ -136,7 +136,7 @@ class ResultStore:
 
 def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings) -> list[Job]:
     """One job per mesh, method and budget (one budget-less job for unbudgeted methods)."""
-    from generators import get_generator
+    from viscore.generators import get_generator
 
     jobs = []
     for mesh in meshes:
@@ -214,7 +214,7 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings, ou
 
 def _as_result(row: dict):
     """A PrecisionRecall rebuilt from a stored row (enough for paired comparisons)."""
-    from metrics import PrecisionRecall
+    from viscore.metrics import PrecisionRecall
 
     pv = {k: np.asarray([np.nan if v is None else v for v in vals], dtype=np.float64)
           if k in ("precision", "recall") else np.asarray(vals)
@@ -231,7 +231,7 @@ def paired_rows(rows: list[dict], reference: str = "qem") -> list[dict]:
     Budgeted methods are paired with the reference at the same budget; the
     others with the reference at its largest budget.
     """
-    from metrics import paired_difference
+    from viscore.metrics import paired_difference
 
     out = []
     refs = {(r["mesh"], r["budget"]): r for r in rows if r["method"] == reference}
@@ -391,8 +391,8 @@ def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
                     resolution: int = 160, seed: int = 0) -> None:
     """Seed 000 Figure 7 colour coding for a few views of one mesh, one row per method."""
     import trimesh
+    from viscore.metrics import silhouette_image
 
-    from metrics import silhouette_image
     from viscore import directions_uniform, load_mesh
 
     plt = _pyplot()

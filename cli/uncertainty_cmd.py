@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import asdict
 from pathlib import Path
 
-from metrics import (
+from viscore.metrics import (
     ablation_plot,
     convergence_ablation,
     distribution_plot,
@@ -13,6 +13,7 @@ from metrics import (
     paired_difference,
     uncertainty_report,
 )
+
 from viscore import InputError, load_mesh, provenance
 
 from ._common import dumps, emit, parse_list, write_atomic

@@ -14,8 +14,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+from viscore.metrics import orbit_precision_recall
 
-from metrics import orbit_precision_recall
 from viscore import load_mesh
 from viscore.benchmarks import bench_rays
 

@@ -84,7 +84,7 @@ def paired_difference(a: PrecisionRecall, b: PrecisionRecall, *, confidence: flo
     Examples
     --------
     >>> import trimesh
-    >>> from metrics import orbit_precision_recall
+    >>> from viscore.metrics import orbit_precision_recall
     >>> box = trimesh.creation.box(); small = box.copy(); _ = small.apply_scale(0.5)
     >>> ra = orbit_precision_recall(box, box, views=6, quads=200, resolution=24)
     >>> rb = orbit_precision_recall(box, small, views=6, quads=200, resolution=24)

@@ -49,7 +49,7 @@ class QuadCounts:
         Quads fully occluded by both. Per-quad recall of the view is
         q_both / q_orig and per-quad precision q_both / q_occ: quads are
         independent draws given the view, so these are binomial counts
-        (the Bayesian models of :mod:`metrics.bayes` use them).
+        (the Bayesian models of :mod:`viscore.metrics.bayes` use them).
     """
 
     nt: int

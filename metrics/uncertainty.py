@@ -2,9 +2,9 @@
 
 Gathers, for one (mesh, occluder) pair, what DESIGN.md's "Uncertainty" asks
 of every figure: percentile and BCa bootstrap intervals over views for the
-pooled precision and recall (:mod:`metrics.bootstrap`) and for the total
+pooled precision and recall (:mod:`viscore.metrics.bootstrap`) and for the total
 occlusion measure, and the hierarchical Beta models of per-view recall and
-precision (:mod:`metrics.bayes`) with their convergence diagnostics.
+precision (:mod:`viscore.metrics.bayes`) with their convergence diagnostics.
 """
 
 from __future__ import annotations

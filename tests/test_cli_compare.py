@@ -1,7 +1,7 @@
 import json
 import sqlite3
 
-from cli.main import main
+from viscore.cli.main import main
 
 
 def test_compare_writes_outputs_and_resumes(tmp_path, capsys):
@@ -46,8 +46,7 @@ def test_compare_budgets_run_budgeted_methods_once_per_budget(tmp_path, capsys):
 
 def test_dask_cluster_gives_identical_rows(tmp_path):
     from distributed import Client, LocalCluster
-
-    from cli.study import StudySettings, run_study
+    from viscore.cli.study import StudySettings, run_study
 
     settings = StudySettings(views=4, quads=300, resolution=24, directions=2, rays=1000,
                              budgets=(48,))
@@ -64,8 +63,7 @@ def test_dask_cluster_gives_identical_rows(tmp_path):
 
 def test_interrupted_study_keeps_finished_rows_and_resumes(tmp_path):
     import pytest
-
-    from cli.study import StudySettings, run_study
+    from viscore.cli.study import StudySettings, run_study
 
     settings = StudySettings(views=4, quads=300, resolution=24, directions=2, rays=1000,
                              budgets=(48,))

@@ -1,8 +1,7 @@
 import json
 
 import trimesh
-
-from cli.main import main
+from viscore.cli.main import main
 
 
 def test_data_list_json_names_builtin_scenes(capsys):

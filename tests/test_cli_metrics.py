@@ -1,8 +1,7 @@
 import json
 
 import trimesh
-
-from cli.main import main
+from viscore.cli.main import main
 
 
 def test_evaluate_json_identical_is_perfect(capsys):

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 import trimesh
+from viscore.generators import REGISTRY, generate, generate_aabb_skins, generate_bbox, generate_qem
+from viscore.metrics import check_conservative, orbit_precision_recall
 
-from generators import REGISTRY, generate, generate_aabb_skins, generate_bbox, generate_qem
-from metrics import check_conservative, orbit_precision_recall
 from viscore import InputError, load_mesh
 
 WATERTIGHT_SCENES = ["fat-torus", "sponge", "buildings", "box-with-hole", "bunny", "cow"]
@@ -109,7 +109,7 @@ def test_aabb_skins_densest_seed_conservative_and_first_box_not_larger():
 
 
 def test_densest_order_starts_at_centre_of_hollow_cube():
-    from generators.aabb_skins import _densest_order, _six_direction_distance
+    from viscore.generators.aabb_skins import _densest_order, _six_direction_distance
 
     s = np.zeros((9, 9, 9), bool)
     s[0], s[-1], s[:, 0], s[:, -1], s[:, :, 0], s[:, :, -1] = (True,) * 6

@@ -91,3 +91,6 @@ def test_wheel_ships_every_procedural_scene(tmp_path):
     for file, _ in _PROCEDURAL.values():
         assert f"viscore/_scenes/{file}" in names
     assert not any(n.startswith("data/") for n in names)  # never an import package "data"
+    for package in ("metrics", "generators", "cli"):  # installed under viscore only
+        assert f"viscore/{package}/__init__.py" in names
+        assert not any(n.startswith(f"{package}/") for n in names)

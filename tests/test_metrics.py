@@ -1,8 +1,7 @@
 import numpy as np
 import pytest
 import trimesh
-
-from metrics import (
+from viscore.metrics import (
     assert_conservative,
     check_conservative,
     classify_quads,
@@ -13,6 +12,7 @@ from metrics import (
     sample_quads,
     volume_precision_recall,
 )
+
 from viscore import InputError, load_mesh
 
 

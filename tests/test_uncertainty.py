@@ -3,9 +3,8 @@ import json
 import numpy as np
 import pytest
 from scipy import stats
-
-from cli.main import main
-from metrics import (
+from viscore.cli.main import main
+from viscore.metrics import (
     PrecisionRecall,
     bootstrap_ratio,
     convergence_ablation,
@@ -13,6 +12,7 @@ from metrics import (
     orbit_precision_recall,
     paired_difference,
 )
+
 from viscore import InputError, load_mesh
 
 
