@@ -7,7 +7,8 @@ from pathlib import Path
 
 from viscore.generators import REGISTRY
 
-from viscore import InputError, as_positive_int, load_mesh, provenance, scene_names
+from viscore import InputError, load_mesh, provenance, scene_names
+from viscore._validate import as_positive_int
 
 from ._common import dumps, emit, parse_list, write_atomic
 from .study import (

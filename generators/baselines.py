@@ -15,7 +15,8 @@ import time
 import numpy as np
 import trimesh
 
-from viscore import InputError, as_positive_int, validate_mesh
+from viscore import InputError, validate_mesh
+from viscore._validate import as_positive_int
 
 from .occluder import Occluder
 

@@ -15,7 +15,7 @@ from .conservativeness import (
     check_conservative,
     clopper_pearson_upper,
 )
-from .occlusion_measure import (
+from .erosion import (
     OcclusionMeasure,
     directional_occlusion_measure,
     erosion_curve,

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from viscore import OrthoCamera, as_positive_int, directions_uniform
+from viscore import OrthoCamera, directions_uniform
+from viscore._validate import as_positive_int
 
 from ._views import depths, scene_of
 from .orbit import orbit_frame, orbit_precision_recall, view_counts

@@ -35,7 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import special, stats
 
-from viscore import InputError, as_fraction, as_positive_int
+from viscore import InputError
+from viscore._validate import as_fraction, as_positive_int
 
 from .precision_recall import PrecisionRecall
 

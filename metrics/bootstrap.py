@@ -17,7 +17,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats
 
-from viscore import InputError, as_fraction, as_positive_int
+from viscore import InputError
+from viscore._validate import as_fraction, as_positive_int
 
 __all__ = ["bootstrap_ratio", "BOOTSTRAP_RESAMPLES"]
 

@@ -14,7 +14,8 @@ import time
 import numpy as np
 import trimesh
 
-from viscore import OrthoCamera, as_positive_int, directions_uniform
+from viscore import OrthoCamera, directions_uniform
+from viscore._validate import as_positive_int
 
 from ._views import depths, scene_of
 from .bootstrap import bootstrap_ratio

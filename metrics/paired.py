@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from viscore import InputError, as_fraction, as_positive_int
+from viscore import InputError
+from viscore._validate import as_fraction, as_positive_int
 
 from .bootstrap import BOOTSTRAP_RESAMPLES
 from .precision_recall import PrecisionRecall

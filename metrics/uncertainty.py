@@ -16,7 +16,7 @@ import trimesh
 
 from .bayes import BetaModelSummary, hierarchical_beta_model
 from .bootstrap import bootstrap_ratio
-from .occlusion_measure import occlusion_measure
+from .erosion import occlusion_measure
 from .orbit import orbit_precision_recall
 from .precision_recall import PrecisionRecall
 from .volume import volume_precision_recall

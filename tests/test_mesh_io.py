@@ -82,7 +82,7 @@ def test_wheel_ships_every_procedural_scene(tmp_path):
     import zipfile
     from pathlib import Path
 
-    from viscore.scenes import _PROCEDURAL
+    from viscore.builtin_scenes import _PROCEDURAL
 
     root = Path(__file__).resolve().parent.parent
     subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w",

@@ -6,14 +6,14 @@ cameras make ray bundles; :mod:`viscore.images` turns them into coverage and
 depth images; :mod:`viscore.voxels` voxelizes; samplers are seeded.
 """
 
-from ._validate import InputError, as_fraction, as_positive, as_positive_int
+from ._validate import InputError
+from .builtin_scenes import scene_descriptions, scene_names, scene_path
 from .cameras import OrthoCamera, PerspectiveCamera, camera_basis, cube_cameras
 from .images import coverage_image, depth_image
 from .mesh_io import load_mesh, validate_mesh
-from .provenance import provenance
+from .run_provenance import provenance
 from .samplers import directions_fibonacci, directions_uniform, grid_positions, rays_between
 from .scene import AllHits, Scene, get_workers, set_workers
-from .scenes import scene_descriptions, scene_names, scene_path
 from .voxels import (
     VoxelGrid,
     Voxelization,
@@ -30,7 +30,7 @@ from .winding import points_inside, winding_numbers
 
 __all__ = [
     "points_inside", "winding_numbers",
-    "InputError", "as_positive", "as_positive_int", "as_fraction", "load_mesh", "validate_mesh",
+    "InputError", "load_mesh", "validate_mesh",
     "Scene", "AllHits", "set_workers", "get_workers", "OrthoCamera", "PerspectiveCamera",
     "cube_cameras", "camera_basis", "coverage_image", "depth_image", "directions_uniform",
     "directions_fibonacci", "grid_positions", "rays_between", "provenance", "scene_names",

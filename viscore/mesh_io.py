@@ -127,7 +127,7 @@ def load_mesh(source: str | os.PathLike | trimesh.Trimesh) -> trimesh.Trimesh:
     """
     if isinstance(source, trimesh.Trimesh):
         return validate_mesh(source, name=str(source.metadata.get("name", "mesh")))
-    from .scenes import scene_names, scene_path
+    from .builtin_scenes import scene_names, scene_path
 
     path = Path(os.fspath(source))
     label = str(source)

@@ -18,7 +18,8 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
-from viscore import OrthoCamera, as_positive_int, coverage_image, directions_uniform
+from viscore import OrthoCamera, coverage_image, directions_uniform
+from viscore._validate import as_positive_int
 
 from ._views import scene_of
 from .orbit import orbit_frame
