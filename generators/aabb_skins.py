@@ -40,15 +40,8 @@ import time
 import numpy as np
 import trimesh
 
-from viscore import (
-    InputError,
-    Scene,
-    as_fraction,
-    as_positive,
-    as_positive_int,
-    inside_voxels_parity,
-    voxelize,
-)
+from viscore import InputError, Scene, inside_voxels_parity, voxelize
+from viscore._validate import as_fraction, as_positive, as_positive_int
 
 from ._box_growth import grow_boxes, grow_boxes_from_seeds
 from .occluder import Occluder

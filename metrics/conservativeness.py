@@ -18,14 +18,8 @@ import numpy as np
 import trimesh
 from scipy import stats
 
-from viscore import (
-    InputError,
-    Scene,
-    as_fraction,
-    as_positive_int,
-    directions_uniform,
-    points_inside,
-)
+from viscore import InputError, Scene, directions_uniform, points_inside
+from viscore._validate import as_fraction, as_positive_int
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 
 from ._views import scene_of

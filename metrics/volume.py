@@ -23,13 +23,8 @@ import time
 import numpy as np
 import trimesh
 
-from viscore import (
-    InputError,
-    as_positive,
-    as_positive_int,
-    cube_cameras,
-    points_inside,
-)
+from viscore import InputError, cube_cameras, points_inside
+from viscore._validate import as_positive, as_positive_int
 
 from ._views import cast_depths, scene_of
 from .bootstrap import bootstrap_ratio
