@@ -16,6 +16,7 @@ import trimesh
 
 from viscore import OrthoCamera, directions_uniform
 from viscore._validate import as_positive_int
+from viscore.enclosing_ball import minimum_enclosing_ball
 
 from ._views import depths, scene_of
 from .bootstrap import bootstrap_ratio
@@ -38,12 +39,13 @@ def orbit_frame(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
     Returns
     -------
     center : (3,) float64
-        Centre of the smallest enclosing sphere of the vertices.
+        Centre of the smallest enclosing sphere of the vertices (flat and
+        collinear meshes included, see :func:`viscore.enclosing_ball.minimum_enclosing_ball`).
     extent : float
         Its diameter x 1.01, world units.
     """
-    center, radius = trimesh.nsphere.minimum_nsphere(mesh)
-    return np.asarray(center, dtype=np.float64), float(2 * radius * EXTENT_FACTOR)
+    center, radius = minimum_enclosing_ball(mesh.vertices)
+    return center, float(2 * radius * EXTENT_FACTOR)
 
 
 def view_counts(d_orig: np.ndarray, d_occ: np.ndarray, quads: int, rng: np.random.Generator, *,
