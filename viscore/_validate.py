@@ -13,7 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = ["InputError", "as_points", "as_vector", "as_unit_vectors", "as_positive",
-           "as_positive_int", "as_fraction"]
+           "as_positive_int", "as_fraction", "as_seed", "check_memory", "available_memory"]
 
 
 class InputError(ValueError):
@@ -104,3 +104,76 @@ def as_fraction(value: object, name: str, *, open_low: bool = False) -> float:
         bracket = "(" if open_low else "["
         raise InputError(f"{name}: expected a number in {bracket}0, 1], got {value}")
     return value
+
+
+#: Share of the available memory that one computation may plan to use before
+#: it is refused (``VISCORE_MEMORY_FRACTION`` overrides it).
+MEMORY_FRACTION = 0.75
+
+
+def as_seed(value: object, name: str = "seed") -> int:
+    """A non-negative integer of any size (what ``numpy.random.default_rng`` takes).
+
+    The one seed rule of the toolkit: ``None`` is refused too, since every
+    Monte-Carlo result must be reproducible from the seed it records.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise InputError(f"{name}: expected a non-negative integer, got {value!r}")
+    value = int(value)
+    if value < 0:
+        raise InputError(f"{name}: expected a non-negative integer, got {value}")
+    return value
+
+
+def available_memory() -> int:
+    """Bytes of memory available to this process now (Linux ``MemAvailable``).
+
+    Falls back to the physical memory size where ``/proc/meminfo`` is absent.
+    """
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    import os
+
+    return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+
+
+def check_memory(nbytes: float, what: str) -> None:
+    """Refuse, before any work, a computation whose estimated memory does not fit.
+
+    Parameters
+    ----------
+    nbytes : float
+        Estimated peak bytes of the computation (an upper estimate; may
+        overflow int64, so pass a float).
+    what : str
+        The argument(s) that size it, e.g. ``"voxels=629"``; named in the error.
+
+    Raises
+    ------
+    InputError
+        If ``nbytes`` exceeds ``MEMORY_FRACTION`` (default 0.75; environment
+        variable ``VISCORE_MEMORY_FRACTION``) of :func:`available_memory`. The
+        message gives the estimate and the limit.
+    """
+    import os
+
+    fraction = float(os.environ.get("VISCORE_MEMORY_FRACTION", MEMORY_FRACTION))
+    limit = fraction * available_memory()
+    if not np.isfinite(nbytes) or nbytes > limit:
+        raise InputError(f"{what}: needs about {_human_bytes(nbytes)} of memory, more than the "
+                         f"limit of {_human_bytes(limit)} ({fraction:.0%} of available memory)")
+
+
+def _human_bytes(n: float) -> str:
+    if not np.isfinite(n):
+        return "an unbounded amount"
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if abs(n) < 1024 or unit == "PiB":
+            return f"{n:.1f} {unit}" if unit != "B" else f"{int(n)} B"
+        n /= 1024
+    return f"{n:.1f} PiB"
