@@ -2,10 +2,20 @@
 
 from __future__ import annotations
 
-from viscore import provenance
-from viscore.benchmarks import bench_rays, bench_voxels
+import sys
 
-from ._common import emit
+from viscore import provenance
+
+from ._common import emit, parse_list
+from .benchmarks import (
+    BUILTIN_FALLBACK,
+    MODELS_ENV,
+    bench_evaluate,
+    bench_generate_aabb_skins,
+    bench_rays,
+    bench_voxels,
+    models_folder,
+)
 
 
 def add_parser(sub, common) -> None:
@@ -14,23 +24,37 @@ def add_parser(sub, common) -> None:
     bsub.required = True
     r = bsub.add_parser("rays", parents=[common], help="first-hit rays/s vs bare embreex")
     r.add_argument("--mesh", default="bunny")
-    r.add_argument("--rays", type=int, default=1_000_000)
+    r.add_argument("--rays", type=int, default=1_000_000, help="rays per call (default 1000000)")
+    r.add_argument("--repeats", type=int, default=7,
+                   help="interleaved repeats, best of each counts (default 7)")
     r.set_defaults(run=run_rays)
     v = bsub.add_parser("voxels", parents=[common], help="voxelization time at 64^3 and 128^3")
     v.add_argument("--mesh", default="bunny")
+    v.add_argument("--res", default="64,128",
+                   help="voxel resolutions, comma-separated (default 64,128)")
+    v.add_argument("--repeats", type=int, default=2, help="best of this many runs (default 2)")
     v.set_defaults(run=run_voxels)
     e = bsub.add_parser("evaluate", parents=[common],
                         help="orbit protocol, bunny vs 64-triangle QEM (target < 15 s)")
+    e.add_argument("--mesh", default="bunny")
+    e.add_argument("--views", type=int, default=256, help="orbit views (default 256)")
+    e.add_argument("--quads", type=int, default=32000, help="quads per view (default 32000)")
+    e.add_argument("--res", type=int, default=256, help="pixels per side (default 256)")
+    e.add_argument("--budget", type=int, default=64,
+                   help="triangles of the first QEM occluder; the next has 4x (default 64)")
+    e.add_argument("--rays", type=int, default=500_000,
+                   help="rays of the same-run bench rays reference (default 500000)")
     e.set_defaults(run=run_evaluate)
     g = bsub.add_parser("generate", parents=[common], help="generator speed and coverage")
     g.add_argument("method", choices=["aabb-skins"])
-    g.add_argument("--models", default="../shared/models",
-                   help="folder of benchmark meshes (default ../shared/models)")
+    g.add_argument("--models", default=None, metavar="DIR",
+                   help=f"folder of extra benchmark meshes (spot.obj, fandisk.obj, ...); default "
+                   f"${MODELS_ENV}, else only the built-in scenes")
     g.set_defaults(run=run_generate)
 
 
 def run_rays(args) -> int:
-    r = bench_rays(args.mesh, rays=args.rays, seed=args.seed)
+    r = bench_rays(args.mesh, rays=args.rays, repeats=args.repeats, seed=args.seed)
     text = (f"{r['mesh']}, {r['rays']:,} first-hit rays\n"
             f"  bare embreex, 1 thread : {r['bare_mrays_1']:.2f} Mrays/s\n"
             f"  Scene, 1 worker        : {r['scene_mrays_1']:.2f} Mrays/s  "
@@ -45,7 +69,8 @@ def run_voxels(args) -> int:
     from viscore import set_workers
 
     set_workers(1)  # the targets are on one core
-    r = bench_voxels(args.mesh)
+    r = bench_voxels(args.mesh, resolutions=parse_list(args.res, int, "--res"),
+                     repeats=args.repeats)
     lines = [f"{r['mesh']}: surface + flood fill + inner (1 core); parity votes"]
     targets = {64: 2.0, 128: 6.0}
     for row in r["per_resolution"]:
@@ -59,9 +84,8 @@ def run_voxels(args) -> int:
 
 
 def run_evaluate(args) -> int:
-    from viscore.generators.benchmarks import bench_evaluate
-
-    r = bench_evaluate(seed=args.seed)
+    r = bench_evaluate(mesh=args.mesh, views=args.views, quads=args.quads, resolution=args.res,
+                       budget=args.budget, reference_rays=args.rays, seed=args.seed)
     other = r["seconds"] - r["seconds_rays"] - r["seconds_quads"]
     text = (f"orbit protocol, bunny vs {r['occluder_triangles']}-triangle QEM, {r['views']} "
             f"views x {r['quads']:,} quads at {r['resolution']} px\n"
@@ -69,15 +93,20 @@ def run_evaluate(args) -> int:
             f"quads {r['seconds_quads']:.2f} s, other {other:.2f} s\n"
             f"  {r['mrays_per_second']:.2f} Mrays/s in the evaluation vs "
             f"{r['bench_rays_mrays_all']:.2f} Mrays/s in bench rays (same run)\n"
-            f"  precision {r['precision']:.4f}, recall {r['recall']:.4f}")
+            f"  precision {r['precision']:.4f}, recall {r['recall']:.4f}\n"
+            f"  first occluder {r['seconds_first']:.2f} s (original's views + occluder), next "
+            f"{r['next_occluder_triangles']}-triangle occluder {r['seconds_next']:.2f} s "
+            f"(x{r['next_ratio']:.2f}, target <= 0.50)")
     emit({**r, "provenance": provenance()}, args.json, text)
     return 0
 
 
 def run_generate(args) -> int:
-    from viscore.generators.benchmarks import bench_generate_aabb_skins
-
-    r = bench_generate_aabb_skins(args.models)
+    folder = models_folder(args.models)  # a folder named but missing: InputError, exit 2
+    if folder is None and not args.quiet:
+        print(f"viscore: no --models and no ${MODELS_ENV}: benchmarking the built-in scenes "
+              f"only ({', '.join(BUILTIN_FALLBACK)})", file=sys.stderr)
+    r = bench_generate_aabb_skins(folder)
     lines = [f"aabb-skins on {r['source']}; peer (melt) at diag/128: "
              f"{r['peer_seconds_128'][0]}-{r['peer_seconds_128'][1]} s to 80%",
              f"{'mesh':<18} {'voxel':<9} {'boxes':>5} {'tris':>5} {'volume':>7} {'peer':>6} "

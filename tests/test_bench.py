@@ -1,0 +1,129 @@
+"""``viscore bench``: figures come out whole and consistent; bad model folders exit 2.
+
+No timing assertions: the figures are checked for shape and internal
+consistency (ratios are the quotients of the figures printed beside them).
+"""
+
+import json
+import math
+
+import pytest
+from viscore.cli.benchmarks import (
+    MODELS_ENV,
+    bench_generate_aabb_skins,
+    bench_rays,
+    bench_voxels,
+    models_folder,
+)
+from viscore.cli.main import main
+
+from viscore import InputError
+
+
+def _run(capsys, argv):
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_bench_rays_json_tiny(capsys):
+    code, out, _ = _run(capsys, ["bench", "rays", "--mesh", "fat-torus", "--rays", "500",
+                                 "--repeats", "1", "--json"])
+    assert code == 0
+    doc = json.loads(out)
+    assert doc["rays"] == 500 and doc["repeats"] == 1 and doc["workers"] >= 1
+    for key in ("bare_mrays_1", "scene_mrays_1", "scene_mrays_all", "ratio_vs_bare", "scaling"):
+        assert math.isfinite(doc[key]) and doc[key] > 0
+    assert doc["ratio_vs_bare"] == pytest.approx(doc["scene_mrays_1"] / doc["bare_mrays_1"])
+    assert doc["scaling"] == pytest.approx(doc["scene_mrays_all"] / doc["scene_mrays_1"])
+    assert "embree" in doc["provenance"]
+
+
+def test_bench_rays_text_names_targets(capsys):
+    code, out, _ = _run(capsys, ["bench", "rays", "--mesh", "fat-torus", "--rays", "200",
+                                 "--repeats", "1"])
+    assert code == 0
+    assert "200 first-hit rays" in out and "target >= 0.90" in out
+
+
+def test_bench_rays_invalid_input():
+    with pytest.raises(InputError, match="rays"):
+        bench_rays("fat-torus", rays=0)
+    with pytest.raises(InputError, match="repeats"):
+        bench_rays("fat-torus", rays=10, repeats=0)
+
+
+def test_bench_voxels_tiny_counts():
+    r = bench_voxels("fat-torus", resolutions=(12,), repeats=1)
+    (row,) = r["per_resolution"]
+    assert row["resolution"] == 12 and row["faces"] > 0
+    # the solid voxels include the surface ones
+    assert 0 < row["surface_voxels"] <= row["solid_voxels"]
+
+
+def test_bench_evaluate_json_tiny(capsys):
+    code, out, _ = _run(capsys, ["bench", "evaluate", "--mesh", "fat-torus", "--views", "4",
+                                 "--quads", "200", "--res", "32", "--budget", "16", "--rays",
+                                 "500", "--json"])
+    assert code == 0
+    doc = json.loads(out)
+    assert doc["views"] == 4 and doc["quads"] == 200 and doc["resolution"] == 32
+    assert 0 < doc["occluder_triangles"] <= 16 < doc["next_occluder_triangles"] <= 64
+    assert doc["seconds_first"] > 0 and doc["seconds_next"] > 0
+    assert doc["seconds"] == doc["seconds_first"]
+    assert doc["next_ratio"] == pytest.approx(doc["seconds_next"] / doc["seconds_first"])
+    for key in ("precision", "recall", "next_precision", "next_recall"):
+        assert 0.0 <= doc[key] <= 1.0
+    # more triangles of the same QEM cover more of the torus
+    assert doc["next_recall"] > doc["recall"]
+
+
+@pytest.mark.parametrize("how", ["option", "environment"])
+def test_bench_generate_missing_models_exit_2(capsys, monkeypatch, how):
+    argv = ["bench", "generate", "aabb-skins"]
+    if how == "option":
+        monkeypatch.delenv(MODELS_ENV, raising=False)
+        argv += ["--models", "/nonexistent"]
+    else:
+        monkeypatch.setenv(MODELS_ENV, "/nonexistent")
+    code, out, err = _run(capsys, argv)
+    assert code == 2
+    assert out == ""
+    assert err.count("\n") == 1 and "/nonexistent" in err and "no such folder" in err
+
+
+def test_bench_generate_models_without_meshes_exit_2(capsys, tmp_path):
+    code, _, err = _run(capsys, ["bench", "generate", "aabb-skins", "--models", str(tmp_path)])
+    assert code == 2
+    assert err.count("\n") == 1 and "spot.obj" in err
+
+
+def test_models_folder_precedence(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    assert models_folder(None, {}) is None
+    assert models_folder(None, {MODELS_ENV: ""}) is None
+    assert models_folder(None, {MODELS_ENV: str(b)}) == b
+    assert models_folder(str(a), {MODELS_ENV: str(b)}) == a
+
+
+def test_models_folder_invalid_input(tmp_path):
+    with pytest.raises(InputError, match="--models"):
+        models_folder(tmp_path / "missing", {})
+    with pytest.raises(InputError, match=MODELS_ENV):
+        models_folder(None, {MODELS_ENV: str(tmp_path / "missing")})
+    with pytest.raises(InputError, match="no such folder"):
+        bench_generate_aabb_skins(tmp_path / "missing")
+
+
+@pytest.mark.slow
+def test_bench_generate_builtin_fallback_says_so(capsys, monkeypatch):
+    monkeypatch.delenv(MODELS_ENV, raising=False)
+    code, out, err = _run(capsys, ["bench", "generate", "aabb-skins", "--json"])
+    assert code == 0
+    assert "built-in scenes only" in err
+    doc = json.loads(out)
+    assert doc["source"] == "built-in scenes"
+    assert {r["mesh"] for r in doc["rows"]} == {"bunny (pymeshlab)", "cow"}
+    assert all(0.0 < r["volume_share"] <= 1.0 for r in doc["rows"])
