@@ -1,0 +1,368 @@
+"""Every figure of the toolkit, drawn on :class:`matplotlib.figure.Figure`.
+
+One place for the plots of ``viscore uncertainty`` (per-view distributions,
+convergence ablation) and ``viscore compare`` (recall per view, recall and
+precision against the budget, silhouettes). No function here touches
+``matplotlib.pyplot`` or calls ``matplotlib.use``: each builds its own
+:class:`~matplotlib.figure.Figure`, renders it with the Agg canvas
+(:class:`~matplotlib.backends.backend_agg.FigureCanvasAgg`) and writes the
+file atomically (a temporary file in the same folder, then ``os.replace``),
+so a notebook's backend is left alone and a killed run never leaves half an
+image. matplotlib is imported inside the functions: importing
+:mod:`viscore.metrics` does not import it.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1),
+   2014, pp. 235-245. :DOI:`10.1111/cgf.12271` (Figure 7: silhouette colour
+   coding; Figure 11: recall per view).
+.. [2] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669` (Figure 10: convergence ablation).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from viscore import InputError
+
+if TYPE_CHECKING:  # pragma: no cover - hints only
+    from matplotlib.figure import Figure
+
+    from .ablation import AblationResult
+    from .bayes import BetaModelSummary
+    from .precision_recall import PrecisionRecall
+
+__all__ = ["distribution_plot", "ablation_plot", "recall_plot", "budget_plot",
+           "silhouette_plot", "SILHOUETTE_VIEWS"]
+
+#: Dots per inch of every figure: a figure of w x h inches is 100 w x 100 h pixels.
+DPI = 100
+
+#: File formats the figures are written in (from the path's suffix).
+_FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
+
+#: Views shown in the silhouette plots (Silvennoinen et al. 2014, Figure 7).
+SILHOUETTE_VIEWS = 3
+
+#: Panels per row of the per-mesh figures, and inches per panel.
+_PANEL_COLUMNS = 3
+_PANEL_INCHES = 3.0
+
+
+def _figure(width: float, height: float) -> Figure:
+    """A figure of ``width`` x ``height`` inches with its own Agg canvas (no pyplot)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height), dpi=DPI)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _format_of(path: str | os.PathLike) -> str:
+    suffix = Path(path).suffix.lower() or ".png"
+    if suffix not in _FORMATS:
+        raise InputError(f"path {path}: expected a figure file ending in "
+                         + ", ".join(_FORMATS) + f", got '{suffix}'")
+    return _FORMATS[suffix]
+
+
+def _save(fig: Figure, path: str | os.PathLike) -> None:
+    """Render ``fig`` and write it to ``path`` through a temporary file and a rename."""
+    path = Path(path)
+    buf = io.BytesIO()
+    fig.savefig(buf, format=_format_of(path), dpi=DPI)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(buf.getvalue())
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _check_rows(rows: Sequence[Mapping], keys: tuple[str, ...], name: str = "rows") -> list:
+    rows = list(rows)
+    if not rows:
+        raise InputError(f"{name}: expected at least one study row, got none")
+    for k, r in enumerate(rows):
+        missing = [key for key in keys if key not in r]
+        if missing:
+            raise InputError(f"{name}[{k}]: missing {', '.join(missing)}")
+    return rows
+
+
+def distribution_plot(result: PrecisionRecall, models: dict[str, BetaModelSummary], path
+                      ) -> None:
+    """Per-view histograms of quad recall and precision with the fitted population.
+
+    Parameters
+    ----------
+    result : PrecisionRecall
+        An evaluation whose ``per_view`` holds ``quads_orig``, ``quads_occ``
+        and ``quads_both``, each (V,) int.
+    models : dict of {'recall', 'precision'} -> BetaModelSummary
+        The hierarchical Beta models of the two quantities.
+    path : str or path-like
+        Figure file (``.png``, ``.pdf`` or ``.svg``); 900 x 340 pixels.
+
+    Raises
+    ------
+    InputError
+        If ``models`` lacks a quantity, ``per_view`` lacks a count, or the
+        suffix of ``path`` is not a figure format.
+
+    Examples
+    --------
+    See ``viscore uncertainty``, which writes ``per_view.png`` with it.
+    """
+    from scipy import stats
+
+    _format_of(path)
+    pv = result.per_view
+    missing = [q for q in ("recall", "precision") if q not in models]
+    missing += [k for k in ("quads_orig", "quads_occ", "quads_both") if k not in pv]
+    if missing:
+        raise InputError(f"distribution_plot: missing {', '.join(missing)}")
+    fig = _figure(9, 3.4)
+    axes = fig.subplots(1, 2)
+    for ax, q, den in ((axes[0], "recall", "quads_orig"), (axes[1], "precision", "quads_occ")):
+        n = np.asarray(pv[den], float)
+        k = np.asarray(pv["quads_both"], float)
+        rates = k[n > 0] / n[n > 0]
+        m = models[q]
+        ax.hist(rates, bins=30, range=(0, 1), density=True, alpha=0.6, label="views")
+        x = np.linspace(0.001, 0.999, 400)
+        phi = m.mean * (1 - m.mean) / max(m.spread**2, 1e-12) - 1
+        if phi > 0:
+            ax.plot(x, stats.beta.pdf(x, m.mean * phi, (1 - m.mean) * phi), "k-",
+                    label="population (posterior mean)")
+        ax.axvline(m.mean, color="C3", lw=1, label=f"mean {m.mean:.3f}")
+        ax.set_xlabel(f"{q} per view (per quad)")
+        ax.set_ylabel("density")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def ablation_plot(result: AblationResult, path) -> None:
+    """Standard deviation of P and R against each factor, log-log (Wu et al. 2022, Fig. 10).
+
+    Parameters
+    ----------
+    result : AblationResult
+        Rows with ``factor``, ``value``, ``precision_sd``, ``recall_sd`` and
+        ``repeats``.
+    path : str or path-like
+        Figure file; 420 pixels wide per factor, 340 high.
+
+    Raises
+    ------
+    InputError
+        If ``result`` has no rows, or the suffix of ``path`` is not a figure
+        format.
+    """
+    _format_of(path)
+    _check_rows(result.rows, ("factor", "value", "precision_sd", "recall_sd", "repeats"),
+                "result.rows")
+    factors = [f for f in ("quads", "spacing", "views") if any(r["factor"] == f for r in
+                                                             result.rows)]
+    fig = _figure(4.2 * max(1, len(factors)), 3.4)
+    axes = fig.subplots(1, max(1, len(factors)), squeeze=False)
+    labels = {"quads": "quads per view", "spacing": "view spacing (fraction of diagonal)",
+              "views": "orbit views"}
+    for ax, f in zip(axes[0], factors, strict=False):
+        rows = [r for r in result.rows if r["factor"] == f]
+        x = [r["value"] for r in rows]
+        for key, style in (("precision_sd", "o-"), ("recall_sd", "s--")):
+            ax.plot(x, [max(r[key], 1e-12) for r in rows], style, label=key.split("_")[0])
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xticks(x, [f"{v:g}" for v in x])
+        ax.minorticks_off()
+        ax.set_xlabel(labels[f])
+        ax.set_ylabel(f"s.d. over {rows[0]['repeats']} repeats")
+        ax.legend(fontsize=8)
+        if f == "spacing":
+            ax.invert_xaxis()
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def _largest_budget(rows: list[Mapping]) -> list[Mapping]:
+    """One row per (mesh, method): the largest budget."""
+    best: dict = {}
+    for r in rows:
+        k = (r["mesh"], r["method"])
+        if k not in best or (r["budget"] or 0) > (best[k]["budget"] or 0):
+            best[k] = r
+    return list(best.values())
+
+
+def _panels(count: int, size: float = _PANEL_INCHES):
+    cols = min(_PANEL_COLUMNS, count)
+    rows = -(-count // cols)
+    fig = _figure(size * cols + 0.4, size * rows)
+    axes = fig.subplots(rows, cols, squeeze=False)
+    for ax in axes.flat[count:]:
+        ax.set_axis_off()
+    return fig, axes.flat
+
+
+def recall_plot(rows: list[dict], path: Path) -> None:
+    """Per-method distribution of per-view recall, one panel per mesh.
+
+    As Silvennoinen et al. 2014, Figure 11; each (mesh, method) at its
+    largest budget.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Study rows with ``mesh``, ``method``, ``budget`` and
+        ``per_view['recall']`` ((V,) floats, None where undefined).
+    path : str or path-like
+        Figure file; 300 pixels per panel, up to three panels a row
+        (+40 pixels of width).
+
+    Raises
+    ------
+    InputError
+        If ``rows`` is empty or a row lacks a key, or the suffix of ``path``
+        is not a figure format.
+    """
+    _format_of(path)
+    rows = _largest_budget(_check_rows(rows, ("mesh", "method", "budget", "per_view")))
+    meshes = list(dict.fromkeys(r["mesh"] for r in rows))
+    fig, axes = _panels(len(meshes))
+    for ax, mesh in zip(axes, meshes, strict=False):
+        sub = [r for r in rows if r["mesh"] == mesh]
+        data = [np.array([v for v in r["per_view"].get("recall", []) if v is not None],
+                         dtype=float) for r in sub]
+        data = [d if len(d) else np.array([np.nan]) for d in data]
+        ax.boxplot(data, showfliers=False)
+        ax.set_xticks(range(1, len(sub) + 1), [r["method"] for r in sub], fontsize=7)
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_title(Path(mesh).stem, fontsize=9)
+        ax.set_ylabel("recall per view", fontsize=8)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def budget_plot(rows: list[dict], path: Path) -> None:
+    """Recall (solid) and precision (dashed) against occluder triangles, a panel per mesh.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Study rows with ``mesh``, ``method``, ``triangles``, ``recall`` and
+        ``precision`` (None where undefined).
+    path : str or path-like
+        Figure file; sized as :func:`recall_plot`.
+
+    Raises
+    ------
+    InputError
+        If ``rows`` is empty or a row lacks a key, or the suffix of ``path``
+        is not a figure format.
+    """
+    _format_of(path)
+    rows = _check_rows(rows, ("mesh", "method", "triangles", "recall", "precision"))
+    meshes = list(dict.fromkeys(r["mesh"] for r in rows))
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    fig, axes = _panels(len(meshes))
+    for ax, mesh in zip(axes, meshes, strict=False):
+        for c, method in enumerate(methods):
+            sub = sorted((r for r in rows if r["mesh"] == mesh and r["method"] == method),
+                         key=lambda r: r["triangles"])
+            if not sub:
+                continue
+            x = [max(1, r["triangles"]) for r in sub]
+            for key, style in (("recall", "o-"), ("precision", "s--")):
+                y = [np.nan if r[key] is None else r[key] for r in sub]
+                ax.plot(x, y, style, ms=3, color=f"C{c}",
+                        label=method if key == "recall" else None)
+        ax.set_xscale("log")
+        ax.minorticks_off()
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_title(Path(mesh).stem, fontsize=9)
+        ax.set_xlabel("occluder triangles", fontsize=8)
+    axes[0].legend(fontsize=7, title="recall -, precision --", title_fontsize=7)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
+                    resolution: int = 160, seed: int = 0) -> None:
+    """Silhouette colour coding for a few views of one mesh, one row of panels per method.
+
+    As Silvennoinen et al. 2014, Figure 7: black where only the original
+    covers a pixel, yellow where both do, blue where only the occluder does;
+    each method at its largest budget, :data:`SILHOUETTE_VIEWS` seeded
+    uniform directions.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Study rows with ``mesh``, ``method``, ``budget``, ``triangles`` and
+        ``occluder_file``; rows of other meshes are ignored.
+    out_dir : path-like
+        Study folder: the occluders are read from ``out_dir/occluders/``; a
+        row whose file is missing (or with no triangles) shows no occluder.
+    mesh : str
+        Mesh file or built-in scene, as in the rows.
+    path : str or path-like
+        Figure file; 220 x 220 pixels per panel.
+    resolution : int, optional
+        Pixels per side of each silhouette image. Default 160.
+    seed : int, optional
+        Seed of the view directions. Default 0.
+
+    Raises
+    ------
+    InputError
+        If no row is of ``mesh``, a row lacks a key, or the suffix of
+        ``path`` is not a figure format.
+    """
+    import trimesh
+
+    from viscore import directions_uniform, load_mesh
+    from viscore._validate import as_positive_int, as_seed
+
+    from .silhouettes import silhouette_image
+
+    _format_of(path)
+    resolution = as_positive_int(resolution, "resolution", maximum=4096)
+    seed = as_seed(seed, "seed")
+    rows = _check_rows(rows, ("mesh", "method", "budget", "triangles", "occluder_file"))
+    sub = [r for r in _largest_budget(rows) if r["mesh"] == mesh]
+    if not sub:
+        raise InputError(f"mesh {mesh!r}: no study row of this mesh")
+    original = load_mesh(mesh)
+    dirs = directions_uniform(SILHOUETTE_VIEWS, seed=seed)
+    fig = _figure(2.2 * SILHOUETTE_VIEWS, 2.2 * len(sub))
+    axes = fig.subplots(len(sub), SILHOUETTE_VIEWS, squeeze=False)
+    for i, r in enumerate(sub):
+        file = Path(out_dir) / "occluders" / r["occluder_file"]
+        occ = trimesh.load(file, force="mesh") if r["triangles"] and file.is_file() else None
+        for j, d in enumerate(dirs):
+            axes[i, j].imshow(silhouette_image(original, occ, d, resolution=resolution))
+            axes[i, j].set_axis_off()
+        axes[i, 0].set_title(f"{r['method']} ({r['triangles']} tris)", fontsize=8, loc="left")
+    fig.suptitle(f"{Path(mesh).stem}: black original only, yellow both, blue occluder only",
+                 fontsize=8)
+    fig.tight_layout()
+    _save(fig, path)
