@@ -1,0 +1,382 @@
+"""What people look at after ``viscore compare``: ``report.html`` and a ``.glb`` per occluder.
+
+:func:`write_report` writes one self-contained HTML page (no script, no
+stylesheet or image outside the file: the plots are inline ``data:`` URIs),
+so it opens offline and can be mailed or archived as one file.
+:func:`write_occluder_glb` writes a glTF 2.0 binary holding the original
+(grey, translucent) and the occluder (coloured, opaque), for any glTF viewer.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1),
+   2014, pp. 235-245. :DOI:`10.1111/cgf.12271` (orbit protocol, sec. 6.1;
+   occlusion measure, sec. 3).
+.. [2] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669` (volume protocol, sec. 3.2).
+.. [3] Efron, B. "Better Bootstrap Confidence Intervals". Journal of the
+   American Statistical Association 82(397), 1987.
+   :DOI:`10.1080/01621459.1987.10478410`
+.. [4] Clopper, C.J., Pearson, E.S. "The use of confidence or fiducial limits
+   illustrated in the case of the binomial". Biometrika 26(4), 1934.
+   :DOI:`10.1093/biomet/26.4.404`
+.. [5] The Khronos Group. "glTF 2.0 Specification", 2021
+   (materials: ``alphaMode``, ``doubleSided``, ``pbrMetallicRoughness``).
+"""
+
+from __future__ import annotations
+
+import base64
+import dataclasses
+import math
+import os
+from collections.abc import Mapping, Sequence
+from html import escape
+from pathlib import Path
+
+import numpy as np
+
+from viscore import InputError
+
+from ._common import write_atomic
+
+__all__ = ["write_report", "write_occluder_glb", "REPORT_COLUMNS", "PAIRED_COLUMNS",
+           "ORIGINAL_RGBA", "OCCLUDER_RGBA"]
+
+#: Columns of the results table: (row key, header). A ``*_ci`` key shows as an
+#: interval; the columns follow ``viscore.cli.study.TABLE_COLUMNS``.
+REPORT_COLUMNS = (
+    ("mesh", "mesh"), ("method", "method"), ("budget", "budget"), ("triangles", "triangles"),
+    ("precision", "precision"), ("precision_ci", "precision 95% interval"),
+    ("recall", "recall"), ("recall_ci", "recall 95% interval"),
+    ("occlusion_measure", "occlusion measure"), ("occlusion_measure_se", "s.e."),
+    ("violation_upper_bound", "violation upper bound"), ("seconds", "seconds"),
+)
+
+#: Columns of the paired comparisons: (row key, header).
+PAIRED_COLUMNS = (
+    ("mesh", "mesh"), ("method", "method"), ("budget", "budget"), ("versus", "versus"),
+    ("versus_budget", "versus budget"), ("recall_diff", "recall difference"),
+    ("recall_diff_ci", "95% interval"), ("prob_better_recall", "P(better recall)"),
+    ("precision_diff", "precision difference"), ("precision_diff_ci", "95% interval"),
+    ("prob_better_precision", "P(better precision)"),
+)
+
+#: glTF base colour (linear RGBA in [0, 1]) of the original: grey, translucent.
+ORIGINAL_RGBA = (0.6, 0.6, 0.6, 0.35)
+#: glTF base colour of the occluder: orange, opaque.
+OCCLUDER_RGBA = (0.95, 0.45, 0.1, 1.0)
+
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+_STYLE = """
+body { font: 14px/1.45 system-ui, sans-serif; margin: 2em auto; max-width: 76em;
+       padding: 0 1em; color: #222; }
+h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em; }
+table { border-collapse: collapse; margin: 0.5em 0; }
+th, td { border: 1px solid #ccc; padding: 0.2em 0.5em; }
+td { white-space: nowrap; }
+.scroll { overflow-x: auto; }
+th { background: #f3f3f3; text-align: left; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+figure { display: inline-block; margin: 0.5em 1em 1em 0; vertical-align: top; }
+figure img { max-width: 100%; border: 1px solid #ddd; }
+figcaption { font-size: 0.9em; color: #555; }
+.note { color: #555; font-size: 0.9em; }
+"""
+
+
+def _number(value, digits: int = 4) -> str:
+    if isinstance(value, (bool, np.bool_)):
+        return str(bool(value))
+    if isinstance(value, (int, np.integer)):
+        return f"{int(value):,}" if abs(int(value)) >= 10_000 else str(int(value))
+    v = float(value)
+    if not math.isfinite(v):
+        return "-"
+    if v != 0 and (abs(v) >= 1e4 or abs(v) < 1e-3):
+        return f"{v:.{digits}g}"
+    return f"{v:.{digits}f}"
+
+
+def _count(n: int, one: str, many: str | None = None) -> str:
+    return f"{n} {one if n == 1 else (many or one + 's')}"
+
+
+def _cell(value) -> tuple[str, bool]:
+    """Escaped text of a table cell, and whether it is numeric (right-aligned)."""
+    if value is None:
+        return "-", False
+    if isinstance(value, (list, tuple, np.ndarray)):
+        parts = [_cell(v)[0] for v in value]
+        return ("[" + ", ".join(parts) + "]"), True
+    if isinstance(value, (int, float, np.integer, np.floating, np.bool_)):
+        return escape(_number(value)), True
+    return escape(str(value)), False
+
+
+def _table(rows: Sequence[Mapping], columns: Sequence[tuple[str, str]], *, row_class: str,
+           extra: Sequence[str] | None = None, extra_header: str | None = None) -> str:
+    head = "".join(f"<th>{escape(h)}</th>" for _, h in columns)
+    if extra is not None:
+        head += f"<th>{escape(extra_header or '')}</th>"
+    body = []
+    for k, r in enumerate(rows):
+        cells = []
+        for key, _ in columns:
+            text, numeric = _cell(r.get(key))
+            cells.append(f'<td class="num">{text}</td>' if numeric else f"<td>{text}</td>")
+        if extra is not None:
+            cells.append(f"<td>{extra[k]}</td>")
+        body.append(f'<tr class="{row_class}">' + "".join(cells) + "</tr>")
+    return (f'<div class="scroll"><table>\n<thead><tr>{head}</tr></thead>\n<tbody>\n'
+            + "\n".join(body) + "\n</tbody>\n</table></div>")
+
+
+def _key_values(doc: Mapping, css_class: str) -> str:
+    lines = []
+    for key, value in doc.items():
+        if isinstance(value, Mapping):
+            text = ", ".join(f"{escape(str(k))}: {_cell(v)[0]}" for k, v in value.items())
+        else:
+            text = _cell(value)[0]
+        lines.append(f"<tr><th>{escape(str(key))}</th><td>{text}</td></tr>")
+    return f'<table class="{css_class}">\n' + "\n".join(lines) + "\n</table>"
+
+
+def _as_mapping(value, name: str) -> dict:
+    if value is None:
+        return {}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return dataclasses.asdict(value)
+    if isinstance(value, Mapping):
+        return dict(value)
+    raise InputError(f"{name}: expected a mapping or a dataclass, got {type(value).__name__}")
+
+
+def _image_items(images, out_dir: Path) -> list[tuple[str, Path]]:
+    if images is None:
+        return []
+    if isinstance(images, Mapping):
+        items = [(str(k), Path(v)) for k, v in images.items()]
+    elif isinstance(images, (str, os.PathLike)):
+        raise InputError("images: expected a mapping caption -> PNG file or a list of PNG "
+                         f"files, got the single path {images}")
+    else:
+        items = [(Path(v).stem, Path(v)) for v in images]
+    return [(caption, p if p.is_absolute() else out_dir / p) for caption, p in items]
+
+
+def _data_uri(path: Path) -> str:
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError(f"images: {path}: no such file") from None
+    if not data.startswith(_PNG_SIGNATURE):
+        raise InputError(f"images: {path}: not a PNG file")
+    return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
+
+
+def _file_links(rows: Sequence[Mapping], out_dir: Path) -> list[str] | None:
+    """Relative links to each row's occluder mesh and its .glb, where they exist."""
+    if not any(r.get("occluder_file") for r in rows):
+        return None
+    links = []
+    for r in rows:
+        name = r.get("occluder_file")
+        parts = []
+        if name:
+            for file in (Path("occluders") / name, (Path("occluders") / name).with_suffix(".glb")):
+                if (out_dir / file).is_file():
+                    parts.append(f'<a href="{escape(file.as_posix(), quote=True)}">'
+                                 f"{escape(file.suffix.lstrip('.'))}</a>")
+        links.append(" ".join(parts) or "-")
+    return links
+
+
+def write_report(out_dir: str | os.PathLike, rows: Sequence[Mapping], *,
+                 paired_rows: Sequence[Mapping] = (), settings=None,
+                 provenance: Mapping | None = None,
+                 images: Mapping[str, str | os.PathLike] | Sequence[str | os.PathLike] | None
+                 = None) -> Path:
+    """Write ``out_dir/report.html``: one self-contained page of a comparison study.
+
+    Parameters
+    ----------
+    out_dir : path-like
+        Study folder; created if missing. Relative image paths and the
+        occluder links are taken from here.
+    rows : sequence of dict
+        One result per row, keyed as the study's JSON rows (``mesh``,
+        ``method``, ``budget``, ``triangles``, ``precision``,
+        ``precision_ci``, ``recall``, ``recall_ci``, ``occlusion_measure``,
+        ``occlusion_measure_se``, ``violation_upper_bound``, ``seconds``;
+        optional ``occluder_file``). Missing or None values show as "-".
+    paired_rows : sequence of dict, optional
+        Paired comparisons keyed as :data:`PAIRED_COLUMNS` (the output of
+        ``viscore.cli.study.paired_rows``). Default none.
+    settings : dict or dataclass, optional
+        Evaluation settings (e.g. ``StudySettings``), shown as a table.
+    provenance : dict, optional
+        Versions and platform (``viscore.provenance()``), shown as a table.
+    images : dict of caption -> path, or sequence of paths, optional
+        PNG files to inline as ``data:image/png;base64`` URIs, in order;
+        captions default to the file stems.
+
+    Returns
+    -------
+    path : Path
+        ``out_dir/report.html``, written atomically (UTF-8).
+
+    Raises
+    ------
+    InputError
+        If ``rows`` is empty, an image is missing or not a PNG, or
+        ``settings`` / ``provenance`` is not a mapping.
+
+    Notes
+    -----
+    The page loads nothing from outside itself (no script, no remote
+    stylesheet, font or image); links to the occluder files beside it are
+    relative and only shown for files that exist. Each result is one
+    ``<tr class="result">`` of the results table, each paired comparison one
+    ``<tr class="paired">``. Deterministic: the same inputs give the same bytes.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> rows = [{"mesh": "cube", "method": "bbox", "budget": None, "triangles": 12,
+    ...          "precision": 1.0, "precision_ci": [1.0, 1.0]}]
+    >>> page = write_report(tempfile.mkdtemp(), rows)
+    >>> page.name, page.read_text().count('<tr class="result">')
+    ('report.html', 1)
+    """
+    out_dir = Path(out_dir)
+    rows = [dict(r) for r in rows]
+    if not rows:
+        raise InputError("rows: expected at least one result, got none")
+    settings = _as_mapping(settings, "settings")
+    provenance = _as_mapping(provenance, "provenance")
+    figures = [(caption, _data_uri(path)) for caption, path in _image_items(images, out_dir)]
+    meshes = list(dict.fromkeys(str(r.get("mesh")) for r in rows))
+    methods = list(dict.fromkeys(str(r.get("method")) for r in rows))
+    protocol = settings.get("protocol")
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en">',
+        "<head>",
+        '<meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f'<meta name="generator" content="viscore {escape(str(provenance.get("viscore", "")))}">',
+        "<title>viscore compare: report</title>",
+        f"<style>{_STYLE}</style>",
+        "</head>",
+        "<body>",
+        "<h1>viscore compare</h1>",
+        f"<p>{_count(len(rows), 'result')}: {_count(len(methods), 'method')} "
+        f"({escape(', '.join(methods))}) on {_count(len(meshes), 'mesh', 'meshes')} "
+        f"({escape(', '.join(meshes))})"
+        + (f", {escape(str(protocol))} protocol" if protocol else "") + ".</p>",
+        '<h2 id="results">Results</h2>',
+        _table(rows, REPORT_COLUMNS, row_class="result", extra=_file_links(rows, out_dir),
+               extra_header="files"),
+        '<p class="note">Intervals: 95% percentile bootstrap over views (Efron 1987). '
+        "Occlusion measure with its standard error over random directions. Violation upper "
+        "bound: one-sided Clopper-Pearson bound on the rate of rays the occluder stops before "
+        "the original. \"-\": undefined (no quads of that kind) or not measured.</p>",
+    ]
+    if paired_rows:
+        versus = sorted({str(p.get("versus")) for p in paired_rows})
+        parts += [
+            '<h2 id="paired">Paired comparisons</h2>',
+            f"<p>Each method against {escape(', '.join(versus))} on the same views: "
+            "difference, 95% paired bootstrap interval, bootstrap probability of being "
+            "better.</p>",
+            _table(list(paired_rows), PAIRED_COLUMNS, row_class="paired"),
+        ]
+    if figures:
+        parts.append('<h2 id="plots">Plots</h2>')
+        parts += [f'<figure><img src="{uri}" alt="{escape(caption, quote=True)}">'
+                  f"<figcaption>{escape(caption)}</figcaption></figure>"
+                  for caption, uri in figures]
+    if settings:
+        parts += ['<h2 id="settings">Settings</h2>', _key_values(settings, "settings")]
+    if provenance:
+        parts += ['<h2 id="provenance">Provenance</h2>', _key_values(provenance, "provenance")]
+    parts += ["</body>", "</html>", ""]
+    path = out_dir / "report.html"
+    write_atomic(path, "\n".join(parts).encode("utf-8"))
+    return path
+
+
+def _as_triangles(mesh, name: str):
+    import trimesh
+
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise InputError(f"{name}: expected a trimesh.Trimesh, got {type(mesh).__name__}")
+    if len(mesh.faces) == 0:
+        raise InputError(f"{name}: expected at least one triangle, got none")
+    return mesh
+
+
+def write_occluder_glb(original, occluder, path: str | os.PathLike) -> Path:
+    """Write a glTF binary holding the original (grey, translucent) and the occluder (coloured).
+
+    Parameters
+    ----------
+    original : trimesh.Trimesh
+        The mesh the occluder stands for.
+    occluder : trimesh.Trimesh
+        The occluder, in the same coordinates.
+    path : path-like
+        Output file, ending in ``.glb``; its folder is created if missing.
+
+    Returns
+    -------
+    path : Path
+        The file written (atomically).
+
+    Raises
+    ------
+    InputError
+        If a mesh is not a ``trimesh.Trimesh`` or has no triangles, or
+        ``path`` does not end in ``.glb``.
+
+    Notes
+    -----
+    Two meshes and nodes named ``original`` and ``occluder``, each with one
+    PBR material (metallic 0): the original's base colour is
+    :data:`ORIGINAL_RGBA` with ``alphaMode`` BLEND, the occluder's
+    :data:`OCCLUDER_RGBA` with ``alphaMode`` OPAQUE; both double-sided, since
+    occluders may be open or single polygons. No normals are stored, so
+    viewers shade flat (glTF 2.0, sec. 3.7.2.1). Inputs are not modified.
+
+    Examples
+    --------
+    >>> import tempfile, trimesh
+    >>> p = write_occluder_glb(trimesh.creation.icosphere(), trimesh.creation.box(),
+    ...                        Path(tempfile.mkdtemp()) / "occ.glb")
+    >>> scene = trimesh.load(p)
+    >>> sorted((k, len(g.faces)) for k, g in scene.geometry.items())
+    [('occluder', 12), ('original', 1280)]
+    """
+    import trimesh
+    from trimesh.visual import TextureVisuals
+    from trimesh.visual.material import PBRMaterial
+
+    path = Path(path)
+    if path.suffix.lower() != ".glb":
+        raise InputError(f"path {path}: expected a file ending in .glb")
+    scene = trimesh.Scene()
+    for name, mesh, rgba, mode in (("original", original, ORIGINAL_RGBA, "BLEND"),
+                                   ("occluder", occluder, OCCLUDER_RGBA, "OPAQUE")):
+        mesh = _as_triangles(mesh, name)
+        material = PBRMaterial(name=name, baseColorFactor=list(rgba), alphaMode=mode,
+                               doubleSided=True, metallicFactor=0.0, roughnessFactor=0.9)
+        copy = trimesh.Trimesh(np.asarray(mesh.vertices, dtype=np.float64),
+                               np.asarray(mesh.faces, dtype=np.int64), process=False,
+                               visual=TextureVisuals(material=material))
+        scene.add_geometry(copy, geom_name=name, node_name=name)
+    write_atomic(path, scene.export(file_type="glb"))
+    return path
