@@ -1,14 +1,19 @@
-"""generators: occluder generators, one module per method, plus baselines.
+"""viscore.generators: occluder generators, one module per method, plus baselines.
 
-Every generator is ``generate(mesh, **params) -> Occluder`` and is registered
-by its CLI name in :data:`REGISTRY` (DESIGN.md, "Generators").
+Every generator is ``function(mesh, *, budget=..., seed=..., **options) -> Occluder``
+and is registered by its CLI name in :data:`REGISTRY`, with its options
+declared there (:class:`GeneratorSpec`, :class:`GeneratorOption`). Run one by
+name with :func:`generate`, which checks the options first and flags an
+occluder over its budget. ``Occluder.parts`` follows the schema documented in
+:mod:`viscore.generators.occluder` (:func:`check_parts`).
 """
 
 from .aabb_skins import boxes_mesh, generate_aabb_skins
 from .baselines import generate_bbox, generate_original, generate_qem
-from .occluder import Occluder
-from .registry import REGISTRY, GeneratorSpec, generate, get_generator
+from .godot import generate_godot
+from .occluder import Occluder, check_parts
+from .registry import REGISTRY, GeneratorOption, GeneratorSpec, generate, get_generator
 
-__all__ = ["Occluder", "REGISTRY", "GeneratorSpec", "generate", "get_generator",
-           "generate_aabb_skins", "boxes_mesh", "generate_qem", "generate_bbox",
-           "generate_original"]
+__all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOption",
+           "generate", "get_generator", "generate_aabb_skins", "boxes_mesh", "generate_qem",
+           "generate_bbox", "generate_original", "generate_godot"]

@@ -1,11 +1,27 @@
 """Baselines every study includes: quadric decimation, the bounding box, the original.
 
 - ``qem``: quadric edge-collapse decimation (pymeshlab) down to the triangle
-  budget; the stand-in for the commercial simplifiers that seed 000 (Table 1,
-  "Max") and seed 001 (Table 2) compare against. Not conservative.
+  budget [1]_; the stand-in for the commercial simplifiers that the planar
+  sections paper [2]_ (Table 1) and the building occluder paper [3]_ (Table 2)
+  compare against. Not conservative.
 - ``bbox``: the mesh's axis-aligned bounding box, 12 triangles; the
   non-conservative extreme (precision low, recall 1 on the orbit protocol).
+  Not budgeted: :func:`viscore.generators.generate` flags a budget under 12.
 - ``original``: the mesh itself; P = R = 1, a check on the metrics.
+
+The engine baseline ``godot`` lives in :mod:`viscore.generators.godot`.
+
+References
+----------
+.. [1] Garland, M., Heckbert, P. S. "Surface Simplification Using Quadric Error
+   Metrics". Proceedings of SIGGRAPH '97, ACM, 1997, pp. 209-216.
+   :DOI:`10.1145/258734.258849`
+.. [2] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification Using Planar Sections". Computer Graphics Forum 33(1),
+   2014, pp. 235-245. :DOI:`10.1111/cgf.12271`
+.. [3] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
 """
 
 from __future__ import annotations
@@ -83,6 +99,9 @@ def generate_bbox(mesh: trimesh.Trimesh, *, budget: int | None = None, seed: int
                   ) -> Occluder:
     """The axis-aligned bounding box of the mesh as a closed 12-triangle box.
 
+    ``budget`` is ignored (always 12 triangles) and ``seed`` unused; both are
+    accepted for the common signature. ``parts["boxes"]`` is the box, (1, 2, 3).
+
     Examples
     --------
     >>> generate_bbox(trimesh.creation.icosphere()).triangles
@@ -98,6 +117,9 @@ def generate_bbox(mesh: trimesh.Trimesh, *, budget: int | None = None, seed: int
 def generate_original(mesh: trimesh.Trimesh, *, budget: int | None = None, seed: int = 0
                       ) -> Occluder:
     """The mesh itself (a check on the metrics: P = R = 1).
+
+    ``budget`` is ignored and ``seed`` unused; both are accepted for the
+    common signature.
 
     Examples
     --------

@@ -1,22 +1,171 @@
-"""The generator registry: the one mapping from CLI names to generator functions.
+"""The generator registry: the one mapping from CLI names to generators and their options.
 
-Each generator is ``generate(mesh, *, budget=..., seed=..., **params) -> Occluder``.
-Methods that land later (planar sections, hybrid, solid frusta) add one entry
-here and join every study without other changes.
+Each generator is ``function(mesh, *, budget=..., seed=..., **options) -> Occluder``.
+Its :class:`GeneratorSpec` declares the options beyond ``budget`` and ``seed``
+(:class:`GeneratorOption`: name, type, default, range, choices, help); the
+command line builds ``viscore generate METHOD`` and its flags from them, and
+:func:`generate` checks every value against them before any work. A new method
+is one module plus one entry in :data:`REGISTRY`: it then appears in
+``viscore generate --help`` and joins every study, with no change under ``cli/``.
+
+References
+----------
+.. [1] Garland, M., Heckbert, P. S. "Surface Simplification Using Quadric Error
+   Metrics". Proceedings of SIGGRAPH '97, ACM, 1997, pp. 209-216.
+   :DOI:`10.1145/258734.258849` (the ``qem`` baseline)
+.. [2] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification Using Planar Sections". Computer Graphics Forum 33(1),
+   2014, pp. 235-245. :DOI:`10.1111/cgf.12271` (decimation and the bounding
+   box as the baselines of occluder simplification)
+.. [3] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669` (engine and simplifier baselines)
+.. [4] Naaji, K. "Automatic Occluder Generation". A Graphics Diary (blog),
+   15 Nov 2019, and its ``melt`` library (box filling, as in ``aabb-skins``)
 """
 
 from __future__ import annotations
 
+import dataclasses
+import logging
+import math
+import numbers
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from viscore import InputError
+from viscore._validate import as_positive_int, as_seed
 
 from .aabb_skins import generate_aabb_skins
 from .baselines import generate_bbox, generate_original, generate_qem
+from .godot import generate_godot
 from .occluder import Occluder
 
-__all__ = ["GeneratorSpec", "REGISTRY", "get_generator", "generate"]
+__all__ = ["GeneratorOption", "GeneratorSpec", "REGISTRY", "get_generator", "generate",
+           "COMMON_OPTIONS"]
+
+_log = logging.getLogger(__name__)
+
+#: Option types a spec may declare.
+_TYPES = {int: "an integer", float: "a number", str: "a string"}
+
+
+@dataclass(frozen=True)
+class GeneratorOption:
+    """One keyword option of a generator, as the registry declares it.
+
+    Attributes
+    ----------
+    name : str
+        The generator's keyword (``max_boxes``); the CLI flag is the same
+        with dashes (``--max-boxes``).
+    type : {int, float, str}
+        Value type. Integers are not accepted for ``str``; integers are
+        accepted for ``float``; floats are refused for ``int``.
+    default : object
+        The generator's own default (a test checks the two agree); ``None``
+        when the default is computed from the mesh (``help`` says how).
+    help : str
+        One line for ``--help``, with the unit of lengths.
+    low, high : float, optional
+        Range of numbers, inclusive unless ``low_open`` / ``high_open``.
+        Floats are also required to be finite.
+    low_open, high_open : bool, optional
+        Exclude the bound itself (``(0, 1]`` is ``low=0, low_open=True, high=1``).
+    choices : tuple of str, optional
+        The values a ``str`` option takes.
+    nullable : bool, optional
+        ``None`` is a valid value (on the CLI: ``none``), e.g. no box limit.
+    default_text : str, optional
+        How ``--help`` states a default computed from the mesh.
+    """
+
+    name: str
+    type: type
+    default: object
+    help: str
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    high_open: bool = False
+    choices: tuple[str, ...] | None = None
+    nullable: bool = False
+    default_text: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.type not in _TYPES:
+            raise TypeError(f"option {self.name}: type must be int, float or str")
+
+    @property
+    def flag(self) -> str:
+        """The command-line flag, ``--`` and the name with dashes."""
+        return "--" + self.name.replace("_", "-")
+
+    def expected(self) -> str:
+        """What a valid value is, in words: ``an integer >= 1``, ``one of a, b``."""
+        if self.choices:
+            text = "one of " + ", ".join(self.choices)
+        else:
+            text = _TYPES[self.type]
+            bounds = []
+            if self.low is not None:
+                bounds.append(f"{'>' if self.low_open else '>='} {self.low:g}")
+            if self.high is not None:
+                bounds.append(f"{'<' if self.high_open else '<='} {self.high:g}")
+            if bounds:
+                text += " " + " and ".join(bounds)
+        return text + (", or none" if self.nullable else "")
+
+    def check(self, value: object, label: str | None = None) -> object:
+        """``value`` converted to the option's type, or :class:`InputError` naming ``label``."""
+        label = label or self.name
+        if value is None and self.nullable:
+            return None
+        bad = InputError(f"{label}: expected {self.expected()}, got {value!r}")
+        if self.type is str:
+            if not isinstance(value, str) or (self.choices and value not in self.choices):
+                raise bad
+            return value
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise bad
+        if self.type is int:
+            if not isinstance(value, numbers.Integral):
+                raise bad
+            value = int(value)
+        else:
+            value = float(value)
+            if not math.isfinite(value):
+                raise bad
+        if self.low is not None and (value < self.low or (self.low_open and value == self.low)):
+            raise bad
+        if self.high is not None and (value > self.high
+                                      or (self.high_open and value == self.high)):
+            raise bad
+        return value
+
+    def parse(self, text: str, label: str | None = None) -> object:
+        """A command-line string converted and checked, or :class:`InputError`."""
+        label = label or self.flag
+        if self.nullable and text.strip().lower() == "none":
+            return None
+        if self.type is str:
+            return self.check(text, label)
+        try:
+            value = int(text) if self.type is int else float(text)
+        except ValueError:
+            raise InputError(f"{label}: expected {self.expected()}, got {text!r}") from None
+        return self.check(value, label)
+
+    def describe(self) -> str:
+        """The ``--help`` line: help, accepted values and default."""
+        default = self.default_text or ("none" if self.default is None else self.default)
+        return f"{self.help} ({self.expected()}; default: {default})"
+
+
+#: Options every generator takes, handled by :func:`generate` itself: ``budget``
+#: (a generator that ignores it or cannot meet it is flagged, see :func:`generate`)
+#: and ``seed`` (the one seed rule, :func:`viscore._validate.as_seed`).
+COMMON_OPTIONS = ("budget", "seed")
 
 
 @dataclass(frozen=True)
@@ -28,9 +177,11 @@ class GeneratorSpec:
     name : str
         CLI name.
     function : callable
-        ``(mesh, *, budget, seed, **params) -> Occluder``.
+        ``(mesh, *, budget, seed, **options) -> Occluder``.
     description : str
         One line for ``--help`` and reports.
+    options : tuple of GeneratorOption
+        The keyword options beyond ``budget`` and ``seed``.
     conservative : bool
         Whether the method guarantees conservativeness on closed meshes.
     experimental : bool
@@ -45,19 +196,92 @@ class GeneratorSpec:
     name: str
     function: Callable[..., Occluder]
     description: str
+    options: tuple[GeneratorOption, ...] = ()
     conservative: bool = False
     experimental: bool = False
     baseline: bool = False
     budgeted: bool = True
 
+    def option(self, name: str) -> GeneratorOption:
+        """The declared option called ``name`` (KeyError if none)."""
+        for opt in self.options:
+            if opt.name == name:
+                return opt
+        raise KeyError(name)
+
+    def check_params(self, params: dict, *, flags: bool = False) -> dict:
+        """Check every parameter against the spec before any work.
+
+        Parameters
+        ----------
+        params : dict
+            Keyword parameters for :attr:`function`: ``budget``, ``seed`` and
+            declared options.
+        flags : bool, optional
+            Name options by their CLI flag in messages (``--max-boxes``).
+
+        Returns
+        -------
+        dict
+            The parameters converted to their declared types.
+
+        Raises
+        ------
+        InputError
+            One line naming the first unknown option (and listing the valid
+            ones) or the first value out of type or range.
+        """
+        known = {o.name: o for o in self.options}
+        name = (lambda k: "--" + k.replace("_", "-")) if flags else (lambda k: k)
+        out = {}
+        for key, value in params.items():
+            if key == "budget":
+                out[key] = None if value is None else as_positive_int(value, name(key))
+            elif key == "seed":
+                out[key] = as_seed(value, name(key))
+            elif key in known:
+                out[key] = known[key].check(value, name(key))
+            else:
+                valid = ", ".join(name(k) for k in (*COMMON_OPTIONS, *known))
+                raise InputError(f"{self.name}: unknown option {name(key)} (takes: {valid})")
+        return out
+
 
 REGISTRY: dict[str, GeneratorSpec] = {
     spec.name: spec for spec in [
-        GeneratorSpec("aabb-skins", generate_aabb_skins,
-                      "greedy maximal boxes inside the voxelized mesh (seeds 002, 003)",
-                      conservative=True),
+        GeneratorSpec(
+            "aabb-skins", generate_aabb_skins,
+            "greedy maximal axis-aligned boxes inside the voxelized mesh (occluder skins)",
+            options=(
+                GeneratorOption("voxels", int, 64, "voxels along the longest bounding-box side",
+                                low=1),
+                GeneratorOption("voxel_size", float, None,
+                                "voxel side in world units; overrides --voxels",
+                                low=0, low_open=True, nullable=True),
+                GeneratorOption("max_boxes", int, 16, "stop after this many boxes", low=1,
+                                nullable=True),
+                GeneratorOption("fill", float, 0.9,
+                                "stop once the boxes cover this share of the inner voxels",
+                                low=0, low_open=True, high=1),
+                GeneratorOption("min_volume", float, 0.0,
+                                "stop at the first box smaller than this, world units^3",
+                                low=0),
+                GeneratorOption("seed_voxel", str, "max-volume",
+                                "largest box over all voxels, or grow from the densest voxel",
+                                choices=("max-volume", "densest")),
+            ),
+            conservative=True),
         GeneratorSpec("qem", generate_qem, "quadric edge-collapse decimation to the budget",
                       baseline=True),
+        GeneratorSpec(
+            "godot", generate_godot,
+            "Godot 4's occluder bake: meshoptimizer simplify per surface, borders locked",
+            options=(
+                GeneratorOption("distance", float, None,
+                                "bake simplification distance in world units; 0 keeps the mesh",
+                                low=0, default_text="1% of the bounding-box diagonal"),
+            ),
+            baseline=True, budgeted=False),
         GeneratorSpec("bbox", generate_bbox, "the bounding box (non-conservative extreme)",
                       baseline=True, budgeted=False),
         GeneratorSpec("original", generate_original, "the mesh itself (P = R = 1 check)",
@@ -76,12 +300,48 @@ def get_generator(name: str) -> GeneratorSpec:
 
 
 def generate(name: str, mesh, **params) -> Occluder:
-    """Run the generator registered as ``name`` on ``mesh`` with ``params``.
+    """Run the generator registered as ``name`` on ``mesh`` with checked ``params``.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`REGISTRY`.
+    mesh : trimesh.Trimesh
+        The input mesh.
+    **params
+        ``budget`` (int, optional), ``seed`` (int, optional) and the options
+        the spec declares; checked against it before the generator runs.
+
+    Returns
+    -------
+    Occluder
+        When ``budget`` is given, ``info["over_budget"]`` says whether the
+        occluder has more triangles than the budget; when it does (a method
+        that ignores the budget, or could not meet it), one warning is logged.
+
+    Raises
+    ------
+    InputError
+        Unknown method or option, or a value out of type or range.
 
     Examples
     --------
     >>> import trimesh
     >>> generate("bbox", trimesh.creation.icosphere()).triangles
     12
+    >>> generate("bbox", trimesh.creation.icosphere(), budget=5).info["over_budget"]
+    True
     """
-    return get_generator(name).function(mesh, **params)
+    spec = get_generator(name)
+    params = spec.check_params(params)
+    occ = spec.function(mesh, **params)
+    budget = params.get("budget")
+    if budget is None:
+        return occ
+    over = occ.triangles > budget
+    if over:
+        why = ("it could not reach it" if spec.budgeted
+               else "this method does not take a budget")
+        _log.warning("%s: %d triangles exceed the budget of %d (%s)",
+                     name, occ.triangles, budget, why)
+    return dataclasses.replace(occ, info={**occ.info, "over_budget": bool(over)})
