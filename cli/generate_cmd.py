@@ -1,59 +1,108 @@
-"""``viscore generate METHOD MESH -o OUT``: run one registered generator."""
+"""``viscore generate METHOD MESH -o OUT [options]``: run one registered generator.
+
+The methods, their descriptions and their options all come from
+:data:`viscore.generators.REGISTRY`: this module has no per-method code.
+"""
 
 from __future__ import annotations
 
+import argparse
 import logging
+import numbers
 
-from viscore.generators import REGISTRY, get_generator
+from viscore.generators import REGISTRY, generate, get_generator
 
 from viscore import InputError, load_mesh, provenance
+from viscore._validate import as_seed
 
 from ._common import check_mesh_path, emit, write_mesh
 
 _log = logging.getLogger("viscore")
 
+_BUDGET_HELP = "triangle budget, a positive integer"
+
+
+def _option_type(option):
+    """argparse ``type`` that parses and range-checks one declared option."""
+    def convert(text: str):
+        try:
+            return option.parse(text)
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(str(exc).removeprefix(f"{option.flag}: ")) from None
+    convert.__name__ = option.name  # argparse names the type in some messages
+    return convert
+
+
+def _budget(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
+
 
 def add_parser(sub, common) -> None:
-    g = sub.add_parser("generate", parents=[common], help="generate an occluder")
-    g.add_argument("method", help=f"one of: {', '.join(REGISTRY)}")
-    g.add_argument("mesh", help="mesh file or built-in scene name")
-    g.add_argument("-o", "--output", required=True, help="occluder mesh file (.ply, .obj, ...)")
-    g.add_argument("--budget", type=int, default=None, help="triangle budget")
-    g.add_argument("--voxels", type=int, default=None,
-                   help="voxels along the longest bounding-box side")
-    g.add_argument("--voxel-size", type=float, default=None, help="voxel side, world units")
-    g.add_argument("--max-boxes", type=int, default=None, help="aabb-skins: box limit")
-    g.add_argument("--fill", type=float, default=None,
-                   help="aabb-skins: stop at this share of the inner volume")
-    g.add_argument("--min-volume", type=float, default=None,
-                   help="aabb-skins: smallest box volume, world units^3")
-    g.add_argument("--seed-voxel", choices=["max-volume", "densest"], default=None,
-                   help="aabb-skins: largest box over all voxels, or grow from the densest")
-    g.set_defaults(run=run_generate)
+    g = sub.add_parser(
+        "generate", help="generate an occluder",
+        description="Generate an occluder with one registered method; "
+                    "'viscore generate METHOD --help' lists the method's options.")
+    methods = g.add_subparsers(dest="method", metavar="METHOD", title="methods")
+    methods.required = True
+    for name, spec in REGISTRY.items():
+        budget_help = (_BUDGET_HELP if spec.budgeted else
+                       _BUDGET_HELP + "; this method does not take one, and warns when its "
+                       "result exceeds it")
+        m = methods.add_parser(
+            name, parents=[common],
+            help=spec.description + (" [experimental]" if spec.experimental else ""),
+            description=f"{name}: {spec.description}."
+                        + (" Conservative on closed meshes." if spec.conservative else "")
+                        + (" Experimental: not yet validated." if spec.experimental else ""))
+        m.add_argument("mesh", help="mesh file or built-in scene name")
+        m.add_argument("-o", "--output", required=True, help="occluder mesh file (.ply, .obj, ...)")
+        m.add_argument("--budget", type=_budget, default=None, help=budget_help)
+        for option in spec.options:
+            m.add_argument(option.flag, dest=option.name, type=_option_type(option),
+                           default=argparse.SUPPRESS, help=option.describe().replace("%", "%%"),
+                           metavar="|".join(option.choices) if option.choices
+                           else option.name.upper())
+        m.set_defaults(run=run_generate)
+
+
+def _format_info(info: dict) -> str:
+    parts = []
+    for key, value in info.items():
+        if isinstance(value, bool):
+            parts.append(f"{key}={str(value).lower()}")
+        elif isinstance(value, numbers.Integral):
+            parts.append(f"{key}={int(value)}")
+        elif isinstance(value, numbers.Real):
+            parts.append(f"{key}={float(value):.4g}")
+        elif isinstance(value, str):
+            parts.append(f"{key}={value}")
+    return f" ({', '.join(parts)})" if parts else ""
 
 
 def run_generate(args) -> int:
     spec = get_generator(args.method)
     check_mesh_path(args.output)
+    params = {o.name: getattr(args, o.name) for o in spec.options if hasattr(args, o.name)}
+    params["seed"] = as_seed(args.seed, "--seed")
+    if args.budget is not None:
+        params["budget"] = args.budget
+    params = spec.check_params(params, flags=True)  # before any work
     if spec.experimental:
         _log.warning("%s is experimental: not yet validated", spec.name)
-    names = {"budget": "budget", "voxels": "voxels", "voxel_size": "voxel_size",
-             "max_boxes": "max_boxes", "fill": "fill", "min_volume": "min_volume",
-             "seed_voxel": "seed_voxel"}
-    params = {k: getattr(args, a) for a, k in names.items() if getattr(args, a) is not None}
-    params["seed"] = args.seed
     mesh = load_mesh(args.mesh)
-    try:
-        occ = spec.function(mesh, **params)
-    except TypeError as exc:  # an option the method does not take
-        raise InputError(f"{args.method}: {exc}") from exc
+    occ = generate(spec.name, mesh, **params)
     if occ.triangles == 0:
-        raise InputError(f"{args.mesh}: {args.method} produced no triangles "
-                         f"({', '.join(f'{k}={v}' for k, v in occ.info.items())})")
+        raise InputError(f"{args.mesh}: {args.method} produced no triangles"
+                         f"{_format_info(occ.info)}")
     write_mesh(args.output, occ.mesh)
-    doc = {"mesh": args.mesh, "output": args.output, **occ.summary(), "seed": args.seed,
+    doc = {"mesh": args.mesh, "output": args.output, **occ.summary(), "seed": params["seed"],
            "provenance": provenance()}
     emit(doc, args.json, f"{args.method}: {occ.triangles} triangles in {occ.seconds:.2f} s -> "
-         f"{args.output}" + (f" ({occ.info['boxes']} boxes, {occ.info['inside']} inside, "
-                             f"fill {occ.info['fill']:.3f})" if "boxes" in occ.info else ""))
+         f"{args.output}{_format_info(occ.info)}")
     return 0

@@ -1,7 +1,19 @@
 """The ``viscore`` command line: parse, call one public function, format.
 
-Exit codes: 0 success, 1 a check that ran and failed (``validate``), 2 bad
-input or usage, with one line on stderr saying what and where.
+Exit codes, the same for every subcommand:
+
+- 0: success.
+- 1: a check that ran and failed (``validate``).
+- 2: bad input or usage (an option out of range, a missing or unreadable file,
+  an unwritable output): one line on stderr naming the option or file and the
+  problem.
+- 3: internal error (a bug, or a library failing on input it should have
+  handled): one line on stderr saying so; run again with ``viscore --debug``
+  for the traceback.
+- 130: interrupted (Ctrl-C), one line on stderr.
+
+``--quiet`` silences log lines (INFO and WARNING), so a failing command prints
+exactly its one error line.
 """
 
 from __future__ import annotations
@@ -9,28 +21,76 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import traceback
 
 from viscore import InputError, set_workers
+from viscore._validate import as_seed
 
 from . import bench_cmd, compare_cmd, data_cmd, generate_cmd, metrics_cmd, uncertainty_cmd
 
-#: Subcommand modules; each has ``add_parser(subparsers)`` and ``run(args) -> int``.
+#: Subcommand modules; each has ``add_parser(subparsers, common)`` and sets ``run``.
 _COMMANDS = [compare_cmd, generate_cmd, metrics_cmd, uncertainty_cmd, data_cmd, bench_cmd]
+
+#: Exit codes (see the module docstring and the README).
+EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+
+#: Longest error line printed (long library messages are cut).
+_MAX_LINE = 400
 
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # usage errors: one line, exit 2
-        print(f"viscore: error: {message} (see 'viscore --help')", file=sys.stderr)
-        raise SystemExit(2)
+        print(f"viscore: error: {_one_line(message)} (see '{self.prog} --help')",
+              file=sys.stderr)
+        raise SystemExit(EXIT_BAD_INPUT)
+
+
+class _StderrHandler(logging.StreamHandler):
+    """Writes to whatever ``sys.stderr`` is at the time of each record."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.setFormatter(logging.Formatter("viscore: %(message)s"))
+
+    @property
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value) -> None:  # StreamHandler.__init__ assigns it; ignore
+        pass
+
+
+def _one_line(text: object) -> str:
+    line = " ".join(str(text).split())
+    return line if len(line) <= _MAX_LINE else line[: _MAX_LINE - 3] + "..."
+
+
+def _seed(text: str) -> int:
+    """argparse type of ``--seed``: the one seed rule (:func:`viscore._validate.as_seed`)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a non-negative integer, got {text!r}") from None
+    try:
+        return as_seed(value, "--seed")
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("--seed: ")) from None
 
 
 def common_options() -> argparse.ArgumentParser:
-    """Options every subcommand takes: ``--json``, ``--seed``, ``--quiet``."""
+    """Options every subcommand takes: ``--json``, ``--seed``, ``--quiet``, ``--debug``."""
     p = argparse.ArgumentParser(add_help=False)
     p.add_argument("--json", action="store_true",
                    help="print one JSON document on stdout and nothing else there")
-    p.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0)")
-    p.add_argument("--quiet", action="store_true", help="no progress or log lines on stderr")
+    p.add_argument("--seed", type=_seed, default=0,
+                   help="seed of every random choice, a non-negative integer (default 0)")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress or log lines on stderr (errors only)")
+    # also accepted after the subcommand; SUPPRESS keeps a `viscore --debug ...` given before
+    p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                   help="print the traceback of an internal error")
     return p
 
 
@@ -44,11 +104,17 @@ def _version() -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="viscore", description=(
-        "Monte-Carlo visibility toolkit: generate occluders, measure them, compare methods."))
+    parser = _Parser(
+        prog="viscore",
+        description="Monte-Carlo visibility toolkit: generate occluders, measure them, "
+                    "compare methods.",
+        epilog="exit codes: 0 success, 1 a check failed (validate), 2 bad input, "
+               "3 internal error (rerun with --debug for the traceback), 130 interrupted")
     parser.add_argument("--workers", type=int, default=None,
                         help="ray-casting threads (default: one per core)")
     parser.add_argument("--verbose", action="store_true", help="log details on stderr")
+    parser.add_argument("--debug", action="store_true",
+                        help="print the traceback of an internal error (exit code 3)")
     parser.add_argument("--version", action="version", version=f"viscore {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
@@ -58,25 +124,63 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def configure_logging(*, verbose: bool = False, quiet: bool = False) -> None:
+    """Route log records to stderr, one line each, at the level the flags ask for.
+
+    ``viscore`` loggers: DEBUG with ``--verbose``, ERROR with ``--quiet``
+    (no INFO or WARNING lines), INFO otherwise. Other libraries: WARNING, or
+    ERROR with ``--quiet``. Python warnings go through logging too, so
+    ``--quiet`` silences them. Safe to call once per command in one process.
+    """
+    root = logging.getLogger()
+    for handler in [h for h in root.handlers if isinstance(h, _StderrHandler)]:
+        root.removeHandler(handler)
+    root.addHandler(_StderrHandler())
+    root.setLevel(logging.ERROR if quiet else logging.WARNING)
+    logging.getLogger("viscore").setLevel(
+        logging.DEBUG if verbose else logging.ERROR if quiet else logging.INFO)
+    logging.captureWarnings(quiet)
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one ``viscore`` command; returns the exit code (see the module docstring)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    level = logging.DEBUG if args.verbose else (
-        logging.WARNING if getattr(args, "quiet", False) else logging.INFO)
-    logging.basicConfig(level=level, stream=sys.stderr, format="viscore: %(message)s")
+    try:
+        args, extras = parser.parse_known_args(argv)
+    except SystemExit as exc:  # --help, --version, or a usage error already printed
+        return exc.code if isinstance(exc.code, int) else EXIT_OK
+    if extras:
+        where = " ".join(x for x in ("viscore", args.command, getattr(args, "method", None)) if x)
+        print(f"viscore: error: unrecognized arguments: {_one_line(' '.join(extras))} "
+              f"(see '{where} --help')", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    debug = bool(getattr(args, "debug", False))
+    configure_logging(verbose=args.verbose, quiet=getattr(args, "quiet", False))
     try:
         set_workers(args.workers)
         return int(args.run(args) or 0)
     except InputError as exc:
-        print(f"viscore: error: {exc}", file=sys.stderr)
-        return 2
+        if debug:
+            traceback.print_exc()
+        print(f"viscore: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except OSError as exc:  # unwritable output, full disk, unreadable input
+        if debug:
+            traceback.print_exc()
         where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
-        print(f"viscore: error: {exc.strerror or exc}{where}", file=sys.stderr)
-        return 2
+        print(f"viscore: error: {_one_line(exc.strerror or exc)}{where}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print("viscore: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # noqa: BLE001 - the one place internal errors are reported
+        if debug:
+            traceback.print_exc()
+        detail = _one_line(f"{type(exc).__name__}: {exc}")
+        print(f"viscore: internal error: {detail} (this is a bug; run 'viscore --debug "
+              f"{args.command} ...' for the traceback)" if not debug else
+              f"viscore: internal error: {detail}", file=sys.stderr)
+        return EXIT_INTERNAL
 
 
 if __name__ == "__main__":  # pragma: no cover

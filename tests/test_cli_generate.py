@@ -1,0 +1,124 @@
+"""``viscore generate``: methods, flags and checks built from the registry alone."""
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+from viscore.cli import generate_cmd
+from viscore.cli.main import main
+from viscore.generators import REGISTRY, GeneratorOption, GeneratorSpec, Occluder
+
+
+def _err_lines(capsys) -> list[str]:
+    return capsys.readouterr().err.strip().splitlines()
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_generate_every_registered_method_writes_the_reported_mesh(name, tmp_path, capsys):
+    out = tmp_path / f"{name}.ply"
+    assert main(["generate", name, "fat-torus", "-o", str(out), "--json", "--quiet"]) == 0
+    captured = capsys.readouterr()
+    doc = json.loads(captured.out)
+    assert captured.err == ""
+    assert doc["method"] == name and doc["triangles"] > 0
+    written = trimesh.load(out, force="mesh", process=False)
+    assert len(written.faces) == doc["triangles"]
+    # the occluder stays near the torus (R = 1, r = 0.6): inside its box grown by 5% of the
+    # diagonal (decimation and simplification may bulge a little)
+    slack = 0.05 * np.linalg.norm([3.2, 3.2, 1.2])
+    assert (np.abs(written.bounds) <= np.array([1.6, 1.6, 0.6]) + slack).all()
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_generate_budget_reported_for_every_method(name, tmp_path, capsys):
+    out = tmp_path / "o.ply"
+    assert main(["generate", name, "cow", "-o", str(out), "--budget", "64", "--json"]) == 0
+    captured = capsys.readouterr()
+    doc = json.loads(captured.out)
+    assert doc["over_budget"] == (doc["triangles"] > 64)
+    warned = [line for line in captured.err.splitlines() if "budget" in line]
+    assert len(warned) == int(doc["over_budget"])
+    if REGISTRY[name].budgeted:
+        assert not doc["over_budget"]
+
+
+def test_generate_bbox_under_budget_warns_once(tmp_path, capsys):
+    out = tmp_path / "b.ply"
+    assert main(["generate", "bbox", "cow", "-o", str(out), "--budget", "5", "--json"]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["over_budget"] is True
+    err = captured.err.strip().splitlines()
+    assert len(err) == 1 and "12 triangles exceed the budget of 5" in err[0]
+
+
+def test_generate_help_lists_methods_and_their_options(capsys):
+    assert main(["generate", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    for name, spec in REGISTRY.items():
+        assert name in text and " ".join(spec.description.split()) in text
+    for name, spec in REGISTRY.items():
+        assert main(["generate", name, "--help"]) == 0
+        text = capsys.readouterr().out
+        for option in (*spec.options, ):
+            assert option.flag in text
+        assert "--budget" in text and "--seed" in text
+
+
+def _cube_of_side(mesh, *, side=1.0, budget=None, seed=0):
+    box = trimesh.creation.box(extents=(side, side, side))
+    return Occluder(mesh=box, method="dummy", params={"side": side}, double_sided=False,
+                    seconds=0.0, info={"seed_seen": seed})
+
+
+def test_generate_dummy_spec_joins_the_cli_without_other_change(monkeypatch, tmp_path, capsys):
+    spec = GeneratorSpec("dummy", _cube_of_side, "a cube of the given side", options=(
+        GeneratorOption("side", float, 1.0, "cube side, world units", low=0, low_open=True),),
+        budgeted=False)
+    monkeypatch.setitem(REGISTRY, "dummy", spec)
+    assert main(["generate", "--help"]) == 0
+    assert "a cube of the given side" in capsys.readouterr().out
+    assert main(["generate", "dummy", "--help"]) == 0
+    assert "--side" in capsys.readouterr().out
+    out = tmp_path / "d.obj"
+    assert main(["generate", "dummy", "cow", "-o", str(out), "--side", "2.5", "--seed", "7",
+                 "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["params"] == {"side": 2.5} and doc["seed_seen"] == 7 and doc["triangles"] == 12
+    np.testing.assert_allclose(trimesh.load(out, force="mesh").extents, [2.5] * 3)
+    assert main(["generate", "dummy", "cow", "-o", str(out), "--side", "0"]) == 2
+    err = _err_lines(capsys)
+    assert len(err) == 1 and "--side" in err[0] and "> 0" in err[0]
+
+
+def test_generate_bad_option_refused_before_loading(monkeypatch, tmp_path, capsys):
+    def no_load(*a, **k):
+        raise AssertionError("the mesh must not be loaded")
+
+    monkeypatch.setattr(generate_cmd, "load_mesh", no_load)
+    out = tmp_path / "a.ply"
+    for argv in (["aabb-skins", "--voxels", "0"], ["aabb-skins", "--fill", "nan"],
+                 ["aabb-skins", "--seed-voxel", "random"], ["godot", "--distance", "-1"],
+                 ["qem", "--budget", "0"], ["qem", "--seed", "-5"], ["qem", "--voxels", "8"],
+                 ["bbox", "-o", str(tmp_path / "x.xyz")]):
+        assert main(["generate", argv[0], "cow", "-o", str(out), *argv[1:]]) == 2, argv
+        err = _err_lines(capsys)
+        assert len(err) == 1 and err[0].startswith("viscore: error:"), (argv, err)
+        assert argv[1].split("-o")[-1] in err[0] or "x.xyz" in err[0]
+    assert not out.exists()
+
+
+def test_generate_seed_rule_any_size(tmp_path, capsys):
+    out = tmp_path / "q.ply"
+    big = 2**70
+    assert main(["generate", "qem", "cow", "-o", str(out), "--budget", "32", "--seed", str(big),
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["seed"] == big
+
+
+def test_generate_nullable_option_none(tmp_path, capsys):
+    out = tmp_path / "a.ply"
+    assert main(["generate", "aabb-skins", "fat-torus", "-o", str(out), "--voxels", "16",
+                 "--max-boxes", "none", "--fill", "0.2", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["fill"] >= 0.2 and doc["triangles"] == 12 * doc["boxes"]
