@@ -1,7 +1,27 @@
-"""``viscore uncertainty MESH OCCLUDER`` and ``viscore uncertainty ablation MESH OCCLUDER``."""
+"""``viscore uncertainty MESH OCCLUDER`` and ``viscore uncertainty ablation MESH OCCLUDER``.
+
+Bootstrap intervals and hierarchical Beta models of one occluder's precision
+and recall (orbit protocol of Silvennoinen et al. 2014, sec. 6.1, or volume
+protocol of Wu et al. 2022, sec. 3.2), and the convergence ablation of Wu et
+al. 2022, Figure 10 (standard deviation against quads per view and view
+spacing). Every argument is checked, and every mesh loaded, before any work;
+the output files are written together or not at all.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1), 2014,
+   pp. 235-245. :DOI:`10.1111/cgf.12271`
+.. [2] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
+"""
 
 from __future__ import annotations
 
+import contextlib
+import os
+import tempfile
 from dataclasses import asdict
 from pathlib import Path
 
@@ -15,8 +35,15 @@ from viscore.metrics import (
 )
 
 from viscore import InputError, load_mesh, provenance
+from viscore._validate import as_fraction, as_positive_int, as_seed
 
-from ._common import dumps, emit, parse_list, write_atomic
+from ._common import dumps, emit, parse_list
+
+#: Factors of the convergence ablation.
+ABLATION_FACTORS = ("quads", "views", "spacing")
+
+#: Largest image side, pixels (the limit of the evaluation functions).
+_MAX_RESOLUTION = 8192
 
 
 def add_parser(sub, common) -> None:
@@ -43,7 +70,8 @@ def add_parser(sub, common) -> None:
     u.add_argument("--views-list", default=None, help="ablation: orbit views, e.g. 16,64,256")
     u.add_argument("--spacings", default=None,
                    help="ablation: view spacings as fractions of the diagonal (default "
-                        "0.16,0.08,0.04; seed 001 goes to 0.005, each halving costs 8x)")
+                        "0.16,0.08,0.04; Wu et al. 2022 go down to 0.005; each halving "
+                        "costs 8x)")
     u.add_argument("--versus", default=None, metavar="OCCLUDER_B",
                    help="paired comparison: a second occluder of the same mesh, same views")
     u.add_argument("--out", default="viscore-uncertainty", help="folder for tables and plots")
@@ -52,36 +80,47 @@ def add_parser(sub, common) -> None:
 
 def run_uncertainty(args) -> int:
     items = list(args.items)
-    ablation = items[0] == "ablation"
+    ablation = bool(items) and items[0] == "ablation"
     if ablation:
         items = items[1:]
     if len(items) != 2:
         raise InputError("usage: viscore uncertainty [ablation] MESH OCCLUDER")
-    mesh, occ = load_mesh(items[0]), load_mesh(items[1])
-    out = Path(args.out)
+    # every argument is checked, and every mesh loaded, before any work
+    seed = as_seed(args.seed, "--seed")
+    out = _check_out(Path(args.out))
     if ablation:
-        return _ablation(args, mesh, occ, items, out)
-    report, result, models = uncertainty_report(
-        mesh, occ, protocol=args.protocol, views=args.views, quads=args.quads,
-        resolution=args.res, directions=args.directions, threshold=args.threshold,
-        steps=args.steps, seed=args.seed)
+        if args.versus is not None:
+            raise InputError("--versus: not used by 'uncertainty ablation'")
+        options = _ablation_options(args)
+        mesh, occ = load_mesh(items[0]), load_mesh(items[1])
+        return _ablation(args, mesh, occ, items, out, seed, options)
+    options = {"protocol": args.protocol,
+               "views": as_positive_int(args.views, "--views"),
+               "quads": None if args.quads is None else as_positive_int(args.quads, "--quads"),
+               "resolution": as_positive_int(args.res, "--res", maximum=_MAX_RESOLUTION),
+               "directions": as_positive_int(args.directions, "--directions"),
+               "threshold": as_fraction(args.threshold, "--threshold"),
+               "steps": as_positive_int(args.steps, "--steps")}
+    mesh, occ = load_mesh(items[0]), load_mesh(items[1])
+    versus = load_mesh(args.versus) if args.versus is not None else None
+    report, result, models = uncertainty_report(mesh, occ, seed=seed, **options)
     paired = None
-    if args.versus:
-        other = evaluate(mesh, load_mesh(args.versus), protocol=args.protocol,
+    if versus is not None:
+        other = evaluate(mesh, versus, protocol=args.protocol,
                          **{k: v for k, v in result.params.items()
                             if k in ("views", "quads", "resolution", "spacing")},
-                         seed=args.seed)
-        paired = asdict(paired_difference(result, other, seed=args.seed))
+                         seed=seed)
+        paired = asdict(paired_difference(result, other, seed=seed))
         paired["versus"] = args.versus
     doc = {"mesh": items[0], "occluder": items[1], **report, "paired": paired,
            "per_view": {k: result.per_view[k] for k in
-                        ("precision", "recall", "quads_orig", "quads_occ", "quads_both")},
+                        ("precision", "recall", "weight", "quads_orig", "quads_occ",
+                         "quads_both") if k in result.per_view},
            "provenance": provenance()}
-    out.mkdir(parents=True, exist_ok=True)
-    write_atomic(out / "uncertainty.json", dumps(doc).encode())
-    distribution_plot(result, models, out / "per_view.png")
+    _write_outputs(out, {"per_view.png": lambda path: distribution_plot(result, models, path),
+                         "uncertainty.json": dumps(doc).encode()})
     lines = [f"{items[1]} vs {items[0]} ({report['protocol']}, {report['views']} views, "
-             f"seed {args.seed})",
+             f"seed {seed})",
              f"  precision {report['precision']:.4f}  95% percentile "
              f"{_iv(report['precision_ci'])}  BCa {_iv(report['precision_ci_bca'])}",
              f"  recall    {report['recall']:.4f}  95% percentile {_iv(report['recall_ci'])}"
@@ -107,36 +146,112 @@ def run_uncertainty(args) -> int:
     return 0
 
 
+def _check_out(out: Path) -> Path:
+    """The output folder, refused (InputError) unless it is or can be made a writable folder.
+
+    Only the last component is created, later; a missing parent is an error.
+    """
+    if out.exists() or out.is_symlink():
+        if not out.is_dir():
+            raise InputError(f"--out: {out} exists and is not a folder")
+        folder = out
+    else:
+        folder = out.parent if str(out.parent) else Path(".")
+        if not folder.is_dir():
+            raise InputError(f"--out: folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(f"--out: folder {folder} is not writable")
+    return out
+
+
+def _write_outputs(out: Path, files: dict) -> None:
+    """Write every output to a temporary file in ``out``, then move all of them in place.
+
+    ``files`` maps a file name to its bytes or to a function writing that
+    file at a given path (a plot). Nothing is moved unless every file was
+    written; the files are moved in the given order (put the main document
+    last). On failure the temporary files, and ``out`` if this call created
+    it and it is empty, are removed; an OSError names the output file.
+    """
+    created = not out.exists()
+    out.mkdir(exist_ok=True)
+    mode = _file_mode()
+    temps: dict[str, Path] = {}
+    name = None
+    try:
+        for name, content in files.items():
+            stem, dot, suffix = name.rpartition(".")
+            fd, tmp = tempfile.mkstemp(dir=out, prefix=f".{stem}.", suffix=f"{dot}{suffix}")
+            temps[name] = Path(tmp)
+            if callable(content):
+                os.close(fd)
+                content(Path(tmp))
+            else:
+                with os.fdopen(fd, "wb") as fh:
+                    fh.write(content)
+                    fh.flush()
+                    os.fsync(fh.fileno())
+            os.chmod(tmp, mode)
+        for name, tmp in temps.items():
+            os.replace(tmp, out / name)
+    except BaseException as exc:
+        for tmp in temps.values():
+            tmp.unlink(missing_ok=True)
+        if created:
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        if isinstance(exc, OSError) and name is not None:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(out / name)) from exc
+        raise
+
+
+def _file_mode() -> int:
+    """Mode of a new file under the current umask (mkstemp's files are 0600)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def _iv(pair, digits: int = 4) -> str:
     return "[" + ", ".join("nan" if v is None or v != v else f"{v:.{digits}g}"
                            for v in pair) + "]"
 
 
-def _ablation(args, mesh, occ, items, out) -> int:
-    import sys
-
+def _ablation_options(args) -> dict:
+    """Checked options of ``uncertainty ablation``."""
     factors = tuple(f.strip() for f in args.factors.split(",") if f.strip())
-    bad = [f for f in factors if f not in ("quads", "views", "spacing")]
+    bad = [f for f in factors if f not in ABLATION_FACTORS]
     if bad or not factors:
-        raise InputError(f"--factors: expected some of quads,views,spacing, got {args.factors!r}")
-    quiet = args.quiet or args.json
+        raise InputError(f"--factors: expected some of {','.join(ABLATION_FACTORS)}, "
+                         f"got {args.factors!r}")
+    repeats = as_positive_int(args.repeats, "--repeats")
+    if repeats < 2:
+        raise InputError(f"--repeats: at least 2 to estimate a standard deviation, got {repeats}")
     lists = {name: parse_list(arg, kind, option) for name, arg, kind, option in (
         ("quads_list", args.quads_list, int, "--quads-list"),
         ("views_list", args.views_list, int, "--views-list"),
-        ("spacing_list", args.spacings, float, "--spacings")) if arg}
+        ("spacing_list", args.spacings, float, "--spacings")) if arg is not None}
+    for value in lists.get("spacing_list", ()):
+        as_fraction(value, "--spacings")
+    return {"factors": factors, "repeats": repeats, **lists}
+
+
+def _ablation(args, mesh, occ, items, out, seed, options) -> int:
+    import sys
+
+    quiet = args.quiet or args.json
     result = convergence_ablation(
-        mesh, occ, factors=factors, repeats=args.repeats, seed=args.seed, **lists,
+        mesh, occ, seed=seed, **options,
         progress=None if quiet else (lambda text: print(f"ablation: {text}", file=sys.stderr)))
-    out.mkdir(parents=True, exist_ok=True)
     doc = {"mesh": items[0], "occluder": items[1], **asdict(result), "provenance": provenance()}
-    write_atomic(out / "ablation.json", dumps(doc).encode())
     head = "factor,value,protocol,precision_mean,precision_sd,recall_mean,recall_sd,repeats\n"
     csv = head + "".join(
         f"{r['factor']},{r['value']},{r['protocol']},{r['precision_mean']},"
         f"{r['precision_sd']},{r['recall_mean']},{r['recall_sd']},{r['repeats']}\n"
         for r in result.rows)
-    write_atomic(out / "ablation.csv", csv.encode())
-    ablation_plot(result, out / "ablation.png")
+    _write_outputs(out, {"ablation.png": lambda path: ablation_plot(result, path),
+                         "ablation.csv": csv.encode(),
+                         "ablation.json": dumps(doc).encode()})
     lines = [f"{'factor':<8} {'value':>8} {'sd(P)':>10} {'sd(R)':>10} {'mean P':>8} {'mean R':>8}"]
     lines += [f"{r['factor']:<8} {r['value']:>8g} {r['precision_sd']:>10.2e} "
               f"{r['recall_sd']:>10.2e} {r['precision_mean']:>8.4f} {r['recall_mean']:>8.4f}"
