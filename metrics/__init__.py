@@ -25,6 +25,7 @@ from .orbit import orbit_frame, orbit_precision_recall, view_counts
 from .paired import PairedDifference, paired_difference
 from .precision_recall import PrecisionRecall
 from .quads import QuadCounts, classify_quads, classify_quads_depth, sample_quads
+from .reference_views import PROTOCOLS, ReferenceViews
 from .silhouettes import SILHOUETTE_COLOURS, silhouette_image
 from .uncertainty import distribution_plot, uncertainty_report
 from .volume import evaluation_box, volume_positions, volume_precision_recall
@@ -38,16 +39,44 @@ __all__ = [
     "bootstrap_ratio", "PairedDifference", "paired_difference", "BetaModelSummary",
     "hierarchical_beta_model", "AblationResult", "convergence_ablation", "ablation_plot",
     "uncertainty_report", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",
-    "evaluation_box",
+    "evaluation_box", "ReferenceViews", "PROTOCOLS",
 ]
 
 
 def evaluate(mesh, occluder, *, protocol: str = "orbit", **params) -> PrecisionRecall:
-    """Precision and recall by protocol name: 'orbit' or 'volume' (keywords passed on)."""
+    """Precision and recall by protocol name (settings passed on as keywords).
+
+    Parameters
+    ----------
+    mesh, occluder : trimesh.Trimesh
+        The original and the occluder (None or empty: covers nothing).
+    protocol : {'orbit', 'volume'}, optional
+        Default 'orbit'.
+    **params
+        Settings of that protocol: those of :func:`orbit_precision_recall` or
+        :func:`volume_precision_recall`.
+
+    Returns
+    -------
+    PrecisionRecall
+
+    Raises
+    ------
+    InputError
+        On an unknown protocol (the message lists the valid names), a setting
+        the protocol does not have, or a bad value.
+    """
+    import inspect
+
     from viscore import InputError
 
-    if protocol == "orbit":
-        return orbit_precision_recall(mesh, occluder, **params)
-    if protocol == "volume":
-        return volume_precision_recall(mesh, occluder, **params)
-    raise InputError(f"protocol: expected 'orbit' or 'volume', got {protocol!r}")
+    from .reference_views import check_protocol
+
+    function = {"orbit": orbit_precision_recall,
+                "volume": volume_precision_recall}[check_protocol(protocol)]
+    known = list(inspect.signature(function).parameters)[2:]
+    unknown = sorted(set(params) - set(known))
+    if unknown:
+        raise InputError(f"{unknown[0]}: not a setting of the {protocol} protocol "
+                         f"(settings: {', '.join(known)})")
+    return function(mesh, occluder, **params)

@@ -1,4 +1,4 @@
-"""Ray casting of both meshes for a batch of cameras (shared by orbit and volume)."""
+"""Ray casting for the evaluation protocols (shared by the metrics modules)."""
 
 from __future__ import annotations
 
@@ -33,6 +33,37 @@ def cast_depths(scene: Scene | None, origins: np.ndarray, directions: np.ndarray
     timing["seconds_rays"] = timing.get("seconds_rays", 0.0) + time.perf_counter() - start
     timing["rays"] = timing.get("rays", 0) + len(origins)
     return t.reshape(images, resolution, resolution)
+
+
+def cast_hits(scene: Scene, origins: np.ndarray, directions: np.ndarray, timing: dict, *,
+              depth: bool) -> np.ndarray:
+    """``(n,)`` first-hit distances (``inf`` on a miss) with ``depth``, else hit flags."""
+    start = time.perf_counter()
+    if depth:
+        out, _ = scene.first_hit(origins, directions)
+    else:
+        out = scene.any_hit(origins, directions)
+    timing["seconds_rays"] = timing.get("seconds_rays", 0.0) + time.perf_counter() - start
+    timing["rays"] = timing.get("rays", 0) + len(origins)
+    return out
+
+
+def ortho_box_rays(camera, box: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """The rays of ``camera.rays()`` for the pixels of ``box`` only, row-major.
+
+    ``box`` is (row0, col0, row1, col1), exclusive ends. Computed with the
+    same arithmetic as :meth:`viscore.OrthoCamera.rays`, so the origins are
+    bit for bit those of the whole image's rays (a test checks it).
+    """
+    f, r, u = camera.basis
+    res = camera.resolution
+    c = (np.arange(res) + 0.5) / res - 0.5
+    r0, c0, r1, c1 = box
+    x = np.tile(c[c0:c1], r1 - r0)
+    y = np.repeat(-c[r0:r1], c1 - c0)
+    plane = camera.center + camera.extent * (x[:, None] * r + y[:, None] * u)
+    origins = plane - camera.start * f
+    return origins, np.broadcast_to(f, origins.shape)
 
 
 def depths(scene: Scene | None, cameras: list, timing: dict) -> np.ndarray:

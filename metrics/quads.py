@@ -26,6 +26,10 @@ import numpy as np
 __all__ = ["QuadCounts", "sample_quads", "classify_quads", "classify_quads_depth",
            "summed_area_table"]
 
+# Shared with the sibling modules (not user API): depth_levels_of, rect_sums,
+# level_sums, quad_pixels, tally, level_table_bytes, ImageQuads, image_quads,
+# occluder_counts.
+
 
 @dataclass(frozen=True)
 class QuadCounts:
@@ -113,7 +117,18 @@ def sample_quads(box: tuple[int, int, int, int], count: int, rng: np.random.Gene
     return np.stack([y, x, y + h, x + w], axis=1)
 
 
-def _tally(n: np.ndarray, a: np.ndarray, b: np.ndarray) -> QuadCounts:
+def quad_pixels(quads: np.ndarray) -> np.ndarray:
+    """``(Q,) int64`` pixels in each quad."""
+    q = quads.astype(np.int64, copy=False)
+    return (q[:, 2] - q[:, 0]) * (q[:, 3] - q[:, 1])
+
+
+def tally(n: np.ndarray, a: np.ndarray, b: np.ndarray) -> QuadCounts:
+    """The one Nt / Pf / Nf bookkeeping of every protocol, from per-quad counts.
+
+    ``n`` pixels per quad, ``a`` of them occluded by the original, ``b`` by
+    the occluder (``(Q,)`` integers each).
+    """
     full_a = a == n
     full_b = b == n
     both = full_a & full_b
@@ -142,21 +157,66 @@ def classify_quads(original: np.ndarray, occluder: np.ndarray, quads: np.ndarray
     >>> classify_quads(orig, occ, np.array([[0, 0, 2, 2], [2, 2, 4, 4]]))
     QuadCounts(nt=4, pf=4, nf=0, quads=2, q_orig=2, q_occ=1, q_both=1)
     """
+    return tally(quad_pixels(quads), rect_sums(original, quads), rect_sums(occluder, quads))
+
+
+#: Bytes one stacked summed-area table of the depth-aware variant may take; more
+#: levels than fit are counted a chunk at a time (same counts, bounded memory).
+LEVEL_TABLE_BYTES = 256 * 2**20
+
+
+def level_table_bytes(resolution: int, depth_levels: int) -> float:
+    """Peak bytes of the depth-aware level tables of one R x R image (after chunking)."""
+    per_level = 4.0 * (resolution + 1) ** 2 + resolution**2  # int32 table + bool mask
+    return per_level * min(depth_levels, max(1, LEVEL_TABLE_BYTES // int(per_level)))
+
+
+def depth_levels_of(depth: np.ndarray, depth_levels: int) -> np.ndarray | None:
+    """The quad depth values of one original depth image: midpoints of equal bins.
+
+    ``depth_levels`` evenly spaced values spanning the ORIGINAL's finite depths
+    in the image (never the occluder's); None when the image is empty.
+    """
+    finite = depth[np.isfinite(depth)]
+    if finite.size == 0:
+        return None
+    lo, hi = float(finite.min()), float(finite.max())
+    return lo + (hi - lo) * (np.arange(depth_levels) + 0.5) / depth_levels
+
+
+def rect_sums(image: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """``(Q,) int64`` count of True pixels of ``image`` in each quad (row0, col0, row1, col1)."""
     r0, c0, r1, c1 = quads.T
-    n = (r1 - r0) * (c1 - c0)
-    a = _rect_sum(summed_area_table(original), r0, c0, r1, c1)
-    b = _rect_sum(summed_area_table(occluder), r0, c0, r1, c1)
-    return _tally(n, a, b)
+    return _rect_sum(summed_area_table(image), r0, c0, r1, c1)
 
 
-def _level_sums(depth: np.ndarray, levels: np.ndarray, level: np.ndarray, r0, c0, r1, c1
-                ) -> np.ndarray:
-    """Pixels nearer than each quad's depth level, from one stacked summed-area table."""
-    table = np.zeros((len(levels), depth.shape[0] + 1, depth.shape[1] + 1), dtype=np.int32)
-    nearer = depth[None, :, :] < levels[:, None, None]
-    np.cumsum(np.cumsum(nearer, axis=1, dtype=np.int32), axis=2, out=table[:, 1:, 1:])
-    return (table[level, r1, c1] - table[level, r0, c1] - table[level, r1, c0]
-            + table[level, r0, c0]).astype(np.int64)
+def level_sums(depth: np.ndarray, levels: np.ndarray, level: np.ndarray, quads: np.ndarray
+               ) -> np.ndarray:
+    """``(Q,) int64`` pixels strictly nearer than each quad's depth level.
+
+    A pixel occludes a quad at depth z when its buffer depth is ``< z``
+    (``inf``, empty, never does). One stacked summed-area table answers every
+    quad; levels are taken a chunk at a time so that the table stays within
+    ``LEVEL_TABLE_BYTES``.
+    """
+    r0, c0, r1, c1 = quads.T
+    rows, cols = depth.shape[0] + 1, depth.shape[1] + 1
+    per_level = 4 * rows * cols + depth.size
+    step = max(1, LEVEL_TABLE_BYTES // per_level)
+    out = np.empty(len(level), dtype=np.int64)
+    for first in range(0, len(levels), step):
+        chunk = levels[first:first + step]
+        table = np.zeros((len(chunk), rows, cols), dtype=np.int32)
+        nearer = depth[None, :, :] < chunk[:, None, None]
+        np.cumsum(np.cumsum(nearer, axis=1, dtype=np.int32), axis=2, out=table[:, 1:, 1:])
+        del nearer
+        sel = slice(None) if len(chunk) == len(levels) else (level >= first) & (
+            level < first + len(chunk))
+        lv = level[sel] - first
+        a, b, c, d = r0[sel], c0[sel], r1[sel], c1[sel]
+        out[sel] = (table[lv, c, d] - table[lv, a, d] - table[lv, c, b]
+                    + table[lv, a, b]).astype(np.int64)
+    return out
 
 
 def classify_quads_depth(original_depth: np.ndarray, occluder_depth: np.ndarray,
@@ -183,14 +243,88 @@ def classify_quads_depth(original_depth: np.ndarray, occluder_depth: np.ndarray,
     -------
     QuadCounts
     """
-    finite = original_depth[np.isfinite(original_depth)]
-    if finite.size == 0:
+    levels = depth_levels_of(original_depth, depth_levels)
+    if levels is None:
         return QuadCounts(0, 0, 0, len(quads))
-    lo, hi = float(finite.min()), float(finite.max())
-    levels = lo + (hi - lo) * (np.arange(depth_levels) + 0.5) / depth_levels
     level = rng.integers(0, depth_levels, size=len(quads))
-    r0, c0, r1, c1 = quads.T
-    n = (r1 - r0) * (c1 - c0)
-    a = _level_sums(original_depth, levels, level, r0, c0, r1, c1)
-    b = _level_sums(occluder_depth, levels, level, r0, c0, r1, c1)
-    return _tally(n, a, b)
+    a = level_sums(original_depth, levels, level, quads)
+    b = level_sums(occluder_depth, levels, level, quads)
+    return tally(quad_pixels(quads), a, b)
+
+
+@dataclass(frozen=True, eq=False)
+class ImageQuads:
+    """The original's side of one image (an orbit view or a volume frustum).
+
+    ``unit`` is the row of ``per_view`` it counts in (orbit view, volume
+    position) and ``cam`` its camera (orbit view, volume frustum 0-5).
+    ``quads`` are ``(Q, 4) int16`` row0, col0, row1, col1 relative to
+    ``box`` (the pixels the occluder must be cast for), or None when the
+    image counts nothing (an orbit view the original misses; a depth-aware
+    frustum the original misses). ``n`` and ``a`` are the pixels of each quad
+    and those the original occludes; ``level`` the depth-level index of each
+    quad and ``levels`` the level depths (depth-aware only).
+    """
+
+    unit: int
+    cam: int
+    box: tuple
+    quads: np.ndarray | None
+    n: np.ndarray | None = None
+    a: np.ndarray | None = None
+    level: np.ndarray | None = None
+    levels: np.ndarray | None = None
+
+    @property
+    def nbytes(self) -> int:
+        return sum(x.nbytes for x in (self.quads, self.n, self.a, self.level, self.levels)
+                   if x is not None)
+
+
+def image_quads(unit: int, cam: int, depth: np.ndarray, quads: int,
+                 rng: np.random.Generator, *, whole_screen: bool, depth_aware: bool,
+                 depth_levels: int) -> ImageQuads:
+    """Draw one image's quads and tally the original over them (the one place that does)."""
+    res = depth.shape
+    if whole_screen:  # volume: quads over the whole screen
+        box = (0, 0, res[0], res[1])
+    else:  # orbit: quads inside the bounding box of the original's covered pixels
+        covered = np.isfinite(depth)
+        rows = np.flatnonzero(covered.any(axis=1))
+        if len(rows) == 0:
+            return ImageQuads(unit, cam, (0, 0, 0, 0), None)
+        cols = np.flatnonzero(covered.any(axis=0))
+        box = (int(rows[0]), int(cols[0]), int(rows[-1]) + 1, int(cols[-1]) + 1)
+    q = sample_quads(box, quads, rng)
+    region = depth[box[0]:box[2], box[1]:box[3]]
+    rel = q - np.array([box[0], box[1], box[0], box[1]])
+    n = quad_pixels(q)
+    if depth_aware:
+        levels = depth_levels_of(region, depth_levels)
+        if levels is None:  # nothing of the original here: no depth, no counts
+            return ImageQuads(unit, cam, box, None)
+        level = rng.integers(0, depth_levels, size=len(q))
+        a = level_sums(region, levels, level, rel)
+        return ImageQuads(unit, cam, box, rel.astype(np.int16), n.astype(np.int32),
+                           a.astype(np.int32), level.astype(np.int16), levels)
+    a = rect_sums(np.isfinite(region), rel)
+    return ImageQuads(unit, cam, box, rel.astype(np.int16), n.astype(np.int32),
+                       a.astype(np.int32))
+
+
+def occluder_counts(ref: ImageQuads, occluder_region: np.ndarray | None) -> QuadCounts:
+    """Nt, Pf, Nf of one image from the occluder's pixels over ``ref.box``.
+
+    ``occluder_region`` is the occluder's coverage (bool) or depth (float,
+    ``inf`` empty) over the box, or None where the occluder cannot be seen.
+    """
+    if ref.quads is None:
+        return QuadCounts(0, 0, 0, 0)
+    quads = ref.quads.astype(np.int64)
+    if occluder_region is None:
+        b = np.zeros(len(quads), dtype=np.int64)
+    elif ref.levels is not None:
+        b = level_sums(occluder_region, ref.levels, ref.level.astype(np.int64), quads)
+    else:
+        b = rect_sums(occluder_region, quads)
+    return tally(ref.n, ref.a, b)

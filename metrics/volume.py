@@ -17,29 +17,27 @@ weight, repeatedly, as an octree.
 
 from __future__ import annotations
 
-import logging
-import time
-
 import numpy as np
 import trimesh
 
-from viscore import InputError, cube_cameras, points_inside
-from viscore._validate import as_positive, as_positive_int
+from viscore import InputError, points_inside
+from viscore._validate import as_positive
 
-from ._views import cast_depths, scene_of
-from .bootstrap import bootstrap_ratio
-from .precision_recall import PrecisionRecall, pooled_parts, ratio
-from .quads import classify_quads, classify_quads_depth, sample_quads
+from .precision_recall import PrecisionRecall
 
 __all__ = ["volume_precision_recall", "volume_positions", "evaluation_box"]
 
-_log = logging.getLogger(__name__)
+# Shared with the sibling modules (not user API): frusta_see_box, volume_positions_bytes.
 
 #: Default view spacing as a fraction of the bounding-box diagonal (seed 001, sec. 4.1).
 SPACING_FRACTION = 0.04
 
-#: Frusta cast in one Embree batch (one position has six).
-_FRUSTA_PER_BATCH = 24
+#: Most grid positions of one evaluation (as :func:`viscore.grid_positions`).
+MAX_GRID_POSITIONS = 50_000_000
+
+#: Bytes per grid cell while the positions are chosen: the float64 grid, the
+#: parity votes of the inside test (six rays per point) and the octree masks.
+_BYTES_PER_CELL = 400
 
 
 def evaluation_box(mesh: trimesh.Trimesh, *, spacing: float | None = None,
@@ -62,6 +60,22 @@ def evaluation_box(mesh: trimesh.Trimesh, *, spacing: float | None = None,
     if pad < 0 or not np.isfinite(pad):
         raise InputError(f"padding: expected a finite number >= 0, got {padding}")
     return lo - pad, hi + pad, dx
+
+
+def _grid_counts(lo: np.ndarray, hi: np.ndarray, dx: float) -> np.ndarray:
+    """Grid cells per axis as floats (no int64 overflow for absurd spacings)."""
+    return np.maximum(1.0, np.ceil((hi - lo) / dx - 1e-9))
+
+
+def volume_positions_bytes(mesh: trimesh.Trimesh, *, spacing: float | None = None,
+                           padding: float | None = None) -> float:
+    """Estimated peak bytes of :func:`volume_positions`; InputError past the grid limit."""
+    box_lo, box_hi, dx = evaluation_box(mesh, spacing=spacing, padding=padding)
+    cells = float(np.prod(_grid_counts(box_lo, box_hi, dx)))
+    if not cells <= MAX_GRID_POSITIONS:
+        raise InputError(f"spacing: {dx:g} gives {cells:.3g} grid positions "
+                         f"(limit {MAX_GRID_POSITIONS:,}); use a larger spacing")
+    return cells * _BYTES_PER_CELL
 
 
 def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
@@ -96,13 +110,16 @@ def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
         Block volume in grid cells (1, 8, 64, ...).
     """
     from viscore import Scene, grid_positions
+    from viscore._validate import check_memory
 
+    check_memory(volume_positions_bytes(mesh, spacing=spacing, padding=padding),
+                 f"spacing={spacing}")
     scene = scene or Scene(mesh)
     box_lo, box_hi, dx = evaluation_box(mesh, spacing=spacing, padding=padding)
     pts = grid_positions(box_lo, box_hi, dx)
     if offset is not None:
         pts = pts + dx * np.asarray(offset, dtype=np.float64)
-    counts = np.maximum(1, np.ceil((box_hi - box_lo) / dx - 1e-9)).astype(np.int64)
+    counts = _grid_counts(box_lo, box_hi, dx).astype(np.int64)
     valid = ~points_inside(scene, pts).reshape(counts)
     first = pts[0]
     if not merge_views:
@@ -144,7 +161,7 @@ def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
     return np.concatenate(out_pos), np.concatenate(out_w)
 
 
-def _frusta_see_box(positions: np.ndarray, axes: np.ndarray, lo: np.ndarray, hi: np.ndarray
+def frusta_see_box(positions: np.ndarray, axes: np.ndarray, lo: np.ndarray, hi: np.ndarray
                     ) -> np.ndarray:
     """``(n, 6) bool``: False only where the box lies wholly outside a 90-degree frustum.
 
@@ -210,74 +227,17 @@ def volume_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | N
     The number of rays is about positions x 6 x R^2: at the defaults that is
     large (tens of thousands of positions); lower ``resolution`` or raise
     ``spacing`` for quick runs. The ray count is logged before casting.
-    """
-    quads = as_positive_int(quads, "quads")
-    resolution = as_positive_int(resolution, "resolution", maximum=8192)
-    start = time.perf_counter()
-    original = scene_of(mesh, "mesh")
-    other = scene_of(occluder, "occluder")
-    offset = np.random.default_rng([seed, 1]).uniform(-0.5, 0.5, 3) if jitter else None
-    positions, weights = volume_positions(mesh, spacing=spacing, padding=padding,
-                                          merge_views=merge_views, scene=original, offset=offset)
-    n = len(positions)
-    if n == 0:
-        raise InputError("spacing: no view position lies outside the mesh; use a smaller spacing")
-    lo = np.asarray(mesh.bounds[0], dtype=np.float64)
-    hi = np.asarray(mesh.bounds[1], dtype=np.float64)
-    if other is not None:
-        lo, hi = np.minimum(lo, other.bounds[0]), np.maximum(hi, other.bounds[1])
-    _log.debug("volume protocol: %d positions, up to %.3g rays", n, 12.0 * n * resolution**2)
-    children = np.random.SeedSequence(seed).spawn(n)
-    nt = np.zeros(n, dtype=np.int64)
-    pf = np.zeros(n, dtype=np.int64)
-    nf = np.zeros(n, dtype=np.int64)
-    qcount = np.zeros((n, 3), dtype=np.int64)  # q_orig, q_occ, q_both
-    # the six frusta's ray directions are the same at every position: build them once
-    cams = cube_cameras(np.zeros(3), resolution)
-    bundle = np.stack([c.rays()[1] for c in cams])  # (6, R*R, 3)
-    axes = np.stack([c.forward for c in cams])
-    sees = _frusta_see_box(positions, axes, lo, hi)
-    tasks = np.argwhere(sees)  # (position index, frustum index), position-major
-    rngs = [np.random.default_rng(c) for c in children]
-    timing: dict = {"frusta": len(tasks), "frusta_skipped": 6 * n - len(tasks)}
-    t_quads = 0.0
-    full = (0, 0, resolution, resolution)
-    pixels = resolution * resolution
-    for b0 in range(0, len(tasks), _FRUSTA_PER_BATCH):
-        batch = tasks[b0:b0 + _FRUSTA_PER_BATCH]
-        origins = np.repeat(positions[batch[:, 0]], pixels, axis=0)
-        dirs = bundle[batch[:, 1]].reshape(-1, 3)
-        d_orig = cast_depths(original, origins, dirs, len(batch), resolution, timing)
-        d_occ = cast_depths(other, origins, dirs, len(batch), resolution, timing)
-        t0 = time.perf_counter()
-        for j, (i, _) in enumerate(batch):
-            q = sample_quads(full, quads, rngs[i])
-            if depth_aware:
-                c = classify_quads_depth(d_orig[j], d_occ[j], q, rngs[i],
-                                         depth_levels=depth_levels)
-            else:
-                c = classify_quads(np.isfinite(d_orig[j]), np.isfinite(d_occ[j]), q)
-            nt[i] += c.nt
-            pf[i] += c.pf
-            nf[i] += c.nf
-            qcount[i] += (c.q_orig, c.q_occ, c.q_both)
-        t_quads += time.perf_counter() - t0
-    timing["seconds_quads"] = t_quads
-    p_x, r_x = ratio(nt, nt + nf), ratio(nt, nt + pf)
+    Equivalent to ``ReferenceViews(mesh, protocol='volume', ...).score(occluder)``,
+    with ``seconds`` and ``timing`` covering both steps.
 
-    per_view = {"nt": nt, "pf": pf, "nf": nf, "precision": p_x, "recall": r_x,
-                "weight": weights, "position": positions, "quads_orig": qcount[:, 0],
-                "quads_occ": qcount[:, 1], "quads_both": qcount[:, 2]}
-    pooled = {k: pooled_parts(per_view, "volume", k) for k in ("precision", "recall")}
-    return PrecisionRecall(
-        precision=float(ratio(pooled["precision"][0].sum(), pooled["precision"][1].sum())),
-        recall=float(ratio(pooled["recall"][0].sum(), pooled["recall"][1].sum())),
-        precision_ci=list(bootstrap_ratio(*pooled["precision"], seed=seed)),
-        recall_ci=list(bootstrap_ratio(*pooled["recall"], seed=seed)),
-        per_view=per_view,
-        protocol="volume", depth_aware=bool(depth_aware), seed=seed,
-        params={"spacing": spacing, "padding": padding, "quads": quads,
-                "resolution": resolution, "merge_views": merge_views, "positions": n,
-                "jitter": jitter,
-                **({"depth_levels": depth_levels} if depth_aware else {})},
-        seconds=time.perf_counter() - start, timing=timing)
+    See Also
+    --------
+    ReferenceViews : the original's views built once, to score many occluders.
+    """
+    from .reference_views import ReferenceViews, score_once
+
+    return score_once(ReferenceViews(mesh, protocol="volume", spacing=spacing, padding=padding,
+                                     quads=quads, resolution=resolution, seed=seed,
+                                     depth_aware=depth_aware, depth_levels=depth_levels,
+                                     merge_views=merge_views, jitter=jitter, cache=False),
+                      occluder)

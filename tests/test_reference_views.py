@@ -1,0 +1,176 @@
+import pickle
+
+import numpy as np
+import pytest
+import trimesh
+from viscore.metrics import (
+    ReferenceViews,
+    evaluate,
+    orbit_precision_recall,
+    volume_precision_recall,
+)
+from viscore.metrics._views import ortho_box_rays
+
+from viscore import InputError, OrthoCamera, load_mesh
+
+ORBIT = dict(views=6, quads=800, resolution=32, seed=5)
+VOLUME = dict(protocol="volume", spacing=0.9, quads=200, resolution=12, seed=1)
+
+
+def _same(a, b):
+    """Bit-identical results (timings aside)."""
+    assert a.precision == b.precision or (np.isnan(a.precision) and np.isnan(b.precision))
+    assert a.recall == b.recall
+    np.testing.assert_array_equal(a.precision_ci, b.precision_ci)
+    np.testing.assert_array_equal(a.recall_ci, b.recall_ci)
+    assert a.per_view.keys() == b.per_view.keys()
+    for k in a.per_view:
+        np.testing.assert_array_equal(a.per_view[k], b.per_view[k])
+    assert a.params == b.params and a.protocol == b.protocol and a.seed == b.seed
+
+
+def _scaled(mesh, factor, about=(0, 0, 0)):
+    out = mesh.copy()
+    out.apply_translation(-np.asarray(about))
+    out.apply_scale(factor)
+    out.apply_translation(about)
+    return out
+
+
+@pytest.fixture(scope="module")
+def torus():
+    return load_mesh("fat-torus")
+
+
+# ---------------------------------------------------------------- reference values
+@pytest.mark.parametrize("settings", [ORBIT, VOLUME], ids=["orbit", "volume"])
+@pytest.mark.parametrize("depth_aware", [False, True])
+def test_score_identical_occluder_is_perfect(torus, settings, depth_aware):
+    views = ReferenceViews(torus, depth_aware=depth_aware, **settings)
+    r = views.score(torus)
+    assert r.precision == 1.0 and r.recall == 1.0
+    assert r.per_view["nt"].sum() > 0
+
+
+@pytest.mark.parametrize("settings", [ORBIT, VOLUME], ids=["orbit", "volume"])
+def test_score_bounding_box_recall_one_precision_below(torus, settings):
+    views = ReferenceViews(torus, **settings)
+    r = views.score(trimesh.creation.box(bounds=torus.bounds))
+    assert r.recall == 1.0 and r.precision < 1.0
+
+
+@pytest.mark.parametrize("settings", [ORBIT, VOLUME], ids=["orbit", "volume"])
+def test_score_nothing_recall_zero(torus, settings):
+    r = ReferenceViews(torus, **settings).score(None)
+    assert r.recall == 0.0 and np.isnan(r.precision)
+
+
+# ---------------------------------------------------------------- same as the one-call protocols
+@pytest.mark.parametrize("depth_aware", [False, True])
+def test_score_equals_orbit_precision_recall_and_repeats(torus, depth_aware):
+    inner = _scaled(torus, 0.85, (0.05, 0, 0.02))
+    views = ReferenceViews(torus, depth_aware=depth_aware, **ORBIT)
+    assert views.cached
+    first = views.score(inner)
+    _same(first, orbit_precision_recall(torus, inner, depth_aware=depth_aware, **ORBIT))
+    views.score(torus)  # another occluder in between changes nothing
+    _same(first, views.score(inner))
+    _same(first, ReferenceViews(torus, depth_aware=depth_aware, cache=False, **ORBIT)
+          .score(inner))
+
+
+@pytest.mark.parametrize("depth_aware", [False, True])
+def test_score_equals_volume_precision_recall_occluder_beyond_mesh_box(torus, depth_aware):
+    # a grown occluder: frusta that see only its box are counted, and the
+    # quads of their positions are drawn again, as in the one-call protocol
+    kw = {k: v for k, v in VOLUME.items() if k != "protocol"}
+    for occ in (_scaled(torus, 0.9), _scaled(torus, 1.3, (0.4, 0, 0))):
+        one = volume_precision_recall(torus, occ, depth_aware=depth_aware, **kw)
+        cached = ReferenceViews(torus, depth_aware=depth_aware, **VOLUME)
+        _same(one, cached.score(occ))
+        _same(one, ReferenceViews(torus, depth_aware=depth_aware, cache=False, **VOLUME)
+              .score(occ))
+    assert one.timing["frusta"] > len(cached.images)  # the grown box adds frusta
+
+
+def test_reference_views_pickle_round_trip(torus):
+    views = ReferenceViews(torus, **ORBIT)
+    inner = _scaled(torus, 0.8)
+    _same(views.score(inner), pickle.loads(pickle.dumps(views)).score(inner))
+
+
+def test_ortho_box_rays_bit_identical_to_the_whole_image():
+    cam = OrthoCamera((0.3, -0.5, 0.8), (0.1, 0.2, -0.3), 2.7, 16)
+    o, d = cam.rays()
+    box = (3, 5, 11, 14)
+    ob, db = ortho_box_rays(cam, box)
+    np.testing.assert_array_equal(ob, o.reshape(16, 16, 3)[3:11, 5:14].reshape(-1, 3))
+    np.testing.assert_array_equal(db, d.reshape(16, 16, 3)[3:11, 5:14].reshape(-1, 3))
+
+
+# ---------------------------------------------------------------- inspection
+def test_depth_images_float32_and_quads_inside_images(torus):
+    views = ReferenceViews(torus, **ORBIT)
+    img = views.depth_images()
+    assert img.dtype == np.float32 and img.shape == (6, 32, 32)
+    assert np.isfinite(img).any(axis=(1, 2)).all()
+    for k in range(len(views.images)):
+        q = views.quads(k)
+        assert q.shape == (800, 4) and q.min() >= 0 and q[:, 2:].max() <= 32
+    uncached = ReferenceViews(torus, cache=False, **ORBIT)
+    np.testing.assert_array_equal(uncached.quads(4), views.quads(4))
+
+
+# ---------------------------------------------------------------- refusals before any work
+def test_reference_views_invalid_input(torus):
+    with pytest.raises(InputError, match="'orbit', 'volume'"):
+        ReferenceViews(torus, protocol="orbti")
+    with pytest.raises(InputError, match="spacing"):
+        ReferenceViews(torus, protocol="orbit", spacing=0.5)
+    with pytest.raises(InputError, match="views"):
+        ReferenceViews(torus, protocol="volume", views=8)
+    with pytest.raises(InputError):
+        ReferenceViews(torus, quads=0)
+    with pytest.raises(InputError):
+        ReferenceViews(torus, seed=-5)
+    with pytest.raises(InputError):
+        ReferenceViews(trimesh.Trimesh(), views=2)
+    with pytest.raises(InputError, match="cache"):
+        ReferenceViews(torus, cache="yes")
+
+
+def test_evaluate_protocol_validated(torus):
+    with pytest.raises(InputError, match="'orbit', 'volume'"):
+        evaluate(torus, torus, protocol="orbti")
+    with pytest.raises(InputError, match="'orbit', 'volume'"):
+        evaluate(torus, torus, protocol=None)
+
+
+def test_reference_views_tiny_spacing_refused_not_overflowed(torus):
+    # 1e-9 spacing: ~1e27 grid positions, past int64; refused with the limit
+    with pytest.raises(InputError, match="grid positions"):
+        ReferenceViews(torus, protocol="volume", spacing=1e-9)
+
+
+def test_reference_views_memory_refused_before_work(torus, monkeypatch):
+    import time
+
+    monkeypatch.setenv("VISCORE_MEMORY_FRACTION", "1e-6")
+    start = time.perf_counter()
+    with pytest.raises(InputError, match="memory"):
+        ReferenceViews(torus, resolution=8192, depth_aware=True)
+    with pytest.raises(InputError, match="memory"):
+        ReferenceViews(torus, views=8, quads=100, resolution=16, cache=True)
+    assert time.perf_counter() - start < 5  # refused before casting 8192^2 rays
+
+
+def test_reference_views_cache_falls_back_when_it_does_not_fit(torus, monkeypatch):
+    full = ReferenceViews(torus, **ORBIT).score(torus)
+    # room for one image's rays but not for every quad: cache=None recasts per score
+    from viscore.metrics import reference_views
+
+    monkeypatch.setattr(reference_views, "available_memory", lambda: 1.0 * 2**20)
+    monkeypatch.setenv("VISCORE_MEMORY_FRACTION", "1")
+    views = ReferenceViews(torus, **{**ORBIT, "quads": 20000})
+    assert not views.cached
+    assert views.score(torus).recall == full.recall == 1.0
