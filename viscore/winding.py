@@ -1,86 +1,194 @@
-"""Inside tests of points in triangle soups: parity votes, settled by winding numbers.
+"""Inside tests of points in triangle soups by the generalized winding number.
 
-Ray-parity votes (:func:`viscore.points_inside_parity`) are the fast
-stand-in for the winding number (DESIGN.md, "The core"); they fail where a
-ray crosses coincident faces, as where two closed parts touch (a building
-standing on a slab): the two faces at one distance count once. Where the six
-votes disagree, :func:`points_inside` computes the generalized winding number
-of Jacobson, Kavan and Sorkine-Hornung, "Robust inside-outside segmentation
-using generalized winding numbers", ACM TOG 32(4), 2013 (the winding-number
-voxelization of seed 001, sec. 3.1.2): the sum over triangles of the signed
-solid angle (Van Oosterom and Strackee 1983) over 4 pi, which is 1 inside a
-closed oriented surface, 0 outside, counts overlapping parts once each, and
-degrades gracefully on open surfaces.
+The generalized winding number of Jacobson, Kavan and Sorkine-Hornung [1]_
+is the sum over triangles of the signed solid angle each subtends at the
+point (Van Oosterom and Strackee [2]_), over 4 pi: 1 inside a closed
+outward-oriented surface, 0 outside, -1 inside an inverted one, k where k
+closed parts overlap, and fractional, degrading gracefully, near the holes
+of an open surface. It is the inside test of the building-occluders paper's
+voxelization [3]_. :func:`winding_numbers` evaluates it with libigl's fast
+winding number (Barill et al. [4]_: a Barnes-Hut tree over the triangles,
+within about 3e-3 of the exact sum), or the exact hierarchical sum of [1]_.
+
+:func:`points_inside` first counts signed crossings along six rays from
+each point (one batched Embree query per ray direction): on a closed,
+consistently oriented surface the signed count along any ray *is* the
+winding number, so where the six counts agree they give it exactly; where
+they disagree (holes, coincident faces of touching parts, grazing rays), the
+generalized winding number settles it.
+
+References
+----------
+.. [1] Jacobson, A., Kavan, L., Sorkine-Hornung, O. "Robust inside-outside
+   segmentation using generalized winding numbers". ACM Transactions on
+   Graphics 32(4), 2013, article 33. :DOI:`10.1145/2461912.2461916`
+.. [2] Van Oosterom, A., Strackee, J. "The solid angle of a plane triangle".
+   IEEE Transactions on Biomedical Engineering BME-30(2), 1983, pp. 125-126.
+   :DOI:`10.1109/TBME.1983.325207`
+.. [3] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
+.. [4] Barill, G., Dickson, N. G., Schmidt, R., Levin, D. I. W., Jacobson, A.
+   "Fast winding numbers for soups and clouds". ACM Transactions on Graphics
+   37(4), 2018, article 43. :DOI:`10.1145/3197517.3201337`
 """
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
-from ._validate import as_points
+from ._validate import InputError, as_points
+from .constants import MAX_HITS
 
-__all__ = ["winding_numbers", "points_inside"]
+__all__ = ["winding_numbers", "points_inside", "is_closed_oriented"]
 
-#: |w| at or above this is inside (Jacobson et al. 2013 threshold at 1/2).
+#: |w| at or above this is inside (the threshold 1/2 of Jacobson et al. 2013).
 WINDING_THRESHOLD = 0.5
 
-
-@numba.njit(cache=True, parallel=True)
-def _winding(points, tri):
-    out = np.zeros(points.shape[0])
-    for i in numba.prange(points.shape[0]):
-        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-        acc = 0.0
-        for t in range(tri.shape[0]):
-            ax, ay, az = tri[t, 0, 0] - px, tri[t, 0, 1] - py, tri[t, 0, 2] - pz
-            bx, by, bz = tri[t, 1, 0] - px, tri[t, 1, 1] - py, tri[t, 1, 2] - pz
-            cx, cy, cz = tri[t, 2, 0] - px, tri[t, 2, 1] - py, tri[t, 2, 2] - pz
-            la = np.sqrt(ax * ax + ay * ay + az * az)
-            lb = np.sqrt(bx * bx + by * by + bz * bz)
-            lc = np.sqrt(cx * cx + cy * cy + cz * cz)
-            det = (ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx)
-                   + az * (bx * cy - by * cx))
-            den = (la * lb * lc + (ax * bx + ay * by + az * bz) * lc
-                   + (bx * cx + by * cy + bz * cz) * la + (cx * ax + cy * ay + cz * az) * lb)
-            acc += 2.0 * np.arctan2(det, den)
-        out[i] = acc / (4.0 * np.pi)
-    return out
+#: Directions of the six signed-crossing rays of :func:`points_inside`: the
+#: six axes, tilted slightly so that they do not run along the faces of
+#: axis-aligned meshes (normalised below).
+_VOTE_AXES = np.array([[1, 0.0123, 0.0271], [-1, -0.0271, 0.0123], [0.0123, 1, -0.0314],
+                       [-0.0314, -1, 0.0123], [0.0271, -0.0123, 1], [-0.0123, 0.0314, -1]])
+_VOTE_AXES = _VOTE_AXES / np.linalg.norm(_VOTE_AXES, axis=1)[:, None]
 
 
-def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points) -> np.ndarray:
+def _mesh_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
+    """Contiguous ``(v, 3) float64`` vertices and ``(f, 3) int64`` faces, checked."""
+    try:
+        v = np.ascontiguousarray(vertices, dtype=np.float64)
+        f = np.ascontiguousarray(faces, dtype=np.int64)
+    except (TypeError, ValueError) as exc:
+        raise InputError("vertices, faces: expected (v, 3) numbers and (f, 3) integers") from exc
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise InputError(f"vertices: expected shape (v, 3), got {v.shape}")
+    if f.size == 0:
+        f = f.reshape(0, 3)
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise InputError(f"faces: expected shape (f, 3), got {f.shape}")
+    if len(f) and (f.min() < 0 or f.max() >= len(v)):
+        raise InputError(f"faces: vertex indices must lie in [0, {len(v)}), "
+                         f"got [{f.min()}, {f.max()}]")
+    if not np.isfinite(v).all():
+        raise InputError("vertices: contain NaN or infinite values")
+    return v, f
+
+
+def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points, *,
+                    exact: bool = False) -> np.ndarray:
     """Generalized winding number of each point with respect to a triangle soup.
 
     Parameters
     ----------
     vertices : (v, 3) float
+        World units.
     faces : (f, 3) int
+        Vertex indices; any soup (open, non-manifold, self-intersecting).
     points : (n, 3) float
+        Query points, world units.
+    exact : bool, optional
+        False (default): libigl's fast winding number [4]_, within about
+        3e-3 of the exact value (measured on the bunny, 56k faces). True:
+        libigl's exact hierarchical sum [1]_, about 10x slower on large meshes.
 
     Returns
     -------
     w : (n,) float64
         1 inside a closed outward-oriented surface, 0 outside, -1 inside an
-        inward-oriented one; fractional near open surfaces. Cost n x f,
-        spread over :func:`viscore.get_workers` threads.
+        inward-oriented one, k where k closed parts overlap; fractional near
+        open surfaces. Empty for no points or no faces (then all 0).
+
+    Raises
+    ------
+    InputError
+        If the arrays do not have the shapes above, a face index is out of
+        range, or a coordinate is not finite.
+
+    Notes
+    -----
+    libigl's own thread pool does the work (all cores); numba's thread
+    count and :func:`viscore.set_workers` are left alone.
+
+    References
+    ----------
+    .. [1] Jacobson, A., Kavan, L., Sorkine-Hornung, O. "Robust inside-outside
+       segmentation using generalized winding numbers". ACM Transactions on
+       Graphics 32(4), 2013, article 33. :DOI:`10.1145/2461912.2461916`
+    .. [4] Barill, G., Dickson, N. G., Schmidt, R., Levin, D. I. W., Jacobson,
+       A. "Fast winding numbers for soups and clouds". ACM Transactions on
+       Graphics 37(4), 2018, article 43. :DOI:`10.1145/3197517.3201337`
 
     Examples
     --------
     >>> import trimesh
     >>> box = trimesh.creation.box()
-    >>> np.round(winding_numbers(box.vertices, box.faces, [[0, 0, 0], [2, 0, 0]]), 6).tolist()
+    >>> np.round(winding_numbers(box.vertices, box.faces, [[0, 0, 0], [2, 0, 0]]), 2).tolist()
     [1.0, 0.0]
     """
-    from .scene import get_workers
+    import igl
 
-    pts = as_points(points, "points", allow_empty=True)
-    tri = np.ascontiguousarray(np.asarray(vertices, dtype=np.float64)[np.asarray(faces)])
-    numba.set_num_threads(min(get_workers(), numba.config.NUMBA_NUM_THREADS))
-    return _winding(np.ascontiguousarray(pts), tri)
+    v, f = _mesh_arrays(vertices, faces)
+    pts = np.ascontiguousarray(as_points(points, "points", allow_empty=True))
+    if len(pts) == 0 or len(f) == 0:
+        return np.zeros(len(pts))
+    if exact:
+        return np.asarray(igl.winding_number(v, f, pts), dtype=np.float64).reshape(-1)
+    return np.asarray(igl.fast_winding_number(v, f, pts), dtype=np.float64).reshape(-1)
+
+
+def is_closed_oriented(vertices: np.ndarray, faces: np.ndarray) -> bool:
+    """Whether the triangles form a closed, consistently oriented surface (a 2-cycle).
+
+    True when, after merging vertices at identical positions, every edge is
+    used as often from a to b as from b to a. Then the winding number is an
+    integer, constant on each connected region of space off the surface, and
+    a path from a point of winding number 0 to one of another value crosses
+    a triangle. Non-manifold edges (two closed boxes sharing an edge) and
+    self-intersections are allowed; an open edge or a flipped triangle is not.
+
+    Parameters
+    ----------
+    vertices : (v, 3) float
+    faces : (f, 3) int
+
+    Returns
+    -------
+    bool
+        False for no faces.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> box = trimesh.creation.box()
+    >>> is_closed_oriented(box.vertices, box.faces), is_closed_oriented(box.vertices, box.faces[1:])
+    (True, False)
+    """
+    v, f = _mesh_arrays(vertices, faces)
+    if len(f) == 0:
+        return False
+    _, merged = np.unique(v, axis=0, return_inverse=True)
+    f = merged.reshape(-1)[f]
+    a = f.reshape(-1)
+    b = f[:, [1, 2, 0]].reshape(-1)
+    keep = a != b  # an edge of a degenerate triangle from a vertex to itself cancels itself
+    a, b = a[keep], b[keep]
+    n = int(merged.max()) + 1
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    key = lo * n + hi
+    sign = np.where(a < b, 1, -1)
+    order = np.argsort(key, kind="stable")
+    key, sign = key[order], sign[order]
+    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    return bool((np.add.reduceat(sign, starts) == 0).all())
 
 
 def points_inside(scene, points) -> np.ndarray:
-    """Inside test of points: unanimous parity votes, else the winding number.
+    """Inside test of points: |winding number| >= 1/2.
+
+    Signed crossings along six rays from each point give the winding number
+    of a closed, consistently oriented surface exactly; where the six counts
+    disagree (open surfaces, coincident faces, grazing rays), the
+    generalized winding number of :func:`winding_numbers` decides.
 
     Parameters
     ----------
@@ -91,15 +199,40 @@ def points_inside(scene, points) -> np.ndarray:
     Returns
     -------
     inside : (n,) bool
-        All six parity votes inside: True; none: False; otherwise
-        |winding number| >= 1/2.
-    """
-    from .voxels import parity_votes
+        True where the winding number is at least 1/2 in absolute value: the
+        inside of a closed surface, overlaps of closed parts included, and
+        cavities left out (their winding number is 0).
 
+    Raises
+    ------
+    InputError
+        If ``points`` is not ``(n, 3)`` finite.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> from viscore import Scene
+    >>> points_inside(Scene(trimesh.creation.box()), [[0, 0, 0], [2, 0, 0]]).tolist()
+    [True, False]
+    """
     pts = as_points(points, "points", allow_empty=True)
-    votes = parity_votes(scene, pts)
-    inside = votes == 6
-    mixed = np.flatnonzero((votes > 0) & (votes < 6))
+    n = len(pts)
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    tri = scene.vertices[scene.faces]
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    counts = np.empty((len(_VOTE_AXES), n))
+    undecided = np.zeros(n, dtype=bool)
+    for k, axis in enumerate(_VOTE_AXES):
+        hits = scene.all_hits(pts, np.broadcast_to(axis, pts.shape))
+        # leaving through a face whose normal points along the ray: the point was inside it
+        sign = np.sign(normals @ axis)[hits.triangle]
+        counts[k] = np.bincount(hits.ray, weights=sign, minlength=n)
+        undecided |= hits.count >= MAX_HITS  # the ray may have more hits
+        undecided |= np.bincount(hits.ray, weights=sign == 0, minlength=n) > 0  # grazing
+    undecided |= (counts != counts[0]).any(axis=0)
+    inside = np.abs(counts[0]) >= 1
+    mixed = np.flatnonzero(undecided)
     if len(mixed):
         w = winding_numbers(scene.vertices, scene.faces, pts[mixed])
         inside[mixed] = np.abs(w) >= WINDING_THRESHOLD
