@@ -21,7 +21,7 @@ from .erosion import (
     erosion_curve,
     occlusion_measure,
 )
-from .orbit import orbit_frame, orbit_precision_recall, view_counts
+from .orbit import orbit_frame, orbit_precision_recall
 from .paired import PairedDifference, paired_difference
 from .precision_recall import PrecisionRecall
 from .quads import QuadCounts, classify_quads, classify_quads_depth, sample_quads
@@ -35,7 +35,7 @@ __all__ = [
     "clopper_pearson_upper", "OcclusionMeasure", "occlusion_measure",
     "directional_occlusion_measure", "erosion_curve", "orbit_frame", "orbit_precision_recall",
     "PrecisionRecall", "QuadCounts", "classify_quads", "classify_quads_depth", "sample_quads",
-    "volume_positions", "volume_precision_recall", "evaluate", "view_counts",
+    "volume_positions", "volume_precision_recall", "evaluate",
     "bootstrap_ratio", "PairedDifference", "paired_difference", "BetaModelSummary",
     "hierarchical_beta_model", "AblationResult", "convergence_ablation", "ablation_plot",
     "uncertainty_report", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",

@@ -64,11 +64,3 @@ def ortho_box_rays(camera, box: tuple) -> tuple[np.ndarray, np.ndarray]:
     plane = camera.center + camera.extent * (x[:, None] * r + y[:, None] * u)
     origins = plane - camera.start * f
     return origins, np.broadcast_to(f, origins.shape)
-
-
-def depths(scene: Scene | None, cameras: list, timing: dict) -> np.ndarray:
-    """``(len(cameras), R, R)`` depth images (inf where empty) in one batched cast."""
-    rays = [c.rays() for c in cameras]
-    o = np.concatenate([x[0] for x in rays])
-    d = np.concatenate([x[1] for x in rays])
-    return cast_depths(scene, o, d, len(cameras), cameras[0].resolution, timing)

@@ -18,12 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from viscore import OrthoCamera, directions_uniform
 from viscore._validate import as_positive_int
 
-from ._views import depths, scene_of
-from .orbit import orbit_frame, orbit_precision_recall, view_counts
-from .precision_recall import ratio
+from .orbit import orbit_precision_recall
+from .reference_views import ReferenceViews
 from .volume import volume_precision_recall
 
 __all__ = ["AblationResult", "convergence_ablation", "ablation_plot"]
@@ -107,23 +105,19 @@ def convergence_ablation(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, *,
     rows = []
     say = progress or (lambda text: _log.info("%s", text))
     if "quads" in factors:
-        original, other = scene_of(mesh, "mesh"), scene_of(occluder, "occluder")
-        center, extent = orbit_frame(mesh)
-        dirs = directions_uniform(views, seed=seed)
-        cams = [OrthoCamera(d, center, extent, resolution) for d in dirs]
-        d_orig, d_occ = depths(original, cams, {}), depths(other, cams, {})
+        # the views' images are fixed (the original's kept, the occluder's cast once);
+        # only the quads are drawn again, per repeat and view, through the one tally loop
+        fixed = ReferenceViews(mesh, views=views, quads=quads, resolution=resolution, seed=seed,
+                               cache=False)
+        occluder_depths = fixed.depth_images(occluder)
         for q in quads_list:
             start = time.perf_counter()
-            ps, rs = [], []
-            for r in range(repeats):
-                tot = np.zeros(3)
-                for k in range(views):
-                    rng = np.random.default_rng([seed, r, q, k])
-                    c = view_counts(d_orig[k], d_occ[k], q, rng)
-                    tot += (c.nt, c.pf, c.nf)
-                ps.append(ratio(tot[0], tot[0] + tot[2]))
-                rs.append(ratio(tot[0], tot[0] + tot[1]))
-            rows.append(_summary("quads", q, "orbit", ps, rs, time.perf_counter() - start))
+            res = [fixed._score_images(  # noqa: SLF001 (sibling module)
+                occluder_depths, quads=q,
+                rng_of=lambda k, r=r, q=q: np.random.default_rng([seed, r, q, k]))
+                for r in range(repeats)]
+            rows.append(_summary("quads", q, "orbit", [x.precision for x in res],
+                                 [x.recall for x in res], time.perf_counter() - start))
             say(f"quads {q}: sd P {rows[-1]['precision_sd']:.2e}, R {rows[-1]['recall_sd']:.2e}")
     if "views" in factors:
         for v in views_list:

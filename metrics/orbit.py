@@ -16,9 +16,8 @@ from viscore._validate import as_positive_int
 from viscore.enclosing_ball import minimum_enclosing_ball
 
 from .precision_recall import PrecisionRecall
-from .quads import QuadCounts, image_quads, occluder_counts
 
-__all__ = ["orbit_precision_recall", "orbit_frame", "view_counts"]
+__all__ = ["orbit_precision_recall", "orbit_frame"]
 
 #: Extent of the orthographic window as a multiple of the enclosing sphere's
 #: diameter (DESIGN.md, orbit protocol).
@@ -38,22 +37,6 @@ def orbit_frame(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
     """
     center, radius = minimum_enclosing_ball(mesh.vertices)
     return center, float(2 * radius * EXTENT_FACTOR)
-
-
-def view_counts(d_orig: np.ndarray, d_occ: np.ndarray, quads: int, rng: np.random.Generator, *,
-                depth_aware: bool = False, depth_levels: int = 32) -> QuadCounts:
-    """Nt, Pf, Nf of one orbit view from its two depth images (inf where empty).
-
-    The quads lie in the screen bounding box of the original's covered
-    pixels (seed 000, sec. 6.1); a view where the original covers nothing
-    gets no quads and zero counts. The same per-image code as
-    :class:`viscore.metrics.ReferenceViews`.
-    """
-    ref = image_quads(0, 0, d_orig, quads, rng, whole_screen=False, depth_aware=depth_aware,
-                      depth_levels=depth_levels)
-    r0, c0, r1, c1 = ref.box
-    region = d_occ[r0:r1, c0:c1]
-    return occluder_counts(ref, region if depth_aware else np.isfinite(region))
 
 
 def orbit_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None, *,

@@ -11,7 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["PrecisionRecall", "ratio", "pooled_parts"]
+__all__ = ["PrecisionRecall"]
+
+# Shared with the sibling modules (not user API): ratio, pooled_parts, pooled_ratio.
 
 
 def ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
@@ -33,6 +35,17 @@ def pooled_parts(per_view: dict, protocol: str, which: str) -> tuple[np.ndarray,
     weight = np.asarray(per_view["weight"], dtype=np.float64)
     ok = np.isfinite(value)
     return np.where(ok, value, 0.0) * weight, np.where(ok, weight, 0.0)
+
+
+def pooled_ratio(per_view: dict, protocol: str, which: str) -> float:
+    """The pooled ``which`` ('precision' or 'recall'): sum of numerators / sum of denominators.
+
+    The one ratio of every protocol: orbit sum Nt / (sum Nt + sum Nf) (or
+    + sum Pf), volume the weighted mean of the per-position values where
+    defined; NaN when undefined.
+    """
+    num, den = pooled_parts(per_view, protocol, which)
+    return float(ratio(num.sum(), den.sum()))
 
 
 @dataclass(frozen=True)

@@ -38,7 +38,7 @@ from viscore._validate import as_positive_int, as_seed, available_memory, check_
 from ._views import cast_depths, cast_hits, ortho_box_rays, scene_of
 from .bootstrap import bootstrap_ratio
 from .orbit import orbit_frame
-from .precision_recall import PrecisionRecall, pooled_parts, ratio
+from .precision_recall import PrecisionRecall, pooled_parts, pooled_ratio, ratio
 from .quads import ImageQuads, image_quads, level_table_bytes, occluder_counts
 from .volume import frusta_see_box, volume_positions, volume_positions_bytes
 
@@ -278,70 +278,86 @@ class ReferenceViews:
             d = d.reshape(res, res, 3)[r0:r1, c0:c1].reshape(-1, 3)
         return np.broadcast_to(self.positions[unit], d.shape), d
 
-    def _reference_batches(self, images: np.ndarray, timing: dict):
-        """Cast the original for ``images`` ((k, 2) unit and camera), yield their quads.
+    def _reference_batches(self, images: np.ndarray, timing: dict, *,
+                           depths: np.ndarray | None = None, quads: int | None = None,
+                           rng_of=None):
+        """The original's side of ``images`` ((k, 2) unit and camera), a batch at a time.
 
-        Quads of one unit come, in image order, from one generator seeded by
-        the unit's child seed: the same stream as the one-call protocols.
+        Casts the original (or takes ``depths``, (k, R, R) images aligned with
+        ``images``), draws each image's quads and tallies the original. Quads
+        of one unit come, in image order, from one generator: by default the
+        unit's child seed, the same stream as the one-call protocols;
+        ``rng_of(unit)`` overrides it (the quads ablation).
         """
         res = self.resolution
+        quads = self.quads_per_image if quads is None else quads
+        rng_of = rng_of or (lambda unit: np.random.default_rng(self._children[unit]))
         rngs: dict = {}
         step = _batch_images(res)
         for b0 in range(0, len(images), step):
             batch = images[b0:b0 + step]
-            rays = [self._rays(int(u), int(c)) for u, c in batch]
-            depth = cast_depths(self._original, np.concatenate([r[0] for r in rays]),
-                                np.concatenate([r[1] for r in rays]), len(batch), res, timing)
+            if depths is None:
+                rays = [self._rays(int(u), int(c)) for u, c in batch]
+                depth = cast_depths(self._original, np.concatenate([r[0] for r in rays]),
+                                    np.concatenate([r[1] for r in rays]), len(batch), res,
+                                    timing)
+            else:
+                depth = depths[b0:b0 + step]
             t0 = time.perf_counter()
             out = []
             for j, im in enumerate(batch):
                 unit = int(im[0])  # a new unit starts its own stream
                 if unit not in rngs:
-                    rngs = {unit: np.random.default_rng(self._children[unit])}
-                out.append(image_quads(unit, int(im[1]), depth[j], self.quads_per_image,
-                                        rngs[unit], whole_screen=self.protocol == "volume",
-                                        depth_aware=self.depth_aware,
-                                        depth_levels=self.depth_levels))
+                    rngs = {unit: rng_of(unit)}
+                out.append(image_quads(unit, int(im[1]), depth[j], quads, rngs[unit],
+                                       whole_screen=self.protocol == "volume",
+                                       depth_aware=self.depth_aware,
+                                       depth_levels=self.depth_levels))
             timing["seconds_quads"] = timing.get("seconds_quads", 0.0) + (
                 time.perf_counter() - t0)
             yield out
 
     # ------------------------------------------------------------------ scoring
-    def _score_batches(self, batches, other, occluder_sees, counts: np.ndarray, timing: dict
-                       ) -> None:
-        """The one tally loop: cast the occluder over each image's box, classify, add up."""
-        res = self.resolution
-        pending: list = []
+    def _cast_regions(self, other, occluder_sees, timing: dict):
+        """Occluder pixels over each image's box, one Embree batch per call (None: unseen)."""
 
-        def flush() -> None:
-            todo = [r for r in pending if r.quads is not None and other is not None
+        def regions(refs: list) -> list:
+            todo = [r for r in refs if r.quads is not None and other is not None
                     and occluder_sees(r)]
-            regions: dict = {}
-            if todo:
-                rays = [self._rays(r.unit, r.cam, r.box) for r in todo]
-                o = np.concatenate([x[0] for x in rays])
-                d = np.concatenate([x[1] for x in rays])
-                hits = cast_hits(other, o, d, timing, depth=self.depth_aware)
-                at = 0
-                for r in todo:
-                    h, w = r.box[2] - r.box[0], r.box[3] - r.box[1]
-                    regions[id(r)] = hits[at:at + h * w].reshape(h, w)
-                    at += h * w
-            t0 = time.perf_counter()
-            for r in pending:
-                c = occluder_counts(r, regions.get(id(r)))
-                counts[r.unit] += (c.nt, c.pf, c.nf, c.q_orig, c.q_occ, c.q_both)
-            timing["seconds_quads"] = timing.get("seconds_quads", 0.0) + (
-                time.perf_counter() - t0)
-            pending.clear()
+            if not todo:
+                return [None] * len(refs)
+            rays = [self._rays(r.unit, r.cam, r.box) for r in todo]
+            hits = cast_hits(other, np.concatenate([x[0] for x in rays]),
+                             np.concatenate([x[1] for x in rays]), timing,
+                             depth=self.depth_aware)
+            found, at = {}, 0
+            for r in todo:
+                h, w = r.box[2] - r.box[0], r.box[3] - r.box[1]
+                found[id(r)] = hits[at:at + h * w].reshape(h, w)
+                at += h * w
+            return [found.get(id(r)) for r in refs]
 
-        step = _batch_images(res)
-        for batch in batches:
-            for r in batch:
-                pending.append(r)
-                if len(pending) >= step:
-                    flush()
-        flush()
+        return regions
+
+    def _score_batches(self, batches, regions_of, counts: np.ndarray, timing: dict) -> None:
+        """The one tally loop: the occluder's pixels over each image's box, classify, add up.
+
+        ``batches`` yields lists of :class:`ImageQuads`; ``regions_of(refs)``
+        gives the occluder's coverage (or depth) over each one's box.
+        """
+        step = _batch_images(self.resolution)
+        pending: list = []
+        for batch in itertools.chain(batches, [None]):
+            pending += batch or []
+            while pending and (len(pending) >= step or batch is None):
+                refs, pending = pending[:step], pending[step:]
+                regions = regions_of(refs)
+                t0 = time.perf_counter()
+                for r, region in zip(refs, regions, strict=True):
+                    c = occluder_counts(r, region)
+                    counts[r.unit] += (c.nt, c.pf, c.nf, c.q_orig, c.q_occ, c.q_both)
+                timing["seconds_quads"] = timing.get("seconds_quads", 0.0) + (
+                    time.perf_counter() - t0)
 
     def score(self, occluder: trimesh.Trimesh | None) -> PrecisionRecall:
         """Precision and recall of an occluder against the stored views of the original.
@@ -383,7 +399,8 @@ class ReferenceViews:
     def _score_orbit(self, other, counts, timing) -> None:
         batches = (self._batched(self._refs) if self._refs is not None
                    else self._reference_batches(self._images, timing))
-        self._score_batches(batches, other, lambda r: True, counts, timing)
+        self._score_batches(batches, self._cast_regions(other, lambda r: True, timing), counts,
+                            timing)
 
     def _score_volume(self, other, counts, timing) -> None:
         sees = self._sees
@@ -404,7 +421,8 @@ class ReferenceViews:
                                       self._reference_batches(again, timing))
         else:
             batches = self._reference_batches(np.argwhere(sees), timing)
-        self._score_batches(batches, other, lambda r: sees_occ[r.unit, r.cam], counts, timing)
+        regions = self._cast_regions(other, lambda r: sees_occ[r.unit, r.cam], timing)
+        self._score_batches(batches, regions, counts, timing)
         timing["frusta"] = int(sees.sum())
         timing["frusta_skipped"] = int(sees.size - sees.sum())
 
@@ -442,28 +460,53 @@ class ReferenceViews:
         r = self._ref(image)
         return None if r.levels is None else r.levels[r.level.astype(np.int64)]
 
-    def depth_images(self) -> np.ndarray:
-        """``(k, R, R) float32`` depth images of the original, one per image of :attr:`images`.
+    def depth_images(self, mesh: trimesh.Trimesh | None = None) -> np.ndarray:
+        """``(k, R, R) float32`` depth images, one per image of :attr:`images`.
 
-        World units along the pixel rays, ``inf`` where the ray misses. Cast on
-        the first call (refused with an :class:`InputError` when they would
-        not fit in memory) and kept; not pickled.
+        Of the original by default (cast on the first call and kept, not
+        pickled), or of another ``mesh`` seen by the same cameras (not kept).
+        World units along the pixel rays, ``inf`` where the ray misses.
+        Refused with an :class:`InputError` when they would not fit in memory.
         """
-        if self._depth_images is None:
-            res = self.resolution
-            check_memory(len(self._images) * float(res) ** 2 * 4
-                         + _batch_images(res) * res**2 * _BYTES_PER_RAY,
-                         f"depth images of {len(self._images)} images at resolution={res}")
-            out = np.empty((len(self._images), res, res), dtype=np.float32)
-            step = _batch_images(res)
-            for b0 in range(0, len(self._images), step):
-                batch = self._images[b0:b0 + step]
-                rays = [self._rays(int(u), int(c)) for u, c in batch]
-                out[b0:b0 + len(batch)] = cast_depths(
-                    self._original, np.concatenate([r[0] for r in rays]),
-                    np.concatenate([r[1] for r in rays]), len(batch), res, {})
+        if mesh is None and self._depth_images is not None:
+            return self._depth_images
+        scene = self._original if mesh is None else scene_of(mesh, "mesh")
+        res = self.resolution
+        check_memory(len(self._images) * float(res) ** 2 * 4
+                     + _batch_images(res) * res**2 * _BYTES_PER_RAY,
+                     f"depth images of {len(self._images)} images at resolution={res}")
+        out = np.full((len(self._images), res, res), np.inf, dtype=np.float32)
+        step = _batch_images(res)
+        for b0 in range(0, len(self._images) if scene is not None else 0, step):
+            batch = self._images[b0:b0 + step]
+            rays = [self._rays(int(u), int(c)) for u, c in batch]
+            out[b0:b0 + len(batch)] = cast_depths(
+                scene, np.concatenate([r[0] for r in rays]),
+                np.concatenate([r[1] for r in rays]), len(batch), res, {})
+        if mesh is None:
             self._depth_images = out
-        return self._depth_images
+        return out
+
+    def _score_images(self, occluder_depths: np.ndarray, *, quads: int, rng_of
+                      ) -> PrecisionRecall:
+        """Score fixed occluder images with quads drawn anew (``rng_of(unit)``) over the
+        original's kept depth images: the quads ablation, through the one tally loop."""
+        start = time.perf_counter()
+        counts = np.zeros((len(self.weights), 6), dtype=np.int64)
+        timing: dict = {}
+        batches = self._reference_batches(self._images, timing, depths=self.depth_images(),
+                                          quads=quads, rng_of=rng_of)
+        index = {(int(u), int(c)): k for k, (u, c) in enumerate(self._images)}
+
+        def regions(refs: list) -> list:
+            out = []
+            for r in refs:
+                d = occluder_depths[index[r.unit, r.cam], r.box[0]:r.box[2], r.box[1]:r.box[3]]
+                out.append(d if self.depth_aware else np.isfinite(d))
+            return out
+
+        self._score_batches(batches, regions, counts, timing)
+        return self._result(counts, timing, time.perf_counter() - start)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
@@ -484,8 +527,8 @@ class ReferenceViews:
                      "quads_both": counts[:, 5]}
         pooled = {k: pooled_parts(per_view, self.protocol, k) for k in ("precision", "recall")}
         return PrecisionRecall(
-            precision=float(ratio(pooled["precision"][0].sum(), pooled["precision"][1].sum())),
-            recall=float(ratio(pooled["recall"][0].sum(), pooled["recall"][1].sum())),
+            precision=pooled_ratio(per_view, self.protocol, "precision"),
+            recall=pooled_ratio(per_view, self.protocol, "recall"),
             precision_ci=list(bootstrap_ratio(*pooled["precision"], seed=self.seed)),
             recall_ci=list(bootstrap_ratio(*pooled["recall"], seed=self.seed)),
             per_view=per_view, protocol=self.protocol, depth_aware=self.depth_aware,
