@@ -1,3 +1,5 @@
+import os
+
 import numpy as np
 import pytest
 import trimesh
@@ -100,22 +102,93 @@ def test_six_direction_rule_hollow_shell():
     assert not (inner & outside_voxels(s)).any()
 
 
-def test_voxel_boundary_mesh_closed_and_volume():
-    # a voxel ball has no edge-only contacts: the voxel mesh is a closed 2-manifold
+def _vertex_fans_are_disks(mesh) -> bool:
+    """Every vertex's triangles form one closed fan: the edges opposite the vertex
+    (its link) make a single cycle, each link vertex entered and left once."""
+    faces = np.asarray(mesh.faces)
+    corner = np.repeat(np.arange(len(faces)), 3)
+    slot = np.tile(np.arange(3), len(faces))
+    centre = faces[corner, slot]
+    start, end = faces[corner, (slot + 1) % 3], faces[corner, (slot + 2) % 3]
+    for v in range(len(mesh.vertices)):
+        sel = centre == v
+        link = dict(zip(start[sel].tolist(), end[sel].tolist(), strict=True))
+        if not link or len(link) != sel.sum() or set(link) != set(link.values()):
+            return False
+        first = next(iter(link))
+        cur, steps = link[first], 1
+        while cur != first:
+            cur, steps = link[cur], steps + 1
+        if steps != len(link):  # more than one cycle: fans touching at the vertex
+            return False
+    return True
+
+
+def _assert_closed_manifold(solid, grid):
+    mesh = voxel_boundary_mesh(solid, grid)
+    edges = np.sort(mesh.edges, axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert (counts == 2).all()  # every edge in exactly two faces
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    assert _vertex_fans_are_disks(mesh)
+    assert mesh.volume == pytest.approx(solid.sum() * grid.pitch**3, rel=1e-9)  # outward
+    return mesh
+
+
+def test_voxel_boundary_mesh_ball_unchanged_closed_manifold():
+    # a voxel ball has no edge-only contacts: one vertex per grid vertex, two faces a square
     n = 12
     c = np.indices((n, n, n)).transpose(1, 2, 3, 0) - (n - 1) / 2
     ball = (c**2).sum(axis=-1) < 20
     grid = VoxelGrid(np.array([1.0, -2.0, 0.5]), 0.25, ball.shape)
-    mesh = voxel_boundary_mesh(ball, grid)
-    assert mesh.is_watertight and mesh.is_winding_consistent
-    assert mesh.volume == pytest.approx(ball.sum() * 0.25**3, rel=1e-9)  # outward-oriented
-    # any solid: every edge is shared by an even number of faces, volume still exact
-    solid = np.random.default_rng(5).random((8, 9, 7)) < 0.5
-    mesh = voxel_boundary_mesh(solid, grid)
-    edges = np.sort(mesh.edges, axis=1)
-    _, counts = np.unique(edges, axis=0, return_counts=True)
-    assert (counts % 2 == 0).all()
-    assert mesh.volume == pytest.approx(solid.sum() * 0.25**3, rel=1e-9)
+    mesh = _assert_closed_manifold(ball, grid)
+    assert len(np.unique(mesh.vertices, axis=0)) == len(mesh.vertices)
+    padded = np.pad(ball, 1).astype(np.int8)
+    squares = sum(int(np.abs(np.diff(padded, axis=a)).sum()) for a in range(3))
+    assert len(mesh.faces) == 2 * squares
+    assert (np.diff(mesh.vertices[:, 0]) >= 0).all()  # lexicographic grid-vertex order
+
+
+def test_voxel_boundary_mesh_two_voxels_sharing_an_edge():
+    grid = VoxelGrid(np.zeros(3), 0.5, (4, 4, 4))
+    solid = np.zeros(grid.shape, bool)
+    solid[1, 1, 1] = solid[2, 2, 1] = True  # touching along the edge x = y = 1 (grid units)
+    mesh = _assert_closed_manifold(solid, grid)
+    # two closed cubes, kept apart along the shared edge (split at its midpoint)
+    assert mesh.body_count == 2 and len(mesh.faces) > 24
+
+
+def test_voxel_boundary_mesh_two_voxels_sharing_a_vertex():
+    grid = VoxelGrid(np.zeros(3), 1.0, (4, 4, 4))
+    solid = np.zeros(grid.shape, bool)
+    solid[1, 1, 1] = solid[2, 2, 2] = True
+    mesh = _assert_closed_manifold(solid, grid)
+    assert len(mesh.faces) == 24 and len(mesh.vertices) == 16  # the shared corner twice
+    assert mesh.body_count == 2
+
+
+def test_voxel_boundary_mesh_edge_contact_joined_at_both_ends():
+    # two voxels touching along an edge, also joined around both of its end vertices (through
+    # the layers below and above): splitting vertices alone would leave four faces on the edge
+    grid = VoxelGrid(np.zeros(3), 1.0, (5, 5, 5))
+    solid = np.zeros(grid.shape, bool)
+    solid[1, 1, 1] = solid[2, 2, 1] = True
+    solid[1, 1, 0] = solid[2, 1, 0] = solid[2, 2, 0] = True
+    solid[1, 1, 2] = solid[1, 2, 2] = solid[2, 2, 2] = True
+    _assert_closed_manifold(solid, grid)
+
+
+def test_voxel_boundary_mesh_random_solids_closed_manifold():
+    rng = np.random.default_rng(5)
+    grid = VoxelGrid(np.array([1.0, -2.0, 0.5]), 0.25, (8, 9, 7))
+    for density in (0.2, 0.35, 0.5, 0.65, 0.8):
+        _assert_closed_manifold(rng.random(grid.shape) < density, grid)
+
+
+def test_voxel_boundary_mesh_empty():
+    grid = VoxelGrid(np.zeros(3), 1.0, (3, 3, 3))
+    mesh = voxel_boundary_mesh(np.zeros(grid.shape, bool), grid)
+    assert mesh.faces.shape == (0, 3) and mesh.vertices.shape == (0, 3)
 
 
 def test_voxel_grid_refuses_huge_grid_with_estimate():
@@ -166,4 +239,161 @@ def test_points_inside_touching_parts_settled_by_winding_number():
     assert points_inside(scene, pts).all()
     assert not points_inside_parity(scene, pts).all()  # the stand-in alone miscounts
     w = winding_numbers(mesh.vertices, mesh.faces, [[0.0, 0.0, 1.0], [-1.0, -1.0, 1.0]])
-    np.testing.assert_allclose(w, [0.0, 1.0], atol=1e-9)
+    np.testing.assert_allclose(w, [0.0, 1.0], atol=1e-2)  # libigl's fast winding number
+
+
+def test_surface_voxels_triangle_lying_on_voxel_faces():
+    # a triangle in the plane z = 2, a boundary between voxel layers 1 and 2, with two edges
+    # on grid lines (x = 1, y = 1) and its corners on grid vertices: every voxel whose closed
+    # cube it touches is a surface voxel, on both sides of the plane
+    grid = VoxelGrid(np.zeros(3), 1.0, (5, 5, 4))
+    tri = np.array([[1.0, 1.0, 2.0], [4.0, 1.0, 2.0], [1.0, 4.0, 2.0]])
+    got = surface_voxels(tri, np.array([[0, 1, 2]]), grid)
+    i, j = np.meshgrid(np.arange(5), np.arange(5), indexing="ij")
+    # square [i, i+1] x [j, j+1] meets {x >= 1, y >= 1, x + y <= 5} (touching counts)
+    columns = (i + 1 >= 1) & (j + 1 >= 1) & (np.maximum(i, 1) + np.maximum(j, 1) <= 5)
+    expected = np.zeros(grid.shape, bool)
+    expected[:, :, 1] = expected[:, :, 2] = columns
+    np.testing.assert_array_equal(got, expected)
+    # the same triangle shifted off the plane by a hair: one layer only
+    got = surface_voxels(tri + [0, 0, 0.25], np.array([[0, 1, 2]]), grid)
+    np.testing.assert_array_equal(got[:, :, 2], columns)
+    assert not got[:, :, 1].any() and not got[:, :, 3].any()
+
+
+def _voxel_room(shape, wall, hole=None):
+    """Solid of a hollow box: ``wall`` voxels thick, optional tunnel ``hole`` (slices)."""
+    solid = np.ones(shape, bool)
+    solid[wall:-wall, wall:-wall, wall:-wall] = False
+    if hole is not None:
+        solid[hole] = False
+    return solid
+
+
+def test_inside_voxels_winding_hollow_shell_drops_cavity():
+    shell = trimesh.util.concatenate([_box((-1, -1, -1), (1, 1, 1)),
+                                      _box((-0.6, -0.6, -0.6), (0.6, 0.6, 0.6))])
+    shell.faces[12:] = shell.faces[12:, ::-1]  # the inner box faces the cavity
+    v = voxelize(shell, resolution=20)
+    from viscore.voxels import inside_voxels_winding
+
+    inside = inside_voxels_winding(shell.vertices, shell.faces, v.grid, v.surface)
+    c = v.grid.centers(np.argwhere(np.ones(v.grid.shape, bool))).reshape(v.grid.shape + (3,))
+    in_cavity = (np.abs(c) < 0.6).all(axis=-1)
+    enclosed = v.solid & ~v.surface
+    assert (enclosed & in_cavity).sum() > 0  # the flood fill takes the cavity for solid
+    assert not (inside & in_cavity).any()
+    np.testing.assert_array_equal(inside, enclosed & ~in_cavity)
+    # the per-voxel route (an open mesh is not assumed closed) agrees here
+    per_voxel = inside_voxels_winding(shell.vertices, shell.faces, v.grid, v.surface,
+                                      closed=False)
+    np.testing.assert_array_equal(per_voxel, inside)
+
+
+def test_inside_voxels_winding_sealed_cavity_and_open_mesh(open_cube):
+    from viscore.voxels import inside_voxels_winding
+
+    # a room with a one-voxel door, voxelized at a coarser pitch: the door is sealed
+    room = _voxel_room((12, 12, 12), 3, hole=(slice(5, 6), slice(0, 3), slice(5, 6)))
+    mesh = voxel_boundary_mesh(room, VoxelGrid(np.zeros(3), 1.0, room.shape))
+    v = voxelize(mesh, pitch=1.7)
+    assert not v.leaks
+    inside = inside_voxels_winding(mesh.vertices, mesh.faces, v.grid, v.surface)
+    c = v.grid.centers(np.argwhere(inside))
+    assert len(c) > 0 and not ((c > 3) & (c < 9)).all(axis=1).any()  # nothing in the room
+    # open cube: candidates tested one by one, at their centres
+    v = voxelize(open_cube, resolution=10)
+    cand = ~v.surface
+    inside = inside_voxels_winding(open_cube.vertices, open_cube.faces, v.grid, v.surface,
+                                   candidates=cand)
+    c = v.grid.centers(np.argwhere(inside))
+    assert (np.abs(c) <= 1 + 1e-9).all()  # the hole's plane z = 1 itself has w = 1/2
+    deep = cand & (np.abs(v.grid.centers(np.argwhere(np.ones(v.grid.shape, bool))))
+                   < 0.9).all(axis=1).reshape(v.grid.shape)
+    assert deep.sum() > 0 and inside[deep].all()  # w >= 5/6 there
+    with pytest.raises(InputError, match="surface"):
+        inside_voxels_winding(open_cube.vertices, open_cube.faces, v.grid, v.surface[1:])
+
+
+def test_voxelize_refuses_before_work_when_memory_is_short(monkeypatch, cube):
+    monkeypatch.setenv("VISCORE_MEMORY_FRACTION", "1e-9")
+    with pytest.raises(InputError, match="voxelize.*memory"):
+        voxelize(cube, resolution=64)
+    with pytest.raises(InputError, match="mesh"):
+        voxelize(trimesh.Trimesh(), resolution=4)
+
+
+def test_voxel_grid_tiny_pitch_refused_not_overflowed():
+    with pytest.raises(InputError, match="cells"):
+        voxel_grid(np.array([[0, 0, 0], [1, 1, 1.0]]), pitch=1e-300)
+
+
+_NUMBA_IMPORT_AND_RUN = """
+import trimesh
+import viscore.generators.aabb_skins  # decorates the box-growth kernels
+from viscore.voxels import voxelize
+v = voxelize(trimesh.creation.box(), resolution=4)
+print(int(v.surface.sum()))
+"""
+
+
+def test_numba_kernels_import_and_run_without_a_cache_location():
+    # a system-wide install run by another user: numba finds no writable folder for its
+    # cache (here: no cache locator at all) and ``cache=True`` raised at import
+    import subprocess
+    import sys
+
+    code = ("from numba.core import caching\n"
+            "impl = getattr(caching, 'CacheImpl', None) or getattr(caching, '_CacheImpl')\n"
+            "impl._locator_classes = []\n") + _NUMBA_IMPORT_AND_RUN
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CACHE")}
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert int(run.stdout.split()[-1]) == 5**3 - 3**3  # the unit cube at 4 voxels: a 5^3 shell
+
+
+@pytest.mark.slow
+def test_numba_kernels_from_a_read_only_install(tmp_path):
+    # the package copied as an install lays it out (package-dir mapping), made read-only,
+    # run with a home folder that cannot hold ~/.cache either
+    import shutil
+    import stat
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    site = tmp_path / "site"
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
+    shutil.copytree(repo / "viscore", site / "viscore", ignore=ignore)
+    for folder, name in (("metrics", "metrics"), ("generators", "generators"), ("cli", "cli"),
+                         ("data", "_scenes")):
+        shutil.copytree(repo / folder, site / "viscore" / name, ignore=ignore)
+    home = tmp_path / "home"
+    home.mkdir()
+    for path in [*site.rglob("*"), site, home, tmp_path]:
+        mode = path.stat().st_mode
+        path.chmod(mode & ~(stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH)
+                   | stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH
+                   | (stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH if path.is_dir() else 0))
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_CACHE", "PYTHON"))}
+    env.update(PYTHONPATH=str(site), HOME=str(home), XDG_CACHE_HOME=str(home / ".cache"))
+    code = (f"import viscore; assert viscore.__file__.startswith({str(site)!r})\n"
+            + _NUMBA_IMPORT_AND_RUN)
+    command = [sys.executable, "-c", code]
+    try:
+        if os.geteuid() == 0:  # root writes anywhere: run as an unprivileged user
+            probe = subprocess.run(["runuser", "-u", "nobody", "--", sys.executable, "-c", ""],
+                                   capture_output=True, timeout=60)
+            if probe.returncode != 0:
+                pytest.skip("cannot run this Python as user 'nobody'")
+            command = ["runuser", "-u", "nobody", "--", "env", *(f"{k}={v}" for k, v in
+                                                                env.items()), *command]
+        run = subprocess.run(command, capture_output=True, text=True, env=env, cwd=tmp_path,
+                             timeout=900)
+    finally:
+        for path in [tmp_path, home, site, *site.rglob("*")]:
+            path.chmod(path.stat().st_mode | stat.S_IWUSR)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert int(run.stdout.split()[-1]) == 5**3 - 3**3

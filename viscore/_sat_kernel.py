@@ -1,26 +1,34 @@
-"""numba kernel of the exact triangle/box overlap voxelization.
+"""numba kernels of the voxelization: exact triangle/box overlap, first cell per label.
 
-Per triangle, loops over the voxels of its bounding box, rejects most with
-the triangle-plane test and runs the nine edge-axis tests of the
-separating-axis theorem (Akenine-Moeller) on the rest. A numpy version needs
-every (triangle, voxel) candidate in memory, which explodes for long thin
-triangles tilted against the axes (a hairball's tubes); the loop does not.
+Per triangle, :func:`mark_surface_voxels` loops over the voxels of its
+bounding box, rejects most with the triangle-plane test and runs the nine
+edge-axis tests of the separating-axis theorem of Akenine-Moeller [1]_ on the
+rest. A numpy version needs every (triangle, voxel) candidate in memory,
+which explodes for long thin triangles tilted against the axes (a hairball's
+tubes); the loop does not. :func:`first_index_of_labels` picks one voxel per
+connected component in one pass over the grid.
+
+References
+----------
+.. [1] Akenine-Moeller, T. "Fast 3D triangle-box overlap testing". Journal of
+   Graphics Tools 6(1), 2001, pp. 29-33. :DOI:`10.1080/10867651.2001.10487535`
 """
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from ._jit import njit_cached
 
-@numba.njit(cache=True, inline="always")
+
+@njit_cached(inline="always")
 def _axis_ok(p0, p1, p2, r):
     lo = min(p0, min(p1, p2))
     hi = max(p0, max(p1, p2))
     return lo <= r and hi >= -r
 
 
-@numba.njit(cache=True)
+@njit_cached()
 def mark_surface_voxels(tri, lo, hi, origin, pitch, h, out):
     """Set out[x, y, z] for every voxel (closed cube of half-size h) a triangle touches."""
     for t in range(tri.shape[0]):
@@ -78,3 +86,14 @@ def surface_voxels_kernel(tri: np.ndarray, lo: np.ndarray, hi: np.ndarray, origi
                                np.ascontiguousarray(hi, dtype=np.int64),
                                np.asarray(origin, dtype=np.float64), float(pitch), float(half),
                                out)
+
+
+@njit_cached()
+def first_index_of_labels(labels, n_labels):
+    """Flat index of the first cell of each label 1..n_labels in a flat label array (-1: none)."""
+    first = np.full(n_labels + 1, -1, np.int64)
+    for i in range(labels.shape[0]):
+        lab = labels[i]
+        if lab > 0 and first[lab] < 0:
+            first[lab] = i
+    return first

@@ -1,22 +1,40 @@
 """Voxelization of triangle soups: surface, outside, inner and inside voxels.
 
 - Surface voxels: every voxel a triangle touches, by the exact separating-axis
-  triangle/box overlap test (Akenine-Moeller), as in Silvennoinen et al. 2014,
-  sec. 4.1 (seeds/000) and the occluder-skins paper, sec. 4 (seeds/002).
+  triangle/box overlap test of Akenine-Moeller [3]_, as in Silvennoinen et al.
+  [1]_, sec. 4.1, and the occluder-skins paper of Leone et al. [2]_, sec. 4.
 - Outside voxels: 6-connected flood fill from the grid border through
-  non-surface voxels (seed 000, sec. 4.1); the rest is solid.
-- Inner voxels: the six-direction rule of seed 002, sec. 4 (a non-surface voxel
+  non-surface voxels ([1]_, sec. 4.1); the rest is solid.
+- Inner voxels: the six-direction rule of [2]_, sec. 4 (a non-surface voxel
   with a surface voxel somewhere along each of +-X, +-Y, +-Z).
-- Inside voxels of open meshes: ray-parity votes along the three axes from
-  both sides, the winding-number stand-in of DESIGN.md.
+- Inside voxels: voxels whose whole cube is inside the mesh by the
+  generalized winding number (:func:`inside_voxels_winding`), so that a
+  cavity sealed by the voxelization is never taken for solid; and, for open
+  meshes, ray-parity votes along the three axes (:func:`inside_voxels_parity`).
 - The voxel mesh: two triangles per face between a solid and an empty voxel,
-  oriented towards the empty one; closed (seed 000, sec. 4.1).
+  oriented towards the empty one; closed and 2-manifold ([1]_, sec. 4.1).
 
 The mesh's bounding box is centred in the grid, whose size is one voxel more
 than the box needs, so the box's faces pass through voxel centres (an
 axis-aligned face touches one layer of voxels, not the two on either side of
 a voxel boundary); two more layers pad every side, so the grid border is
 always outside.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1), 2014,
+   pp. 235-245. :DOI:`10.1111/cgf.12271`
+.. [2] Leone, M. N., Barbagallo, L. R., Banquiero, M. M., Agromayor, D.,
+   Bursztyn, A. P. M. "Implementing software occlusion culling for real-time
+   applications". XVIII Congreso Argentino de Ciencias de la Computacion
+   (CACIC 2012), Workshop de Computacion Grafica, Imagenes y Visualizacion,
+   2012. http://sedici.unlp.edu.ar/handle/10915/23640
+.. [3] Akenine-Moeller, T. "Fast 3D triangle-box overlap testing". Journal of
+   Graphics Tools 6(1), 2001, pp. 29-33. :DOI:`10.1080/10867651.2001.10487535`
+.. [4] Jacobson, A., Kavan, L., Sorkine-Hornung, O. "Robust inside-outside
+   segmentation using generalized winding numbers". ACM Transactions on
+   Graphics 32(4), 2013, article 33. :DOI:`10.1145/2461912.2461916`
 """
 
 from __future__ import annotations
@@ -29,12 +47,12 @@ import trimesh
 from scipy import ndimage
 
 from ._sat_kernel import surface_voxels_kernel
-from ._validate import InputError, as_positive, as_positive_int
+from ._validate import InputError, as_positive, as_positive_int, check_memory
 from .constants import MAX_VOXEL_CELLS
 
 __all__ = ["VoxelGrid", "Voxelization", "voxel_grid", "surface_voxels", "outside_voxels",
            "inner_voxels_six_direction", "inside_voxels_parity", "points_inside_parity", "voxelize",
-           "voxel_boundary_mesh"]
+           "voxel_boundary_mesh", "inside_voxels_winding"]
 
 _log = logging.getLogger(__name__)
 
@@ -45,9 +63,15 @@ _TOUCH_TOLERANCE = 1e-9
 #: Voxel layers added around the mesh's bounding box on every side.
 _PADDING = 2
 
-#: Bytes of working memory per cell of a voxelization (bool arrays plus int
-#: labels of the flood fill), for the refusal estimate.
-_BYTES_PER_CELL = 8
+#: Peak bytes of working memory per cell of :func:`voxelize`: the surface,
+#: outside and inner bool grids, the flood fill's int32 labels and the
+#: six-direction rule's temporaries. Measured (peak resident set) at 8 to 19
+#: bytes on a box, a torus and an open city block at 200 voxels; with a margin.
+VOXELIZE_BYTES_PER_CELL = 24
+
+#: Voxel centres per libigl call of :func:`inside_voxels_winding` (bounds the
+#: (n, 3) float64 centres held at once to 24 MiB).
+_WINDING_CHUNK = 1 << 20
 
 #: Fractional offsets of the parity rays inside a voxel column: off the
 #: centre so that rays do not run along the faces of axis-aligned meshes.
@@ -128,14 +152,15 @@ def voxel_grid(bounds: np.ndarray, *, resolution: int | None = None,
         raise InputError("bounds: zero extent, cannot voxelize")
     # one voxel more than the extent needs, so that the bounding box's faces pass through
     # voxel centres: an axis-aligned face then touches one voxel layer, not two
-    inner = np.maximum(1, np.ceil(extent / pitch - 1e-9)).astype(np.int64) + 1
-    shape = inner + 2 * _PADDING
-    cells = int(np.prod(shape.astype(object)))
-    if cells > MAX_VOXEL_CELLS:
-        gib = cells * _BYTES_PER_CELL / 2**30
+    with np.errstate(over="ignore"):  # a tiny pitch: inf counts, refused below
+        counts = np.maximum(1.0, np.ceil(extent / pitch - 1e-9)) + 1 + 2 * _PADDING
+        cells = float(np.prod(counts))
+    if not np.isfinite(cells) or cells > MAX_VOXEL_CELLS:
+        gib = cells * VOXELIZE_BYTES_PER_CELL / 2**30
         raise InputError(
-            f"voxels: a {shape[0]} x {shape[1]} x {shape[2]} grid has {cells:,} cells and would "
-            f"need about {gib:.1f} GiB; the limit is {MAX_VOXEL_CELLS:,} cells")
+            f"voxels: a {counts[0]:.6g} x {counts[1]:.6g} x {counts[2]:.6g} grid has {cells:.4g} "
+            f"cells and would need about {gib:.3g} GiB; the limit is {MAX_VOXEL_CELLS:,} cells")
+    shape = counts.astype(np.int64)
     origin = 0.5 * (bounds[0] + bounds[1]) - 0.5 * shape * pitch
     return VoxelGrid(origin=origin, pitch=float(pitch), shape=tuple(int(s) for s in shape))
 
@@ -199,7 +224,7 @@ def surface_voxels(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGrid) -> 
 
 
 def outside_voxels(surface: np.ndarray) -> np.ndarray:
-    """Non-surface voxels 6-connected to the grid border (seed 000, sec. 4.1).
+    """Non-surface voxels 6-connected to the grid border (Silvennoinen et al. 2014, sec. 4.1).
 
     Returns
     -------
@@ -223,8 +248,8 @@ def outside_voxels(surface: np.ndarray) -> np.ndarray:
 def inner_voxels_six_direction(surface: np.ndarray) -> np.ndarray:
     """Non-surface voxels with a surface voxel along each of +-X, +-Y, +-Z.
 
-    The inner-voxel rule of the occluder-skins paper, sec. 4 (seeds/002) and
-    of the box-filling note (seeds/003). On an open mesh the rule can accept
+    The inner-voxel rule of the occluder-skins paper (Leone et al. 2012,
+    sec. 4) and of Naaji's box-filling note (2019). On an open mesh the rule can accept
     voxels that a flood fill shows to be connected to the outside: compare
     with :func:`outside_voxels` to detect that leak.
 
@@ -284,13 +309,15 @@ def inside_voxels_parity(scene, grid: VoxelGrid, *, min_votes: int = 4) -> np.nd
         # voxel centre k along the axis is at distance (k + 1.5) * pitch from the origin
         k = np.floor(hits.t / grid.pitch - 1.5).astype(np.int64) + 1  # first centre past hit
         k = np.clip(k, 0, shape[axis])
-        crossings = np.zeros((jb.size, shape[axis] + 1), dtype=np.int32)
-        np.add.at(crossings, (hits.ray, k), 1)
-        before = np.cumsum(crossings, axis=1)[:, :-1]  # hits before each centre
-        after = hits.count[:, None] - before
-        v = (before % 2) + (after % 2)  # (columns, shape[axis])
-        v = v.reshape(shape[b], shape[c], shape[axis])
-        votes += np.moveaxis(v, (0, 1, 2), (b, c, axis)).astype(np.int8)
+        # parity of the hits before each centre, and of those after it (int8: 1 byte a cell)
+        odd = np.zeros((jb.size, shape[axis] + 1), dtype=np.int8)
+        np.add.at(odd, (hits.ray, k), 1)
+        np.bitwise_and(odd, 1, out=odd)
+        np.bitwise_xor.accumulate(odd, axis=1, out=odd)
+        v = odd[:, :-1]  # (columns, shape[axis]): odd number of hits before the centre
+        v += v ^ (hits.count[:, None] & 1).astype(np.int8)  # ... plus odd number after it
+        del odd
+        votes += np.moveaxis(v.reshape(shape[b], shape[c], shape[axis]), (0, 1, 2), (b, c, axis))
     return votes >= min_votes
 
 
@@ -328,6 +355,91 @@ def points_inside_parity(scene, points: np.ndarray, *, min_votes: int = 4) -> np
     return parity_votes(scene, points) >= min_votes
 
 
+def inside_voxels_winding(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGrid,
+                          surface: np.ndarray, *, candidates: np.ndarray | None = None,
+                          closed: bool | None = None) -> np.ndarray:
+    """Non-surface voxels inside the mesh by the generalized winding number at their centres.
+
+    A voxel is kept when no triangle touches its closed cube (it is not in
+    ``surface``) and the winding number [4]_ at its centre is at least 1/2 in
+    absolute value. Cavities, sealed by the voxelization or not, have winding
+    number 0 and are left out.
+
+    Parameters
+    ----------
+    vertices : (v, 3) float
+    faces : (f, 3) int
+    grid : VoxelGrid
+    surface : grid.shape bool
+        Surface voxels of this mesh on this grid (:func:`surface_voxels`).
+    candidates : grid.shape bool, optional
+        Only these voxels are tested (default: every non-surface voxel).
+    closed : bool, optional
+        Whether the mesh is closed and consistently oriented
+        (:func:`viscore.winding.is_closed_oriented`); computed when None.
+
+    Returns
+    -------
+    inside : grid.shape bool
+
+    Notes
+    -----
+    Closed, consistently oriented mesh: the winding number is an integer,
+    constant on each 6-connected component of non-surface voxels (the union
+    of their closed cubes touches no triangle), so it is evaluated at one
+    voxel per component and every kept voxel lies, whole, inside the mesh:
+    a segment from a point of winding number 0 to it crosses a triangle
+    first. Any other mesh: one evaluation per candidate voxel (libigl's fast
+    winding number, a few microseconds each), and only the centre is known
+    to be inside; near a hole, part of the cube may not be.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> shell = trimesh.util.concatenate([trimesh.creation.box(extents=(2, 2, 2)),
+    ...                                   trimesh.creation.box(extents=(1.2, 1.2, 1.2))])
+    >>> shell.faces[12:] = shell.faces[12:, ::-1]  # inner box inverted: a hollow shell
+    >>> v = voxelize(shell, resolution=10)
+    >>> inside = inside_voxels_winding(shell.vertices, shell.faces, v.grid, v.surface)
+    >>> enclosed = v.solid & ~v.surface  # the flood fill's interior: wall and cavity
+    >>> int(enclosed.sum()), int(inside.sum())  # the 5 x 5 x 5 cavity is left out
+    (511, 386)
+    """
+    from ._sat_kernel import first_index_of_labels
+    from .winding import WINDING_THRESHOLD, is_closed_oriented, winding_numbers
+
+    surface = np.asarray(surface, dtype=bool)
+    if surface.shape != tuple(grid.shape):
+        raise InputError(f"surface: expected shape {tuple(grid.shape)}, got {surface.shape}")
+    if candidates is not None:
+        candidates = np.asarray(candidates, dtype=bool)
+        if candidates.shape != surface.shape:
+            raise InputError(f"candidates: expected shape {surface.shape}, got {candidates.shape}")
+    if closed is None:
+        closed = is_closed_oriented(vertices, faces)
+    if closed:
+        labels, count = ndimage.label(~surface)  # default structure: 6-connectivity
+        first = first_index_of_labels(labels.reshape(-1), count)[1:]
+        idx = np.stack(np.unravel_index(first, surface.shape), axis=1)
+        w = winding_numbers(vertices, faces, grid.centers(idx))
+        keep = np.r_[False, np.abs(w) >= WINDING_THRESHOLD]
+        inside = keep[labels]
+        del labels
+        if candidates is not None:
+            inside &= candidates
+        return inside
+    test = ~surface if candidates is None else candidates & ~surface
+    flat = np.flatnonzero(test)
+    del test
+    inside = np.zeros(surface.shape, dtype=bool)
+    for start in range(0, len(flat), _WINDING_CHUNK):
+        part = flat[start:start + _WINDING_CHUNK]
+        idx = np.stack(np.unravel_index(part, surface.shape), axis=1)
+        keep = np.abs(winding_numbers(vertices, faces, grid.centers(idx))) >= WINDING_THRESHOLD
+        inside.reshape(-1)[part[keep]] = True
+    return inside
+
+
 @dataclass(frozen=True, eq=False)
 class Voxelization:
     """Surface, outside and inner voxels of one mesh on one grid.
@@ -340,7 +452,7 @@ class Voxelization:
     outside : grid.shape bool
         Non-surface voxels connected to the border (flood fill).
     inner : grid.shape bool
-        Non-surface voxels by the six-direction rule (seed 002).
+        Non-surface voxels by the six-direction rule (Leone et al. 2012, sec. 4).
     """
 
     grid: VoxelGrid
@@ -350,7 +462,7 @@ class Voxelization:
 
     @property
     def solid(self) -> np.ndarray:
-        """Surface plus enclosed voxels (everything not outside), seed 000 sec. 4.1."""
+        """Surface plus enclosed voxels (everything not outside), Silvennoinen et al. sec. 4.1."""
         return ~self.outside
 
     @property
@@ -379,7 +491,10 @@ def voxelize(mesh: trimesh.Trimesh, *, resolution: int | None = None,
     Raises
     ------
     InputError
-        If the grid would not fit in memory (see :func:`voxel_grid`).
+        If ``mesh`` is empty, the grid has more than
+        :data:`viscore.constants.MAX_VOXEL_CELLS` cells (see :func:`voxel_grid`),
+        or its estimated memory (:data:`VOXELIZE_BYTES_PER_CELL` per cell) exceeds
+        the limit of :func:`viscore._validate.check_memory`; checked before any work.
 
     Examples
     --------
@@ -387,17 +502,31 @@ def voxelize(mesh: trimesh.Trimesh, *, resolution: int | None = None,
     >>> v.grid.shape, int(v.solid.sum()), v.leaks
     ((9, 9, 9), 125, False)
     """
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise InputError("mesh: expected a non-empty trimesh.Trimesh")
     grid = voxel_grid(np.asarray(mesh.bounds), resolution=resolution, pitch=pitch)
+    check_memory(float(np.prod(np.array(grid.shape, dtype=np.float64))) * VOXELIZE_BYTES_PER_CELL,
+                 f"voxelize: a {grid.shape[0]} x {grid.shape[1]} x {grid.shape[2]} voxel grid")
     surface = surface_voxels(mesh.vertices, mesh.faces, grid)
     return Voxelization(grid=grid, surface=surface, outside=outside_voxels(surface),
                         inner=inner_voxels_six_direction(surface))
 
 
 def voxel_boundary_mesh(solid: np.ndarray, grid: VoxelGrid) -> trimesh.Trimesh:
-    """Closed voxel mesh: two triangles per face between a solid and an empty voxel.
+    """Closed 2-manifold voxel mesh: two triangles per face between a solid and an empty voxel.
 
-    Faces are oriented towards the empty voxel and vertices are shared, so
-    the result is closed (seed 000, sec. 4.1).
+    Faces are oriented towards the empty voxel, as in Silvennoinen et al.
+    2014, sec. 4.1 [1]_. Where solid voxels touch only along an edge or at a
+    vertex, the voxel surface pinches; the mesh is made 2-manifold there by
+    keeping the touching voxels apart (solid voxels are 6-connected):
+
+    - each grid vertex gets one mesh vertex per disk of faces around it (two
+      cubes touching at a corner get two copies of that corner);
+    - along an edge where two solid voxels touch diagonally (four faces), the
+      faces of each voxel are joined to each other, and the quads along that
+      edge are split at the edge's midpoint (one midpoint vertex per voxel,
+      plus a centre vertex per split quad), so that the two sheets never share
+      an edge even where they share both end vertices.
 
     Parameters
     ----------
@@ -407,7 +536,18 @@ def voxel_boundary_mesh(solid: np.ndarray, grid: VoxelGrid) -> trimesh.Trimesh:
     Returns
     -------
     mesh : trimesh.Trimesh
-        Empty (no faces) when ``solid`` is all False.
+        Closed (every edge in exactly two faces), consistently oriented
+        outwards, every vertex's faces one disk, enclosed volume exactly
+        ``solid.sum() * grid.pitch**3``. Copies of a vertex share its
+        position. Without pinches, the vertices are the grid vertices in
+        lexicographic order and the faces two per quad. Empty (no faces)
+        when ``solid`` is all False.
+
+    References
+    ----------
+    .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+       Simplification using Planar Sections". Computer Graphics Forum 33(1),
+       2014, pp. 235-245. :DOI:`10.1111/cgf.12271`
 
     Examples
     --------
@@ -416,9 +556,17 @@ def voxel_boundary_mesh(solid: np.ndarray, grid: VoxelGrid) -> trimesh.Trimesh:
     >>> m = voxel_boundary_mesh(s, g)
     >>> len(m.faces), bool(m.is_watertight), float(m.volume)
     (12, True, 1.0)
+    >>> s[0, 0, 0] = True  # a second voxel touching the first at one corner
+    >>> m = voxel_boundary_mesh(s, g)
+    >>> len(m.vertices), len(m.faces), bool(m.is_watertight), float(m.volume)
+    (16, 24, True, 2.0)
     """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    solid = np.asarray(solid, dtype=bool)
     padded = np.pad(solid, 1)
-    quads = []
+    corners_list, owner_list = [], []
     for axis in range(3):
         b, c = (axis + 1) % 3, (axis + 2) % 3
         diff = np.diff(padded.astype(np.int8), axis=axis)
@@ -435,15 +583,79 @@ def voxel_boundary_mesh(solid: np.ndarray, grid: VoxelGrid) -> trimesh.Trimesh:
             corners[:, 2, b] += 1
             corners[:, 2, c] += 1
             corners[:, 3, c] += 1
+            owner = plane.copy()  # the solid voxel of the face
             if sign == 1:  # empty then solid: normal -axis, reverse winding
                 corners = corners[:, ::-1]
-            quads.append(corners)
-    if not quads:
+            else:
+                owner[:, axis] -= 1
+            corners_list.append(corners)
+            owner_list.append(owner)
+    if not corners_list:
         return trimesh.Trimesh(vertices=np.zeros((0, 3)), faces=np.zeros((0, 3), dtype=np.int64),
                                process=False)
-    q = np.concatenate(quads)
-    keys, inverse = np.unique(q.reshape(-1, 3), axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1, 4)
-    faces = np.concatenate([inverse[:, [0, 1, 2]], inverse[:, [0, 2, 3]]])
-    vertices = grid.origin + keys * grid.pitch
-    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+    corners = np.concatenate(corners_list)  # (q, 4, 3) grid vertex coordinates
+    owner = np.ravel_multi_index(np.concatenate(owner_list).T, solid.shape)  # (q,)
+    nq = len(corners)
+    lattice = tuple(int(n) + 1 for n in solid.shape)
+    vid = np.ravel_multi_index(corners.reshape(-1, 3).T, lattice).reshape(nq, 4)
+
+    # every quad edge (corner i -> i + 1), grouped by grid edge, then by solid voxel
+    va = vid.reshape(-1)
+    vb = vid[:, [1, 2, 3, 0]].reshape(-1)
+    nodes = np.arange(4 * nq)  # node 4 q + i: corner i of quad q; also edge i of quad q
+    n_lattice = int(np.prod(np.array(lattice, dtype=np.int64)))
+    key = np.minimum(va, vb) * n_lattice + np.maximum(va, vb)
+    order = np.lexsort((owner[nodes // 4], key))
+    first, second = order[0::2], order[1::2]  # pairs: each edge has 2 or 4 faces
+    # join the corners of paired faces that sit on the same grid vertex
+    nxt = lambda e: 4 * (e // 4) + (e % 4 + 1) % 4  # noqa: E731  (corner i + 1 of the quad)
+    same = va[first] == va[second]
+    rows = np.concatenate([first, nxt(first)])
+    cols = np.concatenate([np.where(same, second, nxt(second)),
+                           np.where(same, nxt(second), second)])
+    graph = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(4 * nq, 4 * nq))
+    _, fan = connected_components(graph, directed=False)
+    # one vertex per (grid vertex, fan): lexicographic by grid vertex, then by first node
+    fan_vid = np.zeros(fan.max() + 1, dtype=np.int64)
+    fan_vid[fan] = va
+    fan_first = np.full(fan.max() + 1, len(nodes))
+    np.minimum.at(fan_first, fan, nodes)
+    rank = np.empty(len(fan_vid), dtype=np.int64)
+    rank[np.lexsort((fan_first, fan_vid))] = np.arange(len(fan_vid))
+    corner_vertex = rank[fan].reshape(nq, 4)
+    vertices = [np.stack(np.unravel_index(np.sort(fan_vid), lattice), axis=1).astype(np.float64)]
+
+    # edges with four faces: a midpoint vertex per pair, and the quads along them split
+    sorted_key = key[order]
+    group = np.r_[True, sorted_key[1:] != sorted_key[:-1]]
+    size = np.diff(np.r_[np.flatnonzero(group), len(order)])
+    four = np.repeat(size == 4, size)[0::2]  # per pair
+    midpoint = np.full(4 * nq, -1, dtype=np.int64)
+    n_vertices = len(vertices[0])
+    if four.any():
+        pair_first, pair_second = first[four], second[four]
+        mid_ids = n_vertices + np.arange(len(pair_first))
+        midpoint[pair_first] = mid_ids
+        midpoint[pair_second] = mid_ids
+        grid_mid = 0.5 * (np.stack(np.unravel_index(va[pair_first], lattice), axis=1)
+                          + np.stack(np.unravel_index(vb[pair_first], lattice), axis=1))
+        vertices.append(grid_mid)
+        n_vertices += len(mid_ids)
+    midpoint = midpoint.reshape(nq, 4)
+    split = (midpoint >= 0).any(axis=1)
+    plain = ~split
+    faces = [corner_vertex[plain][:, [0, 1, 2]], corner_vertex[plain][:, [0, 2, 3]]]
+    if split.any():
+        slots = np.empty((int(split.sum()), 8), dtype=np.int64)
+        slots[:, 0::2] = corner_vertex[split]
+        slots[:, 1::2] = midpoint[split]
+        present = slots >= 0
+        centre = n_vertices + np.arange(len(slots))
+        vertices.append(corners[split].mean(axis=1))
+        # fan from the quad's centre over its boundary polygon (corners and midpoints in order)
+        after = np.where(present[:, [1, 2, 3, 4, 5, 6, 7, 0]], np.arange(1, 9) % 8,
+                         np.arange(2, 10) % 8)
+        q, s = np.nonzero(present)
+        faces.append(np.stack([centre[q], slots[q, s], slots[q, after[q, s]]], axis=1))
+    vertices = grid.origin + np.concatenate(vertices) * grid.pitch
+    return trimesh.Trimesh(vertices=vertices, faces=np.concatenate(faces), process=False)

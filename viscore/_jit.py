@@ -1,0 +1,49 @@
+"""numba compilation that works from a read-only install.
+
+``numba.njit(cache=True)`` looks for a writable folder for its on-disk cache
+when the function is *decorated* (at import): beside the source file
+(``__pycache__``), else the user's cache folder (``~/.cache/numba``), else
+``NUMBA_CACHE_DIR``. A system-wide install run by another user, or a user
+without a writable home, has none of them and numba raises ``RuntimeError:
+cannot cache function ...: no locator available``, so that nothing could even
+be imported. :func:`njit_cached` asks for the cache and, where numba finds no
+place for it, compiles without one (each process then compiles on first use,
+a few seconds, instead of loading the cache).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+
+__all__ = ["njit_cached"]
+
+_log = logging.getLogger(__name__)
+
+
+def njit_cached(**options) -> Callable:
+    """``numba.njit(cache=True, **options)``, without the cache where numba cannot keep one.
+
+    Parameters
+    ----------
+    **options
+        Passed to :func:`numba.njit` (``inline``, ``parallel``...).
+
+    Returns
+    -------
+    decorator
+        Compiles the decorated function lazily, as ``numba.njit`` does.
+    """
+    import numba
+
+    def decorate(func: Callable) -> Callable:
+        try:
+            return numba.njit(cache=True, **options)(func)
+        except RuntimeError as exc:  # "cannot cache function ...: no locator available"
+            if "cannot cache" not in str(exc):
+                raise
+            _log.debug("numba: no writable cache folder for %s; compiling without a cache",
+                       func.__qualname__)
+            return numba.njit(cache=False, **options)(func)
+
+    return decorate
