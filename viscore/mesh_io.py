@@ -2,56 +2,144 @@
 
 Input meshes are never assumed watertight, manifold, oriented or connected
 (DESIGN.md, "The core"). What cannot be used at all is refused with one
-:class:`~viscore.InputError` naming the file: no file, an unreadable or empty
-file, NaN or infinite coordinates, zero extent. Degenerate faces are dropped
-with a count in the log.
+:class:`~viscore.InputError` naming the file and saying what it is: a missing
+path, a dangling link, a directory, a FIFO or device (never read: a FIFO
+would block), an unreadable or empty file, a file that is not the format its
+name says, a file with no triangles (a point cloud, lines only), NaN or
+infinite coordinates, zero extent, or a mesh whose scale float32 ray tracing
+cannot hold (see :func:`validate_mesh`). Degenerate faces are dropped with a
+count in ``mesh.metadata`` and a DEBUG log line.
+
+Text formats (OBJ, OFF, ASCII STL) are decoded here, not by trimesh: UTF-8,
+UTF-16/32 with a byte-order mark, BOM-less UTF-16 (by ``charset_normalizer``
+when installed), else Latin-1, which keeps every ASCII number and keyword of
+these formats, so a comment in any 8-bit encoding never stops a load. OFF is
+parsed here (trimesh 5.2 fails on n-gons); quads and n-gons are triangulated
+as fans. ZIP archives are inspected before extraction: the sizes in the
+archive directory are checked against the memory limit first.
 """
 
 from __future__ import annotations
 
+import codecs
+import contextvars
+import io
 import logging
 import os
+import re
+import stat
+import zipfile
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
-from ._validate import InputError
+from ._validate import InputError, _human_bytes, check_memory
 from .constants import DEGENERATE_AREA_RELATIVE
 
 __all__ = ["load_mesh", "validate_mesh"]
 
 _log = logging.getLogger(__name__)
 
-#: Largest coordinate accepted: float32 holds ~3.4e38, and ray distances and
-#: squared norms must stay finite, so leave many orders of margin.
-_MAX_COORDINATE = 1e18
+#: Largest coordinate magnitude and smallest bounding-box diagonal accepted,
+#: world units. Inside the Scene every mesh is translated to its centre and
+#: scaled to unit size, so Embree's float32 never sees these magnitudes; the
+#: limits keep the float64 arithmetic of the metrics (areas ~ L^2, volumes
+#: ~ L^3, products with counts) inside float64's normal range 1e-308..1e308
+#: with margin, and keep subnormal (denormal) extents out.
+_MAX_COORDINATE = 1e90
+_MIN_DIAGONAL = 1e-90
+
+#: Largest ratio of the farthest coordinate from the origin to the bounding-box
+#: diagonal. World coordinates (mesh and ray origins) are float64: their
+#: rounding, eps64 x |x| ~ 1.1e-16 x |x|, must stay below float32's relative
+#: precision of the centred, unit-scaled scene (2^-24 ~ 6e-8 of its size), which
+#: holds up to |x| / diagonal ~ 5e8; 1e8 leaves a factor of 5.
+_MAX_OFFSET_RATIO = 1e8
+
+#: Largest share of the non-degenerate faces that may be too small for float32
+#: after the mesh is scaled to unit size (area below
+#: ``DEGENERATE_AREA_RELATIVE`` x diagonal^2, i.e. sides under ~1e-7 of the
+#: mesh's extent, a few float32 ulps): beyond it the mesh is refused rather
+#: than silently reduced (e.g. a model plus one vertex 1e30 away, whose faces
+#: all collapse). A few slivers in a CAD mesh stay well below it and are dropped.
+_MAX_COLLAPSED_SHARE = 0.01
+
+#: Peak bytes of memory per byte of mesh file while trimesh parses it and the
+#: mesh is validated (measured with trimesh 5.2 on a 1.3M-face icosphere:
+#: OBJ 6.5, PLY 10, STL 9, GLB 7.5, OFF 17 x the file size in peak RSS).
+_PARSE_BYTES_PER_FILE_BYTE = 20
+
+#: Bytes per triangle of a mesh held in memory with its vertices and the
+#: copies that validation and scene concatenation make (faces 24 + vertices
+#: up to 3 x 24 per triangle, x ~3 copies).
+_BYTES_PER_TRIANGLE = 300
+
+#: Extensions whose text is decoded here before parsing.
+_TEXT_FORMATS = {"obj", "off"}
+
+#: Archive extensions handled here (members are loaded by their own extensions).
+_ARCHIVES = {"zip"}
+
+#: A file whose size the kernel reports as 0 (``/proc`` files) is read up to this.
+_UNSIZED_READ_LIMIT = 64 << 20
+
+#: trimesh logs (INFO/WARNING) while parsing are demoted to DEBUG on our
+#: logger: a failing load must end in one error line, not a trail of trimesh's.
+_loading = contextvars.ContextVar("viscore_mesh_loading", default=False)
 
 
+class _DemoteWhileLoading(logging.Filter):
+    def filter(self, record: logging.LogRecord) -> bool:
+        if not _loading.get():
+            return True
+        _log.debug("trimesh: %s", record.getMessage())
+        return False
+
+
+logging.getLogger("trimesh").addFilter(_DemoteWhileLoading())
+
+
+# --------------------------------------------------------------------------- validation
 def validate_mesh(mesh: trimesh.Trimesh, *, name: str = "mesh") -> trimesh.Trimesh:
     """Check a triangle soup and return a cleaned copy.
 
     Parameters
     ----------
     mesh : trimesh.Trimesh
-        Any triangle mesh; open, non-manifold and multi-component meshes are
-        normal input.
+        Any triangle mesh; open, non-manifold, flat and multi-component meshes
+        are normal input, at any scale float32 ray tracing can hold after the
+        :class:`~viscore.Scene` centres it and scales it to unit size.
     name : str, optional
         How the mesh is named in error messages (a file path, usually).
 
     Returns
     -------
     mesh : trimesh.Trimesh
-        A new mesh without degenerate faces (zero area or repeated vertex
-        indices) and unreferenced vertices; otherwise unchanged: no merging,
-        no re-orientation, duplicated faces kept.
+        A new mesh without degenerate faces (repeated vertex indices, or an
+        area below 1e-14 of the squared bounding-box diagonal: sides under
+        ~1e-7 of the extent, which float32 cannot resolve) and unreferenced
+        vertices; otherwise unchanged: no merging, no re-orientation,
+        duplicated faces kept. ``metadata["dropped_degenerate_faces"]`` holds
+        the count dropped.
 
     Raises
     ------
     InputError
-        If the mesh has no faces, NaN or infinite coordinates, coordinates
-        beyond 1e18 (float32 ray tracing), zero extent, or no face left after
-        dropping degenerate ones.
+        If the mesh has no faces, NaN or infinite coordinates, zero extent,
+        or a scale float32 cannot hold: coordinates beyond 1e90 in magnitude,
+        a diagonal below 1e-90 (subnormal coordinates included), a mesh
+        farther from the origin than 1e8 x its own diagonal, or more than 1% of
+        its faces below float32's resolution of its own extent (a far outlier
+        vertex makes the rest of the mesh collapse); or if every face is
+        degenerate.
+
+    Notes
+    -----
+    Scale is free: a cube of side 1e-30 or 1e30 is valid, since ray queries are
+    made on the centred, unit-scaled mesh and distances are scaled back
+    (float32's error is relative). What is refused is a mesh float32 cannot
+    hold relative to its own size.
 
     Examples
     --------
@@ -69,31 +157,355 @@ def validate_mesh(mesh: trimesh.Trimesh, *, name: str = "mesh") -> trimesh.Trime
         raise InputError(f"{name}: faces must be triangles, got shape {faces.shape}")
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise InputError(f"{name}: faces index vertices that do not exist")
-    used = vertices[np.unique(faces)]
+    referenced = np.zeros(len(vertices), dtype=bool)
+    referenced[faces.ravel()] = True
+    used = vertices[referenced]
     if not np.isfinite(used).all():
         raise InputError(f"{name}: vertex coordinates contain NaN or infinite values")
-    if np.abs(used).max() > _MAX_COORDINATE:
-        raise InputError(f"{name}: coordinates up to {np.abs(used).max():.3g} exceed the "
-                         f"{_MAX_COORDINATE:.0e} that Embree's float32 arithmetic can trace")
-    extent = used.max(axis=0) - used.min(axis=0)
-    diagonal = float(np.linalg.norm(extent))
-    if diagonal <= 0:
+    biggest = float(np.abs(used).max())
+    if biggest > _MAX_COORDINATE:
+        raise InputError(f"{name}: coordinates up to {biggest:.3g} exceed {_MAX_COORDINATE:.0e} "
+                         "(areas and volumes would overflow float64); scale the mesh down")
+    lo, hi = used.min(axis=0), used.max(axis=0)
+    extent = hi - lo
+    longest = float(extent.max())
+    if longest <= 0:
         raise InputError(f"{name}: the mesh has zero extent (all vertices coincide)")
+    diagonal = longest * float(np.linalg.norm(extent / longest))  # no under- or overflow
+    if diagonal < _MIN_DIAGONAL:
+        raise InputError(f"{name}: the mesh's extent {diagonal:.3g} is below {_MIN_DIAGONAL:.0e}"
+                         " (its areas and volumes would underflow float64; subnormal "
+                         "coordinates are refused too); scale the mesh up")
+    if biggest > _MAX_OFFSET_RATIO * diagonal:
+        raise InputError(
+            f"{name}: the mesh (extent {diagonal:.3g}) lies {biggest:.3g} from the origin, "
+            f"more than {_MAX_OFFSET_RATIO:.0e} x its extent: float64 coordinates there are "
+            "too coarse for it; translate it towards the origin")
+    # area relative to diagonal^2 from edge vectors (differences first, so that a
+    # far-off mesh loses nothing more), scaled to unit size: no over- or underflow
     tri = vertices[faces]
-    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    area = 0.5 * np.linalg.norm(np.cross((tri[:, 1] - tri[:, 0]) / diagonal,
+                                         (tri[:, 2] - tri[:, 0]) / diagonal), axis=1)
     repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (
         faces[:, 0] == faces[:, 2])
-    keep = ~repeated & (0.5 * area2 > DEGENERATE_AREA_RELATIVE * diagonal**2)
+    degenerate = repeated | (area == 0)
+    too_small = ~degenerate & (area <= DEGENERATE_AREA_RELATIVE)
+    real = int((~degenerate).sum())
+    if real and too_small.sum() > _MAX_COLLAPSED_SHARE * real:
+        raise InputError(
+            f"{name}: {int(too_small.sum())} of {real} faces are smaller than float32 can "
+            f"resolve at the mesh's extent {diagonal:.3g} (sides under ~1e-7 of it): the "
+            "extent is dominated by far-away vertices; remove them or split the mesh")
+    keep = ~degenerate & ~too_small
     dropped = int((~keep).sum())
     if dropped:
-        _log.info("%s: dropped %d degenerate face(s) of %d", name, dropped, len(faces))
+        _log.debug("%s: dropped %d degenerate face(s) of %d", name, dropped, len(faces))
     if not keep.any():
         raise InputError(f"{name}: every face is degenerate (zero area)")
-    clean = trimesh.Trimesh(vertices=vertices, faces=faces[keep], process=False)
-    clean.remove_unreferenced_vertices()
+    kept = faces[keep]
+    referenced[:] = False
+    referenced[kept.ravel()] = True
+    new_index = np.cumsum(referenced) - 1  # old vertex index -> new, for referenced ones
+    clean = trimesh.Trimesh(vertices=vertices[referenced], faces=new_index[kept],
+                            process=False)
     clean.metadata["name"] = name
     clean.metadata["dropped_degenerate_faces"] = dropped
     return clean
+
+
+# --------------------------------------------------------------------------- files
+def _refuse_path(path: Path, label: str, exc: OSError) -> InputError:
+    """One-line InputError saying what is wrong with a path that cannot be opened."""
+    if isinstance(exc, FileNotFoundError):
+        if os.path.islink(path):
+            return InputError(f"{label}: a broken symbolic link (to {os.readlink(path)!r})")
+        return InputError(f"{label}: no such file")
+    if isinstance(exc, NotADirectoryError):
+        return InputError(f"{label}: a component of the path is a file, not a folder")
+    if isinstance(exc, PermissionError):
+        return InputError(f"{label}: permission denied")
+    if exc.errno == 40:  # ELOOP
+        return InputError(f"{label}: a loop of symbolic links")
+    return InputError(f"{label}: cannot open ({exc.strerror or exc})")
+
+
+def _kind(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if stat.S_ISFIFO(mode):
+        return "a named pipe (FIFO)"
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def _read_regular_file(path: Path, label: str) -> bytes:
+    """The bytes of a regular file; anything else is refused without reading it.
+
+    The file is opened non-blocking and checked with ``fstat`` on the open
+    descriptor, so a FIFO swapped in after a check is still never read.
+    """
+    try:
+        st = os.stat(path)
+    except OSError as exc:
+        raise _refuse_path(path, label, exc) from None
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError(f"{label}: {_kind(st.st_mode)}, expected a mesh file")
+    check_memory(st.st_size * _PARSE_BYTES_PER_FILE_BYTE,
+                 f"{label} ({_human_bytes(st.st_size)} file)")
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+    except OSError as exc:
+        raise _refuse_path(path, label, exc) from None
+    with os.fdopen(fd, "rb") as fh:
+        st = os.fstat(fh.fileno())
+        if not stat.S_ISREG(st.st_mode):
+            raise InputError(f"{label}: {_kind(st.st_mode)}, expected a mesh file")
+        limit = st.st_size if st.st_size > 0 else _UNSIZED_READ_LIMIT
+        try:
+            data = fh.read(limit + 1)
+        except OSError as exc:
+            raise InputError(f"{label}: cannot read ({exc.strerror or exc})") from None
+    if len(data) > limit:
+        raise InputError(f"{label}: the file grew while being read (or reports no size and "
+                         f"holds more than {_human_bytes(_UNSIZED_READ_LIMIT)})")
+    if not data:
+        raise InputError(f"{label}: the file is empty")
+    return data
+
+
+def _decode_text(data: bytes) -> str:
+    """Text of a mesh file in any common encoding (see the module docstring)."""
+    for bom, codec in ((codecs.BOM_UTF32_LE, "utf-32"), (codecs.BOM_UTF32_BE, "utf-32"),
+                       (codecs.BOM_UTF8, "utf-8-sig"), (codecs.BOM_UTF16_LE, "utf-16"),
+                       (codecs.BOM_UTF16_BE, "utf-16")):
+        if data.startswith(bom):
+            try:
+                return data.decode(codec)
+            except UnicodeDecodeError:
+                break
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        pass
+    if b"\x00" in data[:4096]:  # BOM-less UTF-16/32
+        try:
+            from charset_normalizer import from_bytes
+        except ImportError:  # pragma: no cover - it is a dependency
+            from_bytes = None
+        if from_bytes is not None:
+            best = from_bytes(data[:65536]).best()
+            if best is not None and best.encoding.startswith("utf_"):
+                try:
+                    return data.decode(best.encoding)
+                except (UnicodeDecodeError, LookupError):
+                    pass
+    return data.decode("latin-1")  # every byte maps; ASCII numbers and keywords survive
+
+
+#: Control characters that never occur in a text mesh file.
+_BINARY_BYTES = re.compile(r"[\x00-\x08\x0e-\x1f\x7f]")
+
+
+def _require_text(text: str, label: str, fmt: str) -> None:
+    head = text[:65536]
+    if len(_BINARY_BYTES.findall(head)) > 0.01 * max(1, len(head)):
+        raise InputError(f"{label}: binary data, not a text {fmt} file")
+
+
+#: An index (or number) 0 in an OBJ file; on a face or line element it is invalid
+#: (OBJ counts from 1; trimesh would read it as -1, the last vertex).
+_OBJ_ZERO_TOKEN = re.compile(r"[ \t/][+-]?0+(?=[\s/]|$)")
+
+
+def _obj_zero_index(text: str) -> str | None:
+    """The first face or line element of an OBJ text with an index 0, or None."""
+    for match in _OBJ_ZERO_TOKEN.finditer(text):  # zeros on 'v' lines are skipped
+        start = text.rfind("\n", 0, match.start()) + 1
+        end = text.find("\n", match.end())
+        line = text[start:end if end >= 0 else len(text)].strip()
+        if line[:1] in ("f", "l") and line[1:2] in (" ", "\t"):
+            return line
+    return None
+
+
+def _fan(polygons: list[np.ndarray]) -> np.ndarray:
+    """Triangles of a list of polygons (vertex index arrays), as fans from the first vertex."""
+    tris = []
+    for k in sorted({len(p) for p in polygons}):
+        block = np.array([p for p in polygons if len(p) == k], dtype=np.int64)
+        for i in range(1, k - 1):
+            tris.append(block[:, [0, i, i + 1]])
+    return np.concatenate(tris) if tris else np.zeros((0, 3), dtype=np.int64)
+
+
+def _parse_off(text: str, label: str) -> trimesh.Trimesh:
+    """An OFF (or COFF/NOFF) file: header, counts, vertices, polygons."""
+    lines = [t for t in (ln.split("#", 1)[0].split() for ln in text.splitlines()) if t]
+    if not lines or not lines[0][0].upper().endswith("OFF"):
+        raise InputError(f"{label}: not an OFF file (no OFF header)")
+    if len(lines[0]) > 1 and lines[0][1].upper() == "BINARY":
+        raise InputError(f"{label}: binary OFF is not supported; save it as text OFF")
+    head, rest = (lines[0][1:], lines[1:]) if len(lines[0]) > 1 else (
+        lines[1] if len(lines) > 1 else [], lines[2:])
+    try:
+        nv, nf = int(head[0]), int(head[1])
+    except (IndexError, ValueError):
+        raise InputError(f"{label}: not a valid OFF file (no vertex and face counts)") from None
+    if nv < 0 or nf < 0:
+        raise InputError(f"{label}: not a valid OFF file (negative counts {nv}, {nf})")
+    if len(rest) < nv + nf:
+        raise InputError(f"{label}: truncated OFF file ({nv} vertices and {nf} faces "
+                         f"announced, {len(rest)} lines found)")
+    try:
+        vertices = np.array([t[:3] for t in rest[:nv]], dtype=np.float64).reshape(nv, 3)
+        polygons = []
+        for t in rest[nv:nv + nf]:
+            k = int(t[0])
+            if k < 0 or len(t) < k + 1:
+                raise ValueError(f"face line {' '.join(t[:8])!r}")
+            polygons.append(np.array(t[1:k + 1], dtype=np.int64))
+    except ValueError as exc:
+        raise InputError(f"{label}: not a valid OFF file ({exc})") from None
+    faces = _fan([p for p in polygons if len(p) >= 3])
+    if len(faces) and (faces.min() < 0 or faces.max() >= nv):
+        raise InputError(f"{label}: OFF face indices outside 0..{nv - 1}")
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+
+
+def _describe_without_triangles(scene: trimesh.Scene) -> str:
+    kinds = {}
+    for g in scene.geometry.values():
+        if isinstance(g, trimesh.PointCloud):
+            key = f"{len(g.vertices)} points"
+        elif isinstance(g, trimesh.Trimesh):
+            continue
+        else:  # Path2D / Path3D
+            key = "lines"
+        kinds[key] = True
+    what = f" (only {', '.join(kinds)})" if kinds else ""
+    return f"holds no triangles{what}"
+
+
+def _scene_instances(scene: trimesh.Scene) -> list[tuple[trimesh.Trimesh, np.ndarray]]:
+    """Each triangle mesh of a scene with the ``(k, 4, 4)`` transforms of its k instances."""
+    transforms: dict = {}
+    for node in scene.graph.nodes_geometry:
+        matrix, geometry = scene.graph[node]
+        transforms.setdefault(geometry, []).append(matrix)
+    out = []
+    for geometry, mats in transforms.items():
+        g = scene.geometry.get(geometry)
+        if isinstance(g, trimesh.Trimesh) and len(g.faces):
+            out.append((g, np.asarray(mats, dtype=np.float64)))
+    return out
+
+
+def _bake(instances: list[tuple[trimesh.Trimesh, np.ndarray]]) -> trimesh.Trimesh:
+    """One triangle soup with every instance transformed (vectorised per mesh)."""
+    vertices, faces, base = [], [], 0
+    for g, mats in instances:
+        v = np.asarray(g.vertices, dtype=np.float64)
+        f = np.asarray(g.faces, dtype=np.int64)
+        k = len(mats)
+        with np.errstate(all="ignore"):  # non-finite transforms are refused by validation
+            vk = np.einsum("kij,nj->kni", mats[:, :3, :3], v) + mats[:, None, :3, 3]
+        vertices.append(vk.reshape(-1, 3))
+        faces.append((f[None] + (base + len(v) * np.arange(k))[:, None, None]).reshape(-1, 3))
+        base += k * len(v)
+    return trimesh.Trimesh(vertices=np.concatenate(vertices), faces=np.concatenate(faces),
+                           process=False)
+
+
+def _parse(data: bytes, fmt: str, label: str, resolver) -> trimesh.Trimesh:
+    """Parse the bytes of one mesh file of format ``fmt`` into one triangle soup."""
+    name = fmt.upper()
+    if fmt == "off":
+        text = _decode_text(data)
+        _require_text(text, label, name)
+        return _parse_off(text, label)
+    payload = data
+    if fmt == "obj":
+        text = _decode_text(data)
+        _require_text(text, label, name)
+        line = _obj_zero_index(text)
+        if line is not None:
+            raise InputError(f"{label}: OBJ index 0 in {line[:60]!r} (OBJ indices start at 1)")
+        payload = text.encode("utf-8")
+    elif fmt == "stl":
+        binary = len(data) >= 84 and len(data) == 84 + 50 * int.from_bytes(data[80:84], "little")
+        if not binary:
+            text = _decode_text(data)
+            if not re.search(r"\bfacet\b", text[:65536], re.I) or _BINARY_BYTES.search(
+                    text[:65536]):
+                raise InputError(f"{label}: not an STL file (neither binary STL, whose size "
+                                 "must be 84 + 50 x its triangle count, nor ASCII 'solid ... "
+                                 "facet')")
+            payload = text.encode("utf-8")
+    elif fmt == "gltf":
+        import json
+
+        try:
+            json.loads(_decode_text(data))
+        except ValueError as exc:
+            raise InputError(f"{label}: not a valid GLTF file (not JSON: {exc})") from None
+    token = _loading.set(True)
+    try:
+        scene = trimesh.load_scene(file_obj=io.BytesIO(payload), file_type=fmt,
+                                   resolver=resolver, process=False)
+        instances = _scene_instances(scene)
+        if not instances:
+            raise InputError(f"{label}: {_describe_without_triangles(scene)}")
+        triangles = sum(len(g.faces) * len(m) for g, m in instances)
+        check_memory(triangles * _BYTES_PER_TRIANGLE,
+                     f"{label} ({triangles:,} triangles with instances baked)")
+        mesh = _bake(instances)
+    except InputError:
+        raise
+    except MemoryError:
+        raise InputError(f"{label}: not enough memory to read this file") from None
+    except FileNotFoundError as exc:  # an external buffer, texture or material
+        missing = exc.filename or " ".join(str(exc).split())[:200]
+        raise InputError(f"{label}: a file it references is missing ({missing})") from None
+    except Exception as exc:  # noqa: BLE001 - trimesh raises many types on malformed files
+        detail = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
+        raise InputError(f"{label}: not a valid {name} file ({detail})") from None
+    finally:
+        _loading.reset(token)
+    return mesh
+
+
+def _parse_zip(data: bytes, label: str, readable: set[str]) -> trimesh.Trimesh:
+    """Every mesh file in a ZIP archive, concatenated; sizes checked before inflating."""
+    try:
+        archive = zipfile.ZipFile(io.BytesIO(data))
+        infos = [i for i in archive.infolist() if not i.is_dir()]
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, ValueError) as exc:
+        raise InputError(f"{label}: not a valid ZIP file ({exc})") from None
+    members = [i for i in infos if _suffix(i.filename) in readable - _ARCHIVES]
+    if not members:
+        raise InputError(f"{label}: the archive holds no mesh file (of {len(infos)} files)")
+    inflated = sum(i.file_size for i in infos)
+    check_memory(inflated * _PARSE_BYTES_PER_FILE_BYTE,
+                 f"{label} (inflates to {_human_bytes(inflated)})")
+    try:
+        # zipfile never inflates a member beyond the size its directory entry declares
+        files = {i.filename: io.BytesIO(archive.read(i)) for i in infos}
+    except (zipfile.BadZipFile, OSError, ValueError, NotImplementedError, EOFError,
+            RuntimeError) as exc:
+        raise InputError(f"{label}: damaged ZIP file ({exc})") from None
+    resolver = trimesh.resolvers.ZipResolver(files)
+    meshes = [_parse(files[i.filename].getvalue(), _suffix(i.filename),
+                     f"{label}:{i.filename}", resolver) for i in members]
+    return meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
+
+
+def _suffix(name: str) -> str:
+    return Path(name).suffix.lower().lstrip(".")
 
 
 def load_mesh(source: str | os.PathLike | trimesh.Trimesh) -> trimesh.Trimesh:
@@ -102,10 +514,12 @@ def load_mesh(source: str | os.PathLike | trimesh.Trimesh) -> trimesh.Trimesh:
     Parameters
     ----------
     source : str, path or trimesh.Trimesh
-        A file in any format trimesh reads (OBJ, PLY, STL, OFF, GLB, ...);
-        multi-part scenes are concatenated into one triangle soup. A string
-        that is not an existing path is looked up among the built-in scenes
-        (:func:`viscore.scene_names`).
+        A regular file in a format trimesh reads, chosen by its extension
+        (OBJ, PLY, STL, OFF, GLB, GLTF with its buffers beside it, a ZIP of
+        those, ...). Scenes are baked into one triangle soup: every node's
+        transform is applied and instanced meshes appear once per instance.
+        A string that is not an existing path is looked up among the built-in
+        scenes (:func:`viscore.scene_names`).
 
     Returns
     -------
@@ -116,8 +530,14 @@ def load_mesh(source: str | os.PathLike | trimesh.Trimesh) -> trimesh.Trimesh:
     Raises
     ------
     InputError
-        If the file does not exist and is no built-in scene, cannot be parsed,
-        holds no triangles, or fails :func:`validate_mesh`.
+        One line naming the file, if the path does not exist (and is no
+        built-in scene), is a dangling link, a directory, a FIFO, a device
+        or otherwise not a regular file, cannot be read, is empty, has an
+        extension no reader handles, is not a valid file of its format (OBJ
+        index 0 included), holds no triangles (a point cloud, lines only), its
+        parsed size or a ZIP's inflated size exceeds the memory limit
+        (:func:`viscore._validate.check_memory`), or it fails
+        :func:`validate_mesh`.
 
     Examples
     --------
@@ -129,23 +549,39 @@ def load_mesh(source: str | os.PathLike | trimesh.Trimesh) -> trimesh.Trimesh:
         return validate_mesh(source, name=str(source.metadata.get("name", "mesh")))
     from .builtin_scenes import scene_names, scene_path
 
-    path = Path(os.fspath(source))
+    try:
+        path = Path(os.fspath(source))
+    except TypeError:
+        raise InputError(f"mesh: expected a file path, a scene name or a trimesh.Trimesh, "
+                         f"got {type(source).__name__}") from None
     label = str(source)
-    if not path.exists():
+    if not os.path.lexists(path):
         if label in scene_names():
             path = scene_path(label)
         else:
-            raise InputError(
-                f"{label}: no such file, and not a built-in scene "
-                f"(built-in: {', '.join(scene_names())})")
-    if path.is_dir():
-        raise InputError(f"{label}: is a directory, expected a mesh file")
-    if path.stat().st_size == 0:
-        raise InputError(f"{label}: the file is empty")
-    try:
-        loaded = trimesh.load(str(path), force="mesh", process=False)
-    except Exception as exc:  # trimesh raises many types for malformed files
-        raise InputError(f"{label}: cannot read mesh ({type(exc).__name__}: {exc})") from exc
-    if not isinstance(loaded, trimesh.Trimesh) or len(getattr(loaded, "faces", [])) == 0:
-        raise InputError(f"{label}: the file holds no triangles")
-    return validate_mesh(loaded, name=label)
+            try:
+                os.stat(path)
+            except FileNotFoundError:
+                raise InputError(f"{label}: no such file, and not a built-in scene "
+                                 f"(built-in: {', '.join(scene_names())})") from None
+            except OSError as exc:  # a file used as a folder, a folder we may not enter
+                raise _refuse_path(path, label, exc) from None
+    readable = set(trimesh.available_formats()) | {"off"}
+    fmt = _suffix(path.name)
+    if fmt not in readable:
+        try:
+            st = os.stat(path)
+        except OSError as exc:
+            raise _refuse_path(path, label, exc) from None
+        if not stat.S_ISREG(st.st_mode):
+            raise InputError(f"{label}: {_kind(st.st_mode)}, expected a mesh file")
+        known = ", ".join(f".{f}" for f in ("obj", "ply", "stl", "off", "glb", "gltf", "zip"))
+        what = f"extension '.{fmt}'" if fmt else "no extension"
+        raise InputError(f"{label}: {what}, so no known mesh format; use one of {known}, ...")
+    data = _read_regular_file(path, label)
+    if fmt in _ARCHIVES:
+        mesh = _parse_zip(data, label, readable)
+    else:
+        resolver = trimesh.resolvers.FilePathResolver(str(path.resolve()))
+        mesh = _parse(data, fmt, label, resolver)
+    return validate_mesh(mesh, name=label)
