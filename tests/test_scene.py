@@ -96,3 +96,68 @@ def test_scene_invalid_input(cube):
         scene.first_hit(np.zeros((2, 3)), np.ones((3, 3)))
     with pytest.raises(InputError):
         Scene("not a mesh")
+
+
+# --------------------------------------------------------------------------- scale
+#: Relative tolerance of a float32 ray distance: a few ulps (2^-24 each) of the
+#: unit-scaled scene, whose coordinates and distances are of order 1.
+_F32_RTOL = 16 * 2.0**-24
+
+
+@pytest.mark.parametrize("scale", [1e-60, 1e-30, 1e-12, 1e-3, 1.0, 1e12, 1e17, 1e30, 1e60])
+def test_first_hit_analytic_distances_at_any_scale(scale):
+    # cube [-1, 1]^3 x scale, shifted by 3 of its sizes: world units throughout
+    box = trimesh.creation.box(extents=(2.0, 2.0, 2.0))
+    shift = np.array([3.0, -2.0, 1.0]) * scale
+    mesh = trimesh.Trimesh(box.vertices * scale + shift, box.faces, process=False)
+    scene = Scene(mesh)
+    xy = np.array([[0.3, -0.2], [0.0, 0.0], [-0.9, 0.7]]) * scale
+    origins = np.column_stack([xy, np.full(3, -5.0 * scale)]) + shift
+    t, tri = scene.first_hit(origins, [[0, 0, 1]] * 3)
+    np.testing.assert_allclose(t, 4.0 * scale, rtol=_F32_RTOL)
+    assert (tri >= 0).all()
+    hits = scene.all_hits(origins, [[0, 0, 1]] * 3)
+    assert hits.count.tolist() == [1 + 1] * 3
+    np.testing.assert_allclose(hits.t.reshape(3, 2), [[4 * scale, 6 * scale]] * 3,
+                               rtol=_F32_RTOL)
+    occ = scene.any_hit(origins[:2], [[0, 0, 1]] * 2, max_distance=[3.9 * scale, 4.1 * scale])
+    assert occ.tolist() == [False, True]
+    t_cut, _ = scene.first_hit(origins[:1], [[0, 0, 1]], max_distance=3.9 * scale)
+    assert t_cut[0] == np.inf
+    # oblique ray through the centre: hits the face x = -1 at distance 4 sqrt(3)
+    t_ob, _ = scene.first_hit(shift - 5 * scale, [[1, 1, 1]])
+    assert t_ob[0] == pytest.approx(4 * np.sqrt(3) * scale, rel=_F32_RTOL)
+
+
+def test_first_hit_max_distance_nan_or_negative_refused(cube):
+    scene = Scene(cube)
+    for bad in (np.nan, [1.0, np.nan], -1.0):
+        with pytest.raises(InputError, match="max_distance"):
+            scene.first_hit([[0, 0, -5.0]] * 2, [[0, 0, 1]] * 2, max_distance=bad)
+        with pytest.raises(InputError, match="max_distance"):
+            scene.any_hit([[0, 0, -5.0]] * 2, [[0, 0, 1]] * 2, max_distance=bad)
+    t, _ = scene.first_hit([[0, 0, -5.0]], [[0, 0, 1]], max_distance=np.inf)
+    assert t[0] == pytest.approx(4.0, rel=_F32_RTOL)
+
+
+def test_scene_vertices_and_faces_read_only(cube):
+    import pickle
+
+    scene = Scene(cube)
+    for arr in (scene.vertices, scene.faces, scene.bounds):
+        with pytest.raises(ValueError, match="read-only"):
+            arr[0, 0] = 7
+    with pytest.raises(AttributeError):
+        scene.vertices = np.zeros((3, 3))
+    cube.vertices[0] = [9, 9, 9]  # the scene holds its own copy
+    assert scene.vertices[0].tolist() != [9, 9, 9]
+    again = pickle.loads(pickle.dumps(scene))
+    assert not again.vertices.flags.writeable and not again.faces.flags.writeable
+    t, _ = again.first_hit([[0, 0, -5.0]], [[0, 0, 1]])
+    assert t[0] == pytest.approx(4.0, rel=_F32_RTOL)
+
+
+def test_scene_origin_beyond_float32_of_the_scene_refused():
+    tiny = trimesh.creation.box(extents=(1e-30, 1e-30, 1e-30))
+    with pytest.raises(InputError, match="too far from the mesh"):
+        Scene(tiny).first_hit([[0, 0, -1e10]], [[0, 0, 1]])  # 1e40 sizes away

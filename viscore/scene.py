@@ -2,10 +2,13 @@
 
 The one place that holds an Embree handle (DESIGN.md, "The core"). The scene
 is built once, in robust mode so that rays through shared edges are not lost,
-from the mesh translated to its bounding-box centre (float32 keeps more digits
-near the origin); queries take and return float64 in world units. Batches are
-split over a thread pool, one worker per core by default: embreex releases the
-GIL inside ``EmbreeScene.run``.
+from the mesh translated to its bounding-box centre and scaled to unit size
+(by a power of two, so the scaling itself is exact): Embree computes in
+float32, whose error is relative, so a mesh of size 1e-12 or 1e17 is traced
+as accurately as one of size 1. Queries take and return float64 in world
+units: ray origins are mapped into the unit frame, distances mapped back.
+Batches are split over a thread pool, one worker per core by default:
+embreex releases the GIL inside ``EmbreeScene.run``.
 """
 
 from __future__ import annotations
@@ -31,6 +34,36 @@ _UNIT_TOLERANCE_F32 = 1e-6
 _EMBREE_MISS_T = 1e30
 
 _workers: int | None = None
+
+
+def _unit_scale(diagonal: float) -> float:
+    """The power of two nearest above ``diagonal`` (1 for a zero or non-finite one).
+
+    Dividing by a power of two is exact in binary floating point (barring
+    underflow, which validated meshes never reach), so the unit-size frame
+    adds no rounding of its own.
+    """
+    if not np.isfinite(diagonal) or diagonal <= 0:
+        return 1.0
+    _, exponent = np.frexp(diagonal)  # diagonal = m * 2**exponent, 0.5 <= m < 1
+    return float(np.ldexp(1.0, int(exponent)))
+
+
+def _as_max_distance(value: npt.ArrayLike | None, n: int) -> np.ndarray | None:
+    """``(n,)`` float64 segment lengths (world units, >= 0, inf allowed) or None."""
+    if value is None:
+        return None
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+        arr = np.broadcast_to(arr, (n,))
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"max_distance: expected a number or one per ray ({n}), "
+                         f"got {value!r:.80}") from exc
+    if np.isnan(arr).any():
+        raise InputError("max_distance: contains NaN")
+    if (arr < 0).any():
+        raise InputError("max_distance: expected non-negative distances")
+    return arr
 
 
 def set_workers(workers: int | None) -> None:
@@ -88,12 +121,29 @@ class Scene:
     workers : int, optional
         Threads per query. Default: :func:`get_workers` at query time.
 
+    Attributes
+    ----------
+    vertices : (v, 3) float64
+        The mesh's vertices, world units; read-only (the Embree scene built
+        from them is cached).
+    faces : (f, 3) int64
+        Vertex indices of each triangle; read-only.
+    bounds : (2, 3) float64
+        Lower and upper corner of the bounding box, world units.
+    diagonal : float
+        Bounding-box diagonal, world units.
+
     Notes
     -----
-    Back faces count: a ray hits a triangle from either side. Distances are
-    exact up to Embree's float32 arithmetic (relative error about 1e-6 of
-    the bounding-box diagonal). Not picklable: the Embree handle is rebuilt
-    from the stored arrays after unpickling.
+    Back faces count: a ray hits a triangle from either side. The mesh is
+    traced centred and scaled to unit size by a power of two near its
+    diagonal, so distances are exact up to Embree's float32 arithmetic
+    relative to the mesh's own size (about 1e-6 of the diagonal), at any
+    scale: ray origins and ``max_distance`` are mapped into the unit frame
+    and distances back to world units. What float32 cannot hold relative to
+    the mesh's size is refused by :func:`viscore.validate_mesh`. Ray origins
+    farther than ~1e38 diagonals from the mesh are refused. The Embree handle
+    is not pickled; it is rebuilt from the stored arrays after unpickling.
 
     Examples
     --------
@@ -107,20 +157,47 @@ class Scene:
     def __init__(self, mesh: trimesh.Trimesh, *, workers: int | None = None) -> None:
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise InputError("mesh: expected a non-empty trimesh.Trimesh")
-        self.vertices = np.array(mesh.vertices, dtype=np.float64)
-        self.faces = np.array(mesh.faces, dtype=np.int64)
-        if not np.isfinite(self.vertices).all():
+        vertices = np.array(mesh.vertices, dtype=np.float64)
+        faces = np.array(mesh.faces, dtype=np.int64)
+        if not np.isfinite(vertices).all():
             raise InputError("mesh: vertex coordinates contain NaN or infinite values")
+        if faces.min() < 0 or faces.max() >= len(vertices):
+            raise InputError("mesh: faces index vertices that do not exist")
         self.workers = None if workers is None else as_positive_int(workers, "workers")
-        lo, hi = self.vertices.min(axis=0), self.vertices.max(axis=0)
+        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        vertices.flags.writeable = False
+        faces.flags.writeable = False
+        self._vertices, self._faces = vertices, faces
         self.bounds = np.stack([lo, hi])
-        self.diagonal = float(np.linalg.norm(hi - lo))
-        self._offset = 0.5 * (lo + hi)
+        self.bounds.flags.writeable = False
+        self._offset = 0.5 * lo + 0.5 * hi  # halves: no overflow near float64's limit
+        half = 0.5 * hi - 0.5 * lo
+        self.diagonal = 2.0 * float(np.linalg.norm(half))
+        self._scale = _unit_scale(self.diagonal)
+
+    @property
+    def vertices(self) -> np.ndarray:
+        """``(v, 3) float64`` vertices, world units (read-only)."""
+        return self._vertices
+
+    @property
+    def faces(self) -> np.ndarray:
+        """``(f, 3) int64`` triangles (read-only)."""
+        return self._faces
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         state.pop("_embree", None)
         return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        for name in ("_vertices", "_faces", "bounds"):  # unpickled arrays come back writeable
+            arr = self.__dict__[name]
+            if arr.flags.writeable:
+                arr = arr.copy()
+                arr.flags.writeable = False
+                self.__dict__[name] = arr
 
     @cached_property
     def _embree(self):
@@ -128,8 +205,9 @@ class Scene:
         from embreex.mesh_construction import TriangleMesh
 
         scene = rtcore_scene.EmbreeScene(robust=True)
-        TriangleMesh(scene, np.ascontiguousarray(self.vertices - self._offset, dtype=np.float32),
-                     np.ascontiguousarray(self.faces, dtype=np.int32))
+        unit = (self._vertices - self._offset) / self._scale  # power of two: exact
+        TriangleMesh(scene, np.ascontiguousarray(unit, dtype=np.float32),
+                     np.ascontiguousarray(self._faces, dtype=np.int32))
         return scene
 
     def build(self) -> Scene:
@@ -169,7 +247,7 @@ class Scene:
         if n == 0:
             return (np.zeros(0), np.zeros(0, dtype=np.int64)) if intersect else np.zeros(0, bool)
         scene = self._embree
-        offset = self._offset
+        offset, scale = self._offset, self._scale
         if intersect:
             t_out = np.empty(n)
             tri_out = np.empty(n, dtype=np.int64)
@@ -178,11 +256,15 @@ class Scene:
 
         def run(sl: slice) -> None:
             # checks and conversion happen per chunk, in cache, and on the pool too
-            o32 = np.ascontiguousarray(o[sl] - offset, dtype=np.float32)
+            with np.errstate(over="ignore", invalid="ignore"):  # checked just below
+                o32 = np.ascontiguousarray((o[sl] - offset) / scale, dtype=np.float32)
             d32 = np.ascontiguousarray(d[sl], dtype=np.float32)
             if check_values:
-                if not np.isfinite(o32).all():  # also coordinates beyond float32's range
-                    raise InputError("origins: contains NaN or infinite values")
+                if not np.isfinite(o32).all():  # also origins beyond float32's range
+                    if not np.isfinite(o[sl]).all():
+                        raise InputError("origins: contains NaN or infinite values")
+                    raise InputError("origins: too far from the mesh for float32 ray "
+                                     "tracing (beyond ~1e38 x its diagonal)")
                 norm2 = np.einsum("ij,ij->i", d32, d32)
                 if not np.isfinite(norm2).all():
                     raise InputError("directions: contains NaN or infinite values")
@@ -193,13 +275,14 @@ class Scene:
                     d32 = np.ascontiguousarray(
                         dc / np.sqrt(np.einsum("ij,ij->i", dc, dc))[:, None], dtype=np.float32)
             dists = None if tfar is None else np.ascontiguousarray(
-                np.minimum(tfar[sl], _EMBREE_MISS_T), dtype=np.float32)
+                np.minimum(tfar[sl] / scale, _EMBREE_MISS_T), dtype=np.float32)
             if intersect:
                 res = scene.run(o32, d32, dists=dists, output=1)
                 tri, t = res["primID"], res["tfar"]
-                t[tri < 0] = np.inf
+                t_world = t.astype(np.float64) * scale  # power of two: exact
+                t_world[tri < 0] = np.inf
                 tri_out[sl] = tri
-                t_out[sl] = t
+                t_out[sl] = t_world
             else:
                 hit_out[sl] = scene.run(o32, d32, dists=dists, query="OCCLUDED") >= 0
 
@@ -228,7 +311,8 @@ class Scene:
         directions : (n, 3) float
             Ray directions; normalised here, so distances are in world units.
         max_distance : float or (n,) float, optional
-            Hits beyond this distance are ignored. Default: none.
+            Hits beyond this distance (world units, >= 0; ``inf`` allowed) are
+            ignored. Default: none.
 
         Returns
         -------
@@ -240,11 +324,11 @@ class Scene:
         Raises
         ------
         InputError
-            On shapes other than (n, 3), NaN/inf values or zero directions.
+            On shapes other than (n, 3), NaN/inf values, zero directions, or a
+            NaN or negative ``max_distance``.
         """
         o, d = self._prepare(origins, directions, check_values=False)
-        tfar = None if max_distance is None else np.broadcast_to(
-            np.asarray(max_distance, dtype=np.float64), (len(o),))
+        tfar = _as_max_distance(max_distance, len(o))
         return self._cast(o, d, tfar, intersect=True, check_values=True)
 
     def any_hit(self, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
@@ -261,10 +345,14 @@ class Scene:
         Returns
         -------
         occluded : (n,) bool
+
+        Raises
+        ------
+        InputError
+            As :meth:`first_hit`.
         """
         o, d = self._prepare(origins, directions, check_values=False)
-        tfar = None if max_distance is None else np.broadcast_to(
-            np.asarray(max_distance, dtype=np.float64), (len(o),))
+        tfar = _as_max_distance(max_distance, len(o))
         return self._cast(o, d, tfar, intersect=False, check_values=True)
 
     def all_hits(self, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
