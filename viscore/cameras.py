@@ -3,8 +3,17 @@
 Each camera yields one ray per pixel centre, ``(R*R, 3) float64`` origins and
 unit directions, row-major with row 0 at the top edge (towards ``up``) and
 column 0 at the left edge. The orthographic camera follows the orbit protocol
-of Silvennoinen et al. 2014, sec. 6.1 (seeds/000); the six 90-degree frusta
-follow the volume protocol of seed 001, sec. 3.2.
+of Silvennoinen et al. 2014 [1]_, sec. 6.1; the six 90-degree frusta follow
+the volume protocol of Wu et al. 2022 [2]_, sec. 3.2.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1), 2014,
+   pp. 235-245. :DOI:`10.1111/cgf.12271`
+.. [2] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
 """
 
 from __future__ import annotations
@@ -14,13 +23,17 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from ._validate import InputError, as_positive, as_positive_int, as_vector
+from ._validate import InputError, as_positive, as_positive_int, as_vector, check_memory
 
 __all__ = ["OrthoCamera", "PerspectiveCamera", "cube_cameras", "camera_basis"]
 
 #: Axes and up vectors of the six cube frusta (+X, -X, +Y, -Y, +Z, -Z).
 _CUBE_AXES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]],
                       dtype=np.float64)
+#: Peak bytes per pixel of ``rays()``: two (R*R,) pixel coordinates, the (R*R, 3)
+#: temporaries of the plane points, and the origins and directions returned.
+_BYTES_PER_PIXEL = 160
+
 _CUBE_UPS = np.array([[0, 0, 1], [0, 0, 1], [0, 0, 1], [0, 0, 1], [0, 1, 0], [0, 1, 0]],
                      dtype=np.float64)
 
@@ -65,7 +78,11 @@ def camera_basis(forward: npt.ArrayLike, up: npt.ArrayLike | None = None
 
 
 def _pixel_grid(resolution: int) -> tuple[np.ndarray, np.ndarray]:
-    """(R*R,) horizontal and vertical pixel-centre coordinates in [-0.5, 0.5]."""
+    """(R*R,) horizontal and vertical pixel-centre coordinates in [-0.5, 0.5].
+
+    Checks first that the rays of an R x R image fit in memory.
+    """
+    check_memory(resolution * resolution * _BYTES_PER_PIXEL, f"resolution={resolution}")
     c = (np.arange(resolution) + 0.5) / resolution - 0.5
     x = np.tile(c, resolution)
     y = np.repeat(-c, resolution)  # row 0 at the top
@@ -234,8 +251,14 @@ def cube_cameras(position: npt.ArrayLike, resolution: int = 256) -> list[Perspec
     """The six 90-degree frusta along +X, -X, +Y, -Y, +Z, -Z from one point.
 
     Together they see every direction exactly once (directions on the shared
-    frustum edges belong to two or three faces). Volume protocol of seed 001,
-    sec. 3.2.
+    frustum edges belong to two or three faces). Volume protocol of Wu et
+    al. 2022, sec. 3.2 [1]_.
+
+    References
+    ----------
+    .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+       Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+       :DOI:`10.1111/cgf.14669`
 
     Examples
     --------

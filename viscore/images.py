@@ -1,8 +1,17 @@
 """Coverage and depth images of a scene seen by a camera, by ray casting.
 
 One batched Embree first-hit query per image, one ray per pixel centre (the
-orbit protocol of Silvennoinen et al. 2014, sec. 6.1, seeds/000, and the
-frusta of seed 001, sec. 3.2, without a rasterizer).
+orbit protocol of Silvennoinen et al. 2014 [1]_, sec. 6.1, and the frusta of
+Wu et al. 2022 [2]_, sec. 3.2, without a rasterizer).
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1), 2014,
+   pp. 235-245. :DOI:`10.1111/cgf.12271`
+.. [2] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
 """
 
 from __future__ import annotations

@@ -1,10 +1,23 @@
 """Seeded samplers: view directions, view positions and rays between regions.
 
-Every random sampler takes ``seed`` and calls ``np.random.default_rng(seed)``
-once, so the same seed reproduces the samples bit for bit (DESIGN.md, "The
-core"). Uniform directions serve the orbit protocol and the occlusion measure
-(seed 000, secs. 3 and 6.1); grid positions the volume protocol (seed 001,
-sec. 3.2); random rays the ray-wise conservativeness check.
+Every random sampler takes ``seed``, a non-negative integer of any size (the
+one seed rule, :func:`viscore._validate.as_seed`), and calls
+``np.random.default_rng(seed)`` once, so the same seed reproduces the samples
+bit for bit (DESIGN.md, "The core"). Uniform directions serve the orbit
+protocol and the occlusion measure (Silvennoinen et al. 2014 [1]_, secs. 3
+and 6.1); grid positions the volume protocol (Wu et al. 2022 [2]_, sec.
+3.2); random rays the ray-wise conservativeness check. Sample counts are
+checked against the memory limit (:func:`viscore._validate.check_memory`)
+before anything is allocated.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1), 2014,
+   pp. 235-245. :DOI:`10.1111/cgf.12271`
+.. [2] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
 """
 
 from __future__ import annotations
@@ -12,14 +25,23 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from ._validate import InputError, as_positive, as_positive_int, as_vector
+from ._validate import InputError, as_positive, as_positive_int, as_seed, as_vector, check_memory
 
 __all__ = ["directions_uniform", "directions_fibonacci", "grid_positions", "rays_between"]
 
 _GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
 
+#: Peak bytes per sampled direction (the (n, 2) uniforms, three (n,) temporaries
+#: and the (n, 3) result, float64) and per random ray (origins, targets,
+#: vectors, directions, lengths and temporaries).
+_BYTES_PER_DIRECTION = 96
+_BYTES_PER_RAY = 200
 
-def directions_uniform(n: int, *, seed: int | None = 0) -> np.ndarray:
+#: Most grid positions :func:`grid_positions` makes (1.2 GB of float64).
+_MAX_GRID_POSITIONS = 50_000_000
+
+
+def directions_uniform(n: int, *, seed: int = 0) -> np.ndarray:
     """``n`` independent directions uniform on the unit sphere.
 
     Parameters
@@ -27,13 +49,20 @@ def directions_uniform(n: int, *, seed: int | None = 0) -> np.ndarray:
     n : int
         Number of directions.
     seed : int, optional
-        Seed of ``np.random.default_rng``; default 0.
+        Seed of ``np.random.default_rng``, a non-negative integer of any size;
+        default 0.
 
     Returns
     -------
     directions : (n, 3) float64
         Unit vectors. The first k of n directions equal ``directions_uniform(k)``
         with the same seed.
+
+    Raises
+    ------
+    InputError
+        If ``n`` is not a positive integer, its arrays would not fit in memory,
+        or ``seed`` is not a non-negative integer.
 
     Examples
     --------
@@ -42,6 +71,8 @@ def directions_uniform(n: int, *, seed: int | None = 0) -> np.ndarray:
     True
     """
     n = as_positive_int(n, "n")
+    seed = as_seed(seed)
+    check_memory(n * _BYTES_PER_DIRECTION, f"{n:,} directions")
     u = np.random.default_rng(seed).random((n, 2))  # row by row: prefixes agree across n
     z = 2.0 * u[:, 0] - 1.0
     phi = 2.0 * np.pi * u[:, 1]
@@ -57,8 +88,9 @@ def directions_fibonacci(n: int, *, seed: int | None = None) -> np.ndarray:
     n : int
         Number of directions.
     seed : int, optional
-        If given, the spiral is rotated by a seeded uniform random rotation
-        (randomised quasi-Monte-Carlo: unbiased and low variance).
+        If given (a non-negative integer of any size), the spiral is rotated
+        by a seeded uniform random rotation (randomised quasi-Monte-Carlo:
+        unbiased and low variance). Default None: no rotation.
 
     Returns
     -------
@@ -66,6 +98,8 @@ def directions_fibonacci(n: int, *, seed: int | None = None) -> np.ndarray:
         Unit vectors; the i-th has z = 1 - (2 i + 1) / n before rotation.
     """
     n = as_positive_int(n, "n")
+    seed = None if seed is None else as_seed(seed)
+    check_memory(n * _BYTES_PER_DIRECTION, f"{n:,} directions")
     i = np.arange(n)
     z = 1.0 - (2.0 * i + 1.0) / n
     s = np.sqrt(1.0 - z * z)
@@ -96,7 +130,8 @@ def grid_positions(lo: npt.ArrayLike, hi: npt.ArrayLike, spacing: float) -> np.n
     ------
     InputError
         If ``hi < lo`` on an axis, ``spacing <= 0``, or the grid would have
-        more than 50 million positions.
+        more than 50 million positions (counted in floating point, so a tiny
+        spacing is refused, never overflowed).
 
     Examples
     --------
@@ -108,10 +143,14 @@ def grid_positions(lo: npt.ArrayLike, hi: npt.ArrayLike, spacing: float) -> np.n
     spacing = as_positive(spacing, "spacing")
     if (hi < lo).any():
         raise InputError(f"hi: must be >= lo on every axis, got lo={lo}, hi={hi}")
-    counts = np.maximum(1, np.ceil((hi - lo) / spacing - 1e-9)).astype(np.int64)
-    total = int(np.prod(counts))
-    if total > 50_000_000:
-        raise InputError(f"spacing: {spacing} gives {total:,} grid positions (limit 50,000,000)")
+    with np.errstate(over="ignore"):
+        per_axis = np.maximum(1.0, np.ceil((hi - lo) / spacing - 1e-9))  # float: no overflow
+        total = float(np.prod(per_axis))
+    if not total <= _MAX_GRID_POSITIONS:
+        raise InputError(f"spacing: {spacing:g} gives {total:.3g} grid positions "
+                         f"(limit {_MAX_GRID_POSITIONS:,})")
+    check_memory(total * 3 * 8 * 3, f"spacing={spacing:g} ({int(total):,} grid positions)")
+    counts = per_axis.astype(np.int64)
     start = 0.5 * (lo + hi) - 0.5 * spacing * (counts - 1)
     axes = [start[k] + spacing * np.arange(counts[k]) for k in range(3)]
     g = np.meshgrid(*axes, indexing="ij")
@@ -119,7 +158,7 @@ def grid_positions(lo: npt.ArrayLike, hi: npt.ArrayLike, spacing: float) -> np.n
 
 
 def rays_between(box_a: npt.ArrayLike, box_b: npt.ArrayLike, n: int, *,
-                 seed: int | None = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Random segments from a uniform point in box A to a uniform point in box B.
 
     Parameters
@@ -129,7 +168,7 @@ def rays_between(box_a: npt.ArrayLike, box_b: npt.ArrayLike, n: int, *,
     n : int
         Number of rays.
     seed : int, optional
-        Default 0.
+        A non-negative integer of any size. Default 0.
 
     Returns
     -------
@@ -138,8 +177,16 @@ def rays_between(box_a: npt.ArrayLike, box_b: npt.ArrayLike, n: int, *,
         Unit vectors from origin to target (a coincident pair gets +Z).
     lengths : (n,) float64
         Distance from origin to target, world units.
+
+    Raises
+    ------
+    InputError
+        If a box is not finite (2, 3) corners with lo <= hi, ``n`` is not a
+        positive integer or does not fit in memory, or ``seed`` is invalid.
     """
     n = as_positive_int(n, "n")
+    seed = as_seed(seed)
+    check_memory(n * _BYTES_PER_RAY, f"{n:,} rays")
     a = np.asarray(box_a, dtype=np.float64)
     b = np.asarray(box_b, dtype=np.float64)
     for name, box in (("box_a", a), ("box_b", b)):
