@@ -7,13 +7,12 @@ vectorised with numpy; numba compiles it.
 
 from __future__ import annotations
 
-import heapq
-
-import numba
 import numpy as np
 
+from viscore._jit import njit_cached
 
-@numba.njit(cache=True)
+
+@njit_cached()
 def runs_along_x(avail):
     """Run length of available voxels along +X from each voxel (0 if unavailable)."""
     nx, ny, nz = avail.shape
@@ -30,7 +29,7 @@ def runs_along_x(avail):
     return d
 
 
-@numba.njit(cache=True)
+@njit_cached()
 def _best_box_at(dx, x, y, z, ymax, zmax):
     """Largest box with lower corner (x, y, z): returns volume, X, Y, Z (voxels)."""
     ny = dx.shape[1]
@@ -58,42 +57,118 @@ def _best_box_at(dx, x, y, z, ymax, zmax):
     return best, bx, by, bz
 
 
-@numba.njit(cache=True)
+@njit_cached()
+def _less(keys, vals, i, j):
+    """Heap order: entry i before entry j (lexicographic on (key, value))."""
+    return keys[i] < keys[j] or (keys[i] == keys[j] and vals[i] < vals[j])
+
+
+@njit_cached()
+def _swap(keys, vals, i, j):
+    keys[i], keys[j] = keys[j], keys[i]
+    vals[i], vals[j] = vals[j], vals[i]
+
+
+@njit_cached()
+def _sift_down(keys, vals, pos, n):
+    """Move entry ``pos`` down a binary min-heap of ``n`` entries to its place."""
+    while True:
+        child = 2 * pos + 1
+        if child >= n:
+            return
+        if child + 1 < n and _less(keys, vals, child + 1, child):
+            child += 1
+        if not _less(keys, vals, child, pos):
+            return
+        _swap(keys, vals, child, pos)
+        pos = child
+
+
+@njit_cached()
+def _sift_up(keys, vals, pos):
+    """Move entry ``pos`` up a binary min-heap to its place."""
+    while pos > 0:
+        parent = (pos - 1) // 2
+        if not _less(keys, vals, pos, parent):
+            return
+        _swap(keys, vals, pos, parent)
+        pos = parent
+
+
+@njit_cached()
 def grow_boxes(avail, max_boxes, min_voxels, target_voxels):
     """Greedy boxes of maximal volume over available voxels, marking each taken.
 
     Lazy greedy: the heap holds upper bounds (the product of the per-axis run
     lengths, or an exact value from an earlier step; values only shrink as
-    voxels are taken); an entry computed at the current step is the maximum.
+    voxels are taken); an entry made exact at the current step is the
+    maximum. Ties go to the smallest (x, y, z). An exact value from an earlier
+    step stays exact when no box taken since then reaches the part of the
+    grid above the voxel (x' >= x, y' >= y, z' >= z): it is re-queued without
+    being recomputed.
 
-    Returns an (k, 6) int64 array of boxes [x0, y0, z0, x1, y1, z1) in voxels.
+    The heap is two int64 arrays (16 bytes per available voxel): the negated
+    volume, and the step at which it was computed (+1) above the voxel's flat
+    index. Returns an (k, 6) int64 array of boxes [x0, y0, z0, x1, y1, z1) in
+    voxels.
     """
     avail = avail.copy()
     nx, ny, nz = avail.shape
     dx = runs_along_x(avail)
     dy = runs_along_x(avail.transpose(1, 0, 2).copy()).transpose(1, 0, 2)
     dz = runs_along_x(avail.transpose(2, 1, 0).copy()).transpose(2, 1, 0)
-    heap = [(np.int64(0), np.int64(0), np.int64(0), np.int64(0), np.int64(0))]
-    heap.pop()
+    cells = nx * ny * nz
+    shift = 1
+    while (1 << shift) <= cells:
+        shift += 1
+    mask = (1 << shift) - 1
+    n = 0
     for x in range(nx):
         for y in range(ny):
             for z in range(nz):
                 if avail[x, y, z]:
-                    ub = np.int64(dx[x, y, z]) * dy[x, y, z] * dz[x, y, z]
-                    heap.append((-ub, np.int64(-1), np.int64(x), np.int64(y), np.int64(z)))
-    heapq.heapify(heap)
+                    n += 1
+    keys = np.empty(n, np.int64)
+    vals = np.empty(n, np.int64)  # (epoch + 1) << shift | flat index; epoch -1: a bound
+    n = 0
+    for x in range(nx):
+        for y in range(ny):
+            for z in range(nz):
+                if avail[x, y, z]:
+                    keys[n] = -(np.int64(dx[x, y, z]) * dy[x, y, z] * dz[x, y, z])
+                    vals[n] = (x * ny + y) * nz + z
+                    n += 1
+    for i in range(n // 2 - 1, -1, -1):
+        _sift_down(keys, vals, i, n)
     boxes = np.zeros((max_boxes, 6), np.int64)
     k = 0
     covered = 0
     step = 0
-    while k < max_boxes and covered < target_voxels and len(heap) > 0:
-        negv, epoch, x, y, z = heapq.heappop(heap)
+    while k < max_boxes and covered < target_voxels and n > 0:
+        negv, packed = keys[0], vals[0]
+        n -= 1
+        keys[0], vals[0] = keys[n], vals[n]
+        _sift_down(keys, vals, 0, n)
+        epoch = (packed >> shift) - 1
+        flat = packed & mask
+        x = flat // (ny * nz)
+        y = (flat // nz) % ny
+        z = flat % nz
         if not avail[x, y, z]:
             continue
         if epoch != step:
-            vol, bx, by, bz = _best_box_at(dx, x, y, z, dy[x, y, z], dz[x, y, z])
-            if vol > 0:
-                heapq.heappush(heap, (np.int64(-vol), np.int64(step), x, y, z))
+            still = epoch >= 0
+            for j in range(max(epoch, 0), step):
+                if x < boxes[j, 3] and y < boxes[j, 4] and z < boxes[j, 5]:
+                    still = False
+                    break
+            if not still:
+                vol, bx, by, bz = _best_box_at(dx, x, y, z, dy[x, y, z], dz[x, y, z])
+                negv = -vol
+            if negv < 0:
+                keys[n], vals[n] = negv, ((step + 1) << shift) | flat
+                _sift_up(keys, vals, n)
+                n += 1
             continue
         vol, bx, by, bz = _best_box_at(dx, x, y, z, dy[x, y, z], dz[x, y, z])
         if vol < min_voxels:
@@ -122,7 +197,7 @@ def grow_boxes(avail, max_boxes, min_voxels, target_voxels):
     return boxes[:k]
 
 
-@numba.njit(cache=True)
+@njit_cached()
 def _slab_free(avail, lo, hi, axis, at):
     """Whether the one-voxel slab at index ``at`` along ``axis`` over the box is available."""
     if at < 0 or at >= avail.shape[axis]:
@@ -144,7 +219,7 @@ def _slab_free(avail, lo, hi, axis, at):
     return True
 
 
-@numba.njit(cache=True)
+@njit_cached()
 def grow_boxes_from_seeds(avail, seeds, max_boxes, min_voxels, target_voxels):
     """Boxes grown from seed voxels in the given order (seed 002, sec. 4).
 

@@ -1,35 +1,52 @@
 """AABB skins: conservative occluders made of axis-aligned boxes inside the mesh.
 
-The occluder-skins paper, sec. 4 (seeds/002), with the box-filling note
-(seeds/003): voxelize; surface voxels by exact triangle/box overlap; inner
-voxels; per-axis run lengths of inner voxels along the positive axes; greedy
-growth that picks, at each step, the box of maximal volume over all inner
-voxels (the note's expansion along +X, +Y, +Z from a lower corner), marks its
-voxels taken, and repeats until a threshold: maximum number of boxes,
-minimum box volume (seed 002), or a filled fraction of the inner volume
-(seed 003). With ``seed_voxel="densest"`` boxes instead grow from the
-untaken inner voxel that lies deepest inside, by one layer per direction in
-turn (seed 002, sec. 4, after Danell). Seed 002 defines "densest" as the
-largest average distance to all surface voxels; read literally that picks
-voxels at the rim (for a ball of radius R the mean distance from radius r
-to the sphere is R + r^2 / 3R, largest at the boundary), so the seed is the
-voxel farthest from its nearest surface voxel (Euclidean distance
-transform), ties broken by the mean of the distances to the surface along
-the six axis directions the paper's inner-voxel rule uses.
+The occluder-skins method of Leone et al. [1]_, sec. 4, with the box-filling
+note of Naaji [2]_: voxelize; surface voxels by exact triangle/box overlap;
+inner voxels; per-axis run lengths of inner voxels along the positive axes;
+greedy growth that picks, at each step, the box of maximal volume over all
+inner voxels (the note's expansion along +X, +Y, +Z from a lower corner),
+marks its voxels taken, and repeats until a threshold: maximum number of
+boxes, minimum box volume ([1]_), or a filled fraction of the inner volume
+([2]_). With ``seed_voxel="densest"`` boxes instead grow from the untaken
+inner voxel that lies deepest inside, by one layer per direction in turn
+([1]_, sec. 4, after Danell). [1]_ defines "densest" as the largest average
+distance to all surface voxels; read literally that picks voxels at the rim
+(for a ball of radius R the mean distance from radius r to the sphere is
+R + r^2 / 3R, largest at the boundary), so the seed is the voxel farthest
+from its nearest surface voxel (Euclidean distance transform), ties broken
+by the mean of the distances to the surface along the six axis directions
+the paper's inner-voxel rule uses.
 
-Inner voxels. For a mesh that is closed at the voxel resolution, the inner
-set is the flood-fill interior: non-surface voxels not connected to the grid
-border, which is also where the six-direction rule of seed 002 holds without
-leaking. Open input (seed 002 found no answer for it) makes the fill leak:
-the six-direction rule then accepts voxels that the flood fill reaches from
-the border, and the interior comes out empty or too small. That leak is
-detected and the inside is taken from the core's ray-parity votes instead;
-``info["inside"]`` says which was used. Boxes never touch a surface voxel,
-so on a watertight mesh every box lies strictly inside it. Otherwise nothing
-is guaranteed: with ray-parity input a box can reach through a hole, and a
-gap narrower than a voxel (a teapot's lid on its body) seals the interior
-at the voxel scale while rays still pass through it (the teapot at
-diagonal / 64: 0.4% of orbit rays see a box first).
+Inner voxels are non-surface voxels inside the mesh by the generalized
+winding number (Jacobson et al. [3]_) at their centres
+(:func:`viscore.voxels.inside_voxels_winding`). The papers' rules alone
+(flood fill from the border, or a surface voxel in each of the six axis
+directions) take every enclosed cavity for solid: the inside of a hollow
+shell, or a room whose door is narrower than a voxel. For a mesh that is
+closed and consistently oriented the winding number is constant on each
+connected region of non-surface voxels, so the inside is exact and whole
+voxels are inside: ``info["inside"] == "winding-number"`` and the boxes are
+guaranteed conservative. Any other mesh (open, or with flipped triangles)
+takes its candidates from the flood fill, or, where the fill leaks through
+holes, from the core's ray-parity votes, and keeps those whose centre is
+inside; ``info["inside"]`` says which (``"flood-fill"``, ``"ray-parity"``).
+Nothing is guaranteed then: a box can reach through a hole, and a gap
+narrower than a voxel (a teapot's lid on its body) hides from the surface
+voxels while rays still pass through it.
+
+References
+----------
+.. [1] Leone, M. N., Barbagallo, L. R., Banquiero, M. M., Agromayor, D.,
+   Bursztyn, A. P. M. "Implementing software occlusion culling for real-time
+   applications". XVIII Congreso Argentino de Ciencias de la Computacion
+   (CACIC 2012), Workshop de Computacion Grafica, Imagenes y Visualizacion,
+   2012. http://sedici.unlp.edu.ar/handle/10915/23640
+.. [2] Naaji, K. "Automatic Occluder Generation". A Graphics Diary (blog),
+   15 November 2019. http://karim.naaji.fr/automatic_occluder_geneneration.html
+   (the ``melt`` library: https://github.com/karimnaaji/melt)
+.. [3] Jacobson, A., Kavan, L., Sorkine-Hornung, O. "Robust inside-outside
+   segmentation using generalized winding numbers". ACM Transactions on
+   Graphics 32(4), 2013, article 33. :DOI:`10.1145/2461912.2461916`
 """
 
 from __future__ import annotations
@@ -40,8 +57,10 @@ import time
 import numpy as np
 import trimesh
 
-from viscore import InputError, Scene, inside_voxels_parity, voxelize
-from viscore._validate import as_fraction, as_positive, as_positive_int
+from viscore import InputError, Scene, inside_voxels_parity, voxel_grid, voxelize
+from viscore._validate import as_fraction, as_positive, as_positive_int, check_memory
+from viscore.voxels import inside_voxels_winding
+from viscore.winding import is_closed_oriented
 
 from ._box_growth import grow_boxes, grow_boxes_from_seeds
 from .occluder import Occluder
@@ -53,35 +72,57 @@ _log = logging.getLogger(__name__)
 #: Triangles per box (12 outward faces).
 TRIANGLES_PER_BOX = 12
 
+#: Largest ``voxels`` accepted (the memory check refuses most grids below it).
+MAX_VOXELS = 2048
+
+#: Peak bytes of working memory per voxel cell of :func:`generate_aabb_skins`,
+#: by ``seed_voxel``, measured (peak resident set over the mesh and numba's
+#: compiled code) on a closed and an open mesh at 256 and 384 voxels, with a
+#: margin; the memory check multiplies it by the cell count before any work.
+BYTES_PER_CELL = {"max-volume": 40, "densest": 64}
+
+
 def _six_direction_distance(surface: np.ndarray) -> np.ndarray:
     """Mean over +-X, +-Y, +-Z of the distance (voxels) to the first surface voxel.
 
     Infinite-free: every direction that meets no surface voxel counts the
-    distance to the grid border.
+    distance to the grid border. ``surface.shape`` float32 (sums of at most
+    six grid sizes over 6: exact enough to order voxels).
     """
-    total = np.zeros(surface.shape)
+    total = np.zeros(surface.shape, dtype=np.int32)
     for axis in range(3):
         n = surface.shape[axis]
         shape = [1, 1, 1]
         shape[axis] = n
-        index = np.arange(n).reshape(shape) * np.ones(surface.shape, dtype=np.int64)
-        before = np.where(surface, index, -1)
-        before = np.maximum.accumulate(before, axis=axis)  # last surface index at or before
-        after = np.where(surface, index, n)
-        after = np.flip(np.minimum.accumulate(np.flip(after, axis), axis=axis), axis)
-        total += (index - before) + (after - index)
-    return total / 6.0
+        index = np.arange(n, dtype=np.int32).reshape(shape)
+        # distance back to the last surface index at or before, plus on to the next at or after
+        before = np.maximum.accumulate(np.where(surface, index, np.int32(-1)), axis=axis)
+        total -= before
+        del before
+        after = np.flip(np.minimum.accumulate(
+            np.flip(np.where(surface, index, np.int32(n)), axis), axis=axis), axis)
+        total += after
+        del after
+    return total.astype(np.float32) / np.float32(6)
 
 
 def _densest_order(enclosed: np.ndarray, surface: np.ndarray) -> np.ndarray:
-    """Inner voxels, deepest first: by distance to the nearest surface voxel, then by the
-    six-direction mean distance, then by index."""
+    """Inner voxels ``(m, 3) int32``, deepest first: by distance to the nearest surface voxel,
+    then by the six-direction mean distance, then by index."""
     from scipy import ndimage
 
-    inner = np.argwhere(enclosed)
+    # scipy's distance transform holds (3,) + shape int32 features and a float64 result:
+    # run it first, before the other per-cell arrays exist
     depth = ndimage.distance_transform_edt(~surface)[enclosed]
     mean6 = _six_direction_distance(surface)[enclosed]
-    return inner[np.lexsort((-mean6, -depth))]
+    flat = np.flatnonzero(enclosed)[np.lexsort((-mean6, -depth))]
+    del depth, mean6
+    _, ny, nz = enclosed.shape
+    order = np.empty((len(flat), 3), dtype=np.int32)
+    order[:, 0] = flat // (ny * nz)
+    order[:, 1] = flat // nz % ny
+    order[:, 2] = flat % nz
+    return order
 
 
 def boxes_mesh(boxes: np.ndarray) -> trimesh.Trimesh:
@@ -107,67 +148,109 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
                         budget: int | None = None, fill: float = 0.9,
                         min_volume: float = 0.0, seed: int = 0,
                         seed_voxel: str = "max-volume") -> Occluder:
-    """Conservative box occluder by greedy maximal-box growth (seeds 002, 003).
+    """Box occluder by greedy maximal-box growth, conservative on closed meshes.
 
     Parameters
     ----------
     mesh : trimesh.Trimesh
-        Any triangle soup; conservative when it is closed at the voxel size.
+        Any triangle soup; the boxes are guaranteed conservative when it is
+        closed and consistently oriented (see Notes).
     voxels : int, optional
-        Voxels along the longest bounding-box side (default 64).
+        Voxels along the longest bounding-box side, 1 to 2048 (default 64).
     voxel_size : float, optional
         Voxel side in world units; overrides ``voxels`` (as the melt library does).
     max_boxes : int, optional
-        Threshold 1 of seed 002: at most this many boxes (default 16).
+        Threshold 1 of Leone et al. [1]_: at most this many boxes (default 16).
     budget : int, optional
         Triangle budget; caps the boxes at ``budget // 12``.
     fill : float, optional
         Stop once the boxes cover this fraction of the inner voxels
-        (seed 003), in (0, 1]. Default 0.9.
+        (Naaji [2]_), in (0, 1]. Default 0.9.
     min_volume : float, optional
-        Threshold 2 of seed 002: stop at the first box smaller than this,
-        world units^3. Default 0.
+        Threshold 2 of [1]_: stop at the first box smaller than this,
+        world units^3, >= 0. Default 0.
     seed : int, optional
         Unused (deterministic); accepted for the common signature.
     seed_voxel : {'max-volume', 'densest'}, optional
         'max-volume' (default): each step takes the largest box over all
-        inner voxels (seed 003). 'densest': grow from the densest untaken
-        voxel (seed 002).
+        inner voxels ([2]_). 'densest': grow from the densest untaken
+        voxel ([1]_).
 
     Returns
     -------
     Occluder
-        ``parts["boxes"]``: ``(k, 2, 3)`` world-space corners; ``info``:
-        ``inside`` ('flood-fill' or 'ray-parity'), ``conservative_guaranteed``
-        (watertight input and flood-fill interior), ``inner_voxels``,
-        ``covered_voxels``, ``fill`` (covered share of the inner voxels),
-        ``volume_share`` (box volume / mesh volume; / inner-voxel volume for
-        meshes that are not watertight),
-        ``boxes``, ``pitch``.
+        ``parts["boxes"]``: ``(k, 2, 3)`` world-space corners. ``info``:
+
+        - ``inside``: where the inner voxels come from: ``'winding-number'``
+          (closed, consistently oriented mesh), else the candidates tested by
+          the winding number at their centres, ``'flood-fill'`` or
+          ``'ray-parity'`` (the fill leaks through holes);
+        - ``closed_oriented`` (bool): the mesh is closed and consistently
+          oriented (:func:`viscore.winding.is_closed_oriented`);
+        - ``conservative_guaranteed`` (bool): see Notes; equal to
+          ``closed_oriented``;
+        - ``inner_voxels``, ``covered_voxels``: counts;
+        - ``cavity_voxels``: enclosed voxels (flood-fill interior, or the
+          ray-parity inside) that the winding number puts outside the mesh:
+          cavities, sealed by the voxelization or not, and kept box-free;
+        - ``fill``: covered share of the inner voxels;
+        - ``volume_share``: box volume / mesh volume (/ inner-voxel volume
+          when the mesh is not closed);
+        - ``boxes``, ``pitch`` (world units).
 
     Raises
     ------
     InputError
-        On bad thresholds, or a voxel grid that would not fit in memory.
+        On bad thresholds, an empty mesh, or a voxel grid whose estimated
+        memory (:data:`BYTES_PER_CELL` per cell) exceeds the limit of
+        :func:`viscore._validate.check_memory`; checked before any work.
 
     Notes
     -----
     Deterministic. May end with fewer boxes than allowed, or none when the
     mesh has no inner voxel at this resolution (thin or flat input).
 
+    ``conservative_guaranteed`` is True exactly when the mesh is closed and
+    consistently oriented: after merging vertices at equal positions, every
+    edge is used as often in one direction as in the other (watertight in
+    the oriented sense; edges shared by four faces and self-intersections
+    are allowed). Then the winding number is an integer, constant on every
+    connected region off the surface; each box is a union of voxels that no
+    triangle touches (closed-cube overlap test, touching counts) lying in a
+    region of non-zero winding number. A segment from any point outside the
+    mesh (winding number 0: the outside, a cavity, a room behind a door
+    narrower than a voxel) to a box therefore crosses a triangle first: no
+    ray from outside the mesh hits a box before the mesh, up to float
+    rounding (the overlap test widens voxels by 1e-9 of the pitch; Embree
+    traces in float32). For any other mesh nothing is guaranteed.
+
+    References
+    ----------
+    .. [1] Leone, M. N., Barbagallo, L. R., Banquiero, M. M., Agromayor, D.,
+       Bursztyn, A. P. M. "Implementing software occlusion culling for
+       real-time applications". CACIC 2012, WCGIV, 2012.
+       http://sedici.unlp.edu.ar/handle/10915/23640
+    .. [2] Naaji, K. "Automatic Occluder Generation". A Graphics Diary, 2019.
+       http://karim.naaji.fr/automatic_occluder_geneneration.html
+
     Examples
     --------
     >>> occ = generate_aabb_skins(trimesh.creation.box(extents=(2, 1, 1)), voxels=16)
-    >>> occ.info["boxes"], occ.triangles
-    (1, 12)
+    >>> occ.info["boxes"], occ.triangles, occ.info["conservative_guaranteed"]
+    (1, 12, True)
     """
     start = time.perf_counter()
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise InputError("mesh: expected a non-empty trimesh.Trimesh")
     if seed_voxel not in ("max-volume", "densest"):
         raise InputError(f"seed_voxel: expected 'max-volume' or 'densest', got {seed_voxel!r}")
     fill = as_fraction(fill, "fill", open_low=True)
-    min_volume = float(min_volume)
+    try:
+        min_volume = float(min_volume)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"min_volume: expected a number >= 0, got {min_volume!r}") from exc
     if not np.isfinite(min_volume) or min_volume < 0:
-        raise InputError(f"min_volume: expected a number >= 0, got {min_volume}")
+        raise InputError(f"min_volume: expected a finite number >= 0, got {min_volume}")
     cap = 10**9 if max_boxes is None else as_positive_int(max_boxes, "max_boxes")
     if budget is not None:
         budget = as_positive_int(budget, "budget")
@@ -177,26 +260,45 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
         cap = min(cap, budget // TRIANGLES_PER_BOX)
     if voxel_size is not None:
         voxel_size = as_positive(voxel_size, "voxel_size")
-        vox = voxelize(mesh, pitch=voxel_size)
+        size, what = {"pitch": voxel_size}, f"voxel_size={voxel_size:g}"
     else:
-        vox = voxelize(mesh, resolution=as_positive_int(voxels, "voxels", maximum=2048))
-    enclosed = vox.solid & ~vox.surface
-    inside = "flood-fill"
-    if vox.leaks or not mesh.is_watertight:
-        parity = inside_voxels_parity(Scene(mesh), vox.grid) & ~vox.surface
-        if parity.sum() > enclosed.sum():
-            inside, enclosed = "ray-parity", parity
-            _log.info("aabb-skins: the inner voxels leak (open mesh); using ray-parity inside, "
-                      "boxes are not guaranteed conservative")
-    guaranteed = bool(mesh.is_watertight and inside == "flood-fill")
-    if not guaranteed:
-        _log.warning("aabb-skins: %s is not watertight; boxes may show through gaps narrower "
-                     "than a voxel (run 'viscore validate')", mesh.metadata.get("name", "mesh"))
+        voxels = as_positive_int(voxels, "voxels", maximum=MAX_VOXELS)
+        size, what = {"resolution": voxels}, f"voxels={voxels}"
+    grid = voxel_grid(np.asarray(mesh.bounds), **size)
+    cells = float(np.prod(np.array(grid.shape, dtype=np.float64)))
+    check_memory(cells * BYTES_PER_CELL[seed_voxel], f"aabb-skins: {what} "
+                 f"({grid.shape[0]} x {grid.shape[1]} x {grid.shape[2]} voxels)")
+
+    closed = is_closed_oriented(mesh.vertices, mesh.faces)
+    vox = voxelize(mesh, **size)
+    flood = vox.solid & ~vox.surface  # the flood fill's interior, cavities included
+    if closed:
+        inside = "winding-number"
+        enclosed = inside_voxels_winding(mesh.vertices, mesh.faces, vox.grid, vox.surface,
+                                         closed=True)
+        candidates = flood
+    else:
+        inside, candidates = "flood-fill", flood
+        if vox.leaks or not mesh.is_watertight:
+            parity = inside_voxels_parity(Scene(mesh), vox.grid) & ~vox.surface
+            if parity.sum() > candidates.sum():
+                inside, candidates = "ray-parity", parity
+                _log.info("aabb-skins: the inner voxels leak (open mesh); taking candidates "
+                          "from ray-parity votes")
+        enclosed = inside_voxels_winding(mesh.vertices, mesh.faces, vox.grid, vox.surface,
+                                         candidates=candidates, closed=False)
+        _log.warning("aabb-skins: %s is not closed and consistently oriented; boxes may show "
+                     "through holes or gaps narrower than a voxel (run 'viscore validate')",
+                     mesh.metadata.get("name", "mesh"))
+    cavity = int((candidates & ~enclosed).sum())
+    del flood, candidates
     inner = int(enclosed.sum())
     pitch = vox.grid.pitch
-    min_voxels = max(1, int(np.ceil(min_volume / pitch**3 - 1e-9)))
     target = int(np.ceil(fill * inner - 1e-9))
     cap = min(cap, inner)  # never more boxes than inner voxels
+    # in voxels, capped at inner + 1 (no box can reach it) so that numba gets an int64
+    ratio = min_volume / pitch**3 if min_volume > 0 else 0.0
+    min_voxels = 1 if ratio <= 1 else int(min(np.ceil(ratio - 1e-9), inner + 1))
     if not cap:
         raw = np.zeros((0, 6), np.int64)
     elif seed_voxel == "densest":
@@ -208,7 +310,7 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
     covered = int(np.prod(raw[:, 3:] - raw[:, :3], axis=1).sum())
     out = boxes_mesh(corners)
     # share of the mesh volume; of the inner-voxel volume when the mesh has no volume
-    solid_volume = abs(float(mesh.volume)) if mesh.is_watertight else inner * pitch**3
+    solid_volume = abs(float(mesh.volume)) if closed else inner * pitch**3
     volume_share = float(covered * pitch**3 / solid_volume) if solid_volume > 0 else 0.0
     return Occluder(
         mesh=out, method="aabb-skins", double_sided=False, seconds=time.perf_counter() - start,
@@ -216,7 +318,7 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
                 "max_boxes": max_boxes, "budget": budget, "fill": fill,
                 "min_volume": min_volume, "seed_voxel": seed_voxel},
         parts={"boxes": corners},
-        info={"inside": inside, "conservative_guaranteed": guaranteed, "inner_voxels": inner,
-              "covered_voxels": covered,
+        info={"inside": inside, "closed_oriented": closed, "conservative_guaranteed": closed,
+              "inner_voxels": inner, "covered_voxels": covered, "cavity_voxels": cavity,
               "fill": covered / inner if inner else 0.0, "volume_share": volume_share,
               "boxes": len(raw), "pitch": pitch})
