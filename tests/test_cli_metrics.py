@@ -1,5 +1,6 @@
 import json
 
+import pytest
 import trimesh
 from viscore.cli.main import main
 
@@ -47,3 +48,88 @@ def test_generate_option_not_taken_exit_2(tmp_path, capsys):
     out = tmp_path / "q.ply"
     assert main(["generate", "qem", "cow", "-o", str(out), "--max-boxes", "3"]) == 2
     assert not out.exists()
+
+
+# --------------------------------------------------------------------------- options
+def _one_error_line(capsys) -> str:
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert captured.out == "" and len(lines) == 1, captured.err
+    assert lines[0].startswith("viscore: error:")
+    return lines[0]
+
+
+@pytest.mark.parametrize("rate", ["nan", "-1", "2", "inf"])
+def test_validate_max_rate_outside_unit_interval_exit_2(rate, capsys):
+    assert main(["validate", "fat-torus", "fat-torus", "--rays", "100", "--max-rate", rate]) == 2
+    assert "--max-rate" in _one_error_line(capsys)
+
+
+@pytest.mark.parametrize("command", [["measure", "fat-torus"],
+                                     ["evaluate", "fat-torus", "fat-torus"],
+                                     ["validate", "fat-torus", "fat-torus"]])
+def test_negative_seed_exit_2_one_line(command, capsys):
+    assert main([*command, "--seed", "-5"]) == 2
+    assert "--seed" in _one_error_line(capsys)
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["evaluate", "nope.ply", "nope.ply", "--quads", str(10**12)], "--quads"),
+    (["evaluate", "nope.ply", "nope.ply", "--views", str(10**9)], "--views"),
+    (["validate", "nope.ply", "nope.ply", "--rays", str(10**12)], "--rays"),
+    (["validate", "nope.ply", "nope.ply", "--rays", str(4 * 10**8)], "--rays"),
+    (["measure", "nope.ply", "--directions", str(10**9)], "--directions"),
+    (["evaluate", "nope.ply", "nope.ply", "--res", "4096", "--views", "8"], "--res 4096"),
+    (["measure", "nope.ply", "--res", "8192"], "--res 8192"),
+])
+def test_sizes_refused_from_an_estimate_before_any_work(argv, option, capsys, monkeypatch):
+    from viscore._validate import available_memory
+
+    # a 4 GiB limit on every machine; the mesh does not exist: nothing was loaded
+    monkeypatch.setenv("VISCORE_MEMORY_FRACTION", str((4 << 30) / available_memory()))
+    assert main(argv) == 2
+    line = _one_error_line(capsys)
+    assert option in line and "needs about" in line and "nope.ply" not in line
+
+
+def test_options_checked_before_meshes_are_loaded(capsys):
+    assert main(["measure", "nope.ply", "--res", "0"]) == 2
+    assert "--res" in _one_error_line(capsys)
+    assert main(["evaluate", "nope.ply", "nope.ply", "--spacing", "0.1"]) == 2
+    assert "--spacing" in _one_error_line(capsys)  # orbit takes no spacing
+
+
+# --------------------------------------------------------------------------- reproducibility
+#: Fields excluded from the bit-for-bit comparison: wall-clock times (``seconds``
+#: and every ``timing`` key that starts with ``seconds``) and ``provenance``
+#: (it records the worker count, which differs by design between the runs).
+def _comparable(doc):
+    if isinstance(doc, dict):
+        return {k: _comparable(v) for k, v in doc.items()
+                if k != "provenance" and k != "seconds" and not k.startswith("seconds_")}
+    if isinstance(doc, list):
+        return [_comparable(v) for v in doc]
+    return doc
+
+
+def _json_runs(argv, capsys):
+    docs = []
+    for workers in (["--workers", "1"], [], []):  # one thread, then the default twice
+        rc = main([*workers, *argv, "--json", "--seed", "12345"])
+        assert rc in (0, 1)
+        docs.append(json.loads(capsys.readouterr().out))
+    return docs
+
+
+@pytest.mark.parametrize("argv", [
+    ["measure", "bunny", "--directions", "4", "--res", "192"],  # > 2 chunks of rays per cast
+    ["evaluate", "bunny", "fat-torus", "--views", "6", "--quads", "3000", "--res", "96"],
+    ["validate", "bunny", "fat-torus", "--rays", "40000"],
+], ids=["measure", "evaluate", "validate"])
+def test_same_seed_bit_identical_json_across_runs_and_workers(argv, capsys):
+    docs = _json_runs(argv, capsys)
+    assert docs[0]["provenance"]["workers"] == 1
+    first = json.dumps(_comparable(docs[0]), sort_keys=True)
+    for other in docs[1:]:
+        assert json.dumps(_comparable(other), sort_keys=True) == first
+    assert "seconds" in docs[0]  # the exclusion list names fields that exist
