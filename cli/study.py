@@ -1,9 +1,12 @@
 """Comparison studies: every registered method on every mesh, evaluated and stored.
 
 The orchestration of ``viscore compare`` (DESIGN.md data flow: metrics ->
-cli for tables, plots, studies). Each (mesh, method, budget, settings, seed)
-job runs generate -> precision/recall -> occlusion measure -> conservativeness.
-Its row is committed to the study's SQLite file, and its occluder written
+cli for tables, plots, studies). The original's views
+(:class:`viscore.metrics.ReferenceViews`) are built once per mesh and
+settings and handed to every job of that mesh; each (mesh, method, budget,
+settings, seed) job generates its occluder and assesses it with
+:func:`viscore.metrics.assess_occluder` (precision/recall, occlusion measure,
+conservativeness). Its row is committed to the study's SQLite file, and its occluder written
 under ``occluders/``, when it finishes: a re-run resumes, and a killed run
 loses nothing that finished. Jobs run in a local process pool, or on a
 dask.distributed cluster with ``scheduler``; each job is deterministic given
@@ -17,7 +20,7 @@ import json
 import os
 import sqlite3
 from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -71,45 +74,64 @@ class Job:
         return f"{safe}__{self.method}__{self.budget or 'any'}__{self.key[:8]}.ply"
 
 
-def run_job(job: Job, workers: int | None = None) -> tuple[dict, bytes]:
-    """Generate, evaluate and check one occluder; returns the row and the occluder PLY."""
-    import trimesh
-    from viscore.generators import get_generator
-    from viscore.metrics import check_conservative, evaluate, occlusion_measure
+def view_settings(settings: StudySettings) -> dict:
+    """Keywords of :class:`viscore.metrics.ReferenceViews` for a study's settings."""
+    kw = {"protocol": settings.protocol, "seed": settings.seed, "quads": settings.quads,
+          "resolution": settings.resolution}
+    if settings.protocol == "orbit":
+        kw["views"] = settings.views
+    return kw
+
+
+def build_views(mesh: str, settings: StudySettings, workers: int | None = None):
+    """The original's views of one mesh, built once and shared by all its jobs."""
+    from viscore.metrics import ReferenceViews
 
     from viscore import load_mesh, set_workers
 
+    set_workers(workers)
+    return ReferenceViews(load_mesh(mesh), **view_settings(settings))
+
+
+def run_job(job: Job, workers: int | None = None, views=None) -> tuple[dict, bytes]:
+    """Generate one occluder and assess it; returns the row and the occluder PLY.
+
+    ``views`` are the mesh's :class:`viscore.metrics.ReferenceViews` for the
+    job's settings (built here when not given).
+    """
+    import trimesh
+    from viscore.generators import get_generator
+    from viscore.metrics import assess_occluder
+
+    from viscore import set_workers
+
     s = job.settings
     set_workers(workers)
-    mesh = load_mesh(job.mesh)
+    views = views if views is not None else build_views(job.mesh, s, workers)
     params = {"seed": s.seed} | ({"budget": job.budget} if job.budget else {})
-    occ = get_generator(job.method).function(mesh, **params)
-    target = occ.mesh if occ.triangles else None
-    kw = dict(seed=s.seed, quads=s.quads, resolution=s.resolution)
-    if s.protocol == "orbit":
-        kw["views"] = s.views
-    pr = evaluate(mesh, target, protocol=s.protocol, **kw)
-    om = (occlusion_measure(target, directions=s.directions, resolution=s.resolution,
-                            seed=s.seed) if target is not None else None)
-    cons = check_conservative(mesh, target, rays=s.rays, seed=s.seed)
-    row = {
-        "key": job.key, "mesh": job.mesh, "method": job.method, "budget": job.budget,
-        "triangles": occ.triangles,
-        "precision": pr.precision, "precision_ci": pr.precision_ci,
-        "recall": pr.recall, "recall_ci": pr.recall_ci,
-        "occlusion_measure": om.occlusion_measure if om else 0.0,
-        "occlusion_measure_se": om.occlusion_measure_se if om else 0.0,
-        "violation_rate": cons.violation_rate,
-        "violation_upper_bound": cons.violation_upper_bound,
-        "seconds": occ.seconds, "seconds_evaluate": pr.seconds,
-        "params": occ.params, "info": occ.info, "occluder_file": job.occluder_file,
-        "per_view": {k: pr.per_view[k] for k in ("nt", "pf", "nf", "precision", "recall",
-                                                 "weight", "direction", "position")
-                     if k in pr.per_view},
-        "settings": asdict(s),
-    }
+    occ = get_generator(job.method).function(views.mesh, **params)
+    assessed = assess_occluder(views, occ, directions=s.directions, rays=s.rays)
+    row = {"key": job.key, "mesh": job.mesh, "budget": job.budget, **assessed.to_json(),
+           "method": job.method, "occluder_file": job.occluder_file, "settings": asdict(s)}
     ply = trimesh.exchange.ply.export_ply(occ.mesh, encoding="binary") if occ.triangles else b""
     return json.loads(dumps(row)), ply
+
+
+def _row_is_current(row: dict) -> bool:
+    """Whether a stored row holds every field of today's assessment (older rows are redone)."""
+    from dataclasses import fields
+
+    from viscore.metrics import OccluderAssessment
+
+    return all(f.name in row for f in fields(OccluderAssessment))
+
+
+def _by_mesh(pending: list[Job]) -> dict:
+    """Pending jobs grouped by (mesh, settings): one set of reference views each."""
+    groups: dict = {}
+    for job in pending:
+        groups.setdefault((job.mesh, job.settings), []).append(job)
+    return groups
 
 
 class ResultStore:
@@ -147,19 +169,34 @@ def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings) -
 
 
 def _local(pending: list[Job], jobs: int, per_job: int) -> Iterator[tuple[Job, tuple]]:
+    """Each mesh's views built once in the pool, then its jobs, each given the views."""
+    groups = _by_mesh(pending)
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = {pool.submit(run_job, j, per_job): j for j in pending}
-        for fut in as_completed(futures):
-            yield futures[fut], fut.result()
+        building = {pool.submit(build_views, mesh, settings, per_job): (mesh, settings)
+                    for mesh, settings in groups}
+        running: dict = {}
+        while building or running:
+            done, _ = wait([*building, *running], return_when=FIRST_COMPLETED)
+            for fut in done:
+                if fut in building:
+                    views = fut.result()
+                    for job in groups[building.pop(fut)]:
+                        running[pool.submit(run_job, job, per_job, views)] = job
+                else:
+                    yield running.pop(fut), fut.result()
 
 
 def _dask(pending: list[Job], scheduler) -> Iterator[tuple[Job, tuple]]:
+    """As :func:`_local` on a dask cluster: the views move to the jobs' workers once."""
     from distributed import Client
     from distributed import as_completed as dask_completed
 
     client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
     try:
-        futures = {client.submit(run_job, j, None, pure=False): j for j in pending}
+        futures = {}
+        for (mesh, settings), group in _by_mesh(pending).items():
+            views = client.submit(build_views, mesh, settings, None, pure=False)
+            futures |= {client.submit(run_job, j, None, views, pure=False): j for j in group}
         for fut in dask_completed(list(futures)):
             yield futures[fut], fut.result()
     finally:
@@ -178,14 +215,16 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings, ou
     from tqdm import tqdm
 
     out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "occluders").mkdir(exist_ok=True)  # write_atomic creates no folders
     store = ResultStore(out_dir / "results.sqlite")
     todo = study_jobs(meshes, methods, settings)
     rows: dict[str, dict] = {}
     pending = []
     for job in todo:
         found = store.get(job.key)
-        if found is not None and (not found.get("triangles") or
-                                  (out_dir / "occluders" / job.occluder_file).is_file()):
+        if found is not None and _row_is_current(found) and (
+                not found.get("triangles")
+                or (out_dir / "occluders" / job.occluder_file).is_file()):
             rows[job.key] = found
         else:
             pending.append(job)
@@ -213,16 +252,10 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings, ou
 
 
 def _as_result(row: dict):
-    """A PrecisionRecall rebuilt from a stored row (enough for paired comparisons)."""
-    from viscore.metrics import PrecisionRecall
+    """The PrecisionRecall of a stored row (for paired comparisons)."""
+    from viscore.metrics import OccluderAssessment
 
-    pv = {k: np.asarray([np.nan if v is None else v for v in vals], dtype=np.float64)
-          if k in ("precision", "recall") else np.asarray(vals)
-          for k, vals in row["per_view"].items()}
-    return PrecisionRecall(precision=row["precision"], recall=row["recall"],
-                           precision_ci=row["precision_ci"], recall_ci=row["recall_ci"],
-                           per_view=pv, protocol=row["settings"]["protocol"], depth_aware=False,
-                           seed=row["settings"]["seed"], params={}, seconds=0.0)
+    return OccluderAssessment.from_json(row).precision_recall()
 
 
 def paired_rows(rows: list[dict], reference: str = "qem") -> list[dict]:

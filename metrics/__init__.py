@@ -7,6 +7,7 @@ depth-aware variant of both), and the ray-wise conservativeness check.
 """
 
 from .ablation import AblationResult, ablation_plot, convergence_ablation
+from .assessment import OccluderAssessment, assess_occluder
 from .bayes import BetaModelSummary, hierarchical_beta_model
 from .bootstrap import bootstrap_ratio
 from .conservativeness import (
@@ -39,7 +40,7 @@ __all__ = [
     "bootstrap_ratio", "PairedDifference", "paired_difference", "BetaModelSummary",
     "hierarchical_beta_model", "AblationResult", "convergence_ablation", "ablation_plot",
     "uncertainty_report", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",
-    "evaluation_box", "ReferenceViews", "PROTOCOLS",
+    "evaluation_box", "ReferenceViews", "PROTOCOLS", "OccluderAssessment", "assess_occluder",
 ]
 
 

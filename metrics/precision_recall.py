@@ -7,13 +7,16 @@ the building-occluders paper, sec. 3.2, eqs. 4-7 (seeds/001).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+import typing
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 __all__ = ["PrecisionRecall"]
 
-# Shared with the sibling modules (not user API): ratio, pooled_parts, pooled_ratio.
+# Shared with the sibling modules (not user API): ratio, pooled_parts, pooled_ratio,
+# record_to_json, record_from_json, PER_VIEW_ARRAYS.
 
 
 def ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
@@ -35,6 +38,64 @@ def pooled_parts(per_view: dict, protocol: str, which: str) -> tuple[np.ndarray,
     weight = np.asarray(per_view["weight"], dtype=np.float64)
     ok = np.isfinite(value)
     return np.where(ok, value, 0.0) * weight, np.where(ok, weight, 0.0)
+
+
+#: Field metadata marking a dict of per-view arrays (lists in JSON, one entry per view).
+PER_VIEW_ARRAYS = {"per_view_arrays": True}
+
+
+def _jsonable(value):
+    """Plain JSON values: arrays and tuples to lists, numpy scalars to Python, NaN/inf to None."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        value = float(value)
+        return value if math.isfinite(value) else None
+    return value
+
+
+def _array(values: list) -> np.ndarray:
+    """A per-view list back to an array: None (NaN in JSON) to NaN."""
+    arr = np.asarray(values, dtype=object)
+    if arr.size and any(v is None for v in arr.flat):
+        return np.asarray(np.where(arr == None, np.nan, arr), dtype=np.float64)  # noqa: E711
+    return np.asarray(values)
+
+
+def record_to_json(record) -> dict:
+    """JSON document of a result dataclass: every field under its own name."""
+    return {f.name: _jsonable(getattr(record, f.name)) for f in fields(record)}
+
+
+def record_from_json(cls, document: dict):
+    """The result dataclass ``cls`` from :func:`record_to_json`'s document.
+
+    Generic over the fields: ``float`` fields take None as NaN, lists of
+    floats likewise, fields marked ``PER_VIEW_ARRAYS`` become dicts of
+    arrays; keys that are not fields are ignored; a missing field without a
+    default raises KeyError.
+    """
+    hints = typing.get_type_hints(cls)
+    values = {}
+    for f in fields(cls):
+        if f.name not in document:
+            continue  # its default applies (or the constructor says it is missing)
+        v = document[f.name]
+        hint = hints.get(f.name)
+        if f.metadata.get("per_view_arrays"):
+            v = {k: _array(x) for k, x in v.items()}
+        elif hint is float:
+            v = math.nan if v is None else float(v)
+        elif hint is list and isinstance(v, list):
+            v = [math.nan if x is None else x for x in v]
+        values[f.name] = v
+    return cls(**values)
 
 
 def pooled_ratio(per_view: dict, protocol: str, which: str) -> float:
@@ -82,13 +143,22 @@ class PrecisionRecall:
     recall: float
     precision_ci: list
     recall_ci: list
-    per_view: dict
-    protocol: str
-    depth_aware: bool
-    seed: int
-    params: dict
-    seconds: float
+    per_view: dict = field(metadata=PER_VIEW_ARRAYS)
+    protocol: str = "orbit"
+    depth_aware: bool = False
+    seed: int = 0
+    params: dict = field(default_factory=dict)
+    seconds: float = math.nan
     timing: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        """JSON document: every field under its name, arrays as lists, NaN as None."""
+        return record_to_json(self)
+
+    @classmethod
+    def from_json(cls, document: dict) -> PrecisionRecall:
+        """The result of :meth:`to_json` (or any document with these keys; others ignored)."""
+        return record_from_json(cls, document)
 
     @property
     def views(self) -> int:

@@ -535,10 +535,10 @@ class ReferenceViews:
             seed=self.seed, params=dict(self.settings), seconds=seconds, timing=timing)
 
 
-def check_protocol(protocol: object) -> str:
+def check_protocol(protocol: object, name: str = "protocol") -> str:
     """The protocol name, or :class:`InputError` listing the valid ones."""
     if not isinstance(protocol, str) or protocol not in PROTOCOLS:
-        raise InputError(f"protocol: expected one of {', '.join(map(repr, PROTOCOLS))}, "
+        raise InputError(f"{name}: expected one of {', '.join(map(repr, PROTOCOLS))}, "
                          f"got {protocol!r}")
     return protocol
 

@@ -13,6 +13,11 @@ def test_compare_writes_outputs_and_resumes(tmp_path, capsys):
     rows = {r["method"]: r for r in doc["rows"]}
     assert rows["original"]["precision"] == 1.0 and rows["original"]["recall"] == 1.0
     assert rows["bbox"]["triangles"] == 12 and rows["bbox"]["recall"] == 1.0
+    # every field of the assessment is in the row, under its JSON name
+    from viscore.metrics import OccluderAssessment
+
+    back = OccluderAssessment.from_json(rows["bbox"])
+    assert back.method == "bbox" and back.per_view["nt"].shape == (4,)
     for name in ("results.csv", "results.json", "results.md", "recall.png", "results.sqlite",
                  "budget.png", "silhouettes_buildings.png"):
         assert (out / name).is_file()
@@ -44,14 +49,19 @@ def test_compare_budgets_run_budgeted_methods_once_per_budget(tmp_path, capsys):
     assert len(list((out / "occluders").glob("*.ply"))) == 3
 
 
-def test_dask_cluster_gives_identical_rows(tmp_path):
+def test_dask_cluster_gives_identical_rows(tmp_path, monkeypatch):
     from distributed import Client, LocalCluster
     from viscore.cli.study import StudySettings, run_study
+    from viscore.metrics import ReferenceViews
 
     settings = StudySettings(views=4, quads=300, resolution=24, directions=2, rays=1000,
                              budgets=(48,))
     local = run_study(["fat-torus"], ["aabb-skins", "bbox"], settings, tmp_path / "a",
                       progress=False)
+    built = []  # the in-process cluster runs the tasks here: count the views built
+    init = ReferenceViews.__init__
+    monkeypatch.setattr(ReferenceViews, "__init__",
+                        lambda self, *a, **k: built.append(k["protocol"]) or init(self, *a, **k))
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                       dashboard_address=None) as cluster, Client(cluster) as client:
         remote = run_study(["fat-torus"], ["aabb-skins", "bbox"], settings, tmp_path / "b",
@@ -59,6 +69,7 @@ def test_dask_cluster_gives_identical_rows(tmp_path):
     strip = lambda rows: [{k: v for k, v in r.items() if not k.startswith("seconds")}  # noqa: E731
                           for r in rows]
     assert strip(local) == strip(remote)
+    assert built == ["orbit"]  # the original's views: once for both methods
 
 
 def test_interrupted_study_keeps_finished_rows_and_resumes(tmp_path):
