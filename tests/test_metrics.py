@@ -1,13 +1,9 @@
 import numpy as np
 import pytest
-import trimesh
 from viscore.metrics import (
     assert_conservative,
     check_conservative,
     classify_quads,
-    directional_occlusion_measure,
-    erosion_curve,
-    occlusion_measure,
     orbit_precision_recall,
     sample_quads,
     volume_precision_recall,
@@ -22,63 +18,6 @@ def _scaled(mesh, factor, about):
     out.apply_scale(factor)
     out.apply_translation(about)
     return out
-
-
-# ---------------------------------------------------------------- occlusion measure
-def test_directional_measure_unit_square_is_one_sixth():
-    r = 512
-    img = np.zeros((r, r), bool)
-    img[r // 4: 3 * r // 4, r // 4: 3 * r // 4] = True
-    m, a = directional_occlusion_measure(img, 1 / (r // 2))
-    assert m == pytest.approx(1 / 6, rel=0.01)
-    assert a == pytest.approx(1.0)
-
-
-def test_occlusion_measure_sphere_per_direction_pi_r3_over_3(unit_sphere):
-    r = 0.8
-    sphere = unit_sphere.copy()
-    sphere.apply_scale(r)
-    res = occlusion_measure(sphere, directions=3, resolution=512, seed=1)
-    np.testing.assert_allclose(res.per_view["measure"], np.pi * r**3 / 3, rtol=0.01)
-    assert res.occlusion_measure == pytest.approx(4 * np.pi * np.pi * r**3 / 3, rel=0.01)
-    assert res.surface_area_measure == pytest.approx(4 * np.pi * np.pi * r**2, rel=0.01)
-
-
-def test_occlusion_measure_square_with_holes_far_smaller():
-    r = 512
-    solid = np.zeros((r, r), bool)
-    solid[128:384, 128:384] = True
-    holes = solid.copy()
-    holes[136:384:16, 136:384:16] = False  # 256 one-pixel holes
-    m_solid, a_solid = directional_occlusion_measure(solid, 1 / 256)
-    m_holes, a_holes = directional_occlusion_measure(holes, 1 / 256)
-    assert a_holes > 0.99 * a_solid  # nearly the same area ...
-    assert m_holes < 0.25 * m_solid  # ... but a far smaller occlusion measure
-
-
-def test_erosion_curve_integrates_to_measure():
-    img = np.zeros((256, 256), bool)
-    img[64:192, 32:224] = True
-    pix = 1 / 128
-    m, a = directional_occlusion_measure(img, pix)
-    radii = np.linspace(0, 1, 20001)
-    curve = erosion_curve(img, pix, radii)
-    assert curve[0] == pytest.approx(a)
-    assert (np.diff(curve) <= 0).all()
-    assert np.trapezoid(curve, radii) == pytest.approx(m, rel=1e-3)
-
-
-def test_occlusion_measure_seed_reproducible(cube):
-    a = occlusion_measure(cube, directions=5, resolution=64, seed=3)
-    b = occlusion_measure(cube, directions=5, resolution=64, seed=3)
-    assert a.occlusion_measure == b.occlusion_measure and a.occlusion_measure_se > 0
-
-
-def test_occlusion_measure_invalid_input(cube):
-    with pytest.raises(InputError):
-        occlusion_measure(cube, directions=0)
-    with pytest.raises(InputError):
-        occlusion_measure(trimesh.Trimesh(), directions=4)
 
 
 # ---------------------------------------------------------------- quads
