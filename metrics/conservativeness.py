@@ -1,16 +1,34 @@
 """Ray-wise conservativeness: is the occluder ever hit before the original?
 
-DESIGN.md, "Conservativeness": along a ray from the evaluation domain, the
-occluder must not be hit before the original; a violation is
-t_occluder < t_original - eps (a miss is t = inf). The rate comes with a
-one-sided Clopper-Pearson upper bound. Conservative occluders are the goal of
-the occluder-skins paper (sec. 4, seeds/002) and the box-filling note
-(seeds/003); the building-occluders paper calls the same property
-conservative enforcement (sec. 3.1, seeds/001).
+Along a ray from the evaluation domain, the occluder must not be hit before
+the original; a violation is t_occluder < t_original - eps (a miss is
+t = inf). The rate comes with a one-sided Clopper-Pearson upper bound [4]_.
+Conservative occluders are the goal of the occluder-skins paper [1]_ (sec. 4)
+and the box-filling note [2]_; the building-occluders paper calls the same
+property conservative enforcement [3]_ (sec. 3.1). Flat occluders (planar
+sections, single polygons) and flat originals are accepted: a ray that meets
+a flat original and a coplanar occluder at the same point is no violation.
+
+References
+----------
+.. [1] Leone, M. N., Barbagallo, L. R., Banquiero, M. M., Agromayor, D.,
+   Bursztyn, A. P. M. "Implementing software occlusion culling for real-time
+   applications". XVIII Congreso Argentino de Ciencias de la Computacion
+   (CACIC 2012), Workshop de Computacion Grafica, Imagenes y Visualizacion,
+   2012. http://sedici.unlp.edu.ar/handle/10915/23640
+.. [2] Naaji, K. "Automatic Occluder Generation". A Graphics Diary (blog),
+   15 November 2019. http://karim.naaji.fr/automatic_occluder_geneneration.html
+.. [3] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
+.. [4] Clopper, C. J., Pearson, E. S. "The use of confidence or fiducial limits
+   illustrated in the case of the binomial". Biometrika 26(4), 1934,
+   pp. 404-413. :DOI:`10.1093/biomet/26.4.404`
 """
 
 from __future__ import annotations
 
+import numbers
 import time
 from dataclasses import dataclass
 
@@ -19,7 +37,7 @@ import trimesh
 from scipy import stats
 
 from viscore import InputError, Scene, directions_uniform, points_inside
-from viscore._validate import as_fraction, as_positive_int
+from viscore._validate import as_fraction, as_positive_int, as_seed, check_memory
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 
 from ._views import scene_of
@@ -31,6 +49,15 @@ __all__ = ["ConservativenessReport", "check_conservative", "assert_conservative"
 
 #: Worst violating rays kept in the report.
 WORST_RAYS = 10
+
+#: Rays drawn and cast per batch: memory does not grow with the ray count.
+_RAYS_PER_BATCH = 1 << 18
+
+#: Peak bytes per ray of one batch: origins, targets, directions and their
+#: temporaries (float64 x 3 each), both hit distances and triangle ids, the
+#: Embree float32 copies, and the volume domain's rejection candidates
+#: (twice the batch, with their inside test), rounded up.
+_BYTES_PER_RAY = 1024
 
 
 def clopper_pearson_upper(violations: int, rays: int, confidence: float) -> float:
@@ -88,6 +115,7 @@ class ConservativenessReport:
         A Clopper-Pearson bound is never 0, so a zero tolerance is read as
         "no violating ray".
         """
+        max_rate = as_fraction(max_rate, "max_rate")
         if max_rate == 0:
             return self.violations == 0
         return self.violation_upper_bound <= max_rate
@@ -105,16 +133,20 @@ class ConservativenessReport:
         return text
 
 
-def _domain_rays(mesh, scene: Scene, n: int, domain: str, rng: np.random.Generator):
+def _domain_rays(domain: str, frame, scene: Scene, n: int, rng: np.random.Generator):
+    """``n`` rays of the domain: (origins, unit directions), each (n, 3) float64.
+
+    ``frame`` is the orbit frame (center, extent) or the volume box (lo, hi).
+    """
     if domain == "orbit":
-        center, extent = orbit_frame(mesh)
+        center, extent = frame
         radius = 0.5 * extent
         origins = center + radius * directions_uniform(n, seed=int(rng.integers(2**31)))
         targets = center + radius * np.cbrt(rng.random(n))[:, None] * directions_uniform(
             n, seed=int(rng.integers(2**31)))
         d = targets - origins
         return origins, d / np.linalg.norm(d, axis=1)[:, None]
-    lo, hi, _ = evaluation_box(mesh)
+    lo, hi = frame
     origins = np.zeros((0, 3))
     for _ in range(20):  # rejection of points inside the mesh
         cand = rng.uniform(lo, hi, (max(n - len(origins), 1) * 2, 3))
@@ -135,22 +167,43 @@ def check_conservative(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None, 
     Parameters
     ----------
     mesh, occluder : trimesh.Trimesh
-        Original and occluder (None or empty: never violates).
+        Original and occluder (None or empty: never violates). Either may be
+        flat (a planar section, a single triangle or quad) or open.
     rays : int, optional
         Default 100,000.
     confidence : float, optional
         Of the one-sided upper bound, in (0, 1). Default 0.95.
     domain : {'orbit', 'volume'}, optional
-        'orbit': rays from uniform points on the orbit sphere (enclosing sphere
-        x 1.01) towards uniform points inside it. 'volume': uniform origins in
-        the padded bounding box outside the mesh, uniform directions.
+        'orbit': rays from uniform points on the orbit sphere (smallest
+        enclosing sphere x 1.01, flat meshes included) towards uniform points
+        inside it. 'volume': uniform origins in the padded bounding box
+        outside the mesh (a flat mesh's box is padded by the view spacing),
+        uniform directions.
     seed : int, optional
+        A non-negative integer. Default 0.
     eps : float, optional
-        Tolerance in world units; default 1e-5 x bounding-box diagonal.
+        Tolerance in world units, >= 0; default 1e-5 x bounding-box diagonal.
 
     Returns
     -------
     ConservativenessReport
+
+    Raises
+    ------
+    InputError
+        On a bad argument or an empty original.
+
+    Notes
+    -----
+    Rays are drawn and cast in batches of 262,144: memory does not grow with
+    ``rays`` (a batch needs about 256 MB at most, checked before any work).
+    Deterministic given ``seed``.
+
+    References
+    ----------
+    .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+       Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+       :DOI:`10.1111/cgf.14669`
 
     Examples
     --------
@@ -165,28 +218,40 @@ def check_conservative(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None, 
         raise InputError("confidence: expected a number in (0, 1), got 1")
     if domain not in ("orbit", "volume"):
         raise InputError(f"domain: expected 'orbit' or 'volume', got {domain!r}")
+    seed = as_seed(seed)
+    if eps is not None:
+        if isinstance(eps, bool) or not isinstance(eps, numbers.Real) or not (
+                np.isfinite(eps) and eps >= 0):
+            raise InputError(f"eps: expected a finite number >= 0, got {eps!r}")
+        eps = float(eps)
+    check_memory(min(rays, _RAYS_PER_BATCH) * _BYTES_PER_RAY, f"rays={rays}")
     start = time.perf_counter()
     original = scene_of(mesh, "mesh")
     other = scene_of(occluder, "occluder")
-    eps = CONSERVATIVE_EPS_RELATIVE * original.diagonal if eps is None else float(eps)
+    eps = CONSERVATIVE_EPS_RELATIVE * original.diagonal if eps is None else eps
+    frame = orbit_frame(mesh) if domain == "orbit" else evaluation_box(mesh)[:2]
     rng = np.random.default_rng(seed)
-    o, d = _domain_rays(mesh, original, rays, domain, rng)
-    t_orig, _ = original.first_hit(o, d)
-    if other is None:
-        t_occ = np.full(rays, np.inf)
-    else:
+    violations = 0
+    worst: list[tuple] = []  # (-gap, ray index, description), best first
+    for first in range(0, rays if other is not None else 0, _RAYS_PER_BATCH):
+        n = min(_RAYS_PER_BATCH, rays - first)
+        o, d = _domain_rays(domain, frame, original, n, rng)
+        t_orig, _ = original.first_hit(o, d)
         t_occ, _ = other.first_hit(o, d)
-    with np.errstate(invalid="ignore"):  # both miss: inf - inf = nan, not a violation
-        gap = t_orig - t_occ  # occluder hit, original missed: inf, a violation
-    bad = np.flatnonzero(gap > eps)
-    worst = bad[np.argsort(-gap[bad], kind="stable")][:WORST_RAYS]
-    return ConservativenessReport(
-        rays=rays, violations=len(bad), violation_rate=len(bad) / rays,
-        violation_upper_bound=clopper_pearson_upper(len(bad), rays, confidence),
-        confidence=confidence, domain=domain,
-        worst=[{"origin": o[i].tolist(), "direction": d[i].tolist(),
+        with np.errstate(invalid="ignore"):  # both miss: inf - inf = nan, not a violation
+            gap = t_orig - t_occ  # occluder hit, original missed: inf, a violation
+        bad = np.flatnonzero(gap > eps)
+        violations += len(bad)
+        for i in bad[np.argsort(-gap[bad], kind="stable")][:WORST_RAYS]:
+            worst.append((-gap[i], first + i, {
+                "origin": o[i].tolist(), "direction": d[i].tolist(),
                 "t_original": None if np.isinf(t_orig[i]) else float(t_orig[i]),
-                "t_occluder": float(t_occ[i])} for i in worst],
+                "t_occluder": float(t_occ[i])}))
+        worst = sorted(worst, key=lambda w: w[:2])[:WORST_RAYS]
+    return ConservativenessReport(
+        rays=rays, violations=violations, violation_rate=violations / rays,
+        violation_upper_bound=clopper_pearson_upper(violations, rays, confidence),
+        confidence=confidence, domain=domain, worst=[w[2] for w in worst],
         eps=eps, seed=seed, seconds=time.perf_counter() - start)
 
 
@@ -198,6 +263,14 @@ def assert_conservative(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None,
     Fails when the one-sided upper bound on the violation rate exceeds
     ``max_rate``, or, with the default ``max_rate=0``, when any ray violates
     (a bound is never 0, so zero tolerance means zero violations).
+
+    Parameters
+    ----------
+    mesh, occluder, rays, confidence, domain, seed
+        As in :func:`check_conservative`.
+    max_rate : float, optional
+        Largest acceptable upper bound on the violation rate, in [0, 1].
+        Default 0 (no violating ray).
 
     Returns
     -------

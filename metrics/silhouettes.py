@@ -1,9 +1,17 @@
-"""Colour-coded silhouettes of an occluder over its original (seed 000, Figure 7).
+"""Colour-coded silhouettes of an occluder over its original (Silvennoinen et al. 2014, Fig. 7).
 
-Silvennoinen et al. 2014, sec. 6 (seeds/000): "The original geometry is
-rendered in black, the intersection of the original geometry and the
-generated occluder is yellow. Over-occluded parts are coded in blue." The
-images are orthographic coverage images of the orbit protocol's frame.
+Silvennoinen et al. 2014, sec. 6: "The original geometry is rendered in
+black, the intersection of the original geometry and the generated occluder
+is yellow. Over-occluded parts are coded in blue." The images are
+orthographic coverage images of the orbit protocol's frame (the original's
+smallest enclosing sphere x 1.01, flat originals included); flat occluders
+and originals are drawn from either side.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1), 2014,
+   pp. 235-245. :DOI:`10.1111/cgf.12271`
 """
 
 from __future__ import annotations
@@ -11,9 +19,11 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from viscore import OrthoCamera, coverage_image
+from viscore import OrthoCamera
+from viscore._validate import as_positive_int, check_memory
 
 from ._views import scene_of
+from .erosion import _MAX_RESOLUTION, _RAYS_PER_BATCH, _coverage, _ray_inside
 from .orbit import orbit_frame
 
 __all__ = ["silhouette_image", "SILHOUETTE_COLOURS"]
@@ -35,11 +45,22 @@ def silhouette_image(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None,
     direction : (3,) float
         Viewing direction.
     resolution : int, optional
-        Default 256.
+        At most 8192. Default 256.
 
     Returns
     -------
     image : (R, R, 3) uint8
+
+    Raises
+    ------
+    InputError
+        On an empty original, a zero direction or a bad resolution.
+
+    References
+    ----------
+    .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+       Simplification using Planar Sections". Computer Graphics Forum 33(1),
+       2014, pp. 235-245. :DOI:`10.1111/cgf.12271`
 
     Examples
     --------
@@ -48,11 +69,16 @@ def silhouette_image(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None,
     >>> tuple(int(c) for c in img[4, 4])
     (240, 200, 0)
     """
+    resolution = as_positive_int(resolution, "resolution", maximum=_MAX_RESOLUTION)
+    # two coverage images and the RGB image; rays are cast a batch at a time
+    check_memory(5.0 * resolution**2 + 96.0 * _RAYS_PER_BATCH, f"resolution={resolution}")
+    original = scene_of(mesh, "mesh")
+    other = scene_of(occluder, "occluder")
     center, extent = orbit_frame(mesh)
     cam = OrthoCamera(direction, center, extent, resolution)
-    orig = coverage_image(scene_of(mesh, "mesh"), cam)
-    other = scene_of(occluder, "occluder")
-    occ = coverage_image(other, cam) if other is not None else np.zeros_like(orig)
+    orig = _coverage(_ray_inside(original, cam), resolution)
+    occ = (_coverage(_ray_inside(other, cam), resolution) if other is not None
+           else np.zeros_like(orig))
     image = np.empty(orig.shape + (3,), dtype=np.uint8)
     image[:] = SILHOUETTE_COLOURS["background"]
     image[orig & ~occ] = SILHOUETTE_COLOURS["original"]
