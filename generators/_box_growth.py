@@ -1,8 +1,20 @@
-"""numba kernels of the greedy maximal-box growth (seeds 002 sec. 4 and 003).
+"""numba kernels of the greedy maximal-box growth of the AABB-skins generator.
 
-The per-voxel box search (for a seed voxel, the largest box with that voxel
-as its lower corner, found from per-axis run lengths along +X) cannot be
-vectorised with numpy; numba compiles it.
+The box growth of Leone et al. [1]_, sec. 4 (boxes grown from seed voxels
+one layer per direction) and the maximal-box expansion of Naaji's
+box-filling note [2]_ (the largest box over all lower corners, from per-axis
+run lengths). The per-voxel box search cannot be vectorised with numpy;
+numba compiles it.
+
+References
+----------
+.. [1] Leone, M. N., Barbagallo, L. R., Banquiero, M. M., Agromayor, D.,
+   Bursztyn, A. P. M. "Implementing software occlusion culling for real-time
+   applications". XVIII Congreso Argentino de Ciencias de la Computacion
+   (CACIC 2012), Workshop de Computacion Grafica, Imagenes y Visualizacion,
+   2012. http://sedici.unlp.edu.ar/handle/10915/23640
+.. [2] Naaji, K. "Automatic Occluder Generation". A Graphics Diary (blog),
+   15 November 2019. http://karim.naaji.fr/automatic_occluder_geneneration.html
 """
 
 from __future__ import annotations
@@ -221,7 +233,7 @@ def _slab_free(avail, lo, hi, axis, at):
 
 @njit_cached()
 def grow_boxes_from_seeds(avail, seeds, max_boxes, min_voxels, target_voxels):
-    """Boxes grown from seed voxels in the given order (seed 002, sec. 4).
+    """Boxes grown from seed voxels in the given order (Leone et al. 2012, sec. 4).
 
     Each box starts as its seed voxel and expands by one voxel layer in each of
     the six directions in turn while the new layer is all available, until no
@@ -254,7 +266,7 @@ def grow_boxes_from_seeds(avail, seeds, max_boxes, min_voxels, target_voxels):
                     grown = True
         vol = (hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2])
         if vol < min_voxels:
-            break  # seed 002: a box under the minimum stops the search
+            break  # Leone et al.: a box under the minimum stops the search
         for a in range(lo[0], hi[0]):
             for b in range(lo[1], hi[1]):
                 for c in range(lo[2], hi[2]):
