@@ -38,8 +38,8 @@ def test_aabb_skins_conservative_million_rays(name):
     occ = generate_aabb_skins(mesh, voxels=64, max_boxes=64)
     if occ.triangles == 0:
         pytest.skip("no inner voxels")
-    if occ.info["inside"] != "flood-fill":
-        pytest.skip("open mesh: not guaranteed conservative")
+    if not occ.info["conservative_guaranteed"]:
+        pytest.skip("open or inconsistently oriented mesh: not guaranteed conservative")
     rep = check_conservative(mesh, occ.mesh, rays=1_000_000, seed=11)
     assert rep.violations == 0, rep.summary()
 

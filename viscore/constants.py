@@ -30,6 +30,8 @@ DEGENERATE_AREA_RELATIVE = 1e-14
 #: the thread pool; a batch no larger than this runs on the calling thread.
 MIN_RAYS_PER_TASK = 16384
 
-#: Voxel grids above this many cells are refused (about 2 GiB of working
-#: memory at the ~8 bytes per cell that voxelization uses).
+#: Voxel grids above this many cells are refused outright (about 6 GiB of
+#: working memory at the ~24 bytes per cell of
+#: :data:`viscore.voxels.VOXELIZE_BYTES_PER_CELL`); smaller grids are still
+#: checked against the available memory before any work.
 MAX_VOXEL_CELLS = 256_000_000
