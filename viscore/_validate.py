@@ -164,6 +164,10 @@ def check_memory(nbytes: float, what: str) -> None:
 
     fraction = float(os.environ.get("VISCORE_MEMORY_FRACTION", MEMORY_FRACTION))
     limit = fraction * available_memory()
+    try:  # a Python int beyond int64 (e.g. a count of 2**64 x bytes) is fine here too
+        nbytes = float(nbytes)
+    except OverflowError:
+        nbytes = float("inf")
     if not np.isfinite(nbytes) or nbytes > limit:
         raise InputError(f"{what}: needs about {_human_bytes(nbytes)} of memory, more than the "
                          f"limit of {_human_bytes(limit)} ({fraction:.0%} of available memory)")

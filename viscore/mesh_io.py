@@ -484,8 +484,9 @@ def _parse_zip(data: bytes, label: str, readable: set[str]) -> trimesh.Trimesh:
     try:
         archive = zipfile.ZipFile(io.BytesIO(data))
         infos = [i for i in archive.infolist() if not i.is_dir()]
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, ValueError) as exc:
-        raise InputError(f"{label}: not a valid ZIP file ({exc})") from None
+    except Exception as exc:  # noqa: BLE001 - zipfile raises many types on damaged archives
+        raise InputError(f"{label}: not a valid ZIP file ({type(exc).__name__}: "
+                         f"{' '.join(str(exc).split())[:200]})") from None
     members = [i for i in infos if _suffix(i.filename) in readable - _ARCHIVES]
     if not members:
         raise InputError(f"{label}: the archive holds no mesh file (of {len(infos)} files)")
@@ -495,9 +496,11 @@ def _parse_zip(data: bytes, label: str, readable: set[str]) -> trimesh.Trimesh:
     try:
         # zipfile never inflates a member beyond the size its directory entry declares
         files = {i.filename: io.BytesIO(archive.read(i)) for i in infos}
-    except (zipfile.BadZipFile, OSError, ValueError, NotImplementedError, EOFError,
-            RuntimeError) as exc:
-        raise InputError(f"{label}: damaged ZIP file ({exc})") from None
+    except MemoryError:
+        raise InputError(f"{label}: not enough memory to inflate the archive") from None
+    except Exception as exc:  # noqa: BLE001 - zlib.error, EOFError, BadZipFile (CRC), ...
+        raise InputError(f"{label}: damaged ZIP file ({type(exc).__name__}: "
+                         f"{' '.join(str(exc).split())[:200]})") from None
     resolver = trimesh.resolvers.ZipResolver(files)
     meshes = [_parse(files[i.filename].getvalue(), _suffix(i.filename),
                      f"{label}:{i.filename}", resolver) for i in members]

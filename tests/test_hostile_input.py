@@ -1,0 +1,517 @@
+"""Hostile input: property tests over mesh loading and the simple subcommands.
+
+The contract checked on every generated case: the library either returns a
+valid mesh or raises :class:`viscore.InputError` (never another exception);
+the command line (``measure``, ``evaluate``, ``validate``, ``data export``)
+either succeeds (exit 0, or 1 for a ``validate`` check that ran and failed)
+or exits 2 with exactly one stderr line starting ``viscore: error:``, nothing
+on stdout, and nothing at the output path. Cases run in-process through
+``viscore.cli.main.main`` with and without ``--quiet``.
+
+Classes of input tried
+----------------------
+Files, under every extension (.obj .ply .stl .off .glb .gltf .zip):
+    empty; a valid file truncated at a random byte; random bytes; a valid
+    file with random bytes overwritten; random text in UTF-8, UTF-16 and
+    Latin-1.
+Coordinates (OBJ, full float64 digits): NaN, +-inf, 1e30, 1e-30, subnormal
+    (5e-320), 1e95, 1e-95, mixed with ordinary values, whole meshes scaled by
+    1e-60..1e60 and shifted far from the origin; faces with index 0,
+    negative (relative) and out-of-range indices.
+Shapes: all-degenerate faces (collinear, repeated indices), a single random
+    triangle, flat meshes (random triangles in a plane), point clouds (PLY and
+    OBJ without faces), line-only OBJ, quads and convex n-gons (n = 4..12) in
+    OBJ and OFF, GLB scenes with many nodes and instancing, GLTF with its
+    external buffer missing.
+Paths given as meshes: a directory, a dangling symbolic link, a FIFO, a path
+    through a regular file (``file.ply/x.ply``: unreadable even for root),
+    ``/dev/urandom``, ``/proc/self/status``, a missing file.
+Output paths (``data export -o``): a missing folder, a path through a file, a
+    read-only location (``/proc``), an existing directory, an unknown suffix,
+    and a writable path (mode must be 0o666 & ~umask).
+Options: 0, negative, NaN, +-inf, ``1e5``, 10^5 and 16385 pixels, 10^12,
+    2^64, 2^70, non-numbers and empty strings for every numeric option of
+    measure, evaluate and validate; seeds beyond 64 bits (valid: must run).
+
+The default run derandomises hypothesis (the same cases every run) and keeps
+under ~30 s; ``-m slow`` runs ten times as many random cases. The number of
+generated cases run is printed at the end of the module (``pytest -s``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import itertools
+import json
+import os
+import stat
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from viscore.cli.main import main
+
+from viscore import InputError, Scene, load_mesh
+
+EXTENSIONS = ("obj", "ply", "stl", "off", "glb", "gltf", "zip")
+
+#: Generated cases run, by property (printed at the end of the module).
+CASES: dict[str, int] = {}
+
+#: The fixed cheap options that make a successful run take ~0.05 s.
+_CHEAP = {
+    "measure": ["--directions", "2", "--res", "16"],
+    "evaluate": ["--views", "2", "--quads", "50", "--res", "16"],
+    "validate": ["--rays", "500"],
+}
+
+
+def _settings(examples: int, slow: bool):
+    return settings(max_examples=examples * (10 if slow else 1), deadline=None, database=None,
+                    derandomize=not slow, print_blob=True,
+                    suppress_health_check=list(HealthCheck))
+
+
+@pytest.fixture(scope="module")
+def workdir():
+    with tempfile.TemporaryDirectory(prefix="viscore-hostile-") as d:
+        yield Path(d)
+    total = sum(CASES.values())
+    print(f"\nhostile-input cases run: {total} ({', '.join(f'{k} {v}' for k, v in CASES.items())})")
+
+
+_names = itertools.count()
+
+
+def _fresh(workdir: Path, suffix: str) -> Path:
+    return workdir / f"case{next(_names)}.{suffix}"
+
+
+def _count(name: str) -> None:
+    CASES[name] = CASES.get(name, 0) + 1
+
+
+def run_cli(argv: list[str]) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            rc = main(argv)
+        except SystemExit as exc:  # argparse usage errors
+            rc = exc.code
+    return rc, out.getvalue(), err.getvalue()
+
+
+def assert_contract(rc: int, out: str, err: str, *, ok=(0,), output: Path | None = None,
+                    json_out: bool = False) -> None:
+    """Success, or exit 2 with one error line, nothing on stdout, nothing written."""
+    if rc in ok:
+        if json_out and rc in (0, 1):
+            json.loads(out)
+        return
+    lines = err.strip().splitlines()
+    assert rc == 2, f"exit {rc}: {err[-2000:]}"
+    assert len(lines) == 1, f"{len(lines)} stderr lines: {err[-2000:]}"
+    assert lines[0].startswith("viscore: error:"), lines[0]
+    assert out == "", out
+    if output is not None:
+        assert not os.path.lexists(output), f"{output} left behind"
+        assert not list(output.parent.glob(f".{output.name}.*")), "temporary file left behind"
+
+
+def check_load(path: Path) -> trimesh.Trimesh | None:
+    """The library side: a valid mesh or InputError, nothing else."""
+    try:
+        mesh = load_mesh(path)
+    except InputError as exc:
+        assert "\n" not in str(exc)
+        return None
+    assert len(mesh.faces) > 0 and np.isfinite(mesh.vertices).all()
+    return mesh
+
+
+def check_measure(path: Path, quiet: bool) -> int:
+    rc, out, err = run_cli(["measure", str(path), *_CHEAP["measure"], "--json"]
+                           + (["--quiet"] if quiet else []))
+    assert_contract(rc, out, err, json_out=True)
+    return rc
+
+
+# --------------------------------------------------------------------------- file bytes
+def _obj_text(vertices, faces) -> str:
+    lines = [f"v {float(x)!r} {float(y)!r} {float(z)!r}" for x, y, z in vertices]
+    lines += ["f " + " ".join(str(int(i)) for i in f) for f in faces]
+    return "\n".join(lines) + "\n"
+
+
+def _valid_bytes() -> dict[str, bytes]:
+    box = trimesh.creation.box()
+    box.apply_translation([0.25, 0, 0])
+    data = {ext: box.export(file_type=ext) for ext in ("ply", "stl", "off", "glb")}
+    data["obj"] = _obj_text(box.vertices, box.faces + 1)
+    data["gltf"] = box.export(file_type="gltf", embed_buffers=True)["model.gltf"]
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("box.obj", data["obj"])
+    data["zip"] = buf.getvalue()
+    return {k: v if isinstance(v, bytes) else v.encode() for k, v in data.items()}
+
+
+VALID = _valid_bytes()
+
+
+FILE_KINDS = ["empty", "truncated", "random", "flipped", "text"]
+
+
+@st.composite
+def hostile_bytes(draw, ext: str, kind: str) -> bytes:
+    valid = VALID[ext]
+    if kind == "empty":
+        return b""
+    if kind == "truncated":
+        return valid[:draw(st.integers(1, len(valid) - 1))]
+    if kind == "random":
+        return draw(st.binary(min_size=1, max_size=3000))
+    if kind == "flipped":
+        data = bytearray(valid)
+        for pos, byte in draw(st.lists(st.tuples(st.integers(0, len(data) - 1),
+                                                 st.integers(0, 255)), min_size=1, max_size=8)):
+            data[pos] = byte
+        return bytes(data)
+    text = draw(st.text(max_size=400))
+    return text.encode(draw(st.sampled_from(["utf-8", "utf-16", "latin-1"])), errors="replace")
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("kind", FILE_KINDS)
+@pytest.mark.parametrize("ext", EXTENSIONS)
+def test_hostile_file_bytes(workdir, ext, kind, slow):
+    @_settings(1 if kind == "empty" else 5, slow)
+    @given(data=hostile_bytes(ext, kind), quiet=st.booleans())
+    def prop(data, quiet):
+        _count(f"files.{kind}")
+        path = _fresh(workdir, ext)
+        path.write_bytes(data)
+        mesh = check_load(path)
+        rc = check_measure(path, quiet)
+        assert (rc == 0) == (mesh is not None)
+
+    prop()
+
+
+# --------------------------------------------------------------------------- coordinates
+SPECIAL = [np.nan, np.inf, -np.inf, 1e30, -1e30, 1e-30, 5e-320, 1e95, 1e-95, 0.0, 1.0, -1.0]
+
+
+@st.composite
+def hostile_obj(draw) -> tuple[str, str]:
+    kind = draw(st.sampled_from(["special", "scaled", "indices"]))
+    if kind == "scaled":
+        box = trimesh.creation.box()
+        scale = 10.0 ** draw(st.integers(-60, 60))
+        shift = 10.0 ** draw(st.integers(-3, 12)) * scale * draw(st.sampled_from([0, 1]))
+        return kind, _obj_text(box.vertices * scale + shift, box.faces + 1)
+    n = draw(st.integers(3, 8))
+    values = st.one_of(st.sampled_from(SPECIAL), st.floats(-10, 10))
+    vertices = draw(st.lists(st.tuples(values, values, values), min_size=n, max_size=n))
+    if kind == "special":
+        faces = draw(st.lists(st.tuples(*[st.integers(1, n)] * 3), min_size=1, max_size=6))
+    else:  # 0, negative (relative, valid when >= -n) and out-of-range indices
+        index = st.integers(-n - 2, n + 2)
+        faces = draw(st.lists(st.tuples(index, index, index), min_size=1, max_size=6))
+    return kind, _obj_text(vertices, faces)
+
+
+def _fat_face_hit(mesh: trimesh.Trimesh) -> None:
+    """A ray along the normal of a well-shaped face towards its centroid hits it (float32)."""
+    lo, hi = mesh.bounds
+    diag = float(np.linalg.norm((hi - lo) / max(hi - lo))) * float(max(hi - lo))
+    tri = (mesh.triangles - lo) / diag  # unit size: no overflow in the shape tests below
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area2 = np.linalg.norm(cross, axis=1)  # twice the area
+    longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
+    fat = (area2 > 2e-4) & (area2 > 1e-3 * longest)  # area and height well above float32
+    if not fat.any():
+        return
+    k = int(np.flatnonzero(fat)[0])
+    normal = cross[k] / area2[k]
+    centre = mesh.triangles[k].mean(axis=0)
+    t, _ = Scene(mesh).first_hit(centre + normal * diag, -normal)
+    assert np.isfinite(t[0]) and t[0] <= diag * (1 + 1e-5), (t[0], diag)
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_hostile_coordinates_and_indices(workdir, slow):
+    @_settings(60, slow)
+    @given(case=hostile_obj(), quiet=st.booleans())
+    def prop(case, quiet):
+        kind, text = case
+        _count(f"coordinates.{kind}")
+        path = _fresh(workdir, "obj")
+        path.write_text(text)
+        mesh = check_load(path)
+        if mesh is not None:
+            _fat_face_hit(mesh)
+        rc = check_measure(path, quiet)
+        assert (rc == 0) == (mesh is not None)
+        face_indices = [int(t) for line in text.splitlines() if line.startswith("f ")
+                        for t in line.split()[1:]]
+        if 0 in face_indices:
+            assert mesh is None  # OBJ counts from 1: index 0 is refused, never wrapped
+
+    prop()
+
+
+def test_scaled_box_always_measured(workdir):
+    # every scale in 1e-60..1e60 at a small shift is a valid mesh: exit 0
+    for exponent in (-60, -30, -12, 0, 12, 17, 30, 60):
+        box = trimesh.creation.box()
+        path = _fresh(workdir, "obj")
+        path.write_text(_obj_text(box.vertices * 10.0**exponent, box.faces + 1))
+        _count("coordinates.scaled-fixed")
+        assert check_measure(path, quiet=True) == 0, exponent
+
+
+# --------------------------------------------------------------------------- shapes
+SHAPE_KINDS = ["degenerate", "triangle", "flat", "cloud-ply", "cloud-obj", "lines", "ngon-obj",
+               "ngon-off", "instances"]
+
+
+@st.composite
+def hostile_shape(draw, kind: str) -> tuple[str, str, bytes, object]:
+    """(kind, extension, bytes, expected): expected is a face count, 'error' or 'ok'."""
+    coord = st.floats(-5, 5, allow_nan=False)
+    if kind == "degenerate":
+        a, b = np.array(draw(st.tuples(coord, coord, coord))), np.array([1.0, 2.0, 3.0])
+        v = [a, a + b, a + 2 * b, a + 0.5 * b]  # collinear
+        faces = [[1, 2, 3], [1, 1, 2], [2, 3, 4], [4, 4, 4]]
+        return kind, "obj", _obj_text(v, faces).encode(), "error"
+    if kind == "triangle":
+        v = draw(st.lists(st.tuples(coord, coord, coord), min_size=3, max_size=3))
+        return kind, "obj", _obj_text(v, [[1, 2, 3]]).encode(), "ok-or-error"
+    if kind == "flat":
+        n = draw(st.integers(3, 12))
+        xy = draw(st.lists(st.tuples(coord, coord), min_size=n, max_size=n))
+        v = [(x, y, 0.0) for x, y in xy]
+        faces = draw(st.lists(st.tuples(*[st.integers(1, n)] * 3), min_size=1, max_size=10))
+        return kind, "obj", _obj_text(v, faces).encode(), "ok-or-error"
+    if kind in ("cloud-ply", "cloud-obj", "lines"):
+        n = draw(st.integers(1, 20))
+        pts = np.array(draw(st.lists(st.tuples(coord, coord, coord), min_size=n, max_size=n)))
+        if kind == "cloud-ply":
+            return kind, "ply", trimesh.PointCloud(pts).export(file_type="ply"), "error"
+        text = _obj_text(pts, [])
+        if kind == "lines":
+            text += "l " + " ".join(str(i + 1) for i in range(n)) + "\n"
+        return kind, "obj", text.encode(), "error"
+    if kind in ("ngon-obj", "ngon-off"):
+        k = draw(st.integers(4, 12))
+        radius = draw(st.floats(0.01, 100))
+        ang = 2 * np.pi * np.arange(k) / k
+        v = np.column_stack([radius * np.cos(ang), radius * np.sin(ang), np.zeros(k)])
+        if kind == "ngon-obj":
+            text = _obj_text(v, []) + "f " + " ".join(str(i + 1) for i in range(k)) + "\n"
+            return kind, "obj", text.encode(), k - 2
+        rows = "".join(f"{float(x)!r} {float(y)!r} {float(z)!r}\n" for x, y, z in v)
+        text = f"OFF\n{k} 1 0\n{rows}{k} " + " ".join(map(str, range(k))) + "\n"
+        return kind, "off", text.encode(), k - 2
+    count = draw(st.integers(1, 60))  # instances of one box in a GLB
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.creation.box(), geom_name="box", node_name="n0")
+    for i in range(1, count):
+        scene.graph.update(frame_to=f"n{i}", frame_from=scene.graph.base_frame, geometry="box",
+                           matrix=trimesh.transformations.translation_matrix([2.0 * i, 0, 0]))
+    return kind, "glb", scene.export(file_type="glb"), 12 * count
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("shape", SHAPE_KINDS)
+def test_hostile_shapes(workdir, shape, slow):
+    @_settings(6, slow)
+    @given(case=hostile_shape(shape), quiet=st.booleans())
+    def prop(case, quiet):
+        kind, ext, data, expected = case
+        _count(f"shapes.{kind}")
+        path = _fresh(workdir, ext)
+        path.write_bytes(data)
+        mesh = check_load(path)
+        if expected == "error":
+            assert mesh is None
+        elif isinstance(expected, int):
+            assert mesh is not None and len(mesh.faces) == expected
+        rc = check_measure(path, quiet)
+        assert (rc == 0) == (mesh is not None)
+
+    prop()
+
+
+def test_gltf_missing_buffer_one_line(workdir):
+    files = trimesh.Scene([trimesh.creation.box()]).export(file_type="gltf")
+    folder = workdir / "gltf-missing"
+    folder.mkdir()
+    for name, data in files.items():
+        if not name.endswith(".bin"):
+            (folder / name).write_bytes(data)
+    _count("shapes.gltf-missing-buffer")
+    assert check_load(folder / "model.gltf") is None
+    assert check_measure(folder / "model.gltf", quiet=False) == 2
+
+
+# --------------------------------------------------------------------------- paths
+def _bad_path(workdir: Path, kind: str) -> Path:
+    base = workdir / f"p{next(_names)}"
+    if kind == "directory":
+        base.mkdir()
+        return base
+    if kind == "dangling":
+        link = base.with_suffix(".obj")
+        link.symlink_to(workdir / "gone.obj")
+        return link
+    if kind == "fifo":
+        fifo = base.with_suffix(".ply")
+        os.mkfifo(fifo)
+        return fifo
+    if kind == "through-file":
+        f = base.with_suffix(".ply")
+        f.write_bytes(VALID["ply"])
+        return f / "x.ply"
+    if kind == "missing":
+        return base.with_suffix(".stl")
+    return Path({"urandom": "/dev/urandom", "proc": "/proc/self/status"}[kind])
+
+
+PATH_KINDS = ["directory", "dangling", "fifo", "through-file", "missing", "urandom", "proc"]
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("kind", PATH_KINDS)
+def test_hostile_paths_as_meshes(workdir, kind, slow):
+    @_settings(5, slow)
+    @given(command=st.sampled_from(["measure", "evaluate", "validate"]),
+           slot=st.integers(0, 1), quiet=st.booleans())
+    def prop(command, slot, quiet):
+        _count(f"paths.{kind}")
+        bad = _bad_path(workdir, kind)
+        if not os.path.lexists(bad) and kind in ("urandom", "proc"):
+            return
+        with pytest.raises(InputError):
+            load_mesh(bad)
+        meshes = [str(bad)] if command == "measure" else (
+            [str(bad), "fat-torus"] if slot == 0 else ["fat-torus", str(bad)])
+        rc, out, err = run_cli([command, *meshes, *_CHEAP[command]]
+                               + (["--quiet"] if quiet else []))
+        assert rc == 2
+        assert_contract(rc, out, err)
+
+    prop()
+
+
+# --------------------------------------------------------------------------- outputs
+OUTPUT_KINDS = ["missing-folder", "through-file", "read-only", "directory", "bad-suffix", "ok"]
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("kind", OUTPUT_KINDS)
+def test_hostile_output_paths(workdir, kind, slow):
+    from viscore.cli._common import _umask
+
+    @_settings(4, slow)
+    @given(fmt=st.sampled_from(["ply", "obj", "stl", "off", "glb"]), quiet=st.booleans())
+    def prop(fmt, quiet):
+        _count(f"outputs.{kind}")
+        base = workdir / f"o{next(_names)}"
+        if kind == "missing-folder":
+            out = base / "a" / "b" / f"x.{fmt}"
+        elif kind == "through-file":
+            base.write_text("x")
+            out = base / f"x.{fmt}"
+        elif kind == "read-only":
+            out = Path(f"/proc/viscore-{next(_names)}.{fmt}")  # root cannot write there either
+        elif kind == "directory":
+            out = base.with_suffix(f".{fmt}")
+            out.mkdir()
+        elif kind == "bad-suffix":
+            out = base.with_suffix(".xyz")
+        else:
+            out = base.with_suffix(f".{fmt}")
+        rc, stdout, err = run_cli(["data", "export", "fat-torus", "-o", str(out)]
+                                  + (["--quiet"] if quiet else []))
+        if kind == "ok":
+            assert rc == 0, err
+            assert stat.S_IMODE(out.stat().st_mode) == 0o666 & ~_umask()
+            assert len(load_mesh(out).faces) == 2304
+            return
+        assert rc == 2
+        assert_contract(rc, stdout, err, output=None if kind == "directory" else out)
+        assert ".tmp" not in err and str(out) in err  # the user's path, not a temporary file
+        if kind == "missing-folder":
+            assert not (base / "a").exists()  # no tree created
+        if kind == "directory":
+            assert out.is_dir() and not any(out.iterdir())
+
+    prop()
+
+
+# --------------------------------------------------------------------------- options
+ABSURD = ["0", "-1", "-5", "nan", "inf", "-inf", "1e5", "1.5", "abc", "", str(10**12),
+          str(2**64), str(2**70)]
+OPTIONS = {
+    "measure": ["--directions", "--res", "--seed"],
+    "evaluate": ["--views", "--quads", "--res", "--seed", "--spacing"],
+    "validate": ["--rays", "--confidence", "--max-rate", "--seed"],
+}
+
+
+@st.composite
+def absurd_option(draw, command: str) -> list[str]:
+    option = draw(st.sampled_from(OPTIONS[command]))
+    values = ABSURD + (["100000", "16385"] if option == "--res" else [])
+    value = draw(st.sampled_from(values))
+    meshes = ["fat-torus"] if command == "measure" else ["fat-torus", "fat-torus"]
+    extra = ["--protocol", "volume", "--quads", "50", "--res", "8"] if option == "--spacing" else []
+    cheap = [] if option == "--spacing" else _CHEAP[command]
+    return [command, *meshes, *cheap, *extra, f"{option}={value}"]
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("command", sorted(OPTIONS))
+def test_absurd_options(command, slow):
+    @_settings(30, slow)
+    @given(argv=absurd_option(command), quiet=st.booleans())
+    def prop(argv, quiet):
+        _count(f"options.{argv[0]}")
+        rc, out, err = run_cli([*argv, "--json"] + (["--quiet"] if quiet else []))
+        option, value = argv[-1].split("=", 1)
+        if option == "--seed" and value.isdigit():
+            assert rc in (0, 1), err  # any non-negative integer is a seed
+        elif option in ("--confidence", "--max-rate", "--spacing"):
+            pass  # 0 and 1e5 are valid for some of these; the contract decides
+        else:
+            assert rc == 2, f"{argv}: exit {rc}"
+        assert_contract(rc, out, err, ok=(0, 1), json_out=True)
+
+    prop()
+
+
+def test_seed_rule_in_the_samplers():
+    from viscore import directions_fibonacci, directions_uniform, grid_positions, rays_between
+
+    big = 2**70
+    assert directions_uniform(3, seed=big).shape == (3, 3)
+    assert directions_fibonacci(3, seed=big).shape == (3, 3)
+    assert rays_between([[0, 0, 0], [1, 1, 1]], [[2, 2, 2], [3, 3, 3]], 2, seed=big)[0].shape \
+        == (2, 3)
+    for bad in (-1, 1.5, None, "3", True):
+        with pytest.raises(InputError, match="seed"):
+            directions_uniform(3, seed=bad)
+        with pytest.raises(InputError, match="seed"):
+            rays_between([[0, 0, 0], [1, 1, 1]], [[2, 2, 2], [3, 3, 3]], 2, seed=bad)
+    with pytest.raises(InputError, match="grid positions"):
+        grid_positions((0, 0, 0), (1, 1, 1), 1e-9)  # 1e27 positions, no int64 overflow
+    with pytest.raises(InputError, match="needs about"):
+        directions_uniform(10**13)
