@@ -49,10 +49,11 @@ _log = logging.getLogger(__name__)
 #: The evaluation protocols, by name.
 PROTOCOLS = ("orbit", "volume")
 
-#: Default quads per view (orbit, seed 000 sec. 6.1) and per frustum (volume, seed 001 sec. 4.1).
+#: Default quads per view (orbit, Silvennoinen et al. 2014, sec. 6.1) and per frustum
+#: (volume, Wu et al. 2022, sec. 4.1).
 DEFAULT_QUADS = {"orbit": 32000, "volume": 5000}
 
-#: Default orbit views (seed 000, Fig. 11).
+#: Default orbit views (Silvennoinen et al. 2014, Fig. 11).
 DEFAULT_VIEWS = 256
 
 #: Rays cast in one Embree batch (eight 256 x 256 images; one image at least).
@@ -240,7 +241,7 @@ class ReferenceViews:
         offset = np.random.default_rng([seed, 1]).uniform(-0.5, 0.5, 3) if jitter else None
         positions, weights = volume_positions(mesh, spacing=spacing, padding=padding,
                                               merge_views=merge_views, scene=self._original,
-                                              offset=offset)
+                                              offset=offset, seed=seed)
         n = len(positions)
         if n == 0:
             raise InputError("spacing: no view position lies outside the mesh; "
