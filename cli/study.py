@@ -1,6 +1,6 @@
 """Comparison studies: every registered method on every mesh, evaluated and stored.
 
-The orchestration of ``viscore compare`` (DESIGN.md data flow: metrics ->
+The orchestration of ``viscore compare`` (the data flow: metrics ->
 cli for tables, plots, studies). The original's views
 (:class:`viscore.metrics.ReferenceViews`) are built once per mesh and
 settings and handed to every job of that mesh; each (mesh, method, budget,

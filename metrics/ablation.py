@@ -1,12 +1,18 @@
 """Convergence ablation: spread of precision and recall over seeded repeats.
 
 The ablation of the building-occluders paper, sec. 4.1 and Figure 10
-(seeds/001): the standard deviation of P and R over ten repeats as a function
+(Wu et al. 2022 [1]_): the standard deviation of P and R over ten repeats as a function
 of the quads per view (100 ... 100,000, with the views' images fixed and only
 the quads redrawn) and of the view spacing (8% ... 0.5% of the bounding-box
 diagonal, volume protocol, the position grid shifted at random per repeat);
 and, for the orbit protocol, of the number of views (directions redrawn per
 repeat).
+
+References
+----------
+.. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
 """
 
 from __future__ import annotations
@@ -28,9 +34,9 @@ __all__ = ["AblationResult", "convergence_ablation", "ablation_plot"]
 
 _log = logging.getLogger(__name__)
 
-#: Quads per view of seed 001, sec. 4.1.
+#: Quads per view of Wu et al. 2022, sec. 4.1.
 QUADS_LIST = (100, 1000, 5000, 10000, 20000, 30000, 100000)
-#: View spacings of seed 001, sec. 4.1, as fractions of the diagonal. The finer
+#: View spacings of Wu et al. 2022, sec. 4.1, as fractions of the diagonal. The finer
 #: ones cost 8x per halving; the default run stops at 4%.
 SPACING_LIST = (0.16, 0.08, 0.04)
 #: Orbit view counts.
@@ -82,7 +88,7 @@ def convergence_ablation(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, *,
     quads_list, views_list, spacing_list : tuples, optional
         Settings; spacings as fractions of the bounding-box diagonal.
     repeats : int, optional
-        Seeded repeats per setting (seed 001 uses 10). Default 10.
+        Seeded repeats per setting (Wu et al. 2022 use 10). Default 10.
     views, quads, resolution : int, optional
         Orbit settings held fixed while another factor varies (defaults 64
         views, 5,000 quads, 128 px).
@@ -147,7 +153,7 @@ def convergence_ablation(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, *,
 
 
 def ablation_plot(result: AblationResult, path) -> None:
-    """PNG of s.d. of P and R against each factor (log-log), as seed 001 Figure 10."""
+    """PNG of s.d. of P and R against each factor (log-log), as Wu et al. 2022, Figure 10."""
     import matplotlib
 
     matplotlib.use("Agg")

@@ -1,10 +1,16 @@
 """Orbit precision/recall: orthographic views from uniform directions around the mesh.
 
-Silvennoinen et al. 2014, sec. 6.1 (seeds/000), as fixed by DESIGN.md: N view
+Silvennoinen et al. 2014, sec. 6.1 [1]_, with its settings fixed: N view
 directions uniform on the sphere; orthographic; the image plane through the
 centre of the original's smallest enclosing sphere; square extent = its
 diameter x 1.01; R x R pixels, one ray per pixel centre; Q random quads per
 view inside the screen bounding box of the original's covered pixels.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1), 2014,
+   pp. 235-245. :DOI:`10.1111/cgf.12271`
 """
 
 from __future__ import annotations
@@ -20,7 +26,7 @@ from .precision_recall import PrecisionRecall
 __all__ = ["orbit_precision_recall", "orbit_frame"]
 
 #: Extent of the orthographic window as a multiple of the enclosing sphere's
-#: diameter (DESIGN.md, orbit protocol).
+#: diameter (the orbit protocol's margin).
 EXTENT_FACTOR = 1.01
 
 
@@ -52,15 +58,15 @@ def orbit_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | No
     occluder : trimesh.Trimesh or None
         The occluder; None or an empty mesh covers nothing.
     views : int, optional
-        N, view directions uniform on the sphere (default 256, seed 000 Fig. 11).
+        N, view directions uniform on the sphere (default 256, Silvennoinen et al. 2014, Fig. 11).
     quads : int, optional
-        Q, quads per view (default 32,000, seed 000 sec. 6.1).
+        Q, quads per view (default 32,000, Silvennoinen et al. 2014, sec. 6.1).
     resolution : int, optional
         R, pixels per image side (default 256).
     seed : int, optional
         Seeds the directions and, per view, the quads. Default 0.
     depth_aware : bool, optional
-        Classify by depth (DESIGN.md's depth-aware variant) instead of coverage.
+        Classify by depth (the depth-aware variant) instead of coverage.
     depth_levels : int, optional
         Quad depth values of the depth-aware variant (default 32).
 

@@ -1,8 +1,17 @@
 """Result type of the quad precision/recall protocols (orbit and volume).
 
 Precision P = Nt / (Nt + Nf) and recall R = Nt / (Nt + Pf), Silvennoinen et
-al. 2014, sec. 6.1 (seeds/000); per position and averaged over the domain in
-the building-occluders paper, sec. 3.2, eqs. 4-7 (seeds/001).
+al. 2014, sec. 6.1 [1]_; per position and averaged over the domain in
+Wu et al. 2022, sec. 3.2, eqs. 4-7 [2]_.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1), 2014,
+   pp. 235-245. :DOI:`10.1111/cgf.12271`
+.. [2] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
 """
 
 from __future__ import annotations
@@ -117,7 +126,7 @@ class PrecisionRecall:
     ----------
     precision, recall : float
         Orbit: pooled over views. Volume: volume-weighted mean of the
-        per-position values where defined (seed 001, eqs. 5 and 7). NaN when
+        per-position values where defined (Wu et al. 2022, eqs. 5 and 7). NaN when
         undefined.
     precision_ci, recall_ci : list of 2 float
         95% percentile bootstrap intervals over views (positions).

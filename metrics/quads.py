@@ -1,8 +1,8 @@
 """Random screen-aligned quads and their Nt / Pf / Nf classification.
 
 The occludee test of the precision/recall protocols: Silvennoinen et al.
-2014, sec. 6.1 (seeds/000) and the building-occluders paper, sec. 3.2, eq. 6
-(seeds/001), with the bookkeeping of DESIGN.md. With n pixels in a quad, a of
+2014, sec. 6.1 [1]_ and Wu et al. 2022, sec. 3.2, eq. 6 [2]_, with this
+bookkeeping. With n pixels in a quad, a of
 them occluded by the original and b by the occluder:
 
 - a == n and b == n: true negatives, Nt += n
@@ -12,9 +12,23 @@ them occluded by the original and b by the occluder:
 Counts over a quad come from summed-area tables, O(1) per quad. The
 depth-aware variant gives each quad a depth and counts a pixel as occluded
 when the buffer's depth there is nearer than the quad (the occludee test of
-the occluder-skins paper, sec. 6, seeds/002); quad depths take one of
+the occluder-skins paper of Leone et al. 2012, sec. 6 [3]_); quad depths take one of
 ``depth_levels`` values so that one summed-area table per level answers all
 quads.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1), 2014,
+   pp. 235-245. :DOI:`10.1111/cgf.12271`
+.. [2] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
+.. [3] Leone, M. N., Barbagallo, L. R., Banquiero, M. M., Agromayor, D.,
+   Bursztyn, A. P. M. "Implementing software occlusion culling for real-time
+   applications". XVIII Congreso Argentino de Ciencias de la Computacion
+   (CACIC 2012), Workshop de Computacion Grafica, Imagenes y Visualizacion,
+   2012. http://sedici.unlp.edu.ar/handle/10915/23640
 """
 
 from __future__ import annotations
@@ -33,7 +47,7 @@ __all__ = ["QuadCounts", "sample_quads", "classify_quads", "classify_quads_depth
 
 @dataclass(frozen=True)
 class QuadCounts:
-    """Pixel counts of one view (or one frustum), DESIGN.md's Nt, Pf, Nf.
+    """Pixel counts of one view (or one frustum), Nt, Pf, Nf.
 
     Attributes
     ----------
@@ -85,7 +99,7 @@ def _rect_sum(sat: np.ndarray, r0, c0, r1, c1) -> np.ndarray:
 
 def sample_quads(box: tuple[int, int, int, int], count: int, rng: np.random.Generator
                  ) -> np.ndarray:
-    """Random axis-aligned quads inside a pixel box, as in DESIGN.md's orbit protocol.
+    """Random axis-aligned quads inside a pixel box, as in the orbit protocol.
 
     Parameters
     ----------
