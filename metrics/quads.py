@@ -42,7 +42,7 @@ __all__ = ["QuadCounts", "sample_quads", "classify_quads", "classify_quads_depth
 
 # Shared with the sibling modules (not user API): depth_levels_of, rect_sums,
 # level_sums, quad_pixels, tally, level_table_bytes, ImageQuads, image_quads,
-# occluder_counts.
+# original_tally, occluder_counts.
 
 
 @dataclass(frozen=True)
@@ -257,13 +257,10 @@ def classify_quads_depth(original_depth: np.ndarray, occluder_depth: np.ndarray,
     -------
     QuadCounts
     """
-    levels = depth_levels_of(original_depth, depth_levels)
-    if levels is None:
-        return QuadCounts(0, 0, 0, len(quads))
-    level = rng.integers(0, depth_levels, size=len(quads))
-    a = level_sums(original_depth, levels, level, quads)
-    b = level_sums(occluder_depth, levels, level, quads)
-    return tally(quad_pixels(quads), a, b)
+    box = (0, 0) + original_depth.shape
+    ref = original_tally(0, 0, original_depth, box, quads, rng, depth_aware=True,
+                         depth_levels=depth_levels)
+    return occluder_counts(ref, occluder_depth)
 
 
 @dataclass(frozen=True, eq=False)
@@ -272,7 +269,7 @@ class ImageQuads:
 
     ``unit`` is the row of ``per_view`` it counts in (orbit view, volume
     position) and ``cam`` its camera (orbit view, volume frustum 0-5).
-    ``quads`` are ``(Q, 4) int16`` row0, col0, row1, col1 relative to
+    ``quads`` are ``(Q, 4)`` (int16 when the box allows) row0, col0, row1, col1 relative to
     ``box`` (the pixels the occluder must be cast for), or None when the
     image counts nothing (an orbit view the original misses; a depth-aware
     frustum the original misses). ``n`` and ``a`` are the pixels of each quad
@@ -296,34 +293,52 @@ class ImageQuads:
 
 
 def image_quads(unit: int, cam: int, depth: np.ndarray, quads: int,
-                 rng: np.random.Generator, *, whole_screen: bool, depth_aware: bool,
-                 depth_levels: int) -> ImageQuads:
-    """Draw one image's quads and tally the original over them (the one place that does)."""
+                rng: np.random.Generator, *, whole_screen: bool, depth_aware: bool,
+                depth_levels: int) -> ImageQuads:
+    """Draw one image's quads and tally the original over them.
+
+    Orbit (``whole_screen=False``): inside the bounding box of the original's
+    covered pixels, nothing where it covers none. Volume: the whole screen.
+    """
     res = depth.shape
-    if whole_screen:  # volume: quads over the whole screen
+    if whole_screen:
         box = (0, 0, res[0], res[1])
-    else:  # orbit: quads inside the bounding box of the original's covered pixels
+    else:
         covered = np.isfinite(depth)
         rows = np.flatnonzero(covered.any(axis=1))
         if len(rows) == 0:
             return ImageQuads(unit, cam, (0, 0, 0, 0), None)
         cols = np.flatnonzero(covered.any(axis=0))
         box = (int(rows[0]), int(cols[0]), int(rows[-1]) + 1, int(cols[-1]) + 1)
-    q = sample_quads(box, quads, rng)
+    return original_tally(unit, cam, depth, box, sample_quads(box, quads, rng), rng,
+                          depth_aware=depth_aware, depth_levels=depth_levels)
+
+
+def original_tally(unit: int, cam: int, depth: np.ndarray, box: tuple, quads: np.ndarray,
+                   rng: np.random.Generator, *, depth_aware: bool, depth_levels: int
+                   ) -> ImageQuads:
+    """The original's side of given quads (absolute pixels, inside ``box``).
+
+    Depth-aware: the quads' depths are drawn from ``rng`` among levels
+    spanning the ORIGINAL's finite depths over the box; an image the original
+    misses counts nothing.
+    """
     region = depth[box[0]:box[2], box[1]:box[3]]
-    rel = q - np.array([box[0], box[1], box[0], box[1]])
-    n = quad_pixels(q)
+    small = max(region.shape, default=0) < 2**15  # compact storage for cached views
+    rel = (quads - np.array([box[0], box[1], box[0], box[1]])).astype(
+        np.int16 if small else np.int64)
+    n = quad_pixels(quads)
     if depth_aware:
         levels = depth_levels_of(region, depth_levels)
         if levels is None:  # nothing of the original here: no depth, no counts
             return ImageQuads(unit, cam, box, None)
-        level = rng.integers(0, depth_levels, size=len(q))
+        level = rng.integers(0, depth_levels, size=len(quads))
         a = level_sums(region, levels, level, rel)
-        return ImageQuads(unit, cam, box, rel.astype(np.int16), n.astype(np.int32),
-                           a.astype(np.int32), level.astype(np.int16), levels)
+        return ImageQuads(unit, cam, box, rel, n.astype(np.int32), a.astype(np.int32),
+                          level.astype(np.int16 if depth_levels <= 2**15 else np.int64),
+                          levels)
     a = rect_sums(np.isfinite(region), rel)
-    return ImageQuads(unit, cam, box, rel.astype(np.int16), n.astype(np.int32),
-                       a.astype(np.int32))
+    return ImageQuads(unit, cam, box, rel, n.astype(np.int32), a.astype(np.int32))
 
 
 def occluder_counts(ref: ImageQuads, occluder_region: np.ndarray | None) -> QuadCounts:

@@ -174,3 +174,61 @@ def test_reference_views_cache_falls_back_when_it_does_not_fit(torus, monkeypatc
     views = ReferenceViews(torus, **{**ORBIT, "quads": 20000})
     assert not views.cached
     assert views.score(torus).recall == full.recall == 1.0
+
+
+# ---------------------------------------------------------------- plausible bugs
+def test_orbit_quads_fill_exactly_the_covered_pixels_box(torus):
+    # quads over the whole screen, or a box off by one pixel, would move the extremes
+    views = ReferenceViews(torus, views=5, quads=4000, resolution=40, seed=3)
+    depth = views.depth_images()
+    for k in range(len(views.images)):
+        covered = np.isfinite(depth[k])
+        rows = np.flatnonzero(covered.any(axis=1))
+        cols = np.flatnonzero(covered.any(axis=0))
+        q = views.quads(k)
+        assert (q[:, 0].min(), q[:, 1].min()) == (rows[0], cols[0])
+        assert (q[:, 2].max(), q[:, 3].max()) == (rows[-1] + 1, cols[-1] + 1)
+        assert (q[:, 2] > q[:, 0]).all() and (q[:, 3] > q[:, 1]).all()
+        assert 0 < rows[-1] - rows[0] + 1 < 40  # the box is smaller than the screen
+
+
+def test_classify_quads_depth_strictly_nearer_occludes():
+    from viscore.metrics import classify_quads_depth
+
+    # one level: the midpoint 0.5 of the original's depths [0, 1]; a pixel AT the
+    # quad's depth does not occlude it (strict <), one in front does
+    original = np.array([[0.0, 1.0], [0.5, 0.5]])
+    occluder = np.zeros((2, 2))
+    quads = np.array([[1, 0, 2, 2],    # the two pixels at depth 0.5: not occluded
+                      [0, 0, 1, 1]])   # the pixel at 0: occluded by both
+    c = classify_quads_depth(original, occluder, quads, np.random.default_rng(0),
+                             depth_levels=1)
+    assert (c.nt, c.pf, c.nf) == (1, 0, 2)
+
+
+def test_classify_quads_depth_levels_span_the_original_not_the_occluder():
+    from viscore.metrics import classify_quads_depth
+
+    # the original spans [0.2, 0.8]: one level at 0.5. The occluder (all at 0)
+    # occludes the quad; the original only its first pixel. Levels from the
+    # occluder's range (0) would count nothing at all.
+    original = np.array([[0.2, 0.8]])
+    occluder = np.zeros((1, 2))
+    c = classify_quads_depth(original, occluder, np.array([[0, 0, 1, 2]]),
+                             np.random.default_rng(0), depth_levels=1)
+    assert (c.nt, c.pf, c.nf) == (0, 0, 1)
+
+
+def test_orbit_quad_depths_within_the_originals_depths(torus):
+    views = ReferenceViews(torus, views=4, quads=500, resolution=32, seed=1, depth_aware=True)
+    depth = views.depth_images()
+    far = _scaled(torus, 0.5)  # another occluder's depths change nothing here
+    before = [views.quad_depths(k).copy() for k in range(4)]
+    views.score(far)
+    for k in range(4):
+        z = views.quad_depths(k)
+        finite = depth[k][np.isfinite(depth[k])]
+        tol = 1e-5 * float(finite.max())  # depth images are float32
+        assert z.min() >= finite.min() - tol and z.max() <= finite.max() + tol
+        assert len(np.unique(z)) > 1
+        np.testing.assert_array_equal(z, before[k])
