@@ -1,12 +1,34 @@
-"""metrics: occlusion measure, quad precision/recall, conservativeness.
+"""viscore.metrics: occlusion measure, quad precision/recall, conservativeness, uncertainty.
 
-The numbers researchers cite, built on the viscore core, to the protocols of
-DESIGN.md: the occlusion measure of seed 000 sec. 3, the orbit protocol of
-seed 000 sec. 6.1, the volume protocol of seed 001 sec. 3.2 (and the
-depth-aware variant of both), and the ray-wise conservativeness check.
+The numbers researchers cite, built on the viscore core: the occlusion
+measure (Silvennoinen et al. 2014, sec. 3), the orbit precision/recall
+protocol (ibid., sec. 6.1), the volume protocol (Wu et al. 2022, sec. 3.2),
+the depth-aware variant of both, the ray-wise conservativeness check, and
+intervals and models for each figure.
+
+- Evaluate: :func:`evaluate`, :func:`orbit_precision_recall`,
+  :func:`volume_precision_recall`; to score many occluders against one
+  original, build its :class:`ReferenceViews` once and call ``score``.
+- Assess one occluder (precision/recall, measure, conservativeness, under the
+  JSON names): :func:`assess_occluder` -> :class:`OccluderAssessment`.
+- Uncertainty: :func:`bootstrap_ratio`, :func:`paired_difference`,
+  :func:`hierarchical_beta_model`, :func:`uncertainty_report`,
+  :func:`convergence_ablation`; figures in :mod:`viscore.metrics.plots`.
+
+Helpers shared between the modules (frames, boxes, tallies) are imported from
+their modules, not from here.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1), 2014,
+   pp. 235-245. :DOI:`10.1111/cgf.12271`
+.. [2] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
 """
 
-from .ablation import AblationResult, ablation_plot, convergence_ablation
+from .ablation import AblationResult, convergence_ablation
 from .assessment import OccluderAssessment, assess_occluder
 from .bayes import BetaModelSummary, hierarchical_beta_model
 from .bootstrap import bootstrap_ratio
@@ -22,25 +44,33 @@ from .erosion import (
     erosion_curve,
     occlusion_measure,
 )
-from .orbit import orbit_frame, orbit_precision_recall
+from .orbit import orbit_precision_recall
 from .paired import PairedDifference, paired_difference
+from .plots import ablation_plot, distribution_plot
 from .precision_recall import PrecisionRecall
 from .quads import QuadCounts, classify_quads, classify_quads_depth, sample_quads
 from .reference_views import PROTOCOLS, ReferenceViews
 from .silhouettes import SILHOUETTE_COLOURS, silhouette_image
-from .uncertainty import distribution_plot, uncertainty_report
-from .volume import evaluation_box, volume_positions, volume_precision_recall
+from .uncertainty import uncertainty_report
+from .volume import volume_precision_recall
 
 __all__ = [
-    "ConservativenessReport", "check_conservative", "assert_conservative",
-    "clopper_pearson_upper", "OcclusionMeasure", "occlusion_measure",
-    "directional_occlusion_measure", "erosion_curve", "orbit_frame", "orbit_precision_recall",
-    "PrecisionRecall", "QuadCounts", "classify_quads", "classify_quads_depth", "sample_quads",
-    "volume_positions", "volume_precision_recall", "evaluate",
-    "bootstrap_ratio", "PairedDifference", "paired_difference", "BetaModelSummary",
-    "hierarchical_beta_model", "AblationResult", "convergence_ablation", "ablation_plot",
-    "uncertainty_report", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",
-    "evaluation_box", "ReferenceViews", "PROTOCOLS", "OccluderAssessment", "assess_occluder",
+    # evaluation
+    "evaluate", "PROTOCOLS", "ReferenceViews", "PrecisionRecall", "orbit_precision_recall",
+    "volume_precision_recall", "QuadCounts", "classify_quads", "classify_quads_depth",
+    "sample_quads",
+    # one occluder, assessed
+    "assess_occluder", "OccluderAssessment",
+    # occlusion measure
+    "occlusion_measure", "OcclusionMeasure", "directional_occlusion_measure", "erosion_curve",
+    # conservativeness
+    "check_conservative", "assert_conservative", "ConservativenessReport",
+    "clopper_pearson_upper",
+    # uncertainty
+    "bootstrap_ratio", "paired_difference", "PairedDifference", "hierarchical_beta_model",
+    "BetaModelSummary", "uncertainty_report", "convergence_ablation", "AblationResult",
+    # figures
+    "ablation_plot", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",
 ]
 
 

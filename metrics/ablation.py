@@ -30,7 +30,7 @@ from .orbit import orbit_precision_recall
 from .reference_views import ReferenceViews
 from .volume import volume_precision_recall
 
-__all__ = ["AblationResult", "convergence_ablation", "ablation_plot"]
+__all__ = ["AblationResult", "convergence_ablation"]
 
 _log = logging.getLogger(__name__)
 
@@ -150,35 +150,3 @@ def convergence_ablation(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, *,
         "repeats": repeats, "views": views, "quads": quads, "resolution": resolution,
         "volume_resolution": volume_resolution, "volume_quads": volume_quads,
         "factors": list(factors)})
-
-
-def ablation_plot(result: AblationResult, path) -> None:
-    """PNG of s.d. of P and R against each factor (log-log), as Wu et al. 2022, Figure 10."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    factors = [f for f in ("quads", "spacing", "views") if any(r["factor"] == f for r in
-                                                             result.rows)]
-    fig, axes = plt.subplots(1, max(1, len(factors)), figsize=(4.2 * max(1, len(factors)), 3.4),
-                             squeeze=False)
-    labels = {"quads": "quads per view", "spacing": "view spacing (fraction of diagonal)",
-              "views": "orbit views"}
-    for ax, f in zip(axes[0], factors, strict=False):
-        rows = [r for r in result.rows if r["factor"] == f]
-        x = [r["value"] for r in rows]
-        for key, style in (("precision_sd", "o-"), ("recall_sd", "s--")):
-            ax.plot(x, [max(r[key], 1e-12) for r in rows], style, label=key.split("_")[0])
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xticks(x, [f"{v:g}" for v in x])
-        ax.minorticks_off()
-        ax.set_xlabel(labels[f])
-        ax.set_ylabel(f"s.d. over {rows[0]['repeats']} repeats")
-        ax.legend(fontsize=8)
-        if f == "spacing":
-            ax.invert_xaxis()
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
