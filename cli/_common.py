@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
@@ -185,12 +186,70 @@ def check_mesh_path(path: str | os.PathLike) -> str:
     return suffix
 
 
-def write_mesh(path: str | os.PathLike, mesh) -> None:
-    """Export a trimesh mesh atomically in the format its suffix names."""
+def _text_rows(prefix: str, rows: np.ndarray, fmt: str) -> str:
+    """Rows of numbers as text lines, each ``prefix`` + the row formatted by ``fmt``."""
+    buf = io.StringIO()
+    np.savetxt(buf, rows, fmt=fmt, delimiter=" ", newline="\n", comments="")
+    text = buf.getvalue()
+    if not prefix:
+        return text
+    return "".join(prefix + line + "\n" for line in text.splitlines())
+
+
+def _mesh_bytes(mesh, fmt: str, path) -> bytes:
+    """File content of a mesh; float64 coordinates wherever the format allows.
+
+    OBJ and OFF are written as text with 17 significant digits and PLY with
+    ``double`` vertex properties, so they hold any mesh viscore accepts
+    exactly (trimesh writes 8 fixed decimals or float32). STL and GLB store
+    float32 by their specifications: a mesh float32 cannot hold (coordinates
+    beyond its range, or an extent below its resolution at the mesh's
+    position) is refused rather than written corrupted.
+    """
+    from viscore import InputError
+
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    if fmt == "obj":
+        text = _text_rows("v ", vertices, "%.17g") + _text_rows("f ", faces + 1, "%d")
+        return text.encode()
+    if fmt == "off":
+        text = (f"OFF\n{len(vertices)} {len(faces)} 0\n" + _text_rows("", vertices, "%.17g")
+                + _text_rows("3 ", faces, "%d"))
+        return text.encode()
+    if fmt == "ply":
+        header = ("ply\nformat binary_little_endian 1.0\n"
+                  f"element vertex {len(vertices)}\n"
+                  "property double x\nproperty double y\nproperty double z\n"
+                  f"element face {len(faces)}\n"
+                  "property list uchar int vertex_indices\nend_header\n").encode()
+        packed = np.empty(len(faces), dtype=[("n", "u1"), ("f", "<i4", (3,))])
+        packed["n"] = 3
+        packed["f"] = faces
+        return header + vertices.astype("<f8").tobytes() + packed.tobytes()
+    if len(vertices):
+        with np.errstate(over="ignore"):
+            v32 = vertices.astype(np.float32).astype(np.float64)
+        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        extent = float(np.max(hi - lo))
+        if not np.isfinite(v32).all() or np.abs(v32 - vertices).max() > 2.0**-20 * extent:
+            raise InputError(
+                f"{path}: .{fmt} stores float32 coordinates, which cannot hold this mesh "
+                f"(extent {extent:.3g}, coordinates up to {np.abs(vertices).max():.3g}); "
+                "write .obj, .off or .ply (float64)")
     import trimesh
 
-    data = trimesh.exchange.export.export_mesh(mesh, None, file_type=check_mesh_path(path))
-    write_atomic(path, data if isinstance(data, bytes) else data.encode())
+    data = trimesh.exchange.export.export_mesh(mesh, None, file_type=fmt)
+    return data if isinstance(data, bytes) else data.encode()
+
+
+def write_mesh(path: str | os.PathLike, mesh) -> None:
+    """Export a mesh atomically in the format its suffix names.
+
+    OBJ, OFF and PLY keep float64 coordinates; STL and GLB (float32 by their
+    specifications) refuse a mesh float32 cannot hold, with one line.
+    """
+    write_atomic(path, _mesh_bytes(mesh, check_mesh_path(path), path))
 
 
 def parse_list(text: str, kind: type, option: str) -> tuple:

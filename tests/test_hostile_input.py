@@ -515,3 +515,26 @@ def test_seed_rule_in_the_samplers():
         grid_positions((0, 0, 0), (1, 1, 1), 1e-9)  # 1e27 positions, no int64 overflow
     with pytest.raises(InputError, match="needs about"):
         directions_uniform(10**13)
+
+
+@pytest.mark.parametrize("scale", [1e-60, 1e-30, 1.0, 1e17, 1e60])
+def test_write_mesh_keeps_float64_or_refuses(workdir, scale):
+    from viscore.cli._common import write_mesh
+
+    box = trimesh.creation.box()
+    mesh = trimesh.Trimesh(box.vertices * scale + 0.1 * scale, box.faces, process=False)
+    for fmt in ("obj", "off", "ply"):  # float64 coordinates: exact at any accepted scale
+        path = _fresh(workdir, fmt)
+        write_mesh(path, mesh)
+        back = load_mesh(path)
+        np.testing.assert_array_equal(np.unique(back.vertices, axis=0),
+                                      np.unique(mesh.vertices, axis=0))
+    for fmt in ("stl", "glb"):  # float32 by specification: refused where it cannot hold
+        path = _fresh(workdir, fmt)
+        if 1e-30 <= scale <= 1e17:
+            write_mesh(path, mesh)
+            np.testing.assert_allclose(load_mesh(path).bounds, mesh.bounds, rtol=1e-6)
+        else:
+            with pytest.raises(InputError, match="float32"):
+                write_mesh(path, mesh)
+            assert not path.exists()
