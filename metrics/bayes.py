@@ -67,6 +67,7 @@ from viscore import InputError
 from viscore._validate import as_fraction, as_positive_int, as_seed, check_memory
 
 from .precision_recall import PrecisionRecall
+from .reference_views import check_protocol
 
 __all__ = ["BetaModelSummary", "hierarchical_beta_model", "check_model_memory",
            "BAYES_QUANTITIES"]
@@ -75,9 +76,6 @@ _log = logging.getLogger(__name__)
 
 #: Quantities the model describes.
 BAYES_QUANTITIES = ("recall", "precision")
-
-#: Protocols whose per-view tallies the model reads.
-_PROTOCOLS = ("orbit", "volume")
 
 #: Prior of log phi: Normal(log 20, 3) (a prior between-view s.d. from ~0 to ~0.5).
 _LOG_PHI_PRIOR = (np.log(20.0), 3.0)
@@ -317,9 +315,7 @@ def hierarchical_beta_model(result: PrecisionRecall, *, quantity: str = "recall"
                          f"got {quantity!r}")
     if not isinstance(result, PrecisionRecall):
         raise InputError(f"result: expected a PrecisionRecall, got {type(result).__name__}")
-    if result.protocol not in _PROTOCOLS:
-        raise InputError(f"result: unknown protocol {result.protocol!r}; expected one of "
-                         f"{', '.join(_PROTOCOLS)}")
+    check_protocol(result.protocol, "result.protocol")
     threshold = as_fraction(threshold, "threshold")
     walkers = as_positive_int(walkers, "walkers")
     if walkers < 4:

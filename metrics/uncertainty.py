@@ -36,7 +36,6 @@ from dataclasses import asdict
 import numpy as np
 import trimesh
 
-from viscore import InputError
 from viscore._validate import (
     as_fraction,
     as_positive,
@@ -50,16 +49,10 @@ from .bootstrap import BOOTSTRAP_RESAMPLES, _bootstrap_memory, bootstrap_ratio
 from .erosion import occlusion_measure
 from .orbit import orbit_precision_recall
 from .precision_recall import PrecisionRecall
+from .reference_views import DEFAULT_QUADS, check_protocol
 from .volume import volume_precision_recall
 
-__all__ = ["uncertainty_report", "distribution_plot"]
-
-#: Evaluation protocols of :func:`uncertainty_report`.
-_PROTOCOLS = ("orbit", "volume")
-
-#: Quads per view when ``quads`` is None: 32,000 per orbit view (Silvennoinen
-#: et al. 2014, sec. 6.1), 5,000 per volume frustum (Wu et al. 2022, sec. 4.1).
-_DEFAULT_QUADS = {"orbit": 32000, "volume": 5000}
+__all__ = ["uncertainty_report"]
 
 #: emcee walkers of the Beta models (the default of :func:`hierarchical_beta_model`).
 _WALKERS = 32
@@ -124,10 +117,9 @@ def uncertainty_report(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, *,
     -----
     Deterministic given ``seed``.
     """
-    if protocol not in _PROTOCOLS:
-        raise InputError(f"protocol: expected one of {', '.join(_PROTOCOLS)}, got {protocol!r}")
+    protocol = check_protocol(protocol)
     views = as_positive_int(views, "views")
-    quads = _DEFAULT_QUADS[protocol] if quads is None else as_positive_int(quads, "quads")
+    quads = DEFAULT_QUADS[protocol] if quads is None else as_positive_int(quads, "quads")
     resolution = as_positive_int(resolution, "resolution", maximum=_MAX_RESOLUTION)
     directions = as_positive_int(directions, "directions")
     threshold = as_fraction(threshold, "threshold")
@@ -170,34 +162,3 @@ def uncertainty_report(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, *,
         "params": result.params,
     }
     return report, result, models
-
-
-def distribution_plot(result: PrecisionRecall, models: dict[str, BetaModelSummary], path
-                      ) -> None:
-    """PNG: per-view histograms of quad recall and precision with the fitted population."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from scipy import stats
-
-    pv = result.per_view
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
-    for ax, q, den in ((axes[0], "recall", "quads_orig"), (axes[1], "precision", "quads_occ")):
-        n = np.asarray(pv[den], float)
-        k = np.asarray(pv["quads_both"], float)
-        rates = k[n > 0] / n[n > 0]
-        m = models[q]
-        ax.hist(rates, bins=30, range=(0, 1), density=True, alpha=0.6, label="views")
-        x = np.linspace(0.001, 0.999, 400)
-        phi = m.mean * (1 - m.mean) / max(m.spread**2, 1e-12) - 1
-        if phi > 0:
-            ax.plot(x, stats.beta.pdf(x, m.mean * phi, (1 - m.mean) * phi), "k-",
-                    label="population (posterior mean)")
-        ax.axvline(m.mean, color="C3", lw=1, label=f"mean {m.mean:.3f}")
-        ax.set_xlabel(f"{q} per view (per quad)")
-        ax.set_ylabel("density")
-        ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)

@@ -99,7 +99,7 @@ def test_hierarchical_beta_model_invalid_input():
     for kwargs in bad:
         with pytest.raises(InputError):
             hierarchical_beta_model(r, **kwargs)
-    with pytest.raises(InputError, match="orbit, volume"):
+    with pytest.raises(InputError, match="'orbit', 'volume'"):
         hierarchical_beta_model(_synthetic(0.7, 20.0, 10, 100, 1, protocol="orbti"))
     k = r.per_view["quads_both"]
     for w in (None, np.full(10, np.nan), -np.ones(10), np.ones(3)):

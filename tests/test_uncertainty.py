@@ -118,7 +118,7 @@ def test_uncertainty_report_invalid_input(monkeypatch, cube, kwargs):
         uncertainty_report(cube, cube, **kwargs)
     assert not calls
     if "protocol" in kwargs:
-        assert "orbit, volume" in str(info.value)
+        assert "'orbit', 'volume'" in str(info.value)
 
 
 def test_uncertainty_report_default_quads_only_when_none(monkeypatch, cube):
