@@ -189,5 +189,9 @@ def _jackknife_acceleration(num: np.ndarray, den: np.ndarray) -> float:
         jack = (num.sum() - num) / dj
     jack = jack[dj > 0]
     dev = jack.mean() - jack
+    peak = np.abs(dev).max() if len(dev) else 0.0
+    if not np.isfinite(peak) or peak == 0:
+        return 0.0
+    dev = dev / peak  # the acceleration is scale-free; cubes of 1e60-sized values overflow
     denom = 6.0 * (dev**2).sum() ** 1.5
     return float((dev**3).sum() / denom) if denom > 0 else 0.0

@@ -521,7 +521,9 @@ def occlusion_measure(mesh: trimesh.Trimesh, *, directions: int | npt.ArrayLike 
             area[k] = np.count_nonzero(covered) * pixel**2
             rays += resolution * resolution + counted.rays
             k += 1
-    se = measure.std(ddof=1) / np.sqrt(n) if n > 1 else np.nan
+    peak = float(np.abs(measure).max()) if n else 0.0
+    peak = peak if peak > 0 else 1.0  # std of values scaled to ~1: no overflow at 1e60 sizes
+    se = peak * (measure / peak).std(ddof=1) / np.sqrt(n) if n > 1 else np.nan
     return OcclusionMeasure(
         occlusion_measure=float(4 * np.pi * measure.mean()),
         occlusion_measure_se=float(4 * np.pi * se),

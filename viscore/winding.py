@@ -131,6 +131,14 @@ def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points, *,
     pts = np.ascontiguousarray(as_points(points, "points", allow_empty=True))
     if len(pts) == 0 or len(f) == 0:
         return np.zeros(len(pts))
+    # The winding number does not change under translation and uniform scaling;
+    # libigl's tree and sums do (a cube at 1e20 gave 0 at its centre, 1e60
+    # crashed): evaluate in the mesh's own unit box.
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    centre, scale = 0.5 * (lo + hi), float(np.max(hi - lo))
+    if scale > 0:
+        v = np.ascontiguousarray((v - centre) / scale)
+        pts = np.ascontiguousarray((pts - centre) / scale)
     if exact:
         return np.asarray(igl.winding_number(v, f, pts), dtype=np.float64).reshape(-1)
     return np.asarray(igl.fast_winding_number(v, f, pts), dtype=np.float64).reshape(-1)
