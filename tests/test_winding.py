@@ -177,3 +177,12 @@ def test_points_inside_invalid_input(cube):
     with pytest.raises(InputError, match="points"):
         points_inside(Scene(cube), [[0, 0]])
     assert points_inside(Scene(cube), np.zeros((0, 3))).shape == (0,)
+
+
+@pytest.mark.parametrize("scale", [1e-60, 1e-30, 1e20, 1e60])
+def test_winding_numbers_do_not_depend_on_scale(scale):
+    # libigl's fast winding number on raw coordinates gave 0 inside a 1e20 cube
+    box = trimesh.creation.box()
+    points = np.array([[0.0, 0.0, 0.0], [0.2, -0.3, 0.1], [2.0, 0.0, 0.0], [0.0, 0.0, -5.0]])
+    w = winding_numbers(box.vertices * scale, box.faces, points * scale)
+    np.testing.assert_allclose(w, [1.0, 1.0, 0.0, 0.0], atol=0.01)
