@@ -149,7 +149,7 @@ def test_write_occluder_glb_round_trip(tmp_path):
     original = trimesh.creation.icosphere(subdivisions=2)
     occluder = trimesh.creation.box(extents=(1.2, 1.2, 1.2))
     before = original.vertices.copy()
-    path = write_occluder_glb(original, occluder, tmp_path / "sub" / "occ.glb")
+    path = write_occluder_glb(original, occluder, tmp_path / "occ.glb")
     assert np.array_equal(original.vertices, before)  # inputs untouched
     scene = trimesh.load(path)
     assert isinstance(scene, trimesh.Scene)
