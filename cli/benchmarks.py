@@ -90,6 +90,11 @@ def _bare_embree(mesh):
     return scene, offset
 
 
+#: Peak bytes per ray of :func:`bench_rays` (three float64 (n, 3) arrays, their
+#: float32 copies and the hit results).
+_BENCH_RAYS_BYTES_PER_RAY = 128
+
+
 def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, repeats: int = 7,
                seed: int = 0) -> dict:
     """First-hit throughput of :class:`viscore.Scene` against a bare embreex call.
@@ -124,11 +129,13 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, repeats: int = 7,
         If ``rays`` or ``repeats`` is not a positive integer, or the mesh
         cannot be loaded.
     """
-    from viscore._validate import as_positive_int, as_seed
+    from viscore._validate import as_positive_int, as_seed, check_memory
 
     rays = as_positive_int(rays, "rays")
     repeats = as_positive_int(repeats, "repeats")
     seed = as_seed(seed, "seed")
+    # origins, targets, directions in float64 and their float32 copies
+    check_memory(float(rays) * _BENCH_RAYS_BYTES_PER_RAY, f"rays={rays}")
     m = load_mesh(mesh)
     rng = np.random.default_rng(seed)
     lo, hi = m.bounds
