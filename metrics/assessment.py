@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import trimesh
 
-from viscore import InputError
+from viscore import InputError, stream_seed
 from viscore._validate import as_fraction, as_positive_int
 
 from .conservativeness import check_conservative
@@ -179,9 +179,10 @@ def assess_occluder(reference: ReferenceViews | trimesh.Trimesh, occluder, *,
 
     Notes
     -----
-    Deterministic: the views' seed also seeds the measure's directions and
-    the conservativeness rays, so the same views, occluder and settings give
-    the same assessment (times aside).
+    Deterministic: the views' seed also seeds the measure's directions (through
+    ``viscore.stream_seed(seed, 'occlusion-measure')``, so that they are not
+    the first orbit view directions) and the conservativeness rays, so the
+    same views, occluder and settings give the same assessment (times aside).
 
     Examples
     --------
@@ -221,7 +222,7 @@ def assess_occluder(reference: ReferenceViews | trimesh.Trimesh, occluder, *,
     start = time.perf_counter()
     if target is not None:
         om = occlusion_measure(target, directions=directions, resolution=measure_resolution,
-                               seed=seed)
+                               seed=stream_seed(seed, "occlusion-measure"))
         measure, measure_se = om.occlusion_measure, om.occlusion_measure_se
     else:
         measure, measure_se = 0.0, 0.0

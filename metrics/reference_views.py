@@ -32,7 +32,7 @@ from dataclasses import replace
 import numpy as np
 import trimesh
 
-from viscore import InputError, OrthoCamera, cube_cameras, directions_uniform
+from viscore import InputError, OrthoCamera, cube_cameras, directions_uniform, stream_seed
 from viscore._validate import as_positive_int, as_seed, available_memory, check_memory
 
 from ._views import cast_depths, cast_hits, ortho_box_rays, scene_of
@@ -40,7 +40,7 @@ from .bootstrap import bootstrap_ratio
 from .orbit import orbit_frame
 from .precision_recall import PrecisionRecall, pooled_parts, pooled_ratio, ratio
 from .quads import ImageQuads, image_quads, level_table_bytes, occluder_counts
-from .volume import frusta_see_box, volume_positions, volume_positions_bytes
+from .volume import evaluation_box, frusta_see_box, volume_positions, volume_positions_bytes
 
 __all__ = ["ReferenceViews", "PROTOCOLS"]
 
@@ -257,7 +257,10 @@ class ReferenceViews:
         self._sees = frusta_see_box(positions, self._axes, *self._mesh_box)
         # images: (position, frustum), position-major, the frusta that see the mesh's box
         self._images = np.argwhere(self._sees)
-        self.settings = {"spacing": spacing, "padding": padding, "quads": self.quads_per_image,
+        box_lo, _, dx = evaluation_box(mesh, spacing=spacing, padding=padding)
+        pad = float(np.asarray(mesh.bounds, dtype=np.float64)[0, 0] - box_lo[0])
+        # the values used (world units), not the None that asks for the defaults
+        self.settings = {"spacing": dx, "padding": pad, "quads": self.quads_per_image,
                          "resolution": self.resolution, "merge_views": merge_views,
                          "positions": n, "jitter": jitter,
                          **({"depth_levels": self.depth_levels} if self.depth_aware else {})}
@@ -527,11 +530,12 @@ class ReferenceViews:
         per_view |= {"quads_orig": counts[:, 3], "quads_occ": counts[:, 4],
                      "quads_both": counts[:, 5]}
         pooled = {k: pooled_parts(per_view, self.protocol, k) for k in ("precision", "recall")}
+        boot = stream_seed(self.seed, "bootstrap")  # independent of the views' own draws
         return PrecisionRecall(
             precision=pooled_ratio(per_view, self.protocol, "precision"),
             recall=pooled_ratio(per_view, self.protocol, "recall"),
-            precision_ci=list(bootstrap_ratio(*pooled["precision"], seed=self.seed)),
-            recall_ci=list(bootstrap_ratio(*pooled["recall"], seed=self.seed)),
+            precision_ci=list(bootstrap_ratio(*pooled["precision"], seed=boot)),
+            recall_ci=list(bootstrap_ratio(*pooled["recall"], seed=boot)),
             per_view=per_view, protocol=self.protocol, depth_aware=self.depth_aware,
             seed=self.seed, params=dict(self.settings), seconds=seconds, timing=timing)
 

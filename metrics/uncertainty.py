@@ -36,6 +36,7 @@ from dataclasses import asdict
 import numpy as np
 import trimesh
 
+from viscore import stream_seed
 from viscore._validate import (
     as_fraction,
     as_positive,
@@ -139,25 +140,27 @@ def uncertainty_report(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, *,
         check_model_memory(walkers=_WALKERS, steps=steps, views=1)
         result = volume_precision_recall(mesh, occluder, quads=quads, resolution=resolution,
                                          seed=seed, spacing=spacing)
-    om = occlusion_measure(occluder, directions=directions, resolution=resolution, seed=seed)
+    om = occlusion_measure(occluder, directions=directions, resolution=resolution,
+                           seed=stream_seed(seed, "occlusion-measure"))
     per_dir = 4 * np.pi * om.per_view["measure"]
     ones = np.ones_like(per_dir)
     models = {q: hierarchical_beta_model(result, quantity=q, threshold=threshold,
                                          walkers=_WALKERS, steps=steps, seed=seed)
               for q in BAYES_QUANTITIES}
+    boot = stream_seed(seed, "bootstrap")  # as the percentile intervals of the result
     report = {
         "protocol": protocol, "views": result.views, "seed": seed,
         "precision": result.precision, "recall": result.recall,
         "precision_ci": result.precision_ci, "recall_ci": result.recall_ci,
         "precision_ci_bca": list(bootstrap_ratio(*result.ratio_parts("precision"),
-                                                 method="bca", seed=seed)),
+                                                 method="bca", seed=boot)),
         "recall_ci_bca": list(bootstrap_ratio(*result.ratio_parts("recall"), method="bca",
-                                              seed=seed)),
+                                              seed=boot)),
         "occlusion_measure": om.occlusion_measure,
         "occlusion_measure_se": om.occlusion_measure_se,
-        "occlusion_measure_ci": list(bootstrap_ratio(per_dir, ones, seed=seed)),
+        "occlusion_measure_ci": list(bootstrap_ratio(per_dir, ones, seed=boot)),
         "occlusion_measure_ci_bca": list(bootstrap_ratio(per_dir, ones, method="bca",
-                                                         seed=seed)),
+                                                         seed=boot)),
         "bayes": {q: asdict(m) for q, m in models.items()},
         "params": result.params,
     }

@@ -124,7 +124,8 @@ def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
     Returns
     -------
     positions : (m, 3) float64
-        World units, outside the mesh (ray-parity majority).
+        World units, outside the mesh (:func:`viscore.points_inside`: signed
+        crossings along six rays, the winding number where they disagree).
     weights : (m,) float64
         Block volume in grid cells (1, 8, 64, ...).
     """

@@ -12,7 +12,13 @@ from .cameras import OrthoCamera, PerspectiveCamera, camera_basis, cube_cameras
 from .images import coverage_image, depth_image
 from .mesh_io import load_mesh, validate_mesh
 from .run_provenance import provenance
-from .samplers import directions_fibonacci, directions_uniform, grid_positions, rays_between
+from .samplers import (
+    directions_fibonacci,
+    directions_uniform,
+    grid_positions,
+    rays_between,
+    stream_seed,
+)
 from .scene import AllHits, Scene, get_workers, set_workers
 from .voxels import (
     VoxelGrid,
@@ -33,7 +39,8 @@ __all__ = [
     "InputError", "load_mesh", "validate_mesh",
     "Scene", "AllHits", "set_workers", "get_workers", "OrthoCamera", "PerspectiveCamera",
     "cube_cameras", "camera_basis", "coverage_image", "depth_image", "directions_uniform",
-    "directions_fibonacci", "grid_positions", "rays_between", "provenance", "scene_names",
+    "directions_fibonacci", "grid_positions", "rays_between", "stream_seed", "provenance",
+    "scene_names",
     "scene_path", "scene_descriptions", "VoxelGrid", "Voxelization", "voxel_grid",
     "surface_voxels", "outside_voxels", "inner_voxels_six_direction", "inside_voxels_parity",
     "points_inside_parity", "voxelize", "voxel_boundary_mesh",
