@@ -1,27 +1,63 @@
-"""``viscore compare [MESH ...]``: every registered method on every mesh, with intervals."""
+"""``viscore compare [MESH ...]``: every registered method on every mesh, with intervals.
+
+Every argument is checked before any work and before the study folder is
+created or touched: the methods and ``--versus`` against the registry, each
+budget against each budgeted method (:func:`viscore.generators.generate`'s
+checks, tried on a unit box), the sizes (views, quads, pixels, rays) and
+``--jobs`` (at most :data:`viscore.cli.study.JOBS_PER_CORE` per core) against
+the memory they imply (:func:`viscore.cli.study.study_memory`,
+:func:`viscore._validate.check_memory`), the seed by the one seed rule, the
+meshes by loading them, and ``--out``. Then the study folder is opened for
+this process alone (:class:`viscore.cli.study.StudyFolder`): a second
+``compare`` on the same folder is refused with one line, and a damaged store
+is refused with one line naming it.
+
+Outputs in the study folder: ``results.{json,csv,md}``, ``recall.png``,
+``budget.png``, ``silhouettes_*.png``, ``report.html`` (one self-contained
+page: the table with intervals, the plots inline, the paired comparisons,
+settings and provenance) and, beside each kept occluder
+``occluders/*.ply``, a ``.glb`` holding the original (grey, translucent) and
+the occluder (coloured).
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1),
+   2014, pp. 235-245. :DOI:`10.1111/cgf.12271` (orbit protocol, sec. 6.1).
+.. [2] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669` (volume protocol, sec. 3.2).
+"""
 
 from __future__ import annotations
 
+import logging
+import os
 from dataclasses import asdict
 from pathlib import Path
 
 from viscore.generators import REGISTRY
 
 from viscore import InputError, load_mesh, provenance, scene_names
-from viscore._validate import as_positive_int
+from viscore._validate import as_positive_int, as_seed, check_memory
 
 from ._common import dumps, emit, parse_list, write_atomic
 from .study import (
+    JOBS_PER_CORE,
+    StudyFolder,
     StudySettings,
-    budget_plot,
+    check_study_dir,
     paired_markdown,
     paired_rows,
-    recall_plot,
     run_study,
-    silhouette_plot,
+    study_memory,
     table_csv,
     table_markdown,
+    write_occluder_glbs,
 )
+
+#: Pixels per side accepted by ``--res``.
+MAX_RESOLUTION = 4096
 
 
 def add_parser(sub, common) -> None:
@@ -36,52 +72,146 @@ def add_parser(sub, common) -> None:
     c.add_argument("--protocol", choices=["orbit", "volume"], default="orbit")
     c.add_argument("--views", type=int, default=128, help="orbit views (default 128)")
     c.add_argument("--quads", type=int, default=16000, help="quads per view (default 16000)")
-    c.add_argument("--res", type=int, default=256, help="pixels per side (default 256)")
-    c.add_argument("--rays", type=int, default=100_000, help="conservativeness rays")
-    c.add_argument("--jobs", type=int, default=1, help="parallel jobs (processes)")
-    c.add_argument("--versus", default="qem",
-                   help="reference method of the paired comparisons (default qem)")
+    c.add_argument("--res", type=int, default=256,
+                   help=f"pixels per side, at most {MAX_RESOLUTION} (default 256)")
+    c.add_argument("--rays", type=int, default=100_000,
+                   help="conservativeness rays (default 100000)")
+    c.add_argument("--jobs", type=int, default=1,
+                   help=f"parallel jobs (processes), at most {JOBS_PER_CORE} per core "
+                        "(default 1)")
+    c.add_argument("--versus", default=None,
+                   help="reference method of the paired comparisons, one of --methods "
+                        "(default: qem when it runs, else no paired table)")
     c.add_argument("--scheduler", default=None,
                    help="dask.distributed scheduler address: run the jobs on that cluster")
     c.add_argument("--out", default="viscore-study",
-                   help="study directory (default ./viscore-study)")
+                   help="study folder; its parent must exist (default ./viscore-study)")
     c.set_defaults(run=run_compare)
 
 
-def run_compare(args) -> int:
-    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+def _methods(text: str) -> list[str]:
+    methods = list(dict.fromkeys(m.strip() for m in str(text).split(",") if m.strip()))
     unknown = [m for m in methods if m not in REGISTRY]
     if unknown or not methods:
         raise InputError(f"--methods: unknown {', '.join(unknown) or '(none given)'} "
                          f"(registered: {', '.join(REGISTRY)})")
-    meshes = args.meshes or scene_names()
-    for m in meshes:  # refuse bad input before any work
-        load_mesh(m)
-    settings = StudySettings(protocol=args.protocol, views=as_positive_int(args.views, "views"),
-                             quads=as_positive_int(args.quads, "quads"),
-                             resolution=as_positive_int(args.res, "res", maximum=4096),
-                             rays=as_positive_int(args.rays, "rays"),
-                             budgets=tuple(sorted(set(parse_list(args.budget, int, "--budget")))),
-                             seed=args.seed)
-    out = Path(args.out)
-    rows = run_study(meshes, methods, settings, out, jobs=as_positive_int(args.jobs, "jobs"),
-                     scheduler=args.scheduler, progress=not (args.quiet or args.json))
-    paired = paired_rows(rows, args.versus) if args.versus in methods else []
-    doc = {"settings": asdict(settings), "rows": rows, "paired": paired,
-           "provenance": provenance()}
-    write_atomic(out / "results.json", dumps(doc).encode())
-    write_atomic(out / "results.csv", table_csv(rows).encode())
-    md = table_markdown(rows)
-    if paired:
-        md += (f"\nPaired against {args.versus} on the same views (difference, 95% bootstrap "
-               "interval, bootstrap probability of being better):\n\n" + paired_markdown(paired))
-    write_atomic(out / "results.md", md.encode())
-    recall_plot(rows, out / "recall.png")
-    budget_plot(rows, out / "budget.png")
-    for mesh in meshes[:2]:
-        silhouette_plot(rows, out, mesh, out / f"silhouettes_{Path(mesh).stem}.png",
-                        seed=args.seed)
+    return methods
+
+
+def _versus(text: str | None, methods: list[str]) -> str | None:
+    if text is None:
+        return "qem" if "qem" in methods else None
+    if text not in REGISTRY:
+        raise InputError(f"--versus: unknown method {text!r} (registered: {', '.join(REGISTRY)})")
+    if text not in methods:
+        raise InputError(f"--versus: {text} is not among the methods run "
+                         f"({', '.join(methods)}); add it to --methods")
+    return text
+
+
+def _budgets(text: str, methods: list[str], seed: int) -> tuple[int, ...]:
+    """Each budget checked by each budgeted method's own checks, on a unit box.
+
+    :func:`viscore.generators.generate` checks the parameters against the
+    registry, and each generator refuses what it cannot do (``aabb-skins``
+    needs 12 triangles, one box); trying each (method, budget) on a
+    12-triangle box finds that here, in well under a second, instead of in
+    a worker after the study started.
+    """
+    import trimesh
+    from viscore.generators import generate
+
+    budgets = tuple(sorted(set(parse_list(text, int, "--budget"))))
+    box = trimesh.creation.box()
+    log = logging.getLogger("viscore.generators")
+    level = log.level
+    log.setLevel(logging.ERROR)  # a box over a budget is no news
+    try:
+        for method in methods:
+            if not REGISTRY[method].budgeted:
+                continue
+            for budget in budgets:
+                try:
+                    generate(method, box, budget=budget, seed=seed)
+                except InputError as exc:
+                    raise InputError(f"--budget {budget}: {method}: {exc}") from None
+    finally:
+        log.setLevel(level)
+    return budgets
+
+
+def _jobs(value: object, scheduler) -> int:
+    jobs = as_positive_int(value, "--jobs")
+    if scheduler is None:
+        cores = (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+                 else os.cpu_count()) or 1
+        if jobs > JOBS_PER_CORE * cores:
+            raise InputError(f"--jobs {jobs}: at most {JOBS_PER_CORE * cores} "
+                             f"({JOBS_PER_CORE} per core, {cores} cores)")
+    return jobs
+
+
+def run_compare(args) -> int:
+    # 1. every argument, before any work and before the study folder is touched
+    methods = _methods(args.methods)
+    seed = as_seed(args.seed, "--seed")
+    versus = _versus(args.versus, methods)
+    views = as_positive_int(args.views, "--views")
+    quads = as_positive_int(args.quads, "--quads")
+    res = as_positive_int(args.res, "--res", maximum=MAX_RESOLUTION)
+    rays = as_positive_int(args.rays, "--rays")
+    jobs = _jobs(args.jobs, args.scheduler)
+    workers = getattr(args, "workers", None)
+    workers = None if workers is None else as_positive_int(workers, "--workers")
+    out = check_study_dir(args.out)
+    budgets = _budgets(args.budget, methods, seed)
+    settings = StudySettings(protocol=args.protocol, views=views, quads=quads, resolution=res,
+                             rays=rays, budgets=budgets, seed=seed)
+    meshes = list(dict.fromkeys(args.meshes or scene_names()))
+    originals = {m: load_mesh(m) for m in meshes}
+    if args.scheduler is None:
+        n_jobs = min(jobs, len(meshes) * len(methods) * len(budgets))
+        check_memory(study_memory(settings, originals, n_jobs),
+                     f"--jobs {jobs} --views {views} --quads {quads} --res {res} --rays {rays}")
+    # 2. the study, in a folder this process alone writes
+    with StudyFolder(out) as study:
+        rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
+                         scheduler=args.scheduler, progress=not (args.quiet or args.json))
+        paired = paired_rows(rows, versus) if versus else []
+        doc = {"settings": asdict(settings), "rows": rows, "paired": paired,
+               "provenance": provenance()}
+        write_atomic(out / "results.json", dumps(doc).encode())
+        write_atomic(out / "results.csv", table_csv(rows).encode())
+        md = table_markdown(rows)
+        if paired:
+            md += (f"\nPaired against {versus} on the same views (difference, 95% bootstrap "
+                   "interval, bootstrap probability of being better):\n\n"
+                   + paired_markdown(paired))
+        write_atomic(out / "results.md", md.encode())
+        images = _plots(rows, out, meshes, seed)
+        write_occluder_glbs(rows, out, originals)
+        from .report import write_report
+
+        write_report(out, rows, paired_rows=paired, settings=asdict(settings),
+                     provenance=doc["provenance"], images=images)
     emit(doc, args.json, md + f"\nintervals: 95% bootstrap over views; wrote {out}/results."
-         "{csv,json,md}, recall.png, budget.png and silhouettes_*.png")
+         "{csv,json,md}, report.html (open it in a browser), recall.png, budget.png, "
+         f"silhouettes_*.png, and a .glb beside each occluder in {out}/occluders/ "
+         "(original grey, occluder coloured)")
     return 0
 
+
+def _plots(rows: list[dict], out: Path, meshes: list[str], seed: int) -> dict[str, str]:
+    """The study's figures (:mod:`viscore.metrics.plots`); returns caption -> file in ``out``."""
+    from viscore.metrics.plots import budget_plot, recall_plot, silhouette_plot
+
+    recall_plot(rows, out / "recall.png")
+    budget_plot(rows, out / "budget.png")
+    images = {"Recall per view, each method at its largest budget": "recall.png",
+              "Recall (solid) and precision (dashed) against occluder triangles": "budget.png"}
+    for mesh in meshes[:2]:
+        name = f"silhouettes_{Path(mesh).stem}.png"
+        silhouette_plot(rows, out, mesh, out / name, seed=seed)
+        images[f"Silhouettes of {Path(mesh).stem}: black original only, yellow both, "
+               "blue occluder only"] = name
+    return images

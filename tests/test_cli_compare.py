@@ -1,6 +1,7 @@
 import json
 import sqlite3
 
+import pytest
 from viscore.cli.main import main
 
 
@@ -19,8 +20,22 @@ def test_compare_writes_outputs_and_resumes(tmp_path, capsys):
     back = OccluderAssessment.from_json(rows["bbox"])
     assert back.method == "bbox" and back.per_view["nt"].shape == (4,)
     for name in ("results.csv", "results.json", "results.md", "recall.png", "results.sqlite",
-                 "budget.png", "silhouettes_buildings.png"):
+                 "budget.png", "silhouettes_buildings.png", "report.html"):
         assert (out / name).is_file()
+    # the report: a row per result, every plot inline, nothing loaded from outside
+    page = (out / "report.html").read_text()
+    assert page.count('<tr class="result">') == 2
+    assert page.count("data:image/png;base64,") == 3 and "<script" not in page
+    # a .glb beside each occluder: the original and the occluder, by name
+    import trimesh
+
+    glbs = sorted((out / "occluders").glob("*.glb"))
+    assert [g.stem for g in glbs] == sorted(r["occluder_file"][:-4] for r in doc["rows"])
+    scene = trimesh.load(out / "occluders" / (rows["bbox"]["occluder_file"][:-4] + ".glb"))
+    assert len(scene.geometry["occluder"].faces) == 12
+    assert len(scene.geometry["original"].faces) == len(
+        trimesh.load(out / "occluders" / rows["original"]["occluder_file"]).faces)
+    glbs[0].unlink()  # a resumed study gets the .glb of its earlier rows
     # a re-run resumes: the stored rows are reused unchanged, none added
     with sqlite3.connect(out / "results.sqlite") as db:
         before = db.execute("SELECT key, row FROM results ORDER BY key").fetchall()
@@ -30,11 +45,57 @@ def test_compare_writes_outputs_and_resumes(tmp_path, capsys):
         after = db.execute("SELECT key, row FROM results ORDER BY key").fetchall()
     assert before == after and len(after) == 2
     assert again["rows"] == doc["rows"]
+    assert glbs[0].is_file()
 
 
 def test_compare_unknown_method_exit_2(tmp_path, capsys):
     assert main(["compare", "cow", "--methods", "magic", "--out", str(tmp_path)]) == 2
     assert "magic" in capsys.readouterr().err
+
+
+TINY = ["--views", "4", "--quads", "300", "--res", "32", "--rays", "1000"]
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["--methods", "aabb-skins,bbox", "--budget", "4"], "--budget 4: aabb-skins"),
+    (["--budget", "0"], "--budget"),
+    (["--budget", "8,x"], "--budget"),
+    (["--methods", "bbox,original", "--versus", "nope"], "--versus: unknown method 'nope'"),
+    (["--methods", "bbox,original", "--versus", "qem"], "--versus: qem is not among"),
+    (["--methods", "bbox", "--jobs", "1000000"], "--jobs 1000000: at most"),
+    (["--methods", "bbox", "--jobs", "0"], "--jobs"),
+    (["--methods", "bbox", "--views", "100000000"], "memory"),
+    (["--methods", "bbox", "--quads", "0"], "--quads"),
+    (["--methods", "bbox", "--res", "5000"], "--res"),
+    (["--methods", "bbox", "--rays", "-3"], "--rays"),
+    (["--methods", "bbox", "--seed", "-5"], "--seed"),
+])
+def test_compare_refuses_bad_arguments_before_creating_the_study(tmp_path, capsys, argv,
+                                                                  expected):
+    out = tmp_path / "study"
+    assert main(["compare", "cow", *TINY, *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and expected in err
+    assert not out.exists()  # nothing created: the check came before any work
+
+
+def test_compare_out_must_be_a_folder_whose_parent_exists(tmp_path, capsys):
+    (tmp_path / "file").write_text("x")
+    for out, expected in ((tmp_path / "file", "exists and is not a folder"),
+                          (tmp_path / "missing" / "study", "does not exist")):
+        assert main(["compare", "cow", "--methods", "bbox", *TINY, "--out", str(out)]) == 2
+        assert expected in capsys.readouterr().err
+    assert not (tmp_path / "missing").exists()
+
+
+def test_compare_versus_defaults_to_qem_when_it_runs(tmp_path, capsys):
+    common = ["compare", "fat-torus", *TINY, "--budget", "48", "--json"]
+    assert main([*common, "--methods", "bbox,original", "--out", str(tmp_path / "a")]) == 0
+    assert json.loads(capsys.readouterr().out)["paired"] == []  # no qem: no paired table
+    assert main([*common, "--methods", "qem,bbox", "--out", str(tmp_path / "b")]) == 0
+    paired = json.loads(capsys.readouterr().out)["paired"]
+    assert [(p["method"], p["versus"], p["versus_budget"]) for p in paired] == [
+        ("bbox", "qem", 48)]
 
 
 def test_compare_budgets_run_budgeted_methods_once_per_budget(tmp_path, capsys):
@@ -73,7 +134,6 @@ def test_dask_cluster_gives_identical_rows(tmp_path, monkeypatch):
 
 
 def test_interrupted_study_keeps_finished_rows_and_resumes(tmp_path):
-    import pytest
     from viscore.cli.study import StudySettings, run_study
 
     settings = StudySettings(views=4, quads=300, resolution=24, directions=2, rays=1000,
@@ -88,13 +148,14 @@ def test_interrupted_study_keeps_finished_rows_and_resumes(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         run_study(["cow"], ["original", "bbox", "qem"], settings, out, progress=False,
                   on_row=crash)
-    with sqlite3.connect(out / "results.sqlite") as db:
-        assert db.execute("SELECT COUNT(*) FROM results").fetchone()[0] == 1
+    with sqlite3.connect(out / "results.sqlite") as db:  # the first row, and any other
+        stored = db.execute("SELECT COUNT(*) FROM results").fetchone()[0]  # done meanwhile
+    assert 1 <= stored <= 3
     assert not list(out.rglob("*.tmp"))  # no half-written file
     done = []
     rows = run_study(["cow"], ["original", "bbox", "qem"], settings, out, progress=False,
                      on_row=lambda r: done.append(r["method"]))
-    assert seen[0] not in done and len(done) == 2  # only the unfinished jobs ran
+    assert seen[0] not in done and len(done) == 3 - stored  # only the unfinished jobs ran
     clean = run_study(["cow"], ["original", "bbox", "qem"], settings, tmp_path / "c",
                       progress=False)
     strip = lambda rs: [{k: v for k, v in r.items() if not k.startswith("seconds")}  # noqa: E731
