@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import io
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -78,21 +77,16 @@ def _format_of(path: str | os.PathLike) -> str:
 
 
 def _save(fig: Figure, path: str | os.PathLike) -> None:
-    """Render ``fig`` and write it to ``path`` through a temporary file and a rename."""
+    """Render ``fig`` and write it to ``path`` atomically (:func:`viscore._atomic.write_atomic`).
+
+    The folder must exist; the file gets the mode ``open`` would give it.
+    """
+    from viscore._atomic import write_atomic
+
     path = Path(path)
     buf = io.BytesIO()
     fig.savefig(buf, format=_format_of(path), dpi=DPI)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(buf.getvalue())
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_atomic(path, buf.getvalue())
 
 
 def _check_rows(rows: Sequence[Mapping], keys: tuple[str, ...], name: str = "rows") -> list:

@@ -418,7 +418,7 @@ OUTPUT_KINDS = ["missing-folder", "through-file", "read-only", "directory", "bad
 @pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("kind", OUTPUT_KINDS)
 def test_hostile_output_paths(workdir, kind, slow):
-    from viscore.cli._common import _umask
+    from viscore._atomic import _umask
 
     @_settings(4, slow)
     @given(fmt=st.sampled_from(["ply", "obj", "stl", "off", "glb"]), quiet=st.booleans())

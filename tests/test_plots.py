@@ -162,3 +162,20 @@ def test_plots_import_keeps_backend_in_process(tmp_path):
 
     budget_plot(_rows(), tmp_path / "b.png")
     assert matplotlib.get_backend() == before
+
+
+def test_plot_files_get_the_mode_open_gives(tmp_path):
+    # the figures are written atomically like every output: 0o666 & ~umask, not mkstemp's 0o600
+    import os
+    import stat
+
+    from matplotlib.figure import Figure
+    from viscore.metrics.plots import _save
+
+    old = os.umask(0o022)
+    try:
+        _save(Figure(figsize=(1, 1)), tmp_path / "f.png")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "f.png").stat().st_mode) == 0o644
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]

@@ -1,0 +1,128 @@
+"""Atomic output files: a write lands whole or not at all, with the mode ``open`` gives.
+
+Shared by the command line (tables, meshes, reports) and the figure module of
+:mod:`viscore.metrics` (plots written beside a study).
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import tempfile
+from pathlib import Path
+
+__all__ = ["write_atomic", "check_output_path"]
+
+
+def _umask() -> int:
+    """The process umask, read without changing it where Linux allows."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)  # pragma: no cover - not Linux: read by setting and restoring
+    os.umask(mask)
+    return mask
+
+
+def check_output_path(path: str | os.PathLike) -> Path:
+    """Refuse, before any work, an output file path that cannot be written.
+
+    The folder must exist (it is never created: a typo must not silently make
+    a tree) and be a folder, and the path must not be a directory.
+
+    Raises
+    ------
+    InputError
+        One line naming the path and the problem.
+    """
+    from viscore import InputError
+
+    path = Path(path)
+    parent = path.parent
+    if path.name in ("", ".", ".."):
+        raise InputError(f"{path}: expected a file name, got a folder")
+    try:
+        st = os.stat(parent)
+    except FileNotFoundError:
+        raise InputError(f"{path}: the folder {str(parent)!r} does not exist "
+                         "(it is not created)") from None
+    except NotADirectoryError:
+        raise InputError(f"{path}: a component of the folder {str(parent)!r} is a file") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot reach the folder {str(parent)!r} "
+                         f"({exc.strerror or exc})") from None
+    if not stat.S_ISDIR(st.st_mode):
+        raise InputError(f"{path}: {str(parent)!r} is not a folder")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory, expected a file path")
+    return path
+
+
+def write_atomic(path: str | os.PathLike, data: bytes, *, parents: bool = False) -> None:
+    """Write ``data`` to ``path`` through a temporary file and a rename.
+
+    A killed process leaves either the old file or the new one, never half,
+    and a failed write leaves nothing new at ``path``. The file gets the mode
+    a plain ``open(path, "w")`` would give: an existing file keeps its mode, a
+    new one gets ``0o666 & ~umask``.
+
+    Parameters
+    ----------
+    path : path
+        The output file.
+    data : bytes
+        Its whole content.
+    parents : bool, optional
+        Create missing parent folders (for folders the caller owns, such as a
+        study's ``occluders/``). Default False: a missing folder is an error,
+        never silently created.
+
+    Raises
+    ------
+    InputError
+        If the folder does not exist (and ``parents`` is False), or ``path``
+        is a directory.
+    OSError
+        If writing fails (permissions, full disk); its ``filename`` is
+        ``path``, never the internal temporary file.
+    """
+    path = Path(path)
+    if parents:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(path.parent)) from None
+    check_output_path(path)
+    try:
+        mode = stat.S_IMODE(os.stat(path).st_mode)
+    except OSError:
+        mode = 0o666 & ~_umask()
+    tmp = None
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        with os.fdopen(fd, "wb") as fh:
+            os.fchmod(fh.fileno(), mode)
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+        tmp = None
+    except OSError as exc:  # name the user's path, not the temporary file
+        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+    finally:
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
+    try:  # make the rename durable; some filesystems cannot fsync a folder
+        dir_fd = os.open(path.parent, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(dir_fd)
+    except OSError:
+        pass
+    finally:
+        os.close(dir_fd)
