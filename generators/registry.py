@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from viscore import InputError
 from viscore._validate import as_positive_int, as_seed
 
-from .aabb_skins import generate_aabb_skins
+from .aabb_skins import TRIANGLES_PER_BOX, generate_aabb_skins
 from .baselines import generate_bbox, generate_original, generate_qem
 from .godot import generate_godot
 from .occluder import Occluder
@@ -191,6 +191,9 @@ class GeneratorSpec:
     budgeted : bool
         Whether the triangle budget changes the result (studies run such a
         method once per budget, the others once).
+    min_budget : int
+        The smallest budget the method can meet (``aabb-skins``: 12, one box);
+        smaller budgets are refused by :meth:`check_params` before any work.
     """
 
     name: str
@@ -201,6 +204,7 @@ class GeneratorSpec:
     experimental: bool = False
     baseline: bool = False
     budgeted: bool = True
+    min_budget: int = 1
 
     def option(self, name: str) -> GeneratorOption:
         """The declared option called ``name`` (KeyError if none)."""
@@ -237,6 +241,9 @@ class GeneratorSpec:
         for key, value in params.items():
             if key == "budget":
                 out[key] = None if value is None else as_positive_int(value, name(key))
+                if out[key] is not None and self.budgeted and out[key] < self.min_budget:
+                    raise InputError(f"{name(key)}: {self.name} needs at least "
+                                     f"{self.min_budget} triangles, got {out[key]}")
             elif key == "seed":
                 out[key] = as_seed(value, name(key))
             elif key in known:
@@ -270,7 +277,7 @@ REGISTRY: dict[str, GeneratorSpec] = {
                                 "largest box over all voxels, or grow from the densest voxel",
                                 choices=("max-volume", "densest")),
             ),
-            conservative=True),
+            conservative=True, min_budget=TRIANGLES_PER_BOX),
         GeneratorSpec("qem", generate_qem, "quadric edge-collapse decimation to the budget",
                       baseline=True),
         GeneratorSpec(

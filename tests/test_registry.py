@@ -152,3 +152,16 @@ def test_check_parts_accepts_the_schema():
 def test_check_parts_invalid_input(parts, match):
     with pytest.raises(ValueError, match=match):
         check_parts(parts)
+
+
+def test_check_params_refuses_budgets_below_the_methods_minimum():
+    from viscore import InputError
+    from viscore.generators import REGISTRY
+
+    spec = REGISTRY["aabb-skins"]
+    assert spec.min_budget == 12
+    assert spec.check_params({"budget": 12}) == {"budget": 12}
+    with pytest.raises(InputError, match="at least 12"):
+        spec.check_params({"budget": 11})
+    # a method that ignores the budget takes any
+    assert REGISTRY["bbox"].check_params({"budget": 1}) == {"budget": 1}
