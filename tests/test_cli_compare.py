@@ -57,7 +57,8 @@ TINY = ["--views", "4", "--quads", "300", "--res", "32", "--rays", "1000"]
 
 
 @pytest.mark.parametrize("argv, expected", [
-    (["--methods", "aabb-skins,bbox", "--budget", "4"], "--budget: aabb-skins needs at least 12 triangles, got 4"),
+    (["--methods", "aabb-skins,bbox", "--budget", "4"],
+     "--budget: aabb-skins needs at least 12 triangles, got 4"),
     (["--budget", "0"], "--budget"),
     (["--budget", "8,x"], "--budget"),
     (["--methods", "bbox,original", "--versus", "nope"], "--versus: unknown method 'nope'"),

@@ -155,8 +155,9 @@ def test_check_parts_invalid_input(parts, match):
 
 
 def test_check_params_refuses_budgets_below_the_methods_minimum():
-    from viscore import InputError
     from viscore.generators import REGISTRY
+
+    from viscore import InputError
 
     spec = REGISTRY["aabb-skins"]
     assert spec.min_budget == 12
