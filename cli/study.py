@@ -55,7 +55,7 @@ from pathlib import Path
 
 from viscore import InputError
 
-from ._common import dumps, write_atomic
+from ._common import _mesh_bytes, dumps, write_atomic
 
 #: Columns of the printed and written table, in order.
 TABLE_COLUMNS = ["mesh", "method", "budget", "triangles", "precision", "precision_ci", "recall",
@@ -203,7 +203,6 @@ def run_job(job: Job, workers: int | None = None, views=None) -> tuple[dict, byt
     the mesh's :class:`viscore.metrics.ReferenceViews` for the job's settings
     (built here when not given).
     """
-    import trimesh
     from viscore.generators import generate
     from viscore.metrics import assess_occluder
 
@@ -217,7 +216,8 @@ def run_job(job: Job, workers: int | None = None, views=None) -> tuple[dict, byt
     assessed = assess_occluder(views, occ, directions=s.directions, rays=s.rays)
     row = {"key": job.key, "mesh": job.mesh, "budget": job.budget, **assessed.to_json(),
            "method": job.method, "occluder_file": job.occluder_file, "settings": asdict(s)}
-    ply = trimesh.exchange.ply.export_ply(occ.mesh, encoding="binary") if occ.triangles else b""
+    # float64 PLY (trimesh writes float32 vertices): the occluder file is the occluder
+    ply = _mesh_bytes(occ.mesh, "ply", job.occluder_file) if occ.triangles else b""
     return json.loads(dumps(row)), ply
 
 

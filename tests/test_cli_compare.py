@@ -172,3 +172,22 @@ def test_compare_paired_against_reference(tmp_path, capsys):
     assert len(paired) == 1 and paired[0]["method"] == "bbox"
     assert paired[0]["precision_diff"] < 0 and paired[0]["prob_better_precision"] == 0.0
     assert paired[0]["recall_diff"] == 0.0
+
+
+def test_compare_keeps_occluders_in_float64(tmp_path, capsys):
+    # far from the origin float32 vertices move by ~0.06: the kept file must be the occluder
+    import numpy as np
+    import trimesh
+
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    box.apply_translation([1e6 + 0.123456789, -2e6 + 0.987654321, 0.5])
+    mesh = tmp_path / "far.ply"
+    box.export(mesh, encoding="ascii")
+    out = tmp_path / "study"
+    assert main(["compare", str(mesh), "--methods", "bbox", "--views", "2", "--quads", "20",
+                 "--res", "16", "--rays", "200", "--out", str(out),
+                 "--quiet"]) == 0
+    capsys.readouterr()
+    (ply,) = (out / "occluders").glob("*.ply")
+    kept = trimesh.load(ply, force="mesh", process=False)
+    np.testing.assert_array_equal(kept.bounds, trimesh.load(mesh, process=False).bounds)
