@@ -53,7 +53,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from viscore import InputError
+from viscore import InputError, stream_seed
 
 from ._common import _mesh_bytes, dumps, write_atomic
 
@@ -643,7 +643,8 @@ def paired_rows(rows: list[dict], reference: str = "qem") -> list[dict]:
             ref = max(cands, key=lambda v: v["budget"] or 0, default=None)
         if ref is None or "nt" not in r["per_view"]:
             continue
-        d = paired_difference(_as_result(r), _as_result(ref), seed=r["settings"]["seed"])
+        d = paired_difference(_as_result(r), _as_result(ref),
+                              seed=stream_seed(r["settings"]["seed"], "paired-bootstrap"))
         out.append({"mesh": r["mesh"], "method": r["method"], "budget": r["budget"],
                     "versus": reference, "versus_budget": ref["budget"],
                     "recall_diff": d.recall_diff, "recall_diff_ci": d.recall_diff_ci,

@@ -34,7 +34,7 @@ from viscore.metrics import (
     uncertainty_report,
 )
 
-from viscore import InputError, load_mesh, provenance
+from viscore import InputError, load_mesh, provenance, stream_seed
 from viscore._validate import as_fraction, as_positive_int, as_seed
 
 from ._common import dumps, emit, parse_list
@@ -110,7 +110,8 @@ def run_uncertainty(args) -> int:
                          **{k: v for k, v in result.params.items()
                             if k in ("views", "quads", "resolution", "spacing")},
                          seed=seed)
-        paired = asdict(paired_difference(result, other, seed=seed))
+        paired = asdict(paired_difference(result, other,
+                                          seed=stream_seed(seed, "paired-bootstrap")))
         paired["versus"] = args.versus
     doc = {"mesh": items[0], "occluder": items[1], **report, "paired": paired,
            "per_view": {k: result.per_view[k] for k in

@@ -179,10 +179,11 @@ def assess_occluder(reference: ReferenceViews | trimesh.Trimesh, occluder, *,
 
     Notes
     -----
-    Deterministic: the views' seed also seeds the measure's directions (through
-    ``viscore.stream_seed(seed, 'occlusion-measure')``, so that they are not
-    the first orbit view directions) and the conservativeness rays, so the
-    same views, occluder and settings give the same assessment (times aside).
+    Deterministic: the views' seed also seeds the measure's directions and the
+    conservativeness rays, each through its own stream
+    (``viscore.stream_seed(seed, 'occlusion-measure')``, ``'conservativeness'``)
+    so that neither repeats the view directions' draws; the same views,
+    occluder and settings give the same assessment (times aside).
 
     Examples
     --------
@@ -228,7 +229,7 @@ def assess_occluder(reference: ReferenceViews | trimesh.Trimesh, occluder, *,
         measure, measure_se = 0.0, 0.0
     seconds_measure = time.perf_counter() - start
     cons = check_conservative(views.mesh, target, rays=rays, confidence=confidence,
-                              domain=domain, seed=seed)
+                              domain=domain, seed=stream_seed(seed, "conservativeness"))
     return OccluderAssessment(
         method=occluder.method if generated else None,
         params=dict(occluder.params) if generated else {},

@@ -145,7 +145,8 @@ def uncertainty_report(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, *,
     per_dir = 4 * np.pi * om.per_view["measure"]
     ones = np.ones_like(per_dir)
     models = {q: hierarchical_beta_model(result, quantity=q, threshold=threshold,
-                                         walkers=_WALKERS, steps=steps, seed=seed)
+                                         walkers=_WALKERS, steps=steps,
+                                         seed=stream_seed(seed, f"beta-model-{q}"))
               for q in BAYES_QUANTITIES}
     boot = stream_seed(seed, "bootstrap")  # as the percentile intervals of the result
     report = {

@@ -61,7 +61,7 @@ def test_assess_occluder_matches_the_separate_steps(torus, views):
     pr = views.score(occ)
     om = occlusion_measure(occ, directions=3, resolution=32,
                            seed=stream_seed(2, "occlusion-measure"))
-    cons = check_conservative(torus, occ, rays=2000, seed=2)
+    cons = check_conservative(torus, occ, rays=2000, seed=stream_seed(2, "conservativeness"))
     assert (a.precision, a.recall, a.precision_ci, a.recall_ci) == (
         pr.precision, pr.recall, pr.precision_ci, pr.recall_ci)
     assert a.occlusion_measure == om.occlusion_measure
