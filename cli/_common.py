@@ -6,14 +6,13 @@ import io
 import json
 import math
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
 
 from viscore._atomic import check_output_path, write_atomic
 
-__all__ = ["dumps", "emit", "fail", "check_output_path", "write_atomic", "check_mesh_path"]
+__all__ = ["dumps", "emit", "check_output_path", "write_atomic", "check_mesh_path"]
 
 
 def _jsonable(value):
@@ -43,12 +42,6 @@ def dumps(document: dict) -> str:
 def emit(document: dict, as_json: bool, text: str) -> None:
     """Print the JSON document or the human-readable text on stdout."""
     print(dumps(document) if as_json else text)
-
-
-def fail(message: str, code: int = 2) -> int:
-    """One line on stderr; returns the exit code."""
-    print(f"viscore: error: {message}", file=sys.stderr)
-    return code
 
 
 #: Mesh formats the CLI writes.

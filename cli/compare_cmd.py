@@ -2,8 +2,9 @@
 
 Every argument is checked before any work and before the study folder is
 created or touched: the methods and ``--versus`` against the registry, each
-budget against each budgeted method (:func:`viscore.generators.generate`'s
-checks, tried on a unit box), the sizes (views, quads, pixels, rays) and
+budget against each budgeted method's registry entry
+(:meth:`viscore.generators.GeneratorSpec.check_params`, ``min_budget``), the
+sizes (views, quads, pixels, rays) and
 ``--jobs`` (at most :data:`viscore.cli.study.JOBS_PER_CORE` per core) against
 the memory they imply (:func:`viscore.cli.study.study_memory`,
 :func:`viscore._validate.check_memory`), the seed by the one seed rule, the

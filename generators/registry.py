@@ -50,6 +50,11 @@ _log = logging.getLogger(__name__)
 _TYPES = {int: "an integer", float: "a number", str: "a string"}
 
 
+def _flag(name: str) -> str:
+    """The command-line flag of an option name: ``max_boxes`` -> ``--max-boxes``."""
+    return "--" + name.replace("_", "-")
+
+
 @dataclass(frozen=True)
 class GeneratorOption:
     """One keyword option of a generator, as the registry declares it.
@@ -99,7 +104,7 @@ class GeneratorOption:
     @property
     def flag(self) -> str:
         """The command-line flag, ``--`` and the name with dashes."""
-        return "--" + self.name.replace("_", "-")
+        return _flag(self.name)
 
     def expected(self) -> str:
         """What a valid value is, in words: ``an integer >= 1``, ``one of a, b``."""
@@ -236,7 +241,8 @@ class GeneratorSpec:
             ones) or the first value out of type or range.
         """
         known = {o.name: o for o in self.options}
-        name = (lambda k: "--" + k.replace("_", "-")) if flags else (lambda k: k)
+        def name(key: str) -> str:
+            return _flag(key) if flags else key
         out = {}
         for key, value in params.items():
             if key == "budget":

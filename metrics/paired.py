@@ -28,7 +28,7 @@ from viscore import InputError
 from viscore._validate import as_fraction, as_positive_int, as_seed, check_memory
 
 from .bootstrap import BOOTSTRAP_RESAMPLES, _bootstrap_memory, _resampled_sums
-from .precision_recall import PrecisionRecall
+from .precision_recall import PrecisionRecall, ratio
 
 #: Protocols whose results can be paired, and the per-view key naming their views.
 _VIEW_KEYS = {"orbit": "direction", "volume": "position"}
@@ -151,10 +151,6 @@ def paired_difference(a: PrecisionRecall, b: PrecisionRecall, *, confidence: flo
     sums = _resampled_sums(np.random.default_rng(seed), n, resamples,
                            *parts["precision"], *parts["recall"])
     boot_sums = {"precision": sums[:4], "recall": sums[4:]}
-
-    def ratio(num, den):
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
 
     out = {}
     for which in ("precision", "recall"):

@@ -33,7 +33,7 @@ import numpy as np
 import trimesh
 
 from viscore import InputError, OrthoCamera, cube_cameras, directions_uniform, stream_seed
-from viscore._validate import as_positive_int, as_seed, available_memory, check_memory
+from viscore._validate import as_positive_int, as_seed, check_memory, memory_limit
 
 from ._views import cast_depths, cast_hits, ortho_box_rays, scene_of
 from .bootstrap import bootstrap_ratio
@@ -206,9 +206,7 @@ class ReferenceViews:
         what = (f"views={len(self.weights)}, quads={quads}" if protocol == "orbit" else
                 f"positions={len(self.weights)}, frusta={len(self._images)}, quads={quads}")
         if cache is None:
-            from viscore._validate import MEMORY_FRACTION
-
-            cache = need <= MEMORY_FRACTION * available_memory()
+            cache = need <= memory_limit()
             if not cache:
                 _log.info("reference views: %s do not fit in memory; the original's quads are "
                           "drawn again for each occluder", what)
@@ -474,7 +472,7 @@ class ReferenceViews:
         """
         if mesh is None and self._depth_images is not None:
             return self._depth_images
-        scene = self._original if mesh is None else scene_of(mesh, "mesh")
+        scene = self._original if mesh is None else scene_of(mesh, "occluder")
         res = self.resolution
         check_memory(len(self._images) * float(res) ** 2 * 4
                      + _batch_images(res) * res**2 * _BYTES_PER_RAY,

@@ -169,8 +169,7 @@ def test_reference_views_cache_falls_back_when_it_does_not_fit(torus, monkeypatc
     # room for one image's rays but not for every quad: cache=None recasts per score
     from viscore.metrics import reference_views
 
-    monkeypatch.setattr(reference_views, "available_memory", lambda: 1.0 * 2**20)
-    monkeypatch.setenv("VISCORE_MEMORY_FRACTION", "1")
+    monkeypatch.setattr(reference_views, "memory_limit", lambda: 1.0 * 2**20)
     views = ReferenceViews(torus, **{**ORBIT, "quads": 20000})
     assert not views.cached
     assert views.score(torus).recall == full.recall == 1.0

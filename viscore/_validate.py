@@ -13,7 +13,8 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = ["InputError", "as_points", "as_vector", "as_unit_vectors", "as_positive",
-           "as_positive_int", "as_fraction", "as_seed", "check_memory", "available_memory"]
+           "as_positive_int", "as_fraction", "as_seed", "check_memory", "available_memory",
+           "memory_limit"]
 
 
 class InputError(ValueError):
@@ -142,6 +143,17 @@ def available_memory() -> int:
     return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
 
 
+def _memory_fraction() -> float:
+    import os
+
+    return float(os.environ.get("VISCORE_MEMORY_FRACTION", MEMORY_FRACTION))
+
+
+def memory_limit() -> float:
+    """Bytes one computation may plan to use: the share :func:`check_memory` allows."""
+    return _memory_fraction() * available_memory()
+
+
 def check_memory(nbytes: float, what: str) -> None:
     """Refuse, before any work, a computation whose estimated memory does not fit.
 
@@ -160,9 +172,8 @@ def check_memory(nbytes: float, what: str) -> None:
         variable ``VISCORE_MEMORY_FRACTION``) of :func:`available_memory`. The
         message gives the estimate and the limit.
     """
-    import os
 
-    fraction = float(os.environ.get("VISCORE_MEMORY_FRACTION", MEMORY_FRACTION))
+    fraction = _memory_fraction()
     limit = fraction * available_memory()
     try:  # a Python int beyond int64 (e.g. a count of 2**64 x bytes) is fine here too
         nbytes = float(nbytes)

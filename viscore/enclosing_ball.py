@@ -23,8 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 import trimesh
+from scipy.spatial import ConvexHull, QhullError
 
-from ._validate import InputError, as_points
+from ._validate import as_points
 
 __all__ = ["minimum_enclosing_ball"]
 
@@ -70,9 +71,7 @@ def minimum_enclosing_ball(points) -> tuple[np.ndarray, float]:
     >>> [round(float(v), 6) for v in c], round(r, 6)
     ([0.5, 0.5, 0.0], 0.707107)
     """
-    pts = as_points(points, "points")
-    if len(pts) == 0:
-        raise InputError("points: expected at least one point, got none")
+    pts = as_points(points, "points")  # refuses an empty set too
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     offset = 0.5 * (lo + hi)
     scale = float(np.max(hi - lo)) / 2
@@ -84,7 +83,7 @@ def minimum_enclosing_ball(points) -> tuple[np.ndarray, float]:
     if rank == 3:
         try:
             center, radius = trimesh.nsphere.minimum_nsphere(pts)
-        except Exception:  # qhull gave up on a near-flat set: solved exactly below
+        except (QhullError, ValueError):  # qhull gave up on a near-flat set: solved below
             center, radius = np.full(3, np.nan), np.nan
         center = np.asarray(center, dtype=np.float64)
         if np.all(np.isfinite(center)) and np.isfinite(radius):
@@ -106,10 +105,8 @@ def _hull_vertices(coords: np.ndarray) -> np.ndarray:
     if k == 1:
         return np.array([coords.min(axis=0), coords.max(axis=0)])
     try:
-        from scipy.spatial import ConvexHull
-
         return coords[ConvexHull(coords).vertices]
-    except Exception:  # qhull refuses near-degenerate input: use every point
+    except (QhullError, ValueError):  # qhull refuses near-degenerate input: use every point
         return np.unique(coords, axis=0)
 
 
@@ -127,7 +124,7 @@ def _ball_through(boundary: list[np.ndarray]) -> tuple[np.ndarray, float]:
 
 
 def _welzl(points: np.ndarray) -> tuple[np.ndarray, float]:
-    """Welzl's move-to-front minidisk, iterative, for k <= 3 dimensions."""
+    """Welzl's minidisk in its recursive form (in random order), for k <= 3 dimensions."""
     order = np.random.default_rng(_ORDER_SEED).permutation(len(points))
     pts = [points[i] for i in order]
     slack = 1e-12

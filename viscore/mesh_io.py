@@ -455,25 +455,29 @@ def _parse(data: bytes, fmt: str, label: str, resolver) -> trimesh.Trimesh:
             raise InputError(f"{label}: not a valid GLTF file (not JSON: {exc})") from None
     token = _loading.set(True)
     try:
-        scene = trimesh.load_scene(file_obj=io.BytesIO(payload), file_type=fmt,
-                                   resolver=resolver, process=False)
+        # only trimesh's parsing is wrapped: a failure in our own code below is a bug
+        # (exit 3), not a malformed file
+        try:
+            scene = trimesh.load_scene(file_obj=io.BytesIO(payload), file_type=fmt,
+                                       resolver=resolver, process=False)
+        except MemoryError:
+            raise InputError(f"{label}: not enough memory to read this file") from None
+        except FileNotFoundError as exc:  # an external buffer, texture or material
+            missing = exc.filename or " ".join(str(exc).split())[:200]
+            raise InputError(f"{label}: a file it references is missing ({missing})") from None
+        except Exception as exc:  # noqa: BLE001 - trimesh raises many types on malformed files
+            detail = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
+            raise InputError(f"{label}: not a valid {name} file ({detail})") from None
         instances = _scene_instances(scene)
         if not instances:
             raise InputError(f"{label}: {_describe_without_triangles(scene)}")
         triangles = sum(len(g.faces) * len(m) for g, m in instances)
         check_memory(triangles * _BYTES_PER_TRIANGLE,
                      f"{label} ({triangles:,} triangles with instances baked)")
-        mesh = _bake(instances)
-    except InputError:
-        raise
-    except MemoryError:
-        raise InputError(f"{label}: not enough memory to read this file") from None
-    except FileNotFoundError as exc:  # an external buffer, texture or material
-        missing = exc.filename or " ".join(str(exc).split())[:200]
-        raise InputError(f"{label}: a file it references is missing ({missing})") from None
-    except Exception as exc:  # noqa: BLE001 - trimesh raises many types on malformed files
-        detail = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
-        raise InputError(f"{label}: not a valid {name} file ({detail})") from None
+        try:
+            mesh = _bake(instances)
+        except MemoryError:
+            raise InputError(f"{label}: not enough memory to read this file") from None
     finally:
         _loading.reset(token)
     return mesh
