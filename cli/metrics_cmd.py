@@ -31,8 +31,12 @@ _BYTES_PER_VIEW = 1024
 #: Peak bytes per pixel and view of an orbit batch (two depth images of up to
 #: 8 views cast together): ``evaluate --views 8 --res 256`` vs ``--res 1024``, ~122 B.
 _ORBIT_BYTES_PER_PIXEL = 160
-#: Views ray-cast together by the orbit protocol (``metrics.orbit``).
-_ORBIT_VIEWS_PER_BATCH = 8
+#: Rays per Embree batch of the orbit protocol and of ``validate``: images of
+#: R x R pixels are cast ``max(1, 2**18 // R**2)`` at a time, and validate's
+#: rays 2**18 at a time (``viscore.metrics.reference_views``,
+#: ``viscore.metrics.conservativeness``), so memory does not grow with views
+#: or rays beyond one batch.
+_RAYS_PER_BATCH = 1 << 18
 #: Extra bytes per pixel with ``--depth-aware`` (32 levels of int32 tables and
 #: a bool mask per level).
 _DEPTH_AWARE_BYTES_PER_PIXEL = 32 * 5
@@ -122,7 +126,8 @@ def run_evaluate(args) -> int:
         if args.spacing is not None or args.no_merge:
             raise InputError("--spacing and --no-merge apply to --protocol volume only")
         views = params["views"] = as_positive_int(args.views, "--views")
-        estimate = (min(views, _ORBIT_VIEWS_PER_BATCH) * res * res * per_pixel
+        batch = min(views, max(1, _RAYS_PER_BATCH // (res * res)))
+        estimate = (batch * res * res * per_pixel
                     + quads * _BYTES_PER_QUAD + views * _BYTES_PER_VIEW)
         check_memory(estimate, f"--views {views} --res {res} --quads {quads}")
     else:
@@ -152,7 +157,7 @@ def run_validate(args) -> int:
     if confidence >= 1:
         raise InputError("--confidence: expected a number in (0, 1), got 1.0")
     max_rate = as_fraction(args.max_rate, "--max-rate")
-    check_memory(rays * _BYTES_PER_RAY, f"--rays {rays}")
+    check_memory(min(rays, _RAYS_PER_BATCH) * _BYTES_PER_RAY, f"--rays {rays}")
     mesh, occ = load_mesh(args.mesh), load_mesh(args.occluder)
     r = check_conservative(mesh, occ, rays=rays, confidence=confidence,
                            domain=args.domain, seed=seed)

@@ -188,19 +188,20 @@ class ReferenceViews:
         self.mesh = mesh
         self.timing: dict = {}
         self._depth_images = None
-        # the per-batch working set: rays, their images and the level tables
-        working = (_batch_images(resolution) * resolution**2 * _BYTES_PER_RAY
+        # the per-batch working set: rays, their images, their quads and the level tables
+        working = (_batch_images(resolution) * (resolution**2 * _BYTES_PER_RAY
+                                                + quads * float(_BYTES_PER_QUAD))
                    + (level_table_bytes(resolution, depth_levels) if depth_aware else 0))
         if protocol == "orbit":
             views = as_positive_int(DEFAULT_VIEWS if views is None else views, "views")
-            check_memory(working + views * 200.0, f"resolution={resolution}")
+            check_memory(working + views * 200.0, f"resolution={resolution}, quads={quads}")
             self._setup_orbit(mesh, views)
         else:
             merge_views = True if merge_views is None else bool(merge_views)
             jitter = bool(jitter)
             check_memory(working + volume_positions_bytes(mesh, spacing=spacing,
                                                           padding=padding),
-                         f"spacing={spacing}, resolution={resolution}")
+                         f"spacing={spacing}, resolution={resolution}, quads={quads}")
             self._setup_volume(mesh, spacing, padding, merge_views, jitter)
         need = len(self._images) * quads * float(_BYTES_PER_QUAD) + working
         what = (f"views={len(self.weights)}, quads={quads}" if protocol == "orbit" else

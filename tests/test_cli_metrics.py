@@ -76,10 +76,9 @@ def test_negative_seed_exit_2_one_line(command, capsys):
 @pytest.mark.parametrize("argv, option", [
     (["evaluate", "nope.ply", "nope.ply", "--quads", str(10**12)], "--quads"),
     (["evaluate", "nope.ply", "nope.ply", "--views", str(10**9)], "--views"),
-    (["validate", "nope.ply", "nope.ply", "--rays", str(10**12)], "--rays"),
-    (["validate", "nope.ply", "nope.ply", "--rays", str(4 * 10**8)], "--rays"),
     (["measure", "nope.ply", "--directions", str(10**9)], "--directions"),
-    (["evaluate", "nope.ply", "nope.ply", "--res", "4096", "--views", "8"], "--res 4096"),
+    # one image per batch at this size: 8192^2 pixels, not 8 x 4096^2 (which fits)
+    (["evaluate", "nope.ply", "nope.ply", "--res", "8192", "--views", "8"], "--res 8192"),
     (["measure", "nope.ply", "--res", "8192"], "--res 8192"),
 ])
 def test_sizes_refused_from_an_estimate_before_any_work(argv, option, capsys, monkeypatch):

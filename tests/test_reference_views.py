@@ -231,3 +231,10 @@ def test_orbit_quad_depths_within_the_originals_depths(torus):
         assert z.min() >= finite.min() - tol and z.max() <= finite.max() + tol
         assert len(np.unique(z)) > 1
         np.testing.assert_array_equal(z, before[k])
+
+
+def test_reference_views_refuse_quads_that_do_not_fit_even_uncached(torus):
+    # one batch of images' quads must fit: 1e12 quads raised a MemoryError (exit 3)
+    for cache in (None, False):
+        with pytest.raises(InputError, match="needs about"):
+            ReferenceViews(torus, views=2, quads=10**12, resolution=16, cache=cache)
