@@ -4,39 +4,20 @@ from __future__ import annotations
 
 import io
 import json
-import math
 import os
 from pathlib import Path
 
 import numpy as np
+from viscore.metrics.precision_recall import jsonable
 
 from viscore._atomic import check_output_path, write_atomic
 
 __all__ = ["dumps", "emit", "check_output_path", "write_atomic", "check_mesh_path"]
 
 
-def _jsonable(value):
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
-    if isinstance(value, (np.integer,)):
-        return int(value)
-    if isinstance(value, (np.floating, float)):
-        v = float(value)
-        return v if math.isfinite(v) else None
-    if isinstance(value, (np.bool_,)):
-        return bool(value)
-    if isinstance(value, Path):
-        return str(value)
-    return value
-
-
 def dumps(document: dict) -> str:
     """JSON text of a result document; NaN and inf become null."""
-    return json.dumps(_jsonable(document), indent=2)
+    return json.dumps(jsonable(document), indent=2)
 
 
 def emit(document: dict, as_json: bool, text: str) -> None:

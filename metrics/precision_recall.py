@@ -17,6 +17,7 @@ References
 from __future__ import annotations
 
 import math
+import os
 import typing
 from dataclasses import dataclass, field, fields
 
@@ -53,12 +54,15 @@ def pooled_parts(per_view: dict, protocol: str, which: str) -> tuple[np.ndarray,
 PER_VIEW_ARRAYS = {"per_view_arrays": True}
 
 
-def _jsonable(value):
-    """Plain JSON values: arrays and tuples to lists, numpy scalars to Python, NaN/inf to None."""
+def jsonable(value):
+    """Plain JSON values: arrays and tuples to lists, numpy scalars to Python, NaN/inf to
+    None, paths to strings (the one converter of results and command-line documents)."""
     if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, (list, tuple, np.ndarray)):
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
     if isinstance(value, (int, np.integer)):
@@ -79,7 +83,7 @@ def _array(values: list) -> np.ndarray:
 
 def record_to_json(record) -> dict:
     """JSON document of a result dataclass: every field under its own name."""
-    return {f.name: _jsonable(getattr(record, f.name)) for f in fields(record)}
+    return {f.name: jsonable(getattr(record, f.name)) for f in fields(record)}
 
 
 def record_from_json(cls, document: dict):
