@@ -294,10 +294,14 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
     del flood, candidates
     inner = int(enclosed.sum())
     pitch = vox.grid.pitch
-    target = int(np.ceil(fill * inner - 1e-9))
+    # at least one box for any fill > 0 (fill * inner rounds to 0 below 1 / inner)
+    target = max(1, int(np.ceil(fill * inner - 1e-9))) if inner else 0
     cap = min(cap, inner)  # never more boxes than inner voxels
+    with np.errstate(over="ignore", under="ignore"):  # a huge pitch: inf, and no inner voxel
+        cell_volume = float(np.float64(pitch) ** 3)
     # in voxels, capped at inner + 1 (no box can reach it) so that numba gets an int64
-    ratio = min_volume / pitch**3 if min_volume > 0 else 0.0
+    with np.errstate(divide="ignore"):
+        ratio = float(np.float64(min_volume) / cell_volume) if min_volume > 0 else 0.0
     min_voxels = 1 if ratio <= 1 else int(min(np.ceil(ratio - 1e-9), inner + 1))
     if not cap:
         raw = np.zeros((0, 6), np.int64)
@@ -310,8 +314,9 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
     covered = int(np.prod(raw[:, 3:] - raw[:, :3], axis=1).sum())
     out = boxes_mesh(corners)
     # share of the mesh volume; of the inner-voxel volume when the mesh has no volume
-    solid_volume = abs(float(mesh.volume)) if closed else inner * pitch**3
-    volume_share = float(covered * pitch**3 / solid_volume) if solid_volume > 0 else 0.0
+    solid_volume = abs(float(mesh.volume)) if closed else inner * cell_volume
+    volume_share = (float(covered * cell_volume / solid_volume)
+                    if covered and solid_volume > 0 else 0.0)
     return Occluder(
         mesh=out, method="aabb-skins", double_sided=False, seconds=time.perf_counter() - start,
         params={"voxels": voxels if voxel_size is None else None, "voxel_size": voxel_size,

@@ -538,3 +538,24 @@ def test_write_mesh_keeps_float64_or_refuses(workdir, scale):
             with pytest.raises(InputError, match="float32"):
                 write_mesh(path, mesh)
             assert not path.exists()
+
+
+# --------------------------------------------------------------------------- generate
+def test_aabb_skins_extreme_voxel_size_and_fill(tmp_path):
+    from viscore.generators import generate_aabb_skins
+
+    box = trimesh.creation.box()
+    # a voxel far larger than the mesh: no inner voxel, no box, no OverflowError (was exit 3)
+    occ = generate_aabb_skins(box, voxel_size=1e300)
+    assert occ.info["boxes"] == 0 and occ.info["volume_share"] == 0.0
+    # any fill > 0 places at least one box (1e-300 x 343 inner voxels rounded to none)
+    occ = generate_aabb_skins(box, voxels=8, fill=1e-300)
+    assert occ.info["boxes"] == 1 and occ.info["covered_voxels"] == occ.info["inner_voxels"]
+    path = tmp_path / "x.ply"
+    rc, out, err = run_cli(["generate", "aabb-skins", "fat-torus", "-o", str(path),
+                            "--voxel-size", "1e300", "--quiet"])
+    assert rc == 2 and "produced no triangles" in err
+    assert_contract(rc, out, err, output=path)
+    rc, out, err = run_cli(["generate", "aabb-skins", "fat-torus", "-o", str(path),
+                            "--voxels", "8", "--fill", "1e-300", "--quiet"])
+    assert rc == 0 and len(load_mesh(path).faces) == 12
