@@ -331,8 +331,6 @@ def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
         If no row is of ``mesh``, a row lacks a key, or the suffix of
         ``path`` is not a figure format.
     """
-    import trimesh
-
     from viscore import directions_uniform, load_mesh
     from viscore._validate import as_positive_int, as_seed
 
@@ -351,7 +349,8 @@ def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
     axes = fig.subplots(len(sub), SILHOUETTE_VIEWS, squeeze=False)
     for i, r in enumerate(sub):
         file = Path(out_dir) / "occluders" / r["occluder_file"]
-        occ = trimesh.load(file, force="mesh") if r["triangles"] and file.is_file() else None
+        # viscore's loader: trimesh's own merges vertices at 1e-8 and ruins tiny or huge meshes
+        occ = load_mesh(file) if r["triangles"] and file.is_file() else None
         for j, d in enumerate(dirs):
             axes[i, j].imshow(silhouette_image(original, occ, d, resolution=resolution))
             axes[i, j].set_axis_off()

@@ -559,3 +559,42 @@ def test_aabb_skins_extreme_voxel_size_and_fill(tmp_path):
     rc, out, err = run_cli(["generate", "aabb-skins", "fat-torus", "-o", str(path),
                             "--voxels", "8", "--fill", "1e-300", "--quiet"])
     assert rc == 0 and len(load_mesh(path).faces) == 12
+
+
+# --------------------------------------------------------------------------- compare
+#: Settings that make a study of one mesh take about a second.
+_TINY_COMPARE = ["--views", "2", "--quads", "20", "--rays", "200", "--res", "16",
+                 "--methods", "bbox,original", "--budget", "12"]
+
+
+def _odd_valid_meshes(workdir: Path) -> dict[str, Path]:
+    """Valid but odd meshes: cubes at 1e-12 and 1e12, a flat square, a single triangle."""
+    box = trimesh.creation.box()
+    shapes = {"cube-1e-12": (box.vertices * 1e-12, box.faces + 1),
+              "cube-1e12": (box.vertices * 1e12, box.faces + 1),
+              "square": ([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[1, 2, 3], [1, 3, 4]]),
+              "triangle": ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[1, 2, 3]])}
+    paths = {}
+    for name, (v, f) in shapes.items():
+        paths[name] = workdir / f"{name}.obj"
+        paths[name].write_text(_obj_text(v, f))
+    return paths
+
+
+def test_compare_odd_valid_meshes(workdir):
+    # the silhouettes (of the first two meshes) reloaded each occluder with trimesh's vertex
+    # merge at 1e-8: the cube's became one point, "zero extent", exit 2 after the study ran
+    paths = [str(p) for p in _odd_valid_meshes(workdir).values()]
+    out = workdir / "study-odd"
+    _count("compare.odd-valid")
+    rc, stdout, err = run_cli(["compare", *paths, *_TINY_COMPARE, "--out", str(out), "--json",
+                               "--quiet"])
+    assert rc == 0, err
+    rows = json.loads(stdout)["rows"]
+    assert sorted(r["mesh"] for r in rows) == sorted(paths * 2)
+    for r in rows:  # the mesh itself: P = R = 1; its bounding box covers all of it (R = 1)
+        assert r["recall"] == pytest.approx(1.0), r
+        if r["method"] == "original" or "cube" in r["mesh"]:
+            assert r["precision"] == pytest.approx(1.0), r
+    for p in paths[:2]:
+        assert (out / f"silhouettes_{Path(p).stem}.png").stat().st_size > 0
