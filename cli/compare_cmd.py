@@ -8,7 +8,8 @@ sizes (views, quads, pixels, rays) and
 ``--jobs`` (at most :data:`viscore.cli.study.JOBS_PER_CORE` per core) against
 the memory they imply (:func:`viscore.cli.study.study_memory`,
 :func:`viscore._validate.check_memory`), the seed by the one seed rule, the
-meshes by loading them, and ``--out``. Then the study folder is opened for
+meshes by loading them, ``--out``, and ``--scheduler`` by connecting to the
+cluster. Then the study folder is opened for
 this process alone (:class:`viscore.cli.study.StudyFolder`): a second
 ``compare`` on the same folder is refused with one line, and a damaged store
 is refused with one line naming it.
@@ -32,6 +33,7 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import asdict
 from pathlib import Path
@@ -137,6 +139,25 @@ def _jobs(value: object, scheduler) -> int:
     return jobs
 
 
+def _connect(address: str | None):
+    """A dask.distributed client of ``--scheduler`` (a context manager), or a null context.
+
+    Connected before the study folder is touched: an address that is malformed
+    or does not answer (within dask's ``distributed.comm.timeouts.connect``)
+    is refused with one line and leaves no folder behind.
+    """
+    if address is None:
+        return contextlib.nullcontext(None)
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("--scheduler: needs dask.distributed (pip install distributed)") from None
+    try:
+        return Client(address)
+    except (OSError, ValueError, TypeError) as exc:
+        raise InputError(f"--scheduler {address!r}: cannot connect ({exc})") from None
+
+
 def run_compare(args) -> int:
     # 1. every argument, before any work and before the study folder is touched
     methods = _methods(args.methods)
@@ -159,10 +180,10 @@ def run_compare(args) -> int:
         n_jobs = min(jobs, len(meshes) * len(methods) * len(budgets))
         check_memory(study_memory(settings, originals, n_jobs),
                      f"--jobs {jobs} --views {views} --quads {quads} --res {res} --rays {rays}")
-    # 2. the study, in a folder this process alone writes
-    with StudyFolder(out) as study:
+    # 2. the study, in a folder this process alone writes (the cluster reached first)
+    with _connect(args.scheduler) as client, StudyFolder(out) as study:
         rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
-                         scheduler=args.scheduler, progress=not (args.quiet or args.json))
+                         scheduler=client, progress=not (args.quiet or args.json))
         paired = paired_rows(rows, versus) if versus else []
         doc = {"settings": asdict(settings), "rows": rows, "paired": paired,
                "provenance": provenance()}

@@ -598,3 +598,19 @@ def test_compare_odd_valid_meshes(workdir):
             assert r["precision"] == pytest.approx(1.0), r
     for p in paths[:2]:
         assert (out / f"silhouettes_{Path(p).stem}.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("address", ["", "nope", "tcp://127.0.0.1:1"])
+def test_compare_bad_scheduler_leaves_no_folder(workdir, address):
+    # a malformed address gave exit 3, an unreachable one exit 2 after 30 s; both had
+    # created the study folder (the client was made inside the study)
+    import dask
+    import distributed  # noqa: F401 - its config defaults, before dask.config.set
+
+    out = workdir / f"study-scheduler-{next(_names)}"
+    _count("compare.scheduler")
+    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
+        rc, stdout, err = run_cli(["compare", "fat-torus", *_TINY_COMPARE, "--out", str(out),
+                                   "--scheduler", address])
+    assert rc == 2 and "--scheduler" in err
+    assert_contract(rc, stdout, err, output=out)
