@@ -26,10 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from viscore._validate import as_positive_int
+from viscore._validate import as_fraction, as_positive_int, check_memory
 
 from .orbit import orbit_precision_recall
-from .reference_views import ReferenceViews
+from .reference_views import _BYTES_PER_QUAD, _BYTES_PER_RAY, ReferenceViews, _batch_images
 from .volume import volume_precision_recall
 
 __all__ = ["AblationResult", "convergence_ablation"]
@@ -43,6 +43,9 @@ QUADS_LIST = (100, 1000, 5000, 10000, 20000, 30000, 100000)
 SPACING_LIST = (0.16, 0.08, 0.04)
 #: Orbit view counts.
 VIEWS_LIST = (16, 32, 64, 128, 256)
+
+#: Bytes kept per repeat and view (the per-view arrays of a result), and per repeat.
+_BYTES_PER_REPEAT_VIEW, _BYTES_PER_REPEAT = 64, 4096
 
 
 @dataclass(frozen=True)
@@ -104,12 +107,31 @@ def convergence_ablation(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, *,
     Returns
     -------
     AblationResult
+
+    Raises
+    ------
+    InputError
+        On a setting out of range, or settings whose memory (the largest
+        quads setting's batch, the results kept over the repeats) exceeds the
+        limit of :func:`viscore._validate.check_memory`; checked before any work.
     """
     repeats = as_positive_int(repeats, "repeats")
     if repeats < 2:
         from viscore import InputError
 
         raise InputError("repeats: at least 2 to estimate a standard deviation")
+    views, quads = as_positive_int(views, "views"), as_positive_int(quads, "quads")
+    resolution = as_positive_int(resolution, "resolution")
+    quads_list = tuple(as_positive_int(q, "quads_list") for q in quads_list)
+    views_list = tuple(as_positive_int(v, "views_list") for v in views_list)
+    spacing_list = tuple(as_fraction(f, "spacing_list", open_low=True) for f in spacing_list)
+    if "quads" in factors and quads_list:  # the largest setting's batch of images and quads
+        check_memory(_batch_images(resolution) * (resolution**2 * _BYTES_PER_RAY
+                                                  + max(quads_list) * float(_BYTES_PER_QUAD)),
+                     f"quads_list up to {max(quads_list)}, resolution={resolution}")
+    most_views = max((views, *views_list))
+    check_memory(float(repeats) * (most_views * _BYTES_PER_REPEAT_VIEW + _BYTES_PER_REPEAT),
+                 f"repeats={repeats} of up to {most_views} views")
     rows = []
     say = progress or (lambda text: _log.info("%s", text))
     if "quads" in factors:
