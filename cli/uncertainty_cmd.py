@@ -55,14 +55,22 @@ def add_parser(sub, common) -> None:
                     "viscore uncertainty ablation MESH OCCLUDER: s.d. of P and R over seeded "
                     "repeats against quads per view, view spacing and number of views.")
     u.add_argument("items", nargs="+", metavar="[ablation] MESH OCCLUDER")
-    u.add_argument("--protocol", choices=["orbit", "volume"], default="orbit")
-    u.add_argument("--views", type=int, default=256)
-    u.add_argument("--quads", type=int, default=None)
-    u.add_argument("--res", type=int, default=256)
-    u.add_argument("--directions", type=int, default=64, help="occlusion-measure directions")
-    u.add_argument("--threshold", type=float, default=0.9,
-                   help="tail probability P(rate < threshold) of the Beta models")
-    u.add_argument("--steps", type=int, default=4000, help="emcee steps per walker")
+    u.add_argument("--protocol", choices=["orbit", "volume"], default=None,
+                   help="default orbit (not used by ablation)")
+    u.add_argument("--views", type=int, default=None,
+                   help="orbit views (default 256; ablation: held fixed, default 64)")
+    u.add_argument("--quads", type=int, default=None,
+                   help="quads per view (default: the protocol's; ablation: held fixed, "
+                        "default 5000)")
+    u.add_argument("--res", type=int, default=None,
+                   help="pixels per side (default 256; ablation: default 128)")
+    u.add_argument("--directions", type=int, default=None,
+                   help="occlusion-measure directions (default 64; not used by ablation)")
+    u.add_argument("--threshold", type=float, default=None,
+                   help="tail probability P(rate < threshold) of the Beta models (default 0.9; "
+                        "not used by ablation)")
+    u.add_argument("--steps", type=int, default=None,
+                   help="emcee steps per walker (default 4000; not used by ablation)")
     u.add_argument("--repeats", type=int, default=10, help="ablation: repeats per setting")
     u.add_argument("--factors", default="quads,views,spacing", help="ablation: which factors")
     u.add_argument("--quads-list", default=None,
@@ -94,19 +102,23 @@ def run_uncertainty(args) -> int:
         options = _ablation_options(args)
         mesh, occ = load_mesh(items[0]), load_mesh(items[1])
         return _ablation(args, mesh, occ, items, out, seed, options)
-    options = {"protocol": args.protocol,
-               "views": as_positive_int(args.views, "--views"),
+    def given(value, default):
+        return default if value is None else value
+
+    options = {"protocol": given(args.protocol, "orbit"),
+               "views": as_positive_int(given(args.views, 256), "--views"),
                "quads": None if args.quads is None else as_positive_int(args.quads, "--quads"),
-               "resolution": as_positive_int(args.res, "--res", maximum=_MAX_RESOLUTION),
-               "directions": as_positive_int(args.directions, "--directions"),
-               "threshold": as_fraction(args.threshold, "--threshold"),
-               "steps": as_positive_int(args.steps, "--steps")}
+               "resolution": as_positive_int(given(args.res, 256), "--res",
+                                             maximum=_MAX_RESOLUTION),
+               "directions": as_positive_int(given(args.directions, 64), "--directions"),
+               "threshold": as_fraction(given(args.threshold, 0.9), "--threshold"),
+               "steps": as_positive_int(given(args.steps, 4000), "--steps")}
     mesh, occ = load_mesh(items[0]), load_mesh(items[1])
     versus = load_mesh(args.versus) if args.versus is not None else None
     report, result, models = uncertainty_report(mesh, occ, seed=seed, **options)
     paired = None
     if versus is not None:
-        other = evaluate(mesh, versus, protocol=args.protocol,
+        other = evaluate(mesh, versus, protocol=options["protocol"],
                          **{k: v for k, v in result.params.items()
                             if k in ("views", "quads", "resolution", "spacing")},
                          seed=seed)
@@ -219,7 +231,14 @@ def _iv(pair, digits: int = 4) -> str:
 
 
 def _ablation_options(args) -> dict:
-    """Checked options of ``uncertainty ablation``."""
+    """Checked options of ``uncertainty ablation``; the options it does not use are refused."""
+    for name in ("protocol", "directions", "threshold", "steps"):
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name}: not used by 'uncertainty ablation'")
+    fixed = {"views": None if args.views is None else as_positive_int(args.views, "--views"),
+             "quads": None if args.quads is None else as_positive_int(args.quads, "--quads"),
+             "resolution": None if args.res is None else
+             as_positive_int(args.res, "--res", maximum=_MAX_RESOLUTION)}
     factors = tuple(f.strip() for f in args.factors.split(",") if f.strip())
     bad = [f for f in factors if f not in ABLATION_FACTORS]
     if bad or not factors:
@@ -234,7 +253,8 @@ def _ablation_options(args) -> dict:
         ("spacing_list", args.spacings, float, "--spacings")) if arg is not None}
     for value in lists.get("spacing_list", ()):
         as_fraction(value, "--spacings")
-    return {"factors": factors, "repeats": repeats, **lists}
+    return {"factors": factors, "repeats": repeats, **lists,
+            **{k: v for k, v in fixed.items() if v is not None}}
 
 
 def _ablation(args, mesh, occ, items, out, seed, options) -> int:

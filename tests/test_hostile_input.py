@@ -614,3 +614,36 @@ def test_compare_bad_scheduler_leaves_no_folder(workdir, address):
                                    "--scheduler", address])
     assert rc == 2 and "--scheduler" in err
     assert_contract(rc, stdout, err, output=out)
+
+
+# --------------------------------------------------------------------------- uncertainty
+@pytest.mark.parametrize("extra", [["--quads-list", str(10**12)], ["--repeats", str(10**12)],
+                                   ["--quads-list", str(2**70)], ["--res", "0"],
+                                   ["--views", "-1"], ["--quads", "0"], ["--res", "100000"],
+                                   ["--steps", "100"], ["--directions", "2"],
+                                   ["--threshold", "0.5"], ["--protocol", "volume"]])
+def test_uncertainty_ablation_refuses_before_work(workdir, extra):
+    # --quads-list 1e12 raised MemoryError (exit 3), --repeats 1e12 ran unbounded, and
+    # --views/--quads/--res/--steps/--directions/--threshold/--protocol were silently ignored
+    out = workdir / f"ablation-{next(_names)}"
+    _count("uncertainty.ablation-options")
+    rc, stdout, err = run_cli(["uncertainty", "ablation", "fat-torus", "fat-torus",
+                               "--factors", "quads", "--quads-list", "10", "--repeats", "2",
+                               *extra, "--out", str(out)])
+    assert rc == 2, err
+    assert_contract(rc, stdout, err, output=out)
+
+
+def test_uncertainty_ablation_uses_the_fixed_settings(monkeypatch, tmp_path):
+    from viscore.cli import uncertainty_cmd
+
+    seen = {}
+
+    def fake(mesh, occ, **kwargs):
+        seen.update(kwargs)
+        raise InputError("stop")
+
+    monkeypatch.setattr(uncertainty_cmd, "convergence_ablation", fake)
+    assert main(["uncertainty", "ablation", "fat-torus", "fat-torus", "--views", "4", "--quads",
+                 "50", "--res", "16", "--out", str(tmp_path / "a"), "--quiet"]) == 2
+    assert (seen["views"], seen["quads"], seen["resolution"]) == (4, 50, 16)
