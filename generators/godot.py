@@ -74,7 +74,11 @@ def bake_surface(vertices: np.ndarray, faces: np.ndarray, distance: float
     Parameters
     ----------
     vertices : (n, 3) float
-        World-space positions (converted to float32 for meshoptimizer).
+        World-space positions, converted to float32 for meshoptimizer after a
+        scaling by a power of two that brings the largest coordinate to [1, 2):
+        float32 then holds any mesh viscore accepts (1e-90 to 1e90, beyond
+        float32's range), and the result is the same as unscaled wherever
+        float32 holds the mesh (a power of two scales float32 values exactly).
     faces : (f, 3) int
         Triangles indexing ``vertices``.
     distance : float
@@ -100,7 +104,10 @@ def bake_surface(vertices: np.ndarray, faces: np.ndarray, distance: float
     import meshoptimizer
 
     faces = np.asarray(faces, dtype=np.int64)
-    positions = np.ascontiguousarray(vertices, dtype=np.float32)
+    vertices = np.asarray(vertices, dtype=np.float64)
+    peak = float(np.abs(vertices).max()) if vertices.size else 0.0
+    shift = 2.0 ** -np.floor(np.log2(peak)) if peak > 0 else 1.0  # exact in float32
+    positions = np.ascontiguousarray(vertices * shift, dtype=np.float32)
     error = 0.0
     if distance > 0 and len(faces):
         indices = np.ascontiguousarray(faces.reshape(-1), dtype=np.uint32)
@@ -108,16 +115,18 @@ def bake_surface(vertices: np.ndarray, faces: np.ndarray, distance: float
         scale = meshoptimizer.simplify_scale(positions, len(positions), stride)
         destination = np.empty(len(indices), dtype=np.uint32)
         result_error = np.zeros(1, dtype=np.float32)
+        # relative to the mesh; a distance beyond float32's range: simplify all it can
+        relative = float(distance) * shift / float(scale) if scale > 0 else np.inf
+        target = float(np.float32(min(relative, float(np.finfo(np.float32).max))))
         count = meshoptimizer.simplify(
             destination, indices, positions, len(indices), len(positions), stride,
             target_index_count=min(len(indices), GODOT_TARGET_INDEX_COUNT),
-            target_error=float(np.float32(distance) / np.float32(scale)),
+            target_error=target,
             options=meshoptimizer.SIMPLIFY_LOCK_BORDER, result_error=result_error)
         faces = destination[:count].astype(np.int64).reshape(-1, 3)
-        error = float(result_error[0]) * float(scale)
+        error = float(result_error[0]) * float(scale) / shift
     used, inverse = np.unique(faces.reshape(-1), return_inverse=True)
-    return (np.asarray(vertices, dtype=np.float64)[used], inverse.reshape(-1, 3).astype(np.int64),
-            error)
+    return vertices[used], inverse.reshape(-1, 3).astype(np.int64), error
 
 
 def _is_transparent(geometry) -> bool:
