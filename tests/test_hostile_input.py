@@ -1,12 +1,18 @@
-"""Hostile input: property tests over mesh loading and the simple subcommands.
+"""Hostile input: property tests over mesh loading and every subcommand.
 
 The contract checked on every generated case: the library either returns a
 valid mesh or raises :class:`viscore.InputError` (never another exception);
-the command line (``measure``, ``evaluate``, ``validate``, ``data export``)
-either succeeds (exit 0, or 1 for a ``validate`` check that ran and failed)
-or exits 2 with exactly one stderr line starting ``viscore: error:``, nothing
-on stdout, and nothing at the output path. Cases run in-process through
-``viscore.cli.main.main`` with and without ``--quiet``.
+every subcommand (``measure``, ``evaluate``, ``validate``, ``generate`` with
+every registered method, ``compare``, ``uncertainty`` and ``uncertainty
+ablation``, ``bench`` (argument errors only: no benchmark runs), ``data
+export``) either succeeds (exit 0, or 1 for a ``validate`` check that ran and
+failed) or exits 2 with exactly one stderr line starting ``viscore: error:``
+under ``--quiet`` (without it, ``viscore:`` log lines may come first, never a
+traceback or a raw Python warning), nothing on stdout, and nothing at the
+output path (an occluder file, a study folder, an uncertainty folder): never
+exit 3. Valid but odd meshes (flat, a single triangle, cubes at 1e-12 and
+1e12) must succeed or be refused with one line. Cases run in-process through
+``viscore.cli.main.main``, with and without ``--quiet``.
 
 Classes of input tried
 ----------------------
@@ -26,16 +32,38 @@ Shapes: all-degenerate faces (collinear, repeated indices), a single random
 Paths given as meshes: a directory, a dangling symbolic link, a FIFO, a path
     through a regular file (``file.ply/x.ply``: unreadable even for root),
     ``/dev/urandom``, ``/proc/self/status``, a missing file.
-Output paths (``data export -o``): a missing folder, a path through a file, a
-    read-only location (``/proc``), an existing directory, an unknown suffix,
-    and a writable path (mode must be 0o666 & ~umask).
+    All of the above as the mesh of ``measure``, ``generate`` (every method),
+    as either mesh of ``evaluate`` and ``validate``, as a mesh of ``compare``
+    (first or second of two), as the mesh, the occluder or ``--versus`` of
+    ``uncertainty``, and (refused ones) as ``bench rays|voxels|evaluate --mesh``.
+Output paths: ``data export -o`` and ``generate -o``: a missing folder, a path
+    through a file, a read-only location (``/proc``), an existing directory,
+    an unknown suffix, STL/GLB for a mesh float32 cannot hold, and a writable
+    path (mode must be 0o666 & ~umask). ``compare --out`` and ``uncertainty
+    --out``: a missing parent, a path through a file, an existing file (left
+    unchanged), ``/proc``, a dangling link, a FIFO.
 Options: 0, negative, NaN, +-inf, ``1e5``, 10^5 and 16385 pixels, 10^12,
     2^64, 2^70, non-numbers and empty strings for every numeric option of
-    measure, evaluate and validate; seeds beyond 64 bits (valid: must run).
+    measure, evaluate, validate, compare, uncertainty (and its ablation),
+    bench rays|voxels|evaluate; every option a generator's registry entry
+    declares, plus ``--budget`` and ``--seed``, with those values and
+    ``none``, 1e300, 1e-300, 5e-324, 11 (below aabb-skins' one box) and
+    misspelt choices, the expected outcome taken from the registry;
+    malformed comma lists (``,``, ``12;24``, ``1,,x``, ``10,0``) for
+    ``--budget``, ``--methods``, ``--quads-list``, ``--views-list``,
+    ``--spacings``, ``--factors``, ``bench voxels --res``; unknown methods,
+    ``--versus`` not among the methods, unknown protocols; ``compare
+    --scheduler`` malformed or not answering; options ``uncertainty
+    ablation`` does not use; seeds beyond 64 bits (valid: must run); wrong
+    item counts; names that are not built-in scenes for ``data export``;
+    ``bench generate --models`` missing, a file, an empty folder.
 
 The default run derandomises hypothesis (the same cases every run) and keeps
-under ~30 s; ``-m slow`` runs ten times as many random cases. The number of
-generated cases run is printed at the end of the module (``pytest -s``).
+under about a minute; ``-m slow`` runs ten times as many random cases, and
+runs ``compare`` and ``uncertainty`` on the valid hostile meshes too. The
+number of generated cases run is printed at the end of the module
+(``pytest -s``): 958 in the default run, 539 of them for the subcommands
+beyond measure, evaluate and validate.
 """
 
 from __future__ import annotations
@@ -644,6 +672,555 @@ def test_uncertainty_ablation_uses_the_fixed_settings(monkeypatch, tmp_path):
         raise InputError("stop")
 
     monkeypatch.setattr(uncertainty_cmd, "convergence_ablation", fake)
-    assert main(["uncertainty", "ablation", "fat-torus", "fat-torus", "--views", "4", "--quads",
-                 "50", "--res", "16", "--out", str(tmp_path / "a"), "--quiet"]) == 2
+    assert run_cli(["uncertainty", "ablation", "fat-torus", "fat-torus", "--views", "4",
+                    "--quads", "50", "--res", "16", "--out", str(tmp_path / "a")])[0] == 2
     assert (seen["views"], seen["quads"], seen["resolution"]) == (4, 50, 16)
+
+
+# =========================================================================== every subcommand
+# generate (every registered method), compare, uncertainty, bench (argument errors only) and
+# data export, with the same hostile meshes and paths as above and absurd options.
+
+
+def assert_refused_or_ok(rc: int, out: str, err: str, *, quiet: bool, ok=(0,),
+                         output: Path | None = None, json_out: bool = False) -> None:
+    """:func:`assert_contract`; without ``--quiet``, log lines may come before the error line.
+
+    Under ``--quiet`` a failing command prints exactly its one error line. Without it, INFO
+    and WARNING lines (``viscore: ...``, never a traceback or a raw Python warning) may come
+    first; the error line is the last.
+    """
+    if rc in ok or quiet:
+        assert_contract(rc, out, err, ok=ok, output=output, json_out=json_out)
+        return
+    lines = err.strip().splitlines()
+    assert rc == 2, f"exit {rc}: {err[-2000:]}"
+    assert lines and all(line.startswith("viscore: ") for line in lines), err[-2000:]
+    assert lines[-1].startswith("viscore: error:") and not any(
+        line.startswith(("viscore: error:", "viscore: internal")) for line in lines[:-1]), err
+    assert_contract(rc, out, lines[-1], output=output)
+
+
+MESH_FAMILIES = ["file", "coordinates", "shape", "path"]
+
+#: The shapes every command refuses (the others are valid meshes, some odd).
+REFUSED_SHAPES = ["degenerate", "cloud-ply", "cloud-obj", "lines"]
+
+
+@st.composite
+def any_hostile_mesh(draw, family: str | None = None, shapes=tuple(SHAPE_KINDS)
+                     ) -> tuple[str, str | None, object]:
+    """(class, extension, bytes) of a hostile file, or (class, None, kind) of a hostile path."""
+    family = family or draw(st.sampled_from(MESH_FAMILIES))
+    if family == "file":
+        ext, kind = draw(st.sampled_from(EXTENSIONS)), draw(st.sampled_from(FILE_KINDS))
+        return f"files.{kind}", ext, draw(hostile_bytes(ext, kind))
+    if family == "coordinates":
+        kind, text = draw(hostile_obj())
+        return f"coordinates.{kind}", "obj", text.encode()
+    if family == "shape":
+        kind, ext, data, _ = draw(hostile_shape(draw(st.sampled_from(list(shapes)))))
+        return f"shapes.{kind}", ext, data
+    kind = draw(st.sampled_from(PATH_KINDS))
+    return f"paths.{kind}", None, kind
+
+
+def refused_mesh():
+    """Hostile meshes that are refused (mostly: a file may still hold a valid mesh)."""
+    return any_hostile_mesh(shapes=REFUSED_SHAPES)
+
+
+def _materialize(workdir: Path, case) -> Path | None:
+    """The case as a path on disk (None: not available on this system)."""
+    label, ext, data = case
+    if ext is None:
+        path = _bad_path(workdir, data)
+        return path if os.path.lexists(path) or data not in ("urandom", "proc") else None
+    path = _fresh(workdir, ext)
+    path.write_bytes(data)
+    return path
+
+
+def _loads(path: Path) -> bool:
+    """Whether the library loads the mesh (else InputError; nothing else is allowed)."""
+    return check_load(path) is not None
+
+
+# --------------------------------------------------------------------------- generate
+from viscore.generators import REGISTRY  # noqa: E402 - after the helpers it is used with
+
+#: Options that keep every method fast on the small meshes of these tests.
+_FAST_GENERATE = {"aabb-skins": ["--voxels", "8"], "qem": ["--budget", "12"]}
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("family", MESH_FAMILIES)
+def test_generate_hostile_meshes(workdir, family, slow):
+    @_settings(24, slow)
+    @given(case=any_hostile_mesh(family), method=st.sampled_from(list(REGISTRY)),
+           quiet=st.booleans())
+    def prop(case, method, quiet):
+        path = _materialize(workdir, case)
+        if path is None:
+            return
+        _count(f"generate.{case[0]}")
+        out = _fresh(workdir, "ply")
+        rc, stdout, err = run_cli(["generate", method, str(path), "-o", str(out),
+                                   *_FAST_GENERATE.get(method, []), "--json"]
+                                  + (["--quiet"] if quiet else []))
+        assert_refused_or_ok(rc, stdout, err, quiet=quiet, output=out, json_out=True)
+        loaded = _loads(path)
+        if not loaded:
+            assert rc == 2
+        elif method in ("bbox", "original"):
+            assert rc == 0, err  # any mesh that loads has a bounding box and is itself
+        if rc == 0:  # the file holds what the JSON says (a flat mesh's bbox: some degenerate)
+            doc = json.loads(stdout)
+            written = trimesh.load(out, process=False, force="mesh")
+            assert doc["triangles"] == len(written.faces) >= len(load_mesh(out).faces) > 0
+
+    prop()
+
+
+def _generate_value_valid(method: str, option: str, value: str) -> bool:
+    """Whether the registry (or the budget and seed rules) accepts a command-line value."""
+    spec = REGISTRY[method]
+    if option == "--seed":
+        return value.isdigit()
+    if option == "--budget":
+        try:
+            budget = int(value)
+        except ValueError:
+            return False
+        return budget >= (spec.min_budget if spec.budgeted else 1)
+    try:
+        spec.option(option[2:].replace("-", "_")).parse(value)
+    except InputError:
+        return False
+    return True
+
+
+GENERATE_VALUES = ABSURD + ["none", "None", "1e300", "1e-300", "5e-324", "100000", "11",
+                            "max-volume", "MAX-VOLUME", "densest "]
+
+
+@st.composite
+def generate_option(draw, method: str) -> tuple[str, str]:
+    flags = ["--budget", "--seed", *(o.flag for o in REGISTRY[method].options)]
+    return draw(st.sampled_from(flags)), draw(st.sampled_from(GENERATE_VALUES))
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("method", list(REGISTRY))
+def test_generate_absurd_options(workdir, method, slow):
+    @_settings(30, slow)
+    @given(choice=generate_option(method), quiet=st.booleans())
+    def prop(choice, quiet):
+        option, value = choice
+        _count(f"generate.options.{method}")
+        out = _fresh(workdir, "ply")
+        base = ["--voxels", "8"] if method == "aabb-skins" and option != "--voxels" else []
+        rc, stdout, err = run_cli(["generate", method, "fat-torus", "-o", str(out), *base,
+                                   f"{option}={value}", "--json"]
+                                  + (["--quiet"] if quiet else []))
+        assert_refused_or_ok(rc, stdout, err, quiet=quiet, output=out, json_out=True)
+        if not _generate_value_valid(method, option, value):
+            assert rc == 2, f"{option}={value} accepted"
+        elif option == "--seed":
+            assert rc == 0, err  # any non-negative integer is a seed
+
+    prop()
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_generate_output_paths(workdir, slow):
+    far = _fresh(workdir, "obj")  # extent 1 at 1e12: float32 (STL, GLB) cannot hold it
+    far.write_text(_obj_text(trimesh.creation.box().vertices + 1e12,
+                             trimesh.creation.box().faces + 1))
+
+    @_settings(20, slow)
+    @given(method=st.sampled_from(list(REGISTRY)),
+           kind=st.sampled_from([*OUTPUT_KINDS, "float32"]),
+           fmt=st.sampled_from(["ply", "obj", "stl", "off", "glb"]), quiet=st.booleans())
+    def prop(method, kind, fmt, quiet):
+        _count(f"generate.outputs.{kind}")
+        base = workdir / f"g{next(_names)}"
+        mesh = "fat-torus"
+        if kind == "missing-folder":
+            out = base / "a" / f"x.{fmt}"
+        elif kind == "through-file":
+            base.write_text("x")
+            out = base / f"x.{fmt}"
+        elif kind == "read-only":
+            out = Path(f"/proc/viscore-{next(_names)}.{fmt}")
+        elif kind == "directory":
+            out = base.with_suffix(f".{fmt}")
+            out.mkdir()
+        elif kind == "bad-suffix":
+            out = base.with_suffix(".xyz")
+        elif kind == "float32":
+            out, mesh = base.with_suffix(f".{'stl' if fmt in ('stl', 'ply') else 'glb'}"), far
+        else:
+            out = base.with_suffix(f".{fmt}")
+        rc, stdout, err = run_cli(["generate", method, str(mesh), "-o", str(out),
+                                   *_FAST_GENERATE.get(method, [])]
+                                  + (["--quiet"] if quiet else []))
+        if kind == "ok":
+            assert rc == 0, err
+            assert len(load_mesh(out).faces) > 0
+            return
+        if kind == "float32" and method == "aabb-skins":
+            assert rc in (0, 2)  # its boxes may sit on float32 values; if not, refused
+        else:
+            assert rc == 2, (kind, err)
+        assert_refused_or_ok(rc, stdout, err, quiet=quiet,
+                             output=None if kind == "directory" else out)
+        if rc == 2:
+            assert ".tmp" not in err
+        if kind == "directory":
+            assert out.is_dir() and not any(out.iterdir())
+
+    prop()
+
+
+# --------------------------------------------------------------------------- compare
+def _no_study(out: Path) -> None:
+    assert not os.path.lexists(out), f"study folder {out} created"
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_compare_hostile_meshes(workdir, slow):
+    @_settings(20, slow)
+    @given(case=any_hostile_mesh() if slow else refused_mesh(), first=st.booleans(),
+           quiet=st.booleans())
+    def prop(case, first, quiet):
+        path = _materialize(workdir, case)
+        if path is None:
+            return
+        loaded = _loads(path)
+        if loaded and not slow:
+            return  # a valid mesh runs a whole study (seconds): test_compare_odd_valid_meshes
+        _count(f"compare.{case[0]}")
+        out = workdir / f"study{next(_names)}"
+        meshes = [str(path), "fat-torus"] if first else ["fat-torus", str(path)]
+        rc, stdout, err = run_cli(["compare", *meshes, *_TINY_COMPARE, "--out", str(out),
+                                   "--json"] + (["--quiet"] if quiet else []))
+        assert_refused_or_ok(rc, stdout, err, quiet=quiet, output=out, json_out=True)
+        if not loaded:
+            assert rc == 2
+            _no_study(out)
+
+    prop()
+
+
+_BAD_COUNTS = ["0", "-1", "nan", "inf", "1e5", "1.5", "abc", "", str(10**12), str(2**64),
+               str(2**70)]
+COMPARE_BAD = {
+    "--views": _BAD_COUNTS, "--quads": _BAD_COUNTS, "--rays": _BAD_COUNTS,
+    "--res": [*_BAD_COUNTS, "4097", "16385", "100000"],
+    "--jobs": [*_BAD_COUNTS, "100000"],
+    "--seed": ["-1", "-5", "nan", "1.5", "abc", "", "1e5"],
+    "--budget": ["0", "-1", ",", "12;24", "abc", "1e3", "12,-4", "nan", "", "12,abc", "4,,x"],
+    "--methods": ["", ",", "nope", "bbox,nope", "BBOX", "bbox;original", " , "],
+    "--versus": ["nope", "", "qem", "BBOX"],
+    "--protocol": ["x", "", "ORBIT"],
+}
+
+
+@st.composite
+def compare_bad_option(draw) -> list[str]:
+    option = draw(st.sampled_from(sorted(COMPARE_BAD)))
+    value = draw(st.sampled_from(COMPARE_BAD[option]))
+    argv = list(_TINY_COMPARE)
+    if option in argv:
+        del argv[argv.index(option):argv.index(option) + 2]
+    return [*argv, f"{option}={value}"]
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_compare_absurd_options(workdir, slow):
+    @_settings(60, slow)
+    @given(argv=compare_bad_option(), quiet=st.booleans())
+    def prop(argv, quiet):
+        _count("compare.options")
+        out = workdir / f"study{next(_names)}"
+        rc, stdout, err = run_cli(["compare", "fat-torus", *argv, "--out", str(out)]
+                                  + (["--quiet"] if quiet else []))
+        assert rc == 2, f"{argv[-1]}: exit {rc}"
+        assert_contract(rc, stdout, err, output=out)
+
+    prop()
+
+
+def test_compare_budget_below_a_methods_minimum(workdir):
+    out = workdir / "study-budget"
+    for budget in ("11", "4", "12,11"):
+        _count("compare.options")
+        rc, stdout, err = run_cli(["compare", "fat-torus", *_TINY_COMPARE, "--methods",
+                                   "aabb-skins", "--budget", budget, "--out", str(out)])
+        assert rc == 2 and "at least 12" in err
+        assert_contract(rc, stdout, err, output=out)
+
+
+OUT_KINDS = ["missing-parent", "through-file", "existing-file", "read-only", "dangling", "fifo"]
+
+
+def _bad_out(workdir: Path, kind: str) -> tuple[Path, bytes | None]:
+    """A hostile output folder and, for a file already there, its content (kept unchanged)."""
+    base = workdir / f"out{next(_names)}"
+    if kind == "missing-parent":
+        return base / "a" / "b", None
+    if kind == "through-file":
+        base.write_text("x")
+        return base / "study", None
+    if kind == "existing-file":
+        base.write_bytes(b"keep")
+        return base, b"keep"
+    if kind == "read-only":
+        return Path(f"/proc/viscore-{next(_names)}"), None
+    if kind == "dangling":
+        base.symlink_to(workdir / "gone")
+        return base, None
+    os.mkfifo(base)
+    return base, None
+
+
+@pytest.mark.parametrize("kind", OUT_KINDS)
+@pytest.mark.parametrize("command", ["compare", "uncertainty"])
+def test_hostile_output_folders(workdir, command, kind):
+    out, kept = _bad_out(workdir, kind)
+    _count(f"{command}.outputs.{kind}")
+    before = os.path.lexists(out)
+    argv = (["compare", "fat-torus", *_TINY_COMPARE] if command == "compare" else
+            ["uncertainty", "fat-torus", "fat-torus", *_TINY_UNCERTAINTY])
+    rc, stdout, err = run_cli([*argv, "--out", str(out), "--quiet"])
+    assert rc == 2, err
+    assert_contract(rc, stdout, err, output=None if before else out)
+    if kept is not None:
+        assert out.read_bytes() == kept
+    if kind in ("dangling", "fifo"):
+        assert not out.is_dir() and os.path.lexists(out)
+    if kind == "missing-parent":
+        assert not out.parent.exists()
+
+
+# --------------------------------------------------------------------------- uncertainty
+#: Settings that make an uncertainty report take about a second.
+_TINY_UNCERTAINTY = ["--views", "4", "--quads", "50", "--res", "16", "--directions", "2",
+                     "--steps", "100"]
+#: And an ablation a few seconds.
+_TINY_ABLATION = ["--views", "4", "--quads", "50", "--res", "16", "--repeats", "2",
+                  "--quads-list", "10,20", "--views-list", "2,4", "--spacings", "0.5"]
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_uncertainty_hostile_meshes(workdir, slow):
+    @_settings(20, slow)
+    @given(case=any_hostile_mesh() if slow else refused_mesh(),
+           slot=st.sampled_from(["mesh", "occluder", "versus"]), quiet=st.booleans())
+    def prop(case, slot, quiet):
+        path = _materialize(workdir, case)
+        if path is None:
+            return
+        loaded = _loads(path)
+        if loaded and not slow:
+            return  # a valid mesh runs the report (a second): test_uncertainty_odd_valid_meshes
+        _count(f"uncertainty.{case[0]}")
+        items = {"mesh": [str(path), "fat-torus"], "occluder": ["fat-torus", str(path)],
+                 "versus": ["fat-torus", "fat-torus", "--versus", str(path)]}[slot]
+        out = workdir / f"unc{next(_names)}"
+        rc, stdout, err = run_cli(["uncertainty", *items, *_TINY_UNCERTAINTY, "--out", str(out),
+                                   "--json"] + (["--quiet"] if quiet else []))
+        assert_refused_or_ok(rc, stdout, err, quiet=quiet, output=out, json_out=True)
+        if not loaded:
+            assert rc == 2
+
+    prop()
+
+
+def test_uncertainty_odd_valid_meshes(workdir):
+    paths = _odd_valid_meshes(workdir)
+    for mesh, occ, versus in [("square", "triangle", "cube-1e12"), ("cube-1e-12", "square", None)]:
+        _count("uncertainty.odd-valid")
+        out = workdir / f"unc-odd-{next(_names)}"
+        extra = [] if versus is None else ["--versus", str(paths[versus])]
+        rc, stdout, err = run_cli(["uncertainty", str(paths[mesh]), str(paths[occ]), *extra,
+                                   *_TINY_UNCERTAINTY, "--out", str(out), "--json", "--quiet"])
+        # valid meshes: a report, or one line (e.g. too few views inform a rate)
+        assert_contract(rc, stdout, err, output=out, json_out=True)
+        if rc == 0:
+            assert sorted(os.listdir(out)) == ["per_view.png", "uncertainty.json"]
+
+
+UNCERTAINTY_BAD = {
+    "--views": _BAD_COUNTS, "--quads": _BAD_COUNTS, "--directions": _BAD_COUNTS,
+    "--steps": _BAD_COUNTS, "--res": [*_BAD_COUNTS, "8193", "100000"],
+    "--threshold": ["-1", "nan", "inf", "1.5", "abc", "", "2", "1e5"],
+    "--seed": ["-1", "-5", "nan", "1.5", "abc", "", "1e5"],
+    "--protocol": ["x", "", "orbti"],
+}
+ABLATION_BAD = {
+    "--repeats": ["0", "1", "-1", "nan", "abc", "", "1.5", str(10**12)],
+    "--factors": ["", ",", "pixels", "quads,x", "QUADS"],
+    "--quads-list": ["", ",", "0", "-1", "1;2", "abc", "nan", "1.5", "10,0", str(10**12),
+                     str(2**70)],
+    "--views-list": ["", ",", "0", "-1", "1;2", "abc", "nan", "1.5", "10,0", str(2**70)],
+    "--spacings": ["0", "-1", "2", "nan", "inf", "abc", "", ",", "0.1;0.2", "1e5"],
+    "--views": ["0", "-1", "nan", "abc"], "--quads": ["0", "-1", "1.5"],
+    "--res": ["0", "8193", "100000"],
+    "--steps": ["100"], "--directions": ["2"], "--threshold": ["0.5"], "--protocol": ["orbit"],
+    "--versus": ["fat-torus"],
+}
+
+
+@st.composite
+def uncertainty_bad_option(draw) -> list[str]:
+    ablation = draw(st.booleans())
+    table = ABLATION_BAD if ablation else UNCERTAINTY_BAD
+    option = draw(st.sampled_from(sorted(table)))
+    value = draw(st.sampled_from(table[option]))
+    argv = list(_TINY_ABLATION if ablation else _TINY_UNCERTAINTY)
+    if option in argv:
+        del argv[argv.index(option):argv.index(option) + 2]
+    return [*(["ablation"] if ablation else []), "fat-torus", "fat-torus", *argv,
+            f"{option}={value}"]
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_uncertainty_absurd_options(workdir, slow):
+    @_settings(60, slow)
+    @given(argv=uncertainty_bad_option(), quiet=st.booleans())
+    def prop(argv, quiet):
+        _count("uncertainty.options")
+        out = workdir / f"unc{next(_names)}"
+        rc, stdout, err = run_cli(["uncertainty", *argv, "--out", str(out), "--json"]
+                                  + (["--quiet"] if quiet else []))
+        assert rc == 2, f"{argv[0]} {argv[-1]}: exit {rc}"
+        assert_contract(rc, stdout, err, output=out)
+
+    prop()
+
+
+def test_uncertainty_item_counts(workdir):
+    for items in (["ablation"], ["ablation", "fat-torus"], ["fat-torus"],
+                  ["fat-torus", "fat-torus", "fat-torus"], ["ablation", "a", "b", "c"]):
+        _count("uncertainty.usage")
+        out = workdir / f"unc{next(_names)}"
+        rc, stdout, err = run_cli(["uncertainty", *items, "--out", str(out)])
+        assert rc == 2
+        assert_contract(rc, stdout, err, output=out)
+
+
+# --------------------------------------------------------------------------- bench
+#: Cheap settings: even a case wrongly accepted runs in well under a second.
+_BENCH_BASE = {"rays": ["--rays", "10", "--repeats", "1"],
+               "voxels": ["--res", "4", "--repeats", "1"],
+               "evaluate": ["--views", "2", "--quads", "20", "--res", "16", "--rays", "100"]}
+BENCH_BAD = {
+    "rays": {"--rays": _BAD_COUNTS, "--repeats": _BAD_COUNTS[:8],
+             "--seed": ["-1", "nan", "abc", ""]},
+    "voxels": {"--res": [*_BAD_COUNTS, ",", "8;16", "64,0", "100000", "8,100000"],
+               "--repeats": _BAD_COUNTS[:8]},
+    "evaluate": {"--views": _BAD_COUNTS, "--quads": _BAD_COUNTS, "--rays": _BAD_COUNTS,
+                 "--res": [*_BAD_COUNTS, "4097", "100000"], "--budget": _BAD_COUNTS[:8],
+                 "--seed": ["-1", "nan", "abc", ""]},
+}
+
+
+@st.composite
+def bench_bad_argv(draw, box: str) -> list[str]:
+    target = draw(st.sampled_from(["rays", "voxels", "evaluate", "generate", "usage"]))
+    if target == "generate":
+        return ["bench", "generate", *draw(st.sampled_from([
+            ["aabb-skins", "--models", "/nonexistent/models"], ["aabb-skins", "--models", box],
+            ["qem"], [""], ["AABB-SKINS"], []]))]
+    if target == "usage":
+        return ["bench", *draw(st.sampled_from([[], ["nope"], ["rays", "extra"],
+                                                ["rays", "--views", "2"]]))]
+    option = draw(st.sampled_from(sorted(BENCH_BAD[target])))
+    argv = list(_BENCH_BASE[target])
+    if option in argv:
+        del argv[argv.index(option):argv.index(option) + 2]
+    value = draw(st.sampled_from(BENCH_BAD[target][option]))
+    return ["bench", target, "--mesh", box, *argv, f"{option}={value}"]
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_bench_argument_errors(workdir, slow):
+    box = _fresh(workdir, "obj")
+    box.write_text(_obj_text(trimesh.creation.box().vertices, trimesh.creation.box().faces + 1))
+
+    @_settings(45, slow)
+    @given(argv=bench_bad_argv(str(box)), quiet=st.booleans())
+    def prop(argv, quiet):
+        _count("bench.options")
+        rc, stdout, err = run_cli([*argv, "--json"] + (["--quiet"] if quiet else []))
+        assert rc == 2, f"{argv}: exit {rc}"
+        assert_contract(rc, stdout, err)
+
+    prop()
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_bench_hostile_meshes(workdir, slow):
+    @_settings(15, slow)
+    @given(case=refused_mesh(), target=st.sampled_from(["rays", "voxels", "evaluate"]),
+           quiet=st.booleans())
+    def prop(case, target, quiet):
+        path = _materialize(workdir, case)
+        if path is None or _loads(path):
+            return  # a mesh that loads would run the benchmark: argument errors only here
+        _count(f"bench.{case[0]}")
+        rc, stdout, err = run_cli(["bench", target, "--mesh", str(path), *_BENCH_BASE[target]]
+                                  + (["--quiet"] if quiet else []))
+        assert rc == 2
+        assert_contract(rc, stdout, err)
+
+    prop()
+
+
+# --------------------------------------------------------------------------- data export
+DATA_NAMES = ["nope", "", " ", "BUNNY", "bunny ", " bunny", "../bunny", "fat-torus/x",
+              "fat-torus.ply", "a" * 300, "fat-torus;ls", "-", "list"]
+
+
+@pytest.mark.parametrize("slow", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_data_export_bad_names(workdir, slow):
+    box = _fresh(workdir, "obj")  # a mesh file is not a built-in scene either
+    box.write_text(_obj_text(trimesh.creation.box().vertices, trimesh.creation.box().faces + 1))
+
+    @_settings(20, slow)
+    @given(name=st.sampled_from([*DATA_NAMES, str(box)]) | st.text(max_size=30),
+           fmt=st.sampled_from(["ply", "obj", "stl", "off", "glb"]), quiet=st.booleans())
+    def prop(name, fmt, quiet):
+        from viscore import scene_names
+
+        _count("data-export.names")
+        if name in scene_names() or "\x00" in name:
+            return  # a real scene; NUL cannot come from a shell
+        out = _fresh(workdir, fmt)
+        rc, stdout, err = run_cli(["data", "export", "-o", str(out)]
+                                  + (["--quiet"] if quiet else []) + ["--", name])
+        assert rc == 2, f"{name!r}: exit {rc}"
+        assert_contract(rc, stdout, err, output=out)
+
+    prop()
+
+
+@pytest.mark.parametrize("scale", [2.0**-280, 2.0**-100, 2.0**130, 2.0**290])
+def test_godot_bake_beyond_float32(scale):
+    # float32 positions overflowed to inf above 3.4e38 (and underflowed below 1e-38):
+    # RuntimeWarnings on stderr and a bake of infinities; a power-of-two scale is exact
+    import warnings
+
+    from viscore.generators.godot import bake_surface
+
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    v0, f0, e0 = bake_surface(sphere.vertices, sphere.faces, 0.05)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        v1, f1, e1 = bake_surface(sphere.vertices * scale, sphere.faces, 0.05 * scale)
+        assert len(bake_surface(sphere.vertices, sphere.faces, 1e300)[1]) <= len(f0)
+    np.testing.assert_array_equal(f1, f0)
+    np.testing.assert_array_equal(v1, v0 * scale)
+    assert e1 == pytest.approx(e0 * scale, rel=1e-6) and len(f0) < len(sphere.faces)
