@@ -127,3 +127,13 @@ def test_bench_generate_builtin_fallback_says_so(capsys, monkeypatch):
     assert doc["source"] == "built-in scenes"
     assert {r["mesh"] for r in doc["rows"]} == {"bunny (pymeshlab)", "cow"}
     assert all(0.0 < r["volume_share"] <= 1.0 for r in doc["rows"])
+
+
+def test_bench_repeats_are_capped(capsys):
+    # --repeats 1e12 ran without end
+    from viscore.cli.main import main
+
+    for command in ("rays", "voxels"):
+        assert main(["bench", command, "--repeats", str(10**12)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "repeats" in err[0]
