@@ -40,8 +40,9 @@ def test_aabb_skins_conservative_million_rays(name):
         pytest.skip("no inner voxels")
     if not occ.info["conservative_guaranteed"]:
         pytest.skip("open or inconsistently oriented mesh: not guaranteed conservative")
-    rep = check_conservative(mesh, occ.mesh, rays=1_000_000, seed=11)
-    assert rep.violations == 0, rep.summary()
+    for domain in ("orbit", "volume"):
+        rep = check_conservative(mesh, occ.mesh, rays=1_000_000, domain=domain, seed=11)
+        assert rep.violations == 0, rep.summary()
 
 
 def test_aabb_skins_thresholds():
