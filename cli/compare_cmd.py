@@ -34,13 +34,12 @@ References
 from __future__ import annotations
 
 import contextlib
-import os
 from dataclasses import asdict
 from pathlib import Path
 
 from viscore.generators import REGISTRY
 
-from viscore import InputError, load_mesh, provenance, scene_names
+from viscore import InputError, cpu_cores, load_mesh, provenance, scene_names
 from viscore._validate import as_positive_int, as_seed, check_memory
 
 from ._common import dumps, emit, parse_list, write_atomic
@@ -131,8 +130,7 @@ def _budgets(text: str, methods: list[str]) -> tuple[int, ...]:
 def _jobs(value: object, scheduler) -> int:
     jobs = as_positive_int(value, "--jobs")
     if scheduler is None:
-        cores = (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
-                 else os.cpu_count()) or 1
+        cores = cpu_cores()
         if jobs > JOBS_PER_CORE * cores:
             raise InputError(f"--jobs {jobs}: at most {JOBS_PER_CORE * cores} "
                              f"({JOBS_PER_CORE} per core, {cores} cores)")

@@ -53,7 +53,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from viscore import InputError, stream_seed
+from viscore import InputError, cpu_cores, stream_seed
 
 from ._common import _mesh_bytes, dumps, write_atomic
 
@@ -565,8 +565,7 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
             rows[job.key] = found
         else:
             pending.append(job)
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    per_job = workers or max(1, (cores or 1) // max(1, min(jobs, len(pending) or 1)))
+    per_job = workers or max(1, cpu_cores() // max(1, min(jobs, len(pending) or 1)))
     bar = tqdm(total=len(rows) + len(pending), initial=len(rows), disable=not progress,
                desc="compare", unit="job")
 

@@ -48,7 +48,7 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from viscore import InputError, OrthoCamera, Scene
+from viscore import InputError, OrthoCamera, Scene, directions_uniform_batches
 from viscore._jit import njit_cached
 from viscore._validate import (
     as_positive,
@@ -383,13 +383,7 @@ def _direction_batches(directions: int | np.ndarray, seed: int):
         for a in range(0, len(directions), _DIRECTIONS_PER_BATCH):
             yield directions[a:a + _DIRECTIONS_PER_BATCH]
         return
-    rng = np.random.default_rng(seed)
-    for a in range(0, directions, _DIRECTIONS_PER_BATCH):
-        u = rng.random((min(_DIRECTIONS_PER_BATCH, directions - a), 2))
-        z = 2.0 * u[:, 0] - 1.0
-        phi = 2.0 * np.pi * u[:, 1]
-        s = np.sqrt(1.0 - z * z)
-        yield np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
+    yield from directions_uniform_batches(directions, seed=seed, batch=_DIRECTIONS_PER_BATCH)
 
 
 @dataclass(frozen=True)

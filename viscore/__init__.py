@@ -15,11 +15,12 @@ from .run_provenance import provenance
 from .samplers import (
     directions_fibonacci,
     directions_uniform,
+    directions_uniform_batches,
     grid_positions,
     rays_between,
     stream_seed,
 )
-from .scene import AllHits, Scene, get_workers, set_workers
+from .scene import AllHits, Scene, cpu_cores, get_workers, set_workers
 from .voxels import (
     VoxelGrid,
     Voxelization,
@@ -40,6 +41,7 @@ __all__ = [
     "Scene", "AllHits", "set_workers", "get_workers", "OrthoCamera", "PerspectiveCamera",
     "cube_cameras", "camera_basis", "coverage_image", "depth_image", "directions_uniform",
     "directions_fibonacci", "grid_positions", "rays_between", "stream_seed", "provenance",
+    "directions_uniform_batches", "cpu_cores",
     "scene_names",
     "scene_path", "scene_descriptions", "VoxelGrid", "Voxelization", "voxel_grid",
     "surface_voxels", "outside_voxels", "inner_voxels_six_direction", "inside_voxels_parity",

@@ -28,7 +28,7 @@ import numpy.typing as npt
 from ._validate import InputError, as_positive, as_positive_int, as_seed, as_vector, check_memory
 
 __all__ = ["directions_uniform", "directions_fibonacci", "grid_positions", "rays_between",
-           "stream_seed"]
+           "stream_seed", "directions_uniform_batches"]
 
 _GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
 
@@ -108,6 +108,31 @@ def directions_uniform(n: int, *, seed: int = 0) -> np.ndarray:
     seed = as_seed(seed)
     check_memory(n * _BYTES_PER_DIRECTION, f"{n:,} directions")
     u = np.random.default_rng(seed).random((n, 2))  # row by row: prefixes agree across n
+    return _sphere_points(u)
+
+
+def directions_uniform_batches(n: int, *, seed: int = 0, batch: int = 4096):
+    """:func:`directions_uniform` ``(n, seed)`` drawn ``batch`` rows at a time.
+
+    Yields ``(m, 3) float64`` blocks whose concatenation equals
+    ``directions_uniform(n, seed=seed)`` bit for bit, so that long runs hold
+    one batch in memory instead of all ``n`` directions.
+
+    Examples
+    --------
+    >>> blocks = list(directions_uniform_batches(5, seed=3, batch=2))
+    >>> bool(np.array_equal(np.concatenate(blocks), directions_uniform(5, seed=3)))
+    True
+    """
+    n = as_positive_int(n, "n")
+    batch = as_positive_int(batch, "batch")
+    rng = np.random.default_rng(as_seed(seed))
+    for a in range(0, n, batch):
+        yield _sphere_points(rng.random((min(batch, n - a), 2)))
+
+
+def _sphere_points(u: np.ndarray) -> np.ndarray:
+    """Uniform unit vectors from (m, 2) uniforms in [0, 1): z uniform, azimuth uniform."""
     z = 2.0 * u[:, 0] - 1.0
     phi = 2.0 * np.pi * u[:, 1]
     s = np.sqrt(1.0 - z * z)

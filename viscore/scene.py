@@ -79,6 +79,11 @@ def get_workers() -> int:
     """The default number of ray-casting threads: as set, else one per CPU core."""
     if _workers is not None:
         return _workers
+    return cpu_cores()
+
+
+def cpu_cores() -> int:
+    """CPU cores this process may run on (its affinity set where the OS has one), >= 1."""
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not Linux
