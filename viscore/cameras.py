@@ -1,10 +1,11 @@
 """Cameras as ray bundles: orthographic, perspective and the cube of six frusta.
 
 Each camera yields one ray per pixel centre, ``(R*R, 3) float64`` origins and
-unit directions, row-major with row 0 at the top edge (towards ``up``) and
-column 0 at the left edge. The orthographic camera follows the orbit protocol
-of Silvennoinen et al. 2014 [1]_, sec. 6.1; the six 90-degree frusta follow
-the volume protocol of Wu et al. 2022 [2]_, sec. 3.2.
+unit directions (``(H*W, 3)`` for a non-square perspective camera), row-major
+with row 0 at the top edge (towards ``up``) and column 0 at the left edge.
+The orthographic camera follows the orbit protocol of Silvennoinen et al.
+2014 [1]_, sec. 6.1; the six 90-degree frusta follow the volume protocol of
+Wu et al. 2022 [2]_, sec. 3.2.
 
 References
 ----------
@@ -77,16 +78,25 @@ def camera_basis(forward: npt.ArrayLike, up: npt.ArrayLike | None = None
     return f, r, np.cross(r, f)
 
 
-def _pixel_grid(resolution: int) -> tuple[np.ndarray, np.ndarray]:
-    """(R*R,) horizontal and vertical pixel-centre coordinates in [-0.5, 0.5].
+def _pixel_grid(resolution: int, height: int | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(H*W,) horizontal and vertical pixel-centre coordinates in [-0.5, 0.5].
 
-    Checks first that the rays of an R x R image fit in memory.
+    W = ``resolution`` columns, H = ``height`` rows (default: square). Each
+    coordinate is a fraction of its own side. Checks first that the rays of the
+    image fit in memory.
     """
-    check_memory(resolution * resolution * _BYTES_PER_PIXEL, f"resolution={resolution}")
+    rows = resolution if height is None else height
+    check_memory(resolution * rows * _BYTES_PER_PIXEL,
+                 f"resolution={resolution}" if height is None
+                 else f"resolution={resolution}, height={height}")
     c = (np.arange(resolution) + 0.5) / resolution - 0.5
-    x = np.tile(c, resolution)
-    y = np.repeat(-c, resolution)  # row 0 at the top
-    return x, y
+    if height is None:
+        x = np.tile(c, resolution)
+        y = np.repeat(-c, resolution)  # row 0 at the top
+        return x, y
+    cy = (np.arange(rows) + 0.5) / rows - 0.5
+    return np.tile(c, rows), np.repeat(-cy, resolution)
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,6 +151,11 @@ class OrthoCamera:
         """Side of one pixel, world units."""
         return self.extent / self.resolution
 
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Image shape (rows, columns) = (R, R)."""
+        return (self.resolution, self.resolution)
+
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
         """Origins and directions, each ``(R*R, 3) float64``, one per pixel centre."""
         f, r, u = self.basis
@@ -168,7 +183,7 @@ class OrthoCamera:
 
 @dataclass(frozen=True, eq=False)
 class PerspectiveCamera:
-    """Pinhole camera with a square image and a symmetric field of view.
+    """Pinhole camera with a symmetric field of view; square unless ``height`` is given.
 
     Parameters
     ----------
@@ -179,14 +194,32 @@ class PerspectiveCamera:
     up : (3,) float, optional
         Approximate up vector (see :func:`camera_basis`).
     fov : float, optional
-        Full field of view in degrees, in (0, 180). Default 90 (a cube face).
+        Full *horizontal* field of view in degrees (across the ``resolution``
+        columns), in (0, 180). Default 90 (a cube face). For a square image it
+        is also the vertical one.
     resolution : int, optional
-        R, default 256.
+        W, the number of columns (pixels across), default 256.
+    height : int, optional
+        H, the number of rows. Default None: H = W (square image). Pixels are
+        square, so the vertical field of view is
+        ``2 atan(tan(fov / 2) * H / W)`` (see :attr:`vertical_fov`). A height
+        equal to ``resolution`` is stored as None.
 
     Notes
     -----
     Depth along a ray is the Euclidean distance from the eye, not the
-    planar z of a rasterizer.
+    planar z of a rasterizer. The image has ``shape == (H, W)`` (rows,
+    columns); ``rays()`` returns H*W rays, row-major. A square camera
+    (``height`` None or equal to ``resolution``) computes exactly what it did
+    before ``height`` existed.
+
+    Examples
+    --------
+    >>> cam = PerspectiveCamera((0, 0, 0), (1, 0, 0), fov=90, resolution=16, height=9)
+    >>> cam.shape, cam.rays()[1].shape
+    ((9, 16), (144, 3))
+    >>> round(cam.vertical_fov, 3)
+    58.716
     """
 
     position: npt.ArrayLike
@@ -194,6 +227,7 @@ class PerspectiveCamera:
     up: npt.ArrayLike | None = None
     fov: float = 90.0
     resolution: int = 256
+    height: int | None = None
     basis: tuple = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -204,35 +238,65 @@ class PerspectiveCamera:
         object.__setattr__(self, "fov", fov)
         object.__setattr__(self, "resolution", as_positive_int(self.resolution, "resolution",
                                                                maximum=16384))
+        if self.height is not None:
+            height = as_positive_int(self.height, "height", maximum=16384)
+            object.__setattr__(self, "height", None if height == self.resolution else height)
         f, r, u = camera_basis(self.forward, self.up)
         object.__setattr__(self, "forward", f)
         object.__setattr__(self, "basis", (f, r, u))
 
     @property
+    def shape(self) -> tuple[int, int]:
+        """Image shape (rows, columns) = (H, W)."""
+        rows = self.resolution if self.height is None else self.height
+        return (rows, self.resolution)
+
+    @property
     def _half(self) -> float:
+        """tan(horizontal half field of view)."""
         return float(np.tan(np.radians(self.fov) / 2))
 
+    @property
+    def _half_vertical(self) -> float:
+        """tan(vertical half field of view)."""
+        if self.height is None:
+            return self._half
+        return self._half * self.height / self.resolution
+
+    @property
+    def vertical_fov(self) -> float:
+        """Full vertical field of view, degrees."""
+        if self.height is None:
+            return self.fov
+        return float(np.degrees(2 * np.arctan(self._half_vertical)))
+
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
-        """Origins and unit directions, each ``(R*R, 3) float64``."""
+        """Origins and unit directions, each ``(H*W, 3) float64``."""
         f, r, u = self.basis
-        x, y = _pixel_grid(self.resolution)
-        s = 2 * self._half
-        d = f + s * (x[:, None] * r + y[:, None] * u)
+        x, y = _pixel_grid(self.resolution, self.height)
+        if self.height is None:
+            s = 2 * self._half
+            d = f + s * (x[:, None] * r + y[:, None] * u)
+        else:
+            d = f + (2 * self._half * x)[:, None] * r + (2 * self._half_vertical * y)[:, None] * u
         d /= np.linalg.norm(d, axis=1)[:, None]
         return np.broadcast_to(self.position, d.shape).copy(), d
 
     def project(self, points: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Pixel coordinates (column, row) and eye distance of world points.
 
-        Points behind the eye get NaN pixel coordinates.
+        Column in [0, W] and row in [0, H] inside the image; pixel (i, j)
+        spans [j, j+1) x [i, i+1). Points behind the eye (or in its plane) get
+        NaN pixel coordinates.
         """
         f, r, u = self.basis
         p = np.asarray(points, dtype=np.float64) - self.position
         z = p @ f
+        rows, cols = self.shape
         with np.errstate(divide="ignore", invalid="ignore"):
             x = np.where(z > 0, (p @ r) / z, np.nan) / (2 * self._half)
-            y = np.where(z > 0, (p @ u) / z, np.nan) / (2 * self._half)
-        pixel = np.stack([(x + 0.5) * self.resolution, (0.5 - y) * self.resolution], axis=1)
+            y = np.where(z > 0, (p @ u) / z, np.nan) / (2 * self._half_vertical)
+        pixel = np.stack([(x + 0.5) * cols, (0.5 - y) * rows], axis=1)
         return pixel, np.linalg.norm(p, axis=1)
 
     def contains(self, directions: npt.ArrayLike) -> np.ndarray:
@@ -243,8 +307,10 @@ class PerspectiveCamera:
         inside : (n,) bool
         """
         pixel, _ = self.project(self.position + np.asarray(directions, dtype=np.float64))
+        rows, cols = self.shape
         with np.errstate(invalid="ignore"):
-            return ((pixel >= 0) & (pixel <= self.resolution)).all(axis=1)
+            return ((pixel[:, 0] >= 0) & (pixel[:, 0] <= cols)
+                    & (pixel[:, 1] >= 0) & (pixel[:, 1] <= rows))
 
 
 def cube_cameras(position: npt.ArrayLike, resolution: int = 256) -> list[PerspectiveCamera]:
