@@ -1,0 +1,289 @@
+"""Hierarchical occluders (Silvennoinen et al. 2014, sec. 5): BVH, per-node occluders, tree cut.
+
+Built with the quick ``qem`` node builder on small voxel grids: the properties
+tested here (nesting, objects per leaf, error order, the cut, files) do not
+depend on which builder makes each node's occluder.
+"""
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+from viscore.generators.occluder import check_parts
+from viscore.generators.planar_hierarchy import (
+    build_hierarchy,
+    cut_hierarchy,
+    dilated_voxel_mesh,
+    generate_planar_hierarchy,
+    hierarchy_from_json,
+    hierarchy_to_json,
+    index_hierarchy,
+)
+
+import viscore
+from viscore import InputError
+
+
+def _walk(root):
+    out, stack = [], [root]
+    while stack:
+        n = stack.pop()
+        out.append(n)
+        stack.extend(reversed(n["children"]))
+    return out
+
+
+def _leaves(root):
+    return [n for n in _walk(root) if not n["children"]]
+
+
+@pytest.fixture(scope="module")
+def city():
+    mesh = viscore.load_mesh("city-block")
+    return mesh, build_hierarchy(mesh, node_occluder="qem", budget=32, voxels=12, max_leaves=8)
+
+
+@pytest.fixture(scope="module")
+def boxes_row():
+    """Six unit boxes along X, 0.5 apart: six objects."""
+    boxes = [trimesh.creation.box(bounds=[[1.5 * i, 0, 0], [1.5 * i + 1, 1, 1]])
+             for i in range(6)]
+    return boxes, build_hierarchy(boxes, node_occluder="qem", budget=12, voxels=8)
+
+
+def _components(mesh):
+    return len(mesh.split(only_watertight=False))
+
+
+def test_build_hierarchy_bounds_nest(city):
+    _, root = city
+    assert check_parts({"hierarchy": root}) == {"hierarchy": len(_walk(root))}
+    for node in _walk(root):
+        for key in ("bounds", "geometry_bounds"):
+            for child in node["children"]:
+                assert (child[key][0] >= node[key][0]).all()
+                assert (child[key][1] <= node[key][1]).all()
+        # bounds = geometry bounds grown by the error
+        np.testing.assert_allclose(node["bounds"][0], node["geometry_bounds"][0] - node["error"])
+        np.testing.assert_allclose(node["bounds"][1], node["geometry_bounds"][1] + node["error"])
+
+
+def test_build_hierarchy_every_object_in_exactly_one_leaf(city):
+    mesh, root = city
+    leaves = _leaves(root)
+    assert len(leaves) == 8  # max_leaves
+    objects = np.concatenate([leaf["objects"] for leaf in leaves])
+    assert sorted(objects.tolist()) == list(range(_components(mesh)))
+    for node in _walk(root):
+        if node["children"]:
+            below = np.concatenate([c["objects"] for c in node["children"]])
+            assert sorted(below.tolist()) == sorted(node["objects"].tolist())
+
+
+def test_build_hierarchy_one_object_per_leaf_without_a_cap(boxes_row):
+    _, root = boxes_row
+    leaves = _leaves(root)
+    assert sorted(int(leaf["objects"][0]) for leaf in leaves) == list(range(6))
+    assert all(len(leaf["objects"]) == 1 for leaf in leaves)
+    assert len(_walk(root)) == 11  # a binary tree: 2 * leaves - 1
+    # median split along X: the left child holds the three left boxes
+    assert sorted(root["children"][0]["objects"].tolist()) == [0, 1, 2]
+
+
+def test_build_hierarchy_error_monotone_down_the_tree(city):
+    _, root = city
+    for node in _walk(root):
+        assert node["error"] >= node["voxel_size"] > 0
+        for child in node["children"]:
+            assert child["error"] <= node["error"]
+            assert child["voxel_size"] <= node["voxel_size"]
+        # inner nodes are dilated once, leaves not
+        assert node["dilation"] == (1 if node["children"] else 0)
+
+
+def test_build_hierarchy_soup_components_over_merged_vertices():
+    # 40 boxes as an unmerged soup (three vertices per triangle, as STL gives): 40 objects,
+    # not 480; capped at 4 leaves of 10 neighbouring boxes
+    boxes = [trimesh.creation.box(bounds=[[2.0 * i, 0, 0], [2.0 * i + 1, 1, 1]])
+             for i in range(40)]
+    merged = trimesh.util.concatenate(boxes)
+    tri = merged.vertices[merged.faces].reshape(-1, 3)
+    soup = trimesh.Trimesh(tri, np.arange(len(tri)).reshape(-1, 3), process=False)
+    root = build_hierarchy(soup, node_occluder="qem", budget=12, voxels=4, max_leaves=4)
+    leaves = _leaves(root)
+    assert len(root["objects"]) == 40 and len(leaves) == 4
+    assert sorted(len(leaf["objects"]) for leaf in leaves) == [10, 10, 10, 10]
+    for leaf in leaves:  # spatially compact: ten consecutive boxes along X
+        lo, hi = leaf["geometry_bounds"][:, 0]
+        assert hi - lo == pytest.approx(19.0)
+
+
+def test_build_hierarchy_builder_contract():
+    calls = []
+
+    def with_dilation(mesh, *, budget, seed, voxel_size, dilation):
+        calls.append(("dilation", len(mesh.faces), voxel_size, dilation))
+        return trimesh.creation.box(bounds=mesh.bounds)
+
+    def without(mesh, *, budget, seed, voxels):
+        calls.append(("plain", bool(mesh.is_watertight), voxels, len(mesh.faces)))
+        return trimesh.creation.box(bounds=mesh.bounds)
+
+    pair = [trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]]),
+            trimesh.creation.box(bounds=[[1.1, 0, 0], [2.1, 1, 1]])]
+    build_hierarchy(pair, node_occluder=with_dilation, budget=12, voxels=10)
+    # children first: two leaves (12 triangles each, no dilation), then the root (both boxes)
+    assert [c[3] for c in calls] == [0, 0, 1]
+    assert [c[1] for c in calls] == [12, 12, 24]
+    assert calls[2][2] == pytest.approx(0.21)  # longest side 2.1 / 10 voxels
+    calls.clear()
+    root = build_hierarchy(pair, node_occluder=without, budget=12, voxels=10)
+    # the root gets the closed voxel mesh of its dilated solid: glued, one component
+    kind, watertight, voxels, _ = calls[2]
+    assert kind == "plain" and watertight and voxels == 10 + 2 + 1  # grown by 1.5 voxels a side
+    assert root["error"] == pytest.approx(0.21 * 2.5)
+
+
+def test_dilated_voxel_mesh_glues_near_objects_only():
+    a = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+    near = trimesh.creation.box(bounds=[[1.15, 0, 0], [2.15, 1, 1]])
+    far = trimesh.creation.box(bounds=[[1.55, 0, 0], [2.55, 1, 1]])
+    for other, parts in ((near, 1), (far, 2)):
+        m = dilated_voxel_mesh(trimesh.util.concatenate([a, other]), voxel_size=0.1)
+        assert m.is_watertight and _components(m) == parts
+    one = dilated_voxel_mesh(a, voxel_size=0.1, dilation=1)
+    plain = dilated_voxel_mesh(a, voxel_size=0.1, dilation=0)
+    # one dilation step grows the solid by one voxel layer on every side (6-neighbourhood)
+    assert plain.extents[0] + 0.2 == pytest.approx(one.extents[0])
+
+
+def test_cut_hierarchy_far_camera_takes_the_root_near_takes_leaves(city):
+    _, root = city
+    assert [n["id"] for n in cut_hierarchy(root, (1e7, 0, 0))] == [0]
+    # a camera inside a leaf's bounds descends to that leaf
+    leaf = _leaves(root)[3]
+    inside = leaf["bounds"].mean(axis=0)
+    assert any(n is leaf for n in cut_hierarchy(root, inside))
+    # an error tolerance of almost nothing takes every leaf
+    cut = cut_hierarchy(root, (50.0, 0, 0), pixel_error=1e-12)
+    assert [n["id"] for n in cut] == [n["id"] for n in _leaves(root)]
+
+
+def test_cut_hierarchy_threshold_is_the_projected_error():
+    leaf = {"bounds": np.array([[0.0, 0, 0], [1, 1, 1]]), "error": 0.01, "children": []}
+    other = {"bounds": np.array([[2.0, 0, 0], [3, 1, 1]]), "error": 0.01, "children": []}
+    root = {"bounds": np.array([[0.0, 0, 0], [3, 1, 1]]), "error": 0.1,
+            "children": [leaf, other]}
+    # 90 degrees over 100 pixels: at distance d the error spans 0.1 * 100 / (2 d) pixels,
+    # below 1 pixel beyond d = 5
+    for d, expect in ((4.9, 2), (5.1, 1)):
+        cut = cut_hierarchy(root, (3 + d, 0.5, 0.5), fov_degrees=90, screen_pixels=100)
+        assert len(cut) == expect
+
+
+def test_cut_hierarchy_is_a_proper_cut(city):
+    _, root = city
+    index = index_hierarchy(root)
+    nodes = list(index.nodes)
+    pos = {id(n): i for i, n in enumerate(nodes)}
+    leaves = np.flatnonzero(index.leaf)
+    rng = np.random.default_rng(7)
+    sizes = set()
+    for _ in range(200):
+        cam = rng.normal(size=3) * 10.0 ** rng.uniform(-1, 3)
+        chosen = {pos[id(n)] for n in cut_hierarchy(index, cam, pixel_error=4.0)}
+        sizes.add(len(chosen))
+        for leaf in leaves:
+            path, i = [], int(leaf)
+            while i >= 0:
+                path.append(i)
+                i = int(index.parent[i])
+            assert len(chosen.intersection(path)) == 1
+    assert len(sizes) > 2  # cameras near and far give different cuts
+
+
+def test_hierarchy_json_round_trip(city, tmp_path):
+    _, root = city
+    path = hierarchy_to_json(root, tmp_path, "city")
+    assert path == tmp_path / "city.hierarchy.json"
+    doc = json.loads(path.read_text())
+    assert [r["id"] for r in doc["nodes"]] == list(range(len(_walk(root))))
+    assert not list(tmp_path.glob(".*.tmp"))  # no temporary file left
+    back = hierarchy_from_json(path)
+    assert check_parts({"hierarchy": back}) == check_parts({"hierarchy": root})
+    for a, b in zip(_walk(root), _walk(back), strict=True):
+        assert a["id"] == b["id"] and a["error"] == b["error"]
+        np.testing.assert_array_equal(a["bounds"], b["bounds"])
+        np.testing.assert_array_equal(a["objects"], b["objects"])
+        np.testing.assert_array_equal(a["occluder"].vertices, b["occluder"].vertices)
+        np.testing.assert_array_equal(a["occluder"].faces, b["occluder"].faces)
+        assert [c["id"] for c in a["children"]] == [c["id"] for c in b["children"]]
+    for cam in ((30.0, 0, 0), (2.0, 2.0, 1.0), (0.0, 0.0, 1.0)):
+        assert ([n["id"] for n in cut_hierarchy(root, cam)]
+                == [n["id"] for n in cut_hierarchy(back, cam)])
+
+
+def test_generate_planar_hierarchy_returns_the_root(boxes_row):
+    boxes, _ = boxes_row
+    occ = generate_planar_hierarchy(boxes, budget=12, voxels=8, node_occluder="qem")
+    root = occ.parts["hierarchy"]
+    assert check_parts(occ.parts) == {"hierarchy": 11}
+    assert occ.mesh is root["occluder"] and occ.triangles <= 12
+    assert occ.info["nodes"] == 11 and occ.info["leaves"] == 6 and occ.info["objects"] == 6
+    assert occ.info["node_triangles"] == sum(n["triangles"] for n in _walk(root))
+
+
+def test_build_hierarchy_invalid_input():
+    box = trimesh.creation.box()
+    for bad, kwargs in (([], {}), ("city-block", {}), ([box, "x"], {}),
+                        (box, {"budget": 0}), (box, {"voxels": 0}), (box, {"leaf_objects": 0}),
+                        (box, {"max_leaves": -1}), (box, {"seed": -1}),
+                        (box, {"node_occluder": "nope"})):
+        with pytest.raises(InputError):
+            build_hierarchy(bad, **kwargs)
+    with pytest.raises(InputError):
+        generate_planar_hierarchy(box, node_occluder="nope")
+
+
+def test_cut_hierarchy_invalid_input(boxes_row):
+    _, root = boxes_row
+    for cam, kwargs in (((np.nan, 0, 0), {}), ((0, 0), {}), ((9, 9, 9), {"fov_degrees": 180}),
+                        ((9, 9, 9), {"fov_degrees": 0}), ((9, 9, 9), {"screen_pixels": 0}),
+                        ((9, 9, 9), {"pixel_error": 0})):
+        with pytest.raises(InputError):
+            cut_hierarchy(root, cam, **kwargs)
+    for tree in ([], {"bounds": [[0, 0, 0], [1, 1, 1]]},
+                 {"bounds": [[1, 0, 0], [0, 1, 1]], "error": 0.1, "children": []},
+                 {"bounds": [[0, 0, 0], [1, 1, 1]], "error": -1.0, "children": []}):
+        with pytest.raises(InputError):
+            cut_hierarchy(tree, (9, 9, 9))
+
+
+def test_hierarchy_json_invalid_input(boxes_row, tmp_path):
+    _, root = boxes_row
+    with pytest.raises(InputError):
+        hierarchy_to_json(root, tmp_path / "missing", "x")
+    with pytest.raises(InputError):
+        hierarchy_to_json(root, tmp_path, "a/b")
+    assert not list(tmp_path.iterdir())  # nothing written
+    path = hierarchy_to_json(root, tmp_path, "row")
+    doc = json.loads(path.read_text())
+    cases = {
+        "garbage": b"{not json",
+        "format": json.dumps({**doc, "format": "other"}).encode(),
+        "escape": json.dumps({**doc, "nodes": [{**doc["nodes"][0], "mesh": "../x.ply"}]
+                              + doc["nodes"][1:]}).encode(),
+        "cycle": json.dumps({**doc, "nodes": [{**doc["nodes"][0], "children": [0]}]
+                             + doc["nodes"][1:]}).encode(),
+    }
+    for name, data in cases.items():
+        bad = tmp_path / f"{name}.hierarchy.json"
+        bad.write_bytes(data)
+        with pytest.raises(InputError):
+            hierarchy_from_json(bad)
+    (tmp_path / "row.node0001.ply").unlink()
+    with pytest.raises(InputError):
+        hierarchy_from_json(path)
+    with pytest.raises(InputError):
+        hierarchy_from_json(tmp_path / "none.json")
