@@ -2,15 +2,22 @@
 
 The methods, their descriptions and their options all come from
 :data:`viscore.generators.REGISTRY`: this module has no per-method code.
+Parts an occluder carries as geometry of their own are written beside OUT:
+a tree (``parts["hierarchy"]``) as ``STEM.hierarchy.json`` plus one PLY per
+node, levels of detail (``parts["lods"]``) as ``STEM.lod<i>.ply``; the
+``--json`` document lists them.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import numbers
+from pathlib import Path
 
 from viscore.generators import REGISTRY, generate, get_generator
+from viscore.generators.planar_hierarchy import hierarchy_to_json
 
 from viscore import InputError, load_mesh, provenance
 from viscore._validate import as_seed
@@ -100,9 +107,43 @@ def run_generate(args) -> int:
     if occ.triangles == 0:
         raise InputError(f"{args.mesh}: {args.method} produced no triangles"
                          f"{_format_info(occ.info)}")
+    extra = _write_parts(occ, Path(args.output))  # beside OUT, before it
     write_mesh(args.output, occ.mesh)
     doc = {"mesh": args.mesh, "output": args.output, **occ.summary(), "seed": params["seed"],
-           "provenance": provenance()}
+           **extra, "provenance": provenance()}
+    files = "".join(f"; {key}: {_files_text(value)}" for key, value in extra.items())
     emit(doc, args.json, f"{args.method}: {occ.triangles} triangles in {occ.seconds:.2f} s -> "
-         f"{args.output}{_format_info(occ.info)}")
+         f"{args.output}{_format_info(occ.info)}{files}")
     return 0
+
+
+def _files_text(value) -> str:
+    if isinstance(value, dict):
+        return f"{value['file']} + {len(value['meshes'])} node meshes"
+    return ", ".join(item["file"] for item in value)
+
+
+def _write_parts(occ, output: Path) -> dict:
+    """Write the parts an occluder carries as files beside ``output``; their JSON entries.
+
+    ``parts["hierarchy"]``: ``STEM.hierarchy.json`` and one PLY per node
+    (:func:`hierarchy_to_json`). ``parts["lods"]``, a list of
+    ``{"distance", "mesh", "voxels"}``: ``STEM.lod<i>.ply`` per entry. Every
+    file is written atomically; OUT itself is written after them.
+    """
+    extra = {}
+    if "hierarchy" in occ.parts:
+        path = hierarchy_to_json(occ.parts["hierarchy"], output.parent, output.stem)
+        nodes = json.loads(path.read_text())["nodes"]
+        extra["hierarchy"] = {"file": str(path), "nodes": len(nodes),
+                              "meshes": [str(output.parent / n["mesh"]) for n in nodes
+                                         if n["mesh"] is not None]}
+    if "lods" in occ.parts:
+        lods = []
+        for i, lod in enumerate(occ.parts["lods"]):
+            path = output.parent / f"{output.stem}.lod{i}.ply"
+            write_mesh(path, lod["mesh"])
+            lods.append({"file": str(path), "distance": lod["distance"],
+                         "voxels": lod.get("voxels"), "triangles": len(lod["mesh"].faces)})
+        extra["lods"] = lods
+    return extra

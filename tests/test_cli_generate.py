@@ -122,3 +122,52 @@ def test_generate_nullable_option_none(tmp_path, capsys):
                  "--max-boxes", "none", "--fill", "0.2", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["fill"] >= 0.2 and doc["triangles"] == 12 * doc["boxes"]
+
+
+def _boxes_with_parts(mesh, *, budget=None, seed=0):
+    """A generator whose occluder carries a hierarchy and two levels of detail."""
+    from viscore.generators.planar_hierarchy import build_hierarchy
+
+    boxes = [trimesh.creation.box(bounds=[[2.0 * i, 0, 0], [2.0 * i + 1, 1, 1]])
+             for i in range(3)]
+    root = build_hierarchy(boxes, node_occluder="qem", budget=12, voxels=4)
+    lods = [{"distance": d, "voxels": v, "mesh": trimesh.creation.box(extents=(s, s, s))}
+            for d, v, s in ((10.0, 64, 1.0), (40.0, 16, 2.0))]
+    return Occluder(mesh=root["occluder"], method="parts", params={}, double_sided=True,
+                    seconds=0.0, parts={"hierarchy": root, "lods": lods})
+
+
+def test_generate_writes_hierarchy_and_lods_beside_the_output(monkeypatch, tmp_path, capsys):
+    from viscore.generators.planar_hierarchy import hierarchy_from_json
+
+    monkeypatch.setitem(REGISTRY, "parts", GeneratorSpec("parts", _boxes_with_parts,
+                                                         "boxes with parts", budgeted=False))
+    out = tmp_path / "occ.ply"
+    assert main(["generate", "parts", "cow", "-o", str(out), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    tree = doc["hierarchy"]
+    assert tree["file"] == str(tmp_path / "occ.hierarchy.json") and tree["nodes"] == 5
+    assert sorted(tree["meshes"]) == sorted(str(p) for p in tmp_path.glob("occ.node*.ply"))
+    root = hierarchy_from_json(tree["file"])
+    assert len(root["children"]) == 2 and sorted(root["objects"].tolist()) == [0, 1, 2]
+    assert [lod["file"] for lod in doc["lods"]] == [str(tmp_path / f"occ.lod{i}.ply")
+                                                    for i in range(2)]
+    assert [lod["distance"] for lod in doc["lods"]] == [10.0, 40.0]
+    for lod, side in zip(doc["lods"], (1.0, 2.0), strict=True):
+        written = trimesh.load(lod["file"], force="mesh", process=False)
+        assert len(written.faces) == lod["triangles"] == 12
+        np.testing.assert_allclose(written.extents, [side] * 3)
+    assert len(trimesh.load(out, force="mesh", process=False).faces) == doc["triangles"]
+    assert not list(tmp_path.glob(".*.tmp"))
+    # text mode names the files too
+    assert main(["generate", "parts", "cow", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "occ.hierarchy.json + 5 node meshes" in text and "occ.lod1.ply" in text
+
+
+def test_generate_without_parts_writes_only_the_output(tmp_path, capsys):
+    out = tmp_path / "b.ply"
+    assert main(["generate", "bbox", "cow", "-o", str(out), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert "hierarchy" not in doc and "lods" not in doc
+    assert [p.name for p in tmp_path.iterdir()] == ["b.ply"]
