@@ -1,0 +1,243 @@
+"""Shadow frusta of convex solids and planar polygons: construction, culling, ranking."""
+
+import numpy as np
+import pytest
+import trimesh
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from viscore import InputError, PerspectiveCamera, Scene
+from viscore.frusta import (
+    FrustumCuller,
+    boxes_in_frusta,
+    boxes_in_frustum,
+    polygon_frustum,
+    rank_planar,
+    rank_solids,
+    solid_faces_as_polygons,
+    solid_frustum,
+)
+
+
+def _hull(seed):
+    rng = np.random.default_rng(seed)
+    pts = rng.normal(size=(12, 3)) * rng.uniform(0.3, 2.0, 3)
+    return trimesh.convex.convex_hull(pts)
+
+
+def _eye_outside(mesh, rng):
+    d = rng.normal(size=3)
+    d /= np.linalg.norm(d)
+    return mesh.centroid + d * rng.uniform(1.05, 4.0) * np.linalg.norm(mesh.extents)
+
+
+def _hidden(scene, eye, points):
+    """Each point is hidden from the eye: the solid is hit before it."""
+    d = points - eye
+    dist = np.linalg.norm(d, axis=1)
+    t, _ = scene.first_hit(np.broadcast_to(eye, d.shape), d / dist[:, None])
+    return t < dist + 1e-6 * dist
+
+
+def _boxes_in(fr, rng, n=400):
+    """Random boxes in the frustum's shadow region (and around it); which are culled."""
+    eye = fr.eye
+    far = np.linalg.norm(fr.near_point - eye)
+    sil = fr.silhouette[:, 0]
+    w = rng.dirichlet(np.ones(len(sil)), size=n)
+    target = w @ sil
+    centre = eye + (target - eye) * rng.uniform(1.0, 3.0, (n, 1))
+    half = rng.uniform(0.0, 0.3, (n, 3)) * far * 0.1
+    return centre - half, centre + half
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 10_000))
+def test_solid_frustum_culled_boxes_are_hidden(seed):
+    rng = np.random.default_rng(seed)
+    mesh = _hull(seed)
+    eye = _eye_outside(mesh, rng)
+    fr = solid_frustum(mesh.vertices, mesh.faces, eye)
+    assert fr is not None and fr.kind == "solid"
+    lo, hi = _boxes_in(fr, rng)
+    culled = boxes_in_frustum(fr, lo, hi)
+    if not culled.any():
+        return
+    scene = Scene(mesh)
+    corners = np.stack([np.where(np.array(m)[None], hi, lo)[culled]
+                        for m in np.ndindex(2, 2, 2)], axis=1).reshape(-1, 3)
+    u = rng.random((culled.sum(), 20, 3))
+    inner = (lo[culled][:, None] + u * (hi - lo)[culled][:, None]).reshape(-1, 3)
+    assert _hidden(scene, eye, np.vstack([corners, inner])).all()
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 10_000))
+def test_solid_frustum_cone_holds_solid_and_cap_through_furthest(seed):
+    rng = np.random.default_rng(seed)
+    mesh = _hull(seed)
+    eye = _eye_outside(mesh, rng)
+    fr = solid_frustum(mesh.vertices, mesh.faces, eye)
+    planes = fr.planes
+    np.testing.assert_allclose(np.linalg.norm(planes[:, :3], axis=1), 1)
+    scale = np.linalg.norm(mesh.extents) + np.linalg.norm(eye)
+    # the side planes contain the whole solid (each supports it)
+    side = mesh.vertices @ planes[:-1, :3].T + planes[:-1, 3]
+    assert side.min() > -1e-7 * scale
+    # every side plane passes through the eye
+    np.testing.assert_allclose(planes[:-1, :3] @ eye + planes[:-1, 3], 0, atol=1e-7 * scale)
+    # the cap passes through the furthest silhouette point, all others in front of it
+    cap = planes[-1]
+    assert abs(cap[:3] @ fr.near_point + cap[3]) < 1e-7 * scale
+    sil = fr.silhouette.reshape(-1, 3)
+    assert (sil @ cap[:3] + cap[3]).max() < 1e-7 * scale
+    assert np.isclose(np.linalg.norm(sil - fr.near_point, axis=1), 0).any()
+    # eq. 2: the cap normal is the mean direction from the eye to the silhouette points
+    starts = fr.silhouette[:, 0]
+    m = (starts - eye).sum(axis=0)
+    np.testing.assert_allclose(cap[:3], m / np.linalg.norm(m), atol=1e-9)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 10_000))
+def test_solid_frustum_box_straddling_silhouette_not_culled(seed):
+    rng = np.random.default_rng(seed)
+    mesh = _hull(seed)
+    eye = _eye_outside(mesh, rng)
+    fr = solid_frustum(mesh.vertices, mesh.faces, eye)
+    a, b = fr.silhouette[:, 0], fr.silhouette[:, 1]
+    on_edge = a + rng.random((len(a), 1)) * (b - a)
+    behind = eye + (on_edge - eye) * rng.uniform(1.2, 3.0, (len(a), 1))
+    half = 0.01 * np.linalg.norm(mesh.extents)
+    assert not boxes_in_frustum(fr, behind - half, behind + half).any()
+
+
+def test_solid_frustum_eye_inside_or_on_surface_gives_none():
+    box = trimesh.creation.box(extents=(2, 2, 2))
+    assert solid_frustum(box.vertices, box.faces, (0.5, 0.2, 0.1)) is None
+    assert solid_frustum(box.vertices, box.faces, (1.0, 0.0, 0.0)) is None
+
+
+def test_solid_frustum_box_seen_at_corner_has_six_side_planes():
+    box = trimesh.creation.box(extents=(2, 2, 2))
+    fr = solid_frustum(box.vertices, box.faces, (5, 4, 3))
+    assert len(fr.planes) == 7  # hexagonal outline and the cap
+    assert np.allclose(fr.planes[:-1, :3] @ [5, 4, 3] + fr.planes[:-1, 3], 0, atol=1e-6)
+
+
+def test_polygon_frustum_culled_boxes_are_hidden(rng):
+    sq = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
+    scene = Scene(trimesh.Trimesh(sq, [[0, 1, 2], [0, 2, 3]]))
+    for eye in ([0.3, 0.2, 2.0], [0.0, 0.0, -3.0], [2.0, 1.0, 1.0]):
+        fr = polygon_frustum(sq, eye)
+        centre = rng.uniform([-3, -3, -6], [3, 3, 6], (3000, 3))
+        lo, hi = centre - 0.1, centre + 0.1
+        culled = boxes_in_frustum(fr, lo, hi)
+        assert culled.any()
+        corners = np.stack([np.where(np.array(m)[None], hi, lo)[culled]
+                            for m in np.ndindex(2, 2, 2)], axis=1).reshape(-1, 3)
+        assert _hidden(scene, np.asarray(eye), corners).all()
+    assert polygon_frustum(sq, (3, 3, 0)) is None  # eye in the polygon's plane
+
+
+def test_solid_beats_planar_at_a_corner():
+    """A box seen across its vertical edge hides what no single face hides (Fig. 2 of
+    Papaioannou et al.)."""
+    box = trimesh.creation.box(extents=(2, 2, 2))
+    eye = np.array([4.0, 4.0, 0.0])
+    lo, hi = np.array([[-2.6, -2.6, -0.2]]), np.array([[-2.2, -2.2, 0.2]])
+    solid = FrustumCuller([(box.vertices, box.faces)], mode="solid")
+    planar = FrustumCuller([(box.vertices, box.faces)], mode="planar")
+    assert planar.count == 6 and solid.count == 1
+    assert solid.cull(eye, lo, hi).tolist() == [True]
+    assert planar.cull(eye, lo, hi).tolist() == [False]
+
+
+def test_frustum_culler_active_set_and_view():
+    boxes = [trimesh.creation.box(bounds=[[x, 2, -1], [x + 1, 3, 1]]) for x in (-6, 0, 6)]
+    solids = [(b.vertices, b.faces) for b in boxes]
+    cam = PerspectiveCamera((0.5, -5, 0), (0, 1, 0), fov=40, resolution=32)
+    culler = FrustumCuller(solids, active=15)
+    fr = culler.frusta(cam)
+    assert len(fr) == 1  # the two side boxes lie outside the 40-degree view
+    behind_side = ([[-11.6, 9.9, -0.1]], [[-11.4, 10.1, 0.1]])  # behind the left box
+    assert not culler.cull(cam, *behind_side).any()
+    assert culler.cull(cam.position, *behind_side).all()  # no view: all three ranked
+    one = FrustumCuller(solids, active=1)
+    assert len(one.frusta(cam.position)) == 1
+    assert len(FrustumCuller(solids, active=2).frusta(cam.position)) == 2
+
+
+def test_frustum_culler_from_occluders_boxes_and_polygons():
+    from viscore.generators.occluder import Occluder
+
+    occ = Occluder(mesh=trimesh.Trimesh(), method="x", params={}, double_sided=False,
+                   seconds=0.0, parts={"boxes": np.array([[[-1.0, -1, -1], [1, 1, 1]]]),
+                                       "polygons": [np.array([[5.0, 0, 0], [6, 0, 0],
+                                                              [6, 0, 1], [5, 0, 1]])]})
+    culler = FrustumCuller.from_occluders([occ])
+    assert culler.count == 2
+    assert culler.cull((0, -5, 0), [[-0.2, 3, -0.2]], [[0.2, 4, 0.2]]).tolist() == [True]
+
+
+def test_boxes_in_frusta_any_and_empty():
+    box = trimesh.creation.box()
+    a = solid_frustum(box.vertices, box.faces, (0, 0, -3))
+    b = solid_frustum(box.vertices, box.faces, (0, 0, 3))
+    lo = np.array([[-0.1, -0.1, 2], [-0.1, -0.1, -3], [5, 5, 5]])
+    assert boxes_in_frusta([a, b], lo, lo + 0.2).tolist() == [True, True, False]
+    assert boxes_in_frusta([], lo, lo + 0.2).tolist() == [False] * 3
+    assert boxes_in_frustum(a, np.zeros((0, 3)), np.zeros((0, 3))).shape == (0,)
+
+
+def test_rank_solids_and_planar_equations():
+    np.testing.assert_allclose(rank_solids([1.0, 27.0], [[0, 0, 1], [0, 3, 0]], (0, 0, 0)),
+                               [1.0, 1.0])
+    # eq. 3: facing the eye positive, facing away negative, |.| when two-sided
+    r = rank_planar([2.0, 2.0], [[0, 0, -1], [0, 0, 1]], [[0, 0, 2], [0, 0, 2]], (0, 0, 0))
+    np.testing.assert_allclose(r, [1.0, -1.0])
+    r2 = rank_planar([2.0], [[0, 0, 1]], [[0, 0, 2]], (0, 0, 0), two_sided=True)
+    np.testing.assert_allclose(r2, [1.0])
+
+
+def test_solid_faces_as_polygons_box_and_hull():
+    box = trimesh.creation.box(extents=(1, 2, 3))
+    polys = solid_faces_as_polygons(box.vertices, box.faces)
+    assert sorted(len(p) for p in polys) == [4] * 6
+    area = sum(0.5 * np.linalg.norm(np.cross(p - p[0], np.roll(p, -1, 0) - p[0]).sum(0))
+               for p in polys)
+    assert area == pytest.approx(box.area)
+
+
+def test_frusta_invalid_input():
+    box = trimesh.creation.box()
+    with pytest.raises(InputError, match="convex"):
+        solid_frustum(*_concave(), (5, 5, 5))
+    flipped = box.copy()
+    flipped.invert()
+    with pytest.raises(InputError, match="solids"):
+        solid_frustum(flipped.vertices, flipped.faces, (5, 5, 5))
+    with pytest.raises(InputError, match="closed"):
+        solid_frustum(box.vertices, box.faces[:-1], (5, 5, 5))
+    with pytest.raises(InputError, match="convex"):
+        polygon_frustum([[0, 0, 0], [2, 0, 0], [1, 0.2, 0], [1, 2, 0]], (0, 0, 1))
+    with pytest.raises(InputError, match="planar"):
+        polygon_frustum([[0, 0, 0], [1, 0, 0], [1, 1, 1], [0, 1, 0]], (0, 0, 5))
+    with pytest.raises(InputError, match="mode"):
+        FrustumCuller([], mode="cone")
+    with pytest.raises(InputError, match="active"):
+        FrustumCuller([], active=0)
+    fr = solid_frustum(box.vertices, box.faces, (0, 0, -3))
+    with pytest.raises(InputError, match="lower"):
+        boxes_in_frustum(fr, [[1, 1, 1]], [[0, 0, 0]])
+    with pytest.raises(InputError, match="eye"):
+        solid_frustum(box.vertices, box.faces, (0, 0))
+
+
+def _concave():
+    """An L-shaped prism: closed and oriented but not convex."""
+    from shapely.geometry import Polygon
+
+    outline = Polygon([(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)])
+    m = trimesh.creation.extrude_polygon(outline, 1.0)
+    return m.vertices, m.faces
