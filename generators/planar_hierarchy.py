@@ -640,14 +640,14 @@ def cut_hierarchy(tree, camera_position, *, fov_degrees: float = 60.0,
     gap = np.maximum(np.maximum(index.lower - cam, cam - index.upper), 0.0)
     distance = np.sqrt(np.einsum("ij,ij->i", gap, gap))
     scale = pixels / (2.0 * math.tan(math.radians(fov) / 2.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        projected = np.where(distance > 0, index.error * scale / distance, np.inf)
-    take = (projected < threshold) | index.leaf
+    # error * scale / distance < threshold, without dividing (distance 0: never taken)
+    take = (index.error * scale < threshold * distance) | index.leaf
     hidden = np.zeros(len(take), dtype=bool)
     for level in index.levels:
         up = index.parent[level]
         hidden[level] = hidden[up] | take[up]
-    return [index.nodes[i] for i in np.flatnonzero(take & ~hidden)]
+    nodes = index.nodes
+    return [nodes[i] for i in np.flatnonzero(take & ~hidden).tolist()]
 
 
 # --------------------------------------------------------------------------- files
