@@ -45,9 +45,11 @@ The pieces the paper leaves open, and the choices made here:
 - **Error.** A node records ``voxel_size`` and ``error`` (world units): how
   far its solid may reach beyond its geometry, ``voxel_size * (1 +
   dilation)``, plus half a voxel when the builder re-voxelized a voxel mesh.
-  ``bounds`` is the geometry's bounding box grown by ``error`` on every
-  side: it holds the node's voxel solid, and children's bounds nest in their
-  parent's.
+  ``bounds`` is the box around the geometry's bounding box grown by
+  ``error`` on every side (which holds the voxel solid), the node's
+  occluder (planar sections may reach past the solid by a pixel footprint
+  and the RDP tolerance) and its children's bounds; so bounds nest, and the
+  cut measures distances to everything the node draws.
 
 References
 ----------
@@ -65,6 +67,7 @@ import inspect
 import json
 import logging
 import math
+import numbers
 import os
 import time
 from collections.abc import Callable, Sequence
@@ -95,6 +98,12 @@ _log = logging.getLogger(__name__)
 
 #: Dilation steps at inner nodes: "a single dilation step" (sec. 5).
 INNER_DILATION = 1
+
+#: Voxels along a node's longest side when none are given (as planar sections).
+DEFAULT_VOXELS = 64
+
+#: Most dilation steps accepted (each adds a voxel of error).
+MAX_DILATION = 8
 
 #: Largest ``voxels`` per node (as for the other voxel methods).
 MAX_VOXELS = 2048
@@ -309,9 +318,10 @@ def _empty_mesh() -> trimesh.Trimesh:
     return trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), process=False)
 
 
-def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int = 64, voxels: int = 64,
-                    leaf_objects: int = 1, max_leaves: int = DEFAULT_MAX_LEAVES, seed: int = 0,
-                    **node_options) -> dict:
+def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 64,
+                    voxels: int = 64, leaf_objects: int = 1,
+                    max_leaves: int = DEFAULT_MAX_LEAVES, inner_dilation: int = INNER_DILATION,
+                    seed: int = 0, **node_options) -> dict:
     """Occluder hierarchy of a scene: a BVH over its objects, an occluder per node.
 
     Silvennoinen et al. 2014 [1]_, sec. 5: "we build a bounding volume
@@ -337,8 +347,9 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int = 64, vox
         closed voxel mesh of the node's dilated solid
         (:func:`dilated_voxel_mesh`).
         ``node_options`` are passed on.
-    budget : int, optional
-        Triangle budget of each node's occluder (default 64).
+    budget : int or None, optional
+        Triangle budget of each node's occluder (default 64); None is passed
+        on to the builder (planar sections: no budget cut).
     voxels : int, optional
         Voxels along the longest side of each node's bounding box, 1 to 2048
         (default 64); the voxel size is then raised to the children's largest.
@@ -347,6 +358,9 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int = 64, vox
     max_leaves : int, optional
         Stop splitting at this many leaves (default 32); a leaf may then
         hold more than ``leaf_objects`` objects.
+    inner_dilation : int, optional
+        Dilation steps at inner nodes, 0 to 8 (default 1, the paper's single
+        step); leaves get none.
     seed : int, optional
         Passed to every node's builder.
     **node_options
@@ -392,8 +406,12 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int = 64, vox
     >>> len(root["children"]), sorted(int(i) for i in root["objects"])
     (2, [0, 1, 2])
     """
-    budget = as_positive_int(budget, "budget")
+    budget = None if budget is None else as_positive_int(budget, "budget")
     voxels = as_positive_int(voxels, "voxels", maximum=MAX_VOXELS)
+    if isinstance(inner_dilation, bool) or not isinstance(inner_dilation, numbers.Integral) \
+            or not 0 <= inner_dilation <= MAX_DILATION:
+        raise InputError(f"inner_dilation: expected an integer from 0 to {MAX_DILATION}, "
+                         f"got {inner_dilation!r}")
     leaf_objects = as_positive_int(leaf_objects, "leaf_objects")
     max_leaves = as_positive_int(max_leaves, "max_leaves")
     seed = as_seed(seed, "seed")
@@ -423,7 +441,7 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int = 64, vox
         n["geometry_bounds"] = gb
         own = float((gb[1] - gb[0]).max()) / voxels
         n["voxel_size"] = max([own] + [c["voxel_size"] for c in n["children"]])
-        n["dilation"] = INNER_DILATION if n["children"] else 0
+        n["dilation"] = int(inner_dilation) if n["children"] else 0
     # the largest grid, checked before any work (each node's builder checks its own again)
     worst = max(float(np.prod((n["geometry_bounds"][1] - n["geometry_bounds"][0])
                               / n["voxel_size"] + 3 + 2 * n["dilation"] + 4)) for n in nodes)
@@ -464,7 +482,14 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int = 64, vox
         own_error = pitch * (1 + dilation + (0.5 if revoxelized else 0.0))
         n["error"] = max([own_error] + [c["error"] for c in n["children"]])
         gb = n["geometry_bounds"]
-        n["bounds"] = np.stack([gb[0] - n["error"], gb[1] + n["error"]])
+        # the geometry grown by the error, the occluder (slices may reach past the voxel
+        # solid: pixel footprints, RDP) and the children's bounds: nested by construction
+        boxes = [gb[0] - n["error"], gb[1] + n["error"]]
+        if len(occ_mesh.vertices):
+            boxes += [np.asarray(occ_mesh.vertices, dtype=np.float64)]
+        boxes += [c["bounds"] for c in n["children"]]
+        stacked = np.concatenate([np.atleast_2d(b) for b in boxes])
+        n["bounds"] = np.stack([stacked.min(axis=0), stacked.max(axis=0)])
         n["occluder"] = occ_mesh
         n["triangles"] = len(occ_mesh.faces)
         n["double_sided"] = bool(made.double_sided) if isinstance(made, Occluder) else True
@@ -847,25 +872,50 @@ def hierarchy_from_json(path: str | os.PathLike) -> dict:
 
 # --------------------------------------------------------------------------- generator entry
 
-def generate_planar_hierarchy(mesh, *, budget: int = 64, seed: int = 0, voxels: int = 64,
-                              leaf_objects: int = 1, max_leaves: int = DEFAULT_MAX_LEAVES,
-                              node_occluder: str | None = None, **node_options) -> Occluder:
-    """Hierarchical planar-section occluder: the registry entry of sec. 5.
+def generate_planar_hierarchy(mesh, *, budget: int | None = 64, seed: int = 0,
+                              voxels: int | None = None, leaf_objects: int = 1,
+                              max_leaves: int = DEFAULT_MAX_LEAVES,
+                              node_occluder: str | None = None, conservative: bool = False,
+                              voxel_size: float | None = None, pixel_error: float | None = None,
+                              distance: float | None = None, lod_distances=None, dilate: int = 0,
+                              fov: float | None = None, screen: int | None = None,
+                              **node_options) -> Occluder:
+    """Hierarchical planar-section occluder: the generator entry of sec. 5.
 
     Builds the tree with :func:`build_hierarchy` and returns the root's
-    occluder as the mesh, the tree in ``parts["hierarchy"]``.
+    occluder as the mesh, the tree in ``parts["hierarchy"]``. Takes the
+    options of :func:`~viscore.generators.planar_sections.generate_planar_sections`
+    so that ``planar-sections --hierarchy`` can hand them all over.
 
     Parameters
     ----------
     mesh : trimesh.Trimesh or sequence of trimesh.Trimesh
         The scene (see :func:`build_hierarchy`).
-    budget : int, optional
+    budget : int or None, optional
         Triangle budget of every node's occluder, hence of the mesh returned
         (default 64).
     seed : int, optional
         Passed to every node's builder.
-    voxels, leaf_objects, max_leaves, node_occluder, **node_options
+    voxels : int, optional
+        Voxels along the longest side of each node (default 64).
+    leaf_objects, max_leaves, node_occluder : optional
         As :func:`build_hierarchy`; ``node_occluder`` is a name here.
+    conservative : bool, optional
+        Passed to the builder (planar sections: slices through the eroded
+        inside only), and no dilation at inner nodes, which would grow the
+        solids past the mesh. Default False.
+    voxel_size, pixel_error, distance, lod_distances : None
+        Refused: a hierarchy sizes each node's voxels by ``voxels`` over the
+        node's extent, and the screen-space error is applied per frame by
+        :func:`cut_hierarchy`.
+    dilate : int, optional
+        Must be 0: the hierarchy applies the paper's dilation itself.
+    fov, screen : optional
+        Accepted for the common option set and unused: the viewing
+        parameters belong to the cut.
+    **node_options
+        Passed to every node's builder (planar sections: ``direction_bins``,
+        ``depth_bins``, ``alpha``, ``measure``, ``reduce``).
 
     Returns
     -------
@@ -883,7 +933,7 @@ def generate_planar_hierarchy(mesh, *, budget: int = 64, seed: int = 0, voxels: 
     Raises
     ------
     InputError
-        As :func:`build_hierarchy`.
+        As :func:`build_hierarchy`, and for the refused options above.
 
     References
     ----------
@@ -902,22 +952,47 @@ def generate_planar_hierarchy(mesh, *, budget: int = 64, seed: int = 0, voxels: 
     if node_occluder is not None and node_occluder not in NODE_OCCLUDERS:
         raise InputError(f"node_occluder: expected one of {', '.join(NODE_OCCLUDERS)}, "
                          f"got {node_occluder!r}")
+    for name, value in (("voxel_size", voxel_size), ("pixel_error", pixel_error),
+                        ("distance", distance), ("lod_distances", lod_distances)):
+        if value is not None:
+            raise InputError(f"{name}: not with a hierarchy, which sizes each node's voxels "
+                             "by voxels over the node's extent; the screen-space error is "
+                             "the runtime cut's")
+    if dilate != 0:
+        raise InputError(f"dilate: not with a hierarchy, which dilates its inner nodes "
+                         f"itself (sec. 5), got {dilate!r}")
+    if not isinstance(conservative, (bool, np.bool_)):
+        raise InputError(f"conservative: expected True or False, got {conservative!r}")
+    if conservative:
+        node_options["conservative"] = True
+    voxels = DEFAULT_VOXELS if voxels is None else voxels
     root = build_hierarchy(mesh, node_occluder=node_occluder, budget=budget, voxels=voxels,
-                           leaf_objects=leaf_objects, max_leaves=max_leaves, seed=seed,
+                           leaf_objects=leaf_objects, max_leaves=max_leaves,
+                           inner_dilation=0 if conservative else INNER_DILATION, seed=seed,
                            **node_options)
     nodes = _walk(root)
     leaves = [n for n in nodes if not n["children"]]
-    index = index_hierarchy(root)
-    depth = len(index.levels)
-    params = {"budget": budget, "voxels": voxels, "leaf_objects": leaf_objects,
-              "max_leaves": max_leaves, "node_occluder": root["builder"], **node_options}
+    params = {"budget": budget, "seed": seed, "voxels": voxels, "hierarchy": True,
+              "leaf_objects": leaf_objects, "max_leaves": max_leaves,
+              "node_occluder": root["builder"], "conservative": bool(conservative),
+              "fov": fov, "screen": screen, **node_options}
     return Occluder(
         mesh=root["occluder"], method="planar-sections", params=params,
         double_sided=any(n["double_sided"] for n in nodes),
         seconds=time.perf_counter() - start, parts={"hierarchy": root},
-        info={"nodes": len(nodes), "leaves": len(leaves), "depth": depth,
-              "objects": len(root["objects"]), "builder": root["builder"],
+        info={"nodes": len(nodes), "leaves": len(leaves),
+              "depth": max(_depths(root)), "objects": len(root["objects"]),
+              "builder": root["builder"],
               "node_triangles": sum(n["triangles"] for n in nodes),
               "leaf_triangles": sum(n["triangles"] for n in leaves),
               "root_error": float(root["error"]),
               "leaf_error_max": float(max(n["error"] for n in leaves))})
+
+
+def _depths(root: dict) -> list[int]:
+    out, stack = [], [(root, 0)]
+    while stack:
+        n, d = stack.pop()
+        out.append(d)
+        stack.extend((c, d + 1) for c in n["children"])
+    return out

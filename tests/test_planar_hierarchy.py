@@ -64,9 +64,11 @@ def test_build_hierarchy_bounds_nest(city):
             for child in node["children"]:
                 assert (child[key][0] >= node[key][0]).all()
                 assert (child[key][1] <= node[key][1]).all()
-        # bounds = geometry bounds grown by the error
-        np.testing.assert_allclose(node["bounds"][0], node["geometry_bounds"][0] - node["error"])
-        np.testing.assert_allclose(node["bounds"][1], node["geometry_bounds"][1] + node["error"])
+        # bounds hold the geometry grown by the error and the node's occluder
+        assert (node["bounds"][0] <= node["geometry_bounds"][0] - node["error"]).all()
+        assert (node["bounds"][1] >= node["geometry_bounds"][1] + node["error"]).all()
+        assert (node["bounds"][0] <= node["occluder"].bounds[0]).all()
+        assert (node["bounds"][1] >= node["occluder"].bounds[1]).all()
 
 
 def test_build_hierarchy_every_object_in_exactly_one_leaf(city):
@@ -287,3 +289,44 @@ def test_hierarchy_json_invalid_input(boxes_row, tmp_path):
         hierarchy_from_json(path)
     with pytest.raises(InputError):
         hierarchy_from_json(tmp_path / "none.json")
+
+
+def test_generate_planar_hierarchy_refuses_per_object_sizing(boxes_row):
+    boxes, _ = boxes_row
+    for kwargs in ({"voxel_size": 0.1}, {"pixel_error": 1.0}, {"distance": 10.0},
+                   {"lod_distances": "10,40"}, {"dilate": 1}, {"conservative": "yes"}):
+        with pytest.raises(InputError, match=next(iter(kwargs))):
+            generate_planar_hierarchy(boxes, node_occluder="qem", **kwargs)
+
+
+def test_build_hierarchy_inner_dilation_option(boxes_row):
+    boxes, dilated = boxes_row
+    plain = build_hierarchy(boxes, node_occluder="qem", budget=12, voxels=8, inner_dilation=0)
+    assert all(n["dilation"] == 0 for n in _walk(plain))
+    # the same voxel sizes; the error drops the dilation's voxel at inner nodes
+    for a, b in zip(_walk(plain), _walk(dilated), strict=True):
+        assert a["voxel_size"] == b["voxel_size"]
+        assert a["error"] <= b["error"]
+    with pytest.raises(InputError):
+        build_hierarchy(boxes, node_occluder="qem", inner_dilation=9)
+
+
+@pytest.mark.slow
+def test_generate_planar_hierarchy_with_planar_sections():
+    pytest.importorskip("viscore.generators.planar_sections")
+    boxes = [trimesh.creation.box(bounds=[[1.5 * i, 0, 0], [1.5 * i + 1, 1, 1]])
+             for i in range(3)]
+    occ = generate_planar_hierarchy(boxes, budget=16, voxels=12)
+    root = occ.parts["hierarchy"]
+    assert occ.info["builder"] == "planar-sections" and occ.double_sided
+    assert check_parts(occ.parts) == {"hierarchy": 5}
+    for node in _walk(root):
+        assert 0 < node["triangles"] <= 16 and not node["note"]
+        # planar sections takes the dilation itself: error = voxel * (1 + dilation)
+        assert node["error"] == pytest.approx(node["voxel_size"] * (1 + node["dilation"]))
+        # the occluder stays within about two voxels beyond the dilated solid (pixel
+        # footprint and RDP tolerance of sec. 4.3)
+        lo, hi = node["occluder"].bounds
+        reach = node["error"] + 2 * node["voxel_size"]
+        assert (lo >= node["geometry_bounds"][0] - reach).all()
+        assert (hi <= node["geometry_bounds"][1] + reach).all()
