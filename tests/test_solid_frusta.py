@@ -1,0 +1,130 @@
+"""Solid-frusta generator: convex solids inside the mesh, conservative, volume share."""
+
+import numpy as np
+import pytest
+import trimesh
+from viscore.generators.aabb_skins import generate_aabb_skins
+from viscore.generators.solid_frusta import (
+    _Containment,
+    _segments_meet,
+    generate_solid_frusta,
+)
+from viscore.metrics import check_conservative
+
+from viscore import InputError, load_mesh, winding_numbers
+from viscore.frusta import FrustumCuller, solid_frustum
+
+#: Closed, consistently oriented built-in scenes.
+CLOSED_SCENES = ["fat-torus", "box-with-hole", "sponge", "hairball", "bunny", "cow",
+                 "airplane", "bone"]
+
+
+def _check_solids(mesh, occ, rng):
+    """Every solid is a closed outward convex solid whose points are inside the mesh."""
+    assert len(occ.parts["solids"]) == occ.info["solids"] > 0
+    for v, f in occ.parts["solids"]:
+        assert solid_frustum(v, f, v.max(axis=0) + 10 * (v.max(axis=0) - v.min(axis=0))) \
+            is not None  # convexity and orientation are checked there
+        w = rng.dirichlet(np.ones(len(v)), size=200) @ v
+        np.testing.assert_allclose(winding_numbers(mesh.vertices, mesh.faces, w, exact=True), 1.0,
+                                   atol=1e-6)
+
+
+@pytest.mark.parametrize("name,options", [("fat-torus", {"voxels": 40}),
+                                          ("bunny", {"voxels": 32, "solids": 5})])
+def test_solid_frusta_conservative_fast(name, options, rng):
+    mesh = load_mesh(name)
+    occ = generate_solid_frusta(mesh, **options)
+    assert occ.info["conservative_guaranteed"] and not occ.double_sided
+    assert "hull" in occ.info["kinds"]
+    _check_solids(mesh, occ, rng)
+    for domain in ("orbit", "volume"):
+        rep = check_conservative(mesh, occ.mesh, rays=50_000, domain=domain, seed=3)
+        assert rep.violations == 0, rep.summary()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", CLOSED_SCENES)
+def test_solid_frusta_conservative_million_rays(name):
+    mesh = load_mesh(name)
+    occ = generate_solid_frusta(mesh)
+    if occ.triangles == 0:
+        pytest.skip("no inner voxels")
+    assert occ.info["conservative_guaranteed"]
+    for domain in ("orbit", "volume"):
+        rep = check_conservative(mesh, occ.mesh, rays=1_000_000, domain=domain, seed=11)
+        assert rep.violations == 0, rep.summary()
+
+
+def test_solid_frusta_volume_share_beats_boxes_and_grows():
+    mesh = load_mesh("fat-torus")
+    occ = generate_solid_frusta(mesh, voxels=40, solids=6)
+    share, boxes = occ.info["volume_share"], occ.info["aabb_skins_volume_share"]
+    assert len(share) == occ.info["solids"] == 6
+    assert (np.diff(share) > 0).all() and share[-1] <= 1.0
+    assert share[0] >= boxes[0] - 1e-12  # the first pick is at least the largest box
+    assert share[-1] > boxes[len(share) - 1] + 0.05  # hulls follow the tube's curve
+    # the boxes' shares are those of aabb-skins itself
+    skins = generate_aabb_skins(mesh, voxels=40, max_boxes=6, fill=1.0)
+    assert boxes[-1] == pytest.approx(skins.info["volume_share"])
+
+
+def test_solid_frusta_box_mesh_one_box_and_runtime_accepts_solids():
+    box = trimesh.creation.box(extents=(2, 1, 1))
+    occ = generate_solid_frusta(box, voxels=16)
+    assert occ.info["kinds"] == ["box"] and occ.triangles == 12
+    assert occ.parts["boxes"].shape == (1, 2, 3)
+    culler = FrustumCuller.from_occluders([occ])
+    assert culler.count == 1
+    assert culler.cull((0, -5, 0), [[-0.1, 3, -0.1]], [[0.1, 4, 0.1]]).tolist() == [True]
+
+
+def test_solid_frusta_boxes_only_and_budget():
+    mesh = load_mesh("cow")
+    only = generate_solid_frusta(mesh, voxels=32, solids=4, pieces="boxes-only")
+    assert set(only.info["kinds"]) == {"box"} and only.info["candidates"]["hulls"] == 0
+    capped = generate_solid_frusta(mesh, voxels=32, solids=8, budget=40)
+    assert capped.triangles <= 40
+
+
+def test_solid_frusta_open_mesh_not_guaranteed(open_cube):
+    occ = generate_solid_frusta(open_cube, voxels=16, pieces="boxes-only")
+    assert not occ.info["conservative_guaranteed"]
+
+
+def test_containment_rejects_crossing_and_accepts_inner():
+    mesh = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    test = _Containment(mesh, pitch=0.05)
+    centre = np.zeros(3)
+    inner = trimesh.creation.box(extents=(1, 1, 1))  # corners at 0.866 < 1
+    assert test.inside(inner, centre)
+    assert not test.inside(trimesh.creation.box(extents=(1.2, 1.2, 1.2)), centre)  # corners out
+    # a thin spike of the surface entering a hull whose vertices are all inside
+    spike = trimesh.creation.box(extents=(1.1, 1.1, 0.2))
+    pierced = trimesh.util.concatenate([mesh, trimesh.creation.cone(0.05, 0.9).apply_translation(
+        (0, 0, 0.0))])
+    assert not _Containment(pierced, pitch=0.05).inside(spike, np.array([0.5, 0.5, 0.0]))
+
+
+def test_segments_meet_analytic():
+    box = trimesh.creation.box(extents=(2, 2, 2))
+    n = np.asarray(box.face_normals)
+    d = np.einsum("ij,ij->i", n, box.vertices[box.faces[:, 0]])
+    a = np.array([[-3.0, 0, 0], [-3.0, 3, 0], [0.2, 0.2, 0.2], [-3, -3, 0]])
+    b = np.array([[3.0, 0, 0], [3.0, 3, 0], [0.3, 0.3, 0.3], [3, 3, 0]])
+    assert [_segments_meet(a[i:i + 1], b[i:i + 1], n, d) for i in range(4)] == \
+        [True, False, True, True]
+
+
+def test_solid_frusta_invalid_input():
+    box = trimesh.creation.box()
+    with pytest.raises(InputError, match="pieces"):
+        generate_solid_frusta(box, pieces="coacd!")
+    with pytest.raises(InputError, match="solids"):
+        generate_solid_frusta(box, solids=0)
+    with pytest.raises(InputError, match="budget"):
+        generate_solid_frusta(box, budget=5)
+    with pytest.raises(InputError, match="mesh"):
+        generate_solid_frusta(trimesh.Trimesh())
+    with pytest.raises(InputError, match="shrink_steps"):
+        generate_solid_frusta(box, shrink_steps=0)
