@@ -144,6 +144,7 @@ def _write_parts(occ, output: Path) -> dict:
             path = output.parent / f"{output.stem}.lod{i}.ply"
             write_mesh(path, lod["mesh"])
             lods.append({"file": str(path), "distance": lod["distance"],
-                         "voxels": lod.get("voxels"), "triangles": len(lod["mesh"].faces)})
+                         "voxels": lod.get("voxels"), "voxel_size": lod.get("voxel_size"),
+                         "triangles": len(lod["mesh"].faces)})
         extra["lods"] = lods
     return extra
