@@ -376,13 +376,15 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
         ``geometry_bounds`` (2, 3) float64, ``voxel_size`` and ``error``
         (float, world units), ``dilation`` (int), ``triangles`` (int),
         ``double_sided`` (bool), ``seconds`` (float), and ``note`` (str, empty
-        unless the builder refused the node, which then has no occluder).
+        unless the builder refused the node with an :class:`InputError`: the
+        node then has an empty occluder, and a warning is logged).
 
     Raises
     ------
     InputError
         Bad options, an empty or invalid mesh, or a voxel grid beyond the
-        memory limit; before any occluder is built.
+        memory limit, before any occluder is built; or the builder refused
+        every node (e.g. an option it does not accept).
 
     Notes
     -----
@@ -451,6 +453,7 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
     dilate_kw = next((k for k in ("dilation", "dilate") if k in names), None)
     size_kw = next((k for k in ("voxel_size", "pitch") if k in names), None)
     faces_of = [np.concatenate([objects[i] for i in n["objects"]]) for n in nodes]
+    failures = []
     for n in reversed(nodes):
         geometry = _submesh(mesh, faces_of[n["id"]])
         pitch, dilation = n["voxel_size"], n["dilation"]
@@ -474,6 +477,7 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
             made = builder(given, budget=budget, seed=seed, **kw)
         except InputError as exc:  # e.g. nothing to build at this node
             made, note = _empty_mesh(), str(exc)
+            failures.append(exc)
             _log.warning("hierarchy node %d: %s", n["id"], exc)
         occ_mesh = made.mesh if isinstance(made, Occluder) else made
         if not isinstance(occ_mesh, trimesh.Trimesh):
@@ -497,6 +501,9 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
         n["note"] = note
         n["objects"] = np.asarray(n["objects"], dtype=np.int64)
         del n["_diag"]
+    if len(failures) == len(nodes):  # bad builder options, most likely: say so once
+        raise InputError(f"node_occluder {builder_name}: every node failed; the first: "
+                         f"{failures[0]}")
     root["builder"] = builder_name
     return root
 

@@ -330,3 +330,21 @@ def test_generate_planar_hierarchy_with_planar_sections():
         reach = node["error"] + 2 * node["voxel_size"]
         assert (lo >= node["geometry_bounds"][0] - reach).all()
         assert (hi <= node["geometry_bounds"][1] + reach).all()
+
+
+def test_build_hierarchy_builder_refusals():
+    def refuse_all(mesh, *, budget, seed):
+        raise InputError("alpha: expected a percentage >= 0")
+
+    def refuse_small(mesh, *, budget, seed):
+        if mesh.extents.max() < 1.5:
+            raise InputError("too small")
+        return trimesh.creation.box(bounds=mesh.bounds)
+
+    pair = [trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]]),
+            trimesh.creation.box(bounds=[[2, 0, 0], [3, 1, 1]])]
+    with pytest.raises(InputError, match="every node failed.*alpha"):
+        build_hierarchy(pair, node_occluder=refuse_all, voxels=4)
+    root = build_hierarchy(pair, node_occluder=refuse_small, voxels=4)
+    assert root["triangles"] == 12 and not root["note"]
+    assert all(leaf["triangles"] == 0 and leaf["note"] == "too small" for leaf in _leaves(root))
