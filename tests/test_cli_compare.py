@@ -7,7 +7,7 @@ from viscore.cli.main import main
 
 def test_compare_writes_outputs_and_resumes(tmp_path, capsys):
     out = tmp_path / "study"
-    argv = ["compare", "buildings", "--methods", "original,bbox", "--views", "4", "--quads",
+    argv = ["compare", "building-house", "--methods", "original,bbox", "--views", "4", "--quads",
             "500", "--res", "32", "--rays", "2000", "--out", str(out), "--json"]
     assert main(argv) == 0
     doc = json.loads(capsys.readouterr().out)
@@ -20,7 +20,7 @@ def test_compare_writes_outputs_and_resumes(tmp_path, capsys):
     back = OccluderAssessment.from_json(rows["bbox"])
     assert back.method == "bbox" and back.per_view["nt"].shape == (4,)
     for name in ("results.csv", "results.json", "results.md", "recall.png", "results.sqlite",
-                 "budget.png", "silhouettes_buildings.png", "report.html"):
+                 "budget.png", "silhouettes_building-house.png", "report.html"):
         assert (out / name).is_file()
     # the report: a row per result, every plot inline, nothing loaded from outside
     page = (out / "report.html").read_text()

@@ -6,7 +6,7 @@ from viscore.metrics import check_conservative, orbit_precision_recall
 
 from viscore import InputError, load_mesh
 
-WATERTIGHT_SCENES = ["fat-torus", "sponge", "buildings", "box-with-hole", "bunny", "cow"]
+WATERTIGHT_SCENES = ["fat-torus", "sponge", "building-house", "box-with-hole", "bunny", "cow"]
 
 
 def test_aabb_skins_single_box_exact_for_box_mesh():

@@ -73,7 +73,7 @@ def test_ablation_spread_shrinks_with_quads():
 
 # ---------------------------------------------------------------- calibration
 def _calibration(repeats, views, truth_views=3000):
-    mesh = load_mesh("buildings")
+    mesh = load_mesh("building-house")
     occ = _scaled(mesh, 0.9)
     kw = dict(quads=300, resolution=24)
     truth = orbit_precision_recall(mesh, occ, views=truth_views, seed=10**6, **kw).recall

@@ -32,7 +32,7 @@ def _merged_and_plain(scene, shrink, **kw):
 # centre the merged recall was 0.787 [0.774, 0.800] against a plain 0.816 [0.810, 0.822].
 @pytest.mark.parametrize("scene, shrink, settings", [
     ("city-block", 0.95, dict(spacing=1.0, resolution=24, quads=1000)),
-    ("buildings", 0.92, dict(spacing=1.0, resolution=12, quads=200)),
+    ("building-warehouse", 0.92, dict(spacing=3.0, resolution=12, quads=200)),
     ("fat-torus", 0.9, dict(spacing=0.45, resolution=12, quads=200)),
 ])
 def test_volume_merged_agrees_with_plain_within_intervals(scene, shrink, settings):
@@ -54,7 +54,7 @@ def test_volume_merged_interval_covers_plain_answer(seed):
 
 
 def test_volume_positions_merged_blocks_on_the_grid_with_their_volume():
-    mesh = load_mesh("buildings")
+    mesh = load_mesh("building-house")
     plain, ones = volume_positions(mesh, spacing=1.0)
     a, wa = volume_positions(mesh, spacing=1.0, merge_views=True, seed=0)
     b, wb = volume_positions(mesh, spacing=1.0, merge_views=True, seed=1)
@@ -70,7 +70,7 @@ def test_volume_positions_merged_blocks_on_the_grid_with_their_volume():
 
 def test_volume_positions_blocks_keep_off_the_mesh():
     # a merged block's cells and their 26 neighbours are all outside the mesh
-    mesh = load_mesh("buildings")
+    mesh = load_mesh("building-house")
     plain, _ = volume_positions(mesh, spacing=1.0)
     pos, w = volume_positions(mesh, spacing=1.0, merge_views=True, seed=0)
     grid = {tuple(p) for p in np.round(plain, 9)}

@@ -230,15 +230,16 @@ def test_surface_voxels_kernel_matches_vectorised_sat(rng):
 def test_points_inside_touching_parts_settled_by_winding_number():
     from viscore import load_mesh, points_inside, points_inside_parity, winding_numbers
 
-    mesh = load_mesh("buildings")  # boxes standing on a slab: coincident faces at z = 0
+    mesh = load_mesh("building-house")  # wall panels on a slab: coincident faces at z = 0
     scene = Scene(mesh)
     rng = np.random.default_rng(4)
-    # points in the slab under the first building and in that building just above it
-    pts = np.column_stack([rng.uniform(-1.55, -0.45, 400), rng.uniform(-1.45, -0.55, 400),
+    # points in the slab under the front wall and in that wall's panels just above it
+    pts = np.column_stack([rng.uniform(-4.4, -1.6, 400), rng.uniform(-4.08, -3.92, 400),
                            np.where(np.arange(400) % 2, -0.004, 0.004)])
     assert points_inside(scene, pts).all()
     assert not points_inside_parity(scene, pts).all()  # the stand-in alone miscounts
-    w = winding_numbers(mesh.vertices, mesh.faces, [[0.0, 0.0, 1.0], [-1.0, -1.0, 1.0]])
+    # a room (outside every panel) and a point inside the front wall
+    w = winding_numbers(mesh.vertices, mesh.faces, [[-2.0, -2.0, 1.2], [-3.0, -4.0, 0.5]])
     np.testing.assert_allclose(w, [0.0, 1.0], atol=1e-2)  # libigl's fast winding number
 
 

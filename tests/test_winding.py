@@ -160,7 +160,7 @@ def test_points_inside_overlaps_cavities_and_open_surfaces(open_cube, rng):
     assert points_inside(Scene(open_cube), pts).all()
 
 
-@pytest.mark.parametrize("name", ["bunny", "hairball", "city-block", "terrain", "buildings"])
+@pytest.mark.parametrize("name", ["bunny", "hairball", "city-block", "terrain", "building-house"])
 def test_points_inside_agrees_with_exact_winding_number(name, rng):
     from viscore import load_mesh
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ._validate import InputError
 
-__all__ = ["scene_names", "scene_path", "scene_descriptions"]
+__all__ = ["scene_names", "scene_path", "scene_descriptions", "scene_group"]
 
 #: Procedural scenes: name -> (file in data/, description).
 _PROCEDURAL = {
@@ -21,9 +21,28 @@ _PROCEDURAL = {
     "sponge": ("sponge.ply", "Menger sponge, level 2: closed, many through-holes"),
     "terrain": ("terrain.ply", "height field over a square, open (a sheet with hills)"),
     "hairball": ("hairball.ply", "120 thin random tubes through a sphere; many components"),
-    "buildings": ("buildings.ply", "four box buildings of different heights on a ground slab"),
     "city-block": ("city_block.ply", "5 x 5 block of towers and walls, loose parts, open bottoms"),
 }
+
+#: Game-style buildings (loose thin wall panels, open doors and windows, interiors):
+#: name -> (file in data/, description). Made by ``building_<style>`` in make_scenes.py.
+_BUILDINGS = {
+    "building-house": ("building_house.ply", "two-storey house, gable roof, chimney, porch, "
+                       "stairs; 1.4k triangles"),
+    "building-apartment": ("building_apartment.ply", "four-storey block, corner pillars, "
+                           "ledges, balconies, roof railing; 7.6k triangles"),
+    "building-tower": ("building_tower.ply", "eight-storey tower open at the bottom, ledges, "
+                       "stairs, water tank on the roof; 8.1k triangles"),
+    "building-warehouse": ("building_warehouse.ply", "hall open at the bottom, roller-door "
+                           "opening, trusses, mezzanine, crates; 2.1k triangles"),
+    "building-church": ("building_church.ply", "chapel open at the bottom, buttresses, pews, "
+                        "bell tower with ladder and spire; 2.8k triangles"),
+    "building-shop": ("building_shop.ply", "shop with an arcade on columns, sign board, "
+                      "shelves, parapet and railing; 4.1k triangles"),
+    "building-lshaped": ("building_lshaped.ply", "L-shaped, open at the bottom, gabled and "
+                         "flat-roofed wings joined by archways; 4.5k triangles"),
+}
+_PROCEDURAL.update(_BUILDINGS)
 
 #: Sample meshes inside the pymeshlab wheel: name -> (file, description).
 _PYMESHLAB = {
@@ -87,3 +106,43 @@ def scene_path(name: str) -> Path:
     if not path.is_file():
         raise InputError(f"{name}: built-in scene file is missing at {path}; reinstall viscore")
     return path
+
+
+#: Named groups of built-in scenes.
+_GROUPS = ("buildings", "procedural", "samples")
+
+
+def scene_group(group: str) -> list[str]:
+    """Names of the built-in scenes in a group, in a fixed order.
+
+    Parameters
+    ----------
+    group : {'buildings', 'procedural', 'samples'}
+        ``'buildings'``: the game-style buildings (loose thin wall panels, open
+        doors and windows, interiors), the default scenes of building occluder
+        methods; ``'procedural'``: every scene made by ``data/make_scenes.py``
+        (buildings included); ``'samples'``: the pymeshlab sample meshes
+        (empty if pymeshlab is not installed).
+
+    Returns
+    -------
+    names : list of str
+        Scene names accepted by :func:`scene_path` and :func:`viscore.load_mesh`.
+
+    Raises
+    ------
+    InputError
+        If ``group`` is not one of the groups above.
+
+    Examples
+    --------
+    >>> scene_group("buildings")[0]
+    'building-house'
+    """
+    if group == "buildings":
+        return list(_BUILDINGS)
+    if group == "procedural":
+        return list(_PROCEDURAL)
+    if group == "samples":
+        return list(_PYMESHLAB) if _pymeshlab_samples() is not None else []
+    raise InputError(f"group: expected one of {', '.join(_GROUPS)}, got {group!r}")
