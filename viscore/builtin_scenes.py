@@ -38,7 +38,7 @@ _BUILDINGS = {
     "building-church": ("building_church.ply", "chapel open at the bottom, buttresses, pews, "
                         "bell tower with ladder and spire; 2.8k triangles"),
     "building-shop": ("building_shop.ply", "shop with an arcade on columns, sign board, "
-                      "shelves, parapet and railing; 4.1k triangles"),
+                      "shelves, parapet and railing; 4.0k triangles"),
     "building-lshaped": ("building_lshaped.ply", "L-shaped, open at the bottom, gabled and "
                          "flat-roofed wings joined by archways; 4.5k triangles"),
 }
