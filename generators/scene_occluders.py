@@ -1,0 +1,368 @@
+"""Occluders for the objects of a scene, and the culling runtimes they feed.
+
+The bridge between a scene of objects (:mod:`viscore.scene_graph`), the
+registered generators and the culling simulation
+(:mod:`viscore.metrics.culling`), which never imports generators: objects above
+a size threshold (or named) get an occluder from each chosen method; each
+distinct mesh is generated once, in its own frame, and every instance gets
+the occluder moved by its transform (conservativeness is kept by any
+invertible affine map: a point inside the mesh stays inside its image). Then
+:func:`culling_runtimes` builds the runtimes compared in the simulation: no
+occlusion culling, shadow frusta of convex solids and of their faces
+(Papaioannou et al. 2006 [1]_), and a conservative depth buffer per method
+(occluder skins [2]_, sec. 5-6), fed per frame by the cut of a hierarchy
+(Silvennoinen et al. 2014 [3]_, sec. 5) when the method makes one.
+
+References
+----------
+.. [1] Papaioannou, G., Gaitatzes, A., Christopoulos, D. "Efficient Occlusion
+   Culling using Solid Occluders". WSCG 2006 (Plzen), UNION Agency,
+   ISBN 80-86943-03-8.
+.. [2] "Occluder Skins" (occluder generation from axis-aligned boxes for a
+   hierarchical-occlusion-map culler; authors and venue not in the text we
+   have), sec. 5-6.
+.. [3] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1), 2014,
+   pp. 235-245. :DOI:`10.1111/cgf.12271`
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import trimesh
+from viscore.metrics.culling import (
+    Runtime,
+    depth_buffer_runtime,
+    frusta_runtime,
+    no_culling,
+)
+
+from viscore import InputError
+from viscore._validate import as_positive, as_positive_int, as_seed
+from viscore.scene_graph import SceneObjects
+
+from .occluder import Occluder
+from .registry import REGISTRY, generate, get_generator
+
+__all__ = ["occluder_objects", "scene_occluders", "transform_occluder", "culling_runtimes",
+           "frusta_method", "SIZE_FACTOR"]
+
+_log = logging.getLogger(__name__)
+
+#: Default size threshold of the occluder objects: this many times the median
+#: object's bounding-box diagonal (in the built-in cities: buildings and the
+#: ground, not cars, lamps, benches or trees).
+SIZE_FACTOR = 2.5
+
+#: Distinct hierarchy cuts whose occluder scenes are kept between frames.
+_CUT_CACHE = 8
+
+_UNIT_BOX = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+
+
+def occluder_objects(objects: SceneObjects, *, size_threshold: float | None = None,
+                     names: Sequence[str] | None = None) -> np.ndarray:
+    """The objects that get occluders: the named ones, or those above a size threshold.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+    size_threshold : float, optional
+        Bounding-box diagonal, world units, from which an object gets an
+        occluder. Default :data:`SIZE_FACTOR` x the median object's diagonal.
+    names : sequence of str, optional
+        Object names; when given, exactly these objects (``size_threshold``
+        is then not used).
+
+    Returns
+    -------
+    indices : (k,) int64
+        Object indices, ascending.
+
+    Raises
+    ------
+    InputError
+        On an unknown name (listing a few known ones), a non-positive
+        threshold, or when no object qualifies.
+    """
+    if names is not None:
+        names = list(dict.fromkeys(names))
+        index = {n: i for i, n in enumerate(objects.names)}
+        unknown = [n for n in names if n not in index]
+        if unknown or not names:
+            some = ", ".join(objects.names[:5]) + (", ..." if len(objects) > 5 else "")
+            raise InputError(f"occluders: no object named {', '.join(unknown) or '(none given)'}"
+                             f" in {objects.source} (objects: {some})")
+        return np.array(sorted(index[n] for n in names), dtype=np.int64)
+    size = np.linalg.norm(objects.upper - objects.lower, axis=1)
+    if size_threshold is None:
+        threshold = SIZE_FACTOR * float(np.median(size))
+    else:
+        threshold = as_positive(size_threshold, "size_threshold")
+    chosen = np.flatnonzero(size >= threshold)
+    if len(chosen) == 0:
+        raise InputError(f"size_threshold: no object of {objects.source} is {threshold:.4g} "
+                         f"or larger (largest {size.max():.4g}, world units)")
+    return chosen.astype(np.int64)
+
+
+def _move(points: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    return np.asarray(points, dtype=np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def _move_node(node: dict, matrix: np.ndarray, stretch: float) -> dict:
+    lo, hi = np.asarray(node["bounds"], dtype=np.float64)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                        for z in (lo[2], hi[2])])
+    moved = _move(corners, matrix)
+    out = dict(node)
+    out["bounds"] = np.stack([moved.min(axis=0), moved.max(axis=0)])
+    mesh = node["occluder"]
+    out["occluder"] = trimesh.Trimesh(_move(mesh.vertices, matrix) if len(mesh.vertices) else
+                                      np.zeros((0, 3)), np.array(mesh.faces), process=False)
+    if "error" in node:
+        out["error"] = float(node["error"]) * stretch
+    out["children"] = [_move_node(c, matrix, stretch) for c in node["children"]]
+    return out
+
+
+def transform_occluder(occluder: Occluder, matrix: np.ndarray) -> Occluder:
+    """The occluder moved by a 4 x 4 affine transform (an instance's node transform).
+
+    The mesh, ``solids`` and ``polygons`` are transformed; ``boxes`` become
+    ``solids`` (a rotated box is no longer axis-aligned; the boxes key is
+    dropped); a ``hierarchy`` gets transformed node meshes, the bounding boxes
+    of its transformed node bounds, and errors scaled by the largest stretch
+    of the transform. A mirroring transform reverses the faces, so solids
+    stay outward-facing.
+
+    Parameters
+    ----------
+    occluder : Occluder
+    matrix : (4, 4) float
+        Local-to-world transform; its 3 x 3 part must be invertible.
+
+    Returns
+    -------
+    Occluder
+        A new occluder; ``info["transformed"]`` is True.
+    """
+    m = np.asarray(matrix, dtype=np.float64)
+    flip = np.linalg.det(m[:3, :3]) < 0
+
+    def faces(f):
+        f = np.array(f, dtype=np.int64)
+        return f[:, ::-1].copy() if flip and len(f) else f
+
+    mesh = occluder.mesh
+    vertices = _move(mesh.vertices, m) if len(mesh.vertices) else np.zeros((0, 3))
+    moved = trimesh.Trimesh(vertices, faces(mesh.faces), process=False)
+    parts = {}
+    solids = [(_move(v, m), faces(f)) for v, f in occluder.parts.get("solids", [])]
+    if "boxes" in occluder.parts and not solids:
+        for lo, hi in np.asarray(occluder.parts["boxes"], dtype=np.float64):
+            solids.append((_move(lo + np.asarray(_UNIT_BOX.vertices) * (hi - lo), m),
+                           faces(_UNIT_BOX.faces)))
+    if solids or "solids" in occluder.parts or "boxes" in occluder.parts:
+        parts["solids"] = solids
+    if "polygons" in occluder.parts:
+        parts["polygons"] = [_move(p, m) for p in occluder.parts["polygons"]]
+    if "hierarchy" in occluder.parts:
+        stretch = float(np.linalg.svd(m[:3, :3], compute_uv=False).max())
+        parts["hierarchy"] = _move_node(occluder.parts["hierarchy"], m, stretch)
+    for key, value in occluder.parts.items():
+        if key not in ("solids", "boxes", "polygons", "hierarchy"):
+            parts[key] = value
+    return dataclasses.replace(occluder, mesh=moved, parts=parts,
+                               info={**occluder.info, "transformed": True})
+
+
+def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, *,
+                    seed: int = 0, progress: Callable[[int], None] | None = None,
+                    **params) -> dict[int, Occluder]:
+    """World-space occluders of some objects by one registered method.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+    indices : sequence of int
+        The objects (:func:`occluder_objects`).
+    method : str
+        A registered generator (:data:`viscore.generators.REGISTRY`).
+    seed : int, optional
+        Passed to the generator (default 0).
+    progress : callable, optional
+        Called with 1 after each distinct mesh is generated.
+    **params
+        Options of the generator, checked by the registry before any work.
+
+    Returns
+    -------
+    dict of int -> Occluder
+        Object index -> its occluder in world units; objects whose occluder
+        has no triangles and no parts are left out.
+
+    Raises
+    ------
+    InputError
+        Unknown method or option, a bad value.
+    """
+    spec = get_generator(method)
+    seed = as_seed(seed)
+    spec.check_params({**params, "seed": seed})
+    indices = np.asarray(indices, dtype=np.int64)
+    out: dict[int, Occluder] = {}
+    for mesh_id in np.unique(objects.mesh_ids[indices]):
+        local = generate(method, objects.meshes[mesh_id], seed=seed, **params)
+        if progress is not None:
+            progress(1)
+        if local.triangles == 0 and not any(len(v) if hasattr(v, "__len__") else 1
+                                            for v in local.parts.values()):
+            continue
+        for i in indices[objects.mesh_ids[indices] == mesh_id]:
+            out[int(i)] = transform_occluder(local, objects.transforms[i])
+    return dict(sorted(out.items()))
+
+
+def frusta_method() -> str:
+    """The method whose solids feed the frusta runtimes: ``solid-frusta`` if registered,
+    else ``aabb-skins`` (its boxes are convex solids)."""
+    return "solid-frusta" if "solid-frusta" in REGISTRY else "aabb-skins"
+
+
+def _solids(occluders: Sequence[Occluder]) -> list[tuple[np.ndarray, np.ndarray]]:
+    solids = []
+    for occ in occluders:
+        if len(occ.parts.get("solids", [])):
+            solids.extend((np.asarray(v), np.asarray(f)) for v, f in occ.parts["solids"])
+        elif len(occ.parts.get("boxes", [])):
+            for lo, hi in np.asarray(occ.parts["boxes"], dtype=np.float64):
+                solids.append((lo + np.asarray(_UNIT_BOX.vertices) * (hi - lo),
+                               np.asarray(_UNIT_BOX.faces)))
+    return solids
+
+
+def _hierarchy_source(occluders: list[Occluder], width_of: Callable) -> Callable:
+    """Per-frame occluders from the hierarchies' cuts (others always drawn), cached by cut."""
+    from viscore.depth_buffer import OccluderScene
+
+    from .planar_hierarchy import cut_hierarchy, index_hierarchy
+
+    trees = [index_hierarchy(o.parts["hierarchy"]) for o in occluders if "hierarchy" in o.parts]
+    static = [o for o in occluders if "hierarchy" not in o.parts]
+    cache: OrderedDict = OrderedDict()
+
+    def per_frame(camera):
+        chosen, key = list(static), []
+        for t, tree in enumerate(trees):
+            nodes = cut_hierarchy(tree, camera.position, fov_degrees=camera.fov,
+                                  screen_pixels=width_of(camera))
+            for node in nodes:
+                if len(node["occluder"].faces):
+                    chosen.append(node["occluder"])
+                    key.append((t, id(node)))
+        key = tuple(key)
+        if key not in cache:
+            cache[key] = OccluderScene(chosen)
+            if len(cache) > _CUT_CACHE:
+                cache.popitem(last=False)
+        else:
+            cache.move_to_end(key)
+        return cache[key]
+
+    return per_frame
+
+
+def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Sequence[str], *,
+                     active: int = 15, reduction: int = 4, seed: int = 0,
+                     frusta: bool = True, params: dict[str, dict] | None = None,
+                     progress: Callable[[int], None] | None = None
+                     ) -> tuple[dict[str, Runtime], dict]:
+    """The runtimes of the culling simulation for a scene's occluder objects.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+    indices : sequence of int
+        Objects that get occluders (:func:`occluder_objects`).
+    methods : sequence of str
+        Registered generators; each gives a ``depth-buffer:<method>`` runtime.
+    active : int, optional
+        Active occluders per frame of the frusta runtimes (default 15).
+    reduction : int, optional
+        Depth buffer: screen pixels per buffer pixel along each side (default
+        4: 320 x 180 for 1280 x 720).
+    seed : int, optional
+        Passed to every generator.
+    frusta : bool, optional
+        Build ``planar-frusta`` and ``solid-frusta`` from the solids of
+        :func:`frusta_method` (default True).
+    params : dict of str -> dict, optional
+        Generator options per method.
+    progress : callable, optional
+        Called with 1 after each distinct mesh generated (all methods).
+
+    Returns
+    -------
+    runtimes : dict of str -> Runtime
+        ``none``, then ``planar-frusta`` and ``solid-frusta``, then
+        ``depth-buffer:<method>`` per method.
+    info : dict
+        Per runtime: the source method, occluder count, and whether its
+        occluders are conservative (the registry flag).
+
+    Raises
+    ------
+    InputError
+        Unknown method, bad option.
+    """
+    active = as_positive_int(active, "active")
+    reduction = as_positive_int(reduction, "reduction", maximum=1024)
+    params = dict(params or {})
+    methods = list(dict.fromkeys(methods))
+    for m in methods:
+        get_generator(m)
+    source = frusta_method()
+    cache: dict[str, dict[int, Occluder]] = {}
+
+    def occluders(method: str) -> dict[int, Occluder]:
+        if method not in cache:
+            _log.debug("generating %s occluders for %d objects", method, len(indices))
+            cache[method] = scene_occluders(objects, indices, method, seed=seed,
+                                            progress=progress, **params.get(method, {}))
+        return cache[method]
+
+    runtimes: dict[str, Runtime] = {"none": no_culling()}
+    info: dict[str, dict] = {"none": {"method": None, "occluders": 0, "conservative": True}}
+    if frusta:
+        solids = _solids(occluders(source).values())
+        conservative = REGISTRY[source].conservative
+        for mode in ("planar", "solid"):
+            name = f"{mode}-frusta"
+            runtimes[name] = frusta_runtime(solids, mode=mode, active=active,
+                                            conservative=conservative)
+            info[name] = {"method": source, "occluders": runtimes[name].occluders,
+                          "solids": len(solids), "conservative": conservative}
+    for m in methods:
+        occ = list(occluders(m).values())
+        name = f"depth-buffer:{m}"
+        conservative = REGISTRY[m].conservative
+        if not occ:
+            _log.warning("%s made no occluder for the %d objects: %s culls nothing", m,
+                         len(indices), name)
+            runtimes[name] = Runtime(cull=no_culling().cull, conservative=conservative)
+        elif any("hierarchy" in o.parts for o in occ):
+            source_fn = _hierarchy_source(occ, lambda camera: camera.shape[1])
+            runtimes[name] = depth_buffer_runtime(source_fn, reduction=reduction,
+                                                  conservative=conservative, count=len(occ))
+        else:
+            runtimes[name] = depth_buffer_runtime(occ, reduction=reduction,
+                                                  conservative=conservative)
+        info[name] = {"method": m, "occluders": len(occ), "conservative": conservative,
+                      "hierarchy": any("hierarchy" in o.parts for o in occ)}
+    return runtimes, info

@@ -1,0 +1,929 @@
+"""Scene culling simulation: objects culled per frame along a camera path, against ray-cast truth.
+
+Occluders exist to cull objects. This module walks a camera along a path
+through a scene of objects (:class:`viscore.scene_graph.SceneObjects`) and, at
+every frame, asks each culling *runtime* which objects' bounding boxes it
+hides, as a scene-graph renderer does (Papaioannou et al. 2006 [1]_, sec. 4,
+Tables 1-2 and Figures 5-6: primitives rendered per frame along pre-recorded
+viewpoint paths; Hudson et al. 1997 [2]_ for the shadow frusta). The truth is
+a full-resolution ray-cast object-id image (one ray per pixel centre, the
+first hit's triangle mapped to its object): an object with at least one pixel
+is visible, and culling it is a *false cull*. The depth-buffer runtime of the
+occluder-skins paper [3]_ (sec. 5-6: occluders drawn into a reduced depth
+buffer, each occludee's screen rectangle tested at its nearest depth) is one
+of the runtimes.
+
+Per frame and runtime the simulation reports the objects culled (beyond view
+frustum culling), the false culls, the triangles sent to render and the
+runtime's own time (overhead). View-frustum culling is applied first and
+identically for every runtime, the ``none`` runtime included: each runtime
+sees only the boxes that intersect the view frustum.
+
+Runtimes here wrap the library's culling code; the occluders they use are
+inputs (this module never imports :mod:`viscore.generators`):
+
+- :func:`no_culling` (``none``): no occlusion culling.
+- :func:`frusta_runtime`: shadow frusta of convex solids
+  (:class:`viscore.frusta.FrustumCuller`), ``mode='solid'`` (``solid-frusta``)
+  or every face its own planar occluder (``planar-frusta``).
+- :func:`depth_buffer_runtime`: a conservative reduced-resolution depth
+  buffer of occluder meshes (:mod:`viscore.depth_buffer`), from a fixed list
+  or a per-frame callable (a hierarchy's cut for the frame).
+
+The camera path: :func:`camera_path` generates a deterministic walk through a
+scene's free space (streets at eye height, close-ups of walls, elevated
+passes, far views); :func:`read_camera_path` reads one from JSON.
+
+References
+----------
+.. [1] Papaioannou, G., Gaitatzes, A., Christopoulos, D. "Efficient Occlusion
+   Culling using Solid Occluders". WSCG 2006 (Plzen), UNION Agency,
+   ISBN 80-86943-03-8 (sec. 4, Tables 1-2, Figures 5-6).
+.. [2] Hudson, T., Manocha, D., Cohen, J., Lin, M., Hoff, K., Zhang, H.
+   "Accelerated Occlusion Culling using Shadow Frusta". 13th ACM Symposium on
+   Computational Geometry, 1997, pp. 1-10.
+.. [3] "Occluder Skins" (occluder generation from axis-aligned boxes for a
+   hierarchical-occlusion-map culler; authors and venue not in the text we
+   have), sec. 5-6 (depth buffer generation, testing the occludees).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from viscore import InputError, PerspectiveCamera
+from viscore._validate import as_positive, as_positive_int, as_seed, as_vector, check_memory
+
+if TYPE_CHECKING:  # pragma: no cover - hints only
+    from viscore.scene_graph import SceneObjects
+
+__all__ = ["PathCamera", "Runtime", "RuntimeFrames", "CullingResult", "simulate_culling",
+           "no_culling", "frusta_runtime", "depth_buffer_runtime", "view_frustum_mask",
+           "camera_path", "read_camera_path", "camera_path_json", "culling_plot",
+           "check_culling_memory",
+           "DEFAULT_WIDTH", "DEFAULT_HEIGHT", "DEFAULT_FOV"]
+
+_log = logging.getLogger(__name__)
+
+#: Ground-truth image size, pixels (the issue's default: 1280 x 720).
+DEFAULT_WIDTH, DEFAULT_HEIGHT = 1280, 720
+
+#: Horizontal field of view of generated and JSON cameras without ``fov``, degrees.
+DEFAULT_FOV = 90.0
+
+#: Eye height above the ground of the street-level frames, world units (metres
+#: in the built-in cities).
+EYE_HEIGHT = 1.7
+
+#: Peak bytes per ground-truth pixel: the rays (origins and directions, float64
+#: and their float32 chunks), the hit distances and triangle ids.
+_BYTES_PER_PIXEL = 200
+
+#: Free-space map of :func:`camera_path`: cells along the longest horizontal side.
+_GRID_CELLS = 256
+
+#: Horizontal clearance, in cells of the free-space map, kept between the
+#: street-level cameras and anything that reaches eye height.
+_MIN_CLEARANCE_CELLS = 1.0
+
+#: Street-level free space: a cell is free when nothing in it rises above this
+#: fraction of the eye height over the ground (a parked car's roof, 1.4-1.5 m,
+#: stays below a 1.7 m eye; a van does not).
+_HEAD_ROOM = 0.9
+
+#: Names of frame entries that are not runtimes (the rest of a frame's keys are).
+_FRAME_KEYS = ("frame", "camera", "in_view", "visible", "visible_triangles")
+
+
+# --------------------------------------------------------------------------- cameras
+@dataclass(frozen=True)
+class PathCamera:
+    """One camera of a path.
+
+    Attributes
+    ----------
+    position : (3,) float64
+        Eye point, world units.
+    forward : (3,) float64
+        Unit viewing direction.
+    up : (3,) float64
+        Approximate up vector (the scene's up axis by default).
+    fov : float
+        Horizontal field of view, degrees in (0, 180).
+    """
+
+    position: np.ndarray
+    forward: np.ndarray
+    up: np.ndarray
+    fov: float = DEFAULT_FOV
+
+    def camera(self, width: int, height: int) -> PerspectiveCamera:
+        """The :class:`~viscore.PerspectiveCamera` of this pose, ``width`` x ``height`` pixels."""
+        return PerspectiveCamera(self.position, self.forward, up=self.up, fov=self.fov,
+                                 resolution=width, height=height)
+
+    def to_json(self) -> dict:
+        """``{"position", "forward", "up", "fov"}``, the format :func:`read_camera_path` reads."""
+        return {"position": [float(x) for x in self.position],
+                "forward": [float(x) for x in self.forward],
+                "up": [float(x) for x in self.up], "fov": float(self.fov)}
+
+
+def _pose(position, forward, up, fov: float, where: str) -> PathCamera:
+    from viscore import camera_basis
+
+    p = as_vector(position, f"{where}.position")
+    f = as_vector(forward, f"{where}.forward")
+    u = as_vector(up, f"{where}.up")
+    try:
+        f, _, _ = camera_basis(f, u)
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
+    fov = as_positive(fov, f"{where}.fov")
+    if fov >= 180:
+        raise InputError(f"{where}.fov: expected degrees in (0, 180), got {fov:g}")
+    for arr in (p, f, u):
+        arr.flags.writeable = False
+    return PathCamera(position=p, forward=f, up=u, fov=fov)
+
+
+def read_camera_path(path: str | os.PathLike, *, up: npt.ArrayLike = (0.0, 1.0, 0.0)
+                     ) -> list[PathCamera]:
+    """Read a camera path from a JSON file.
+
+    Format: a JSON list of cameras, each an object with ``position`` (3
+    numbers, world units), ``forward`` (3 numbers, the viewing direction),
+    optionally ``up`` (3 numbers; default ``up``) and ``fov`` (horizontal
+    field of view in degrees, in (0, 180); default 90). For example::
+
+        [{"position": [0, 1.7, -50], "forward": [0, 0, 1]},
+         {"position": [0, 30, -80], "forward": [0, -0.4, 1], "up": [0, 1, 0], "fov": 70}]
+
+    Parameters
+    ----------
+    path : str or path-like
+        The JSON file.
+    up : (3,) float, optional
+        Up vector of the cameras without one (default +Y, glTF's up).
+
+    Returns
+    -------
+    list of PathCamera
+
+    Raises
+    ------
+    InputError
+        One line naming the file: missing or unreadable, not JSON, not a
+        non-empty list of camera objects, or a camera with a missing, non-finite
+        or degenerate field (zero forward, up parallel to forward, fov out of
+        range), naming the camera's index.
+    """
+    label = str(path)
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(64 << 20)
+    except IsADirectoryError:
+        raise InputError(f"{label}: is a directory, expected a camera path JSON file") from None
+    except FileNotFoundError:
+        raise InputError(f"{label}: no such file") from None
+    except OSError as exc:
+        raise InputError(f"{label}: cannot read ({exc.strerror or exc})") from None
+    try:
+        doc = json.loads(data.decode("utf-8-sig"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise InputError(f"{label}: not a valid JSON file ({' '.join(str(exc).split())[:120]})"
+                         ) from None
+    if not isinstance(doc, list) or not doc:
+        raise InputError(f"{label}: expected a non-empty JSON list of cameras "
+                         "({\"position\": [x, y, z], \"forward\": [x, y, z], \"up\"?, \"fov\"?})")
+    cameras = []
+    for i, cam in enumerate(doc):
+        where = f"{label}: camera {i}"
+        if not isinstance(cam, dict):
+            raise InputError(f"{where}: expected an object with position and forward")
+        missing = [k for k in ("position", "forward") if k not in cam]
+        if missing:
+            raise InputError(f"{where}: missing {', '.join(missing)}")
+        unknown = sorted(set(cam) - {"position", "forward", "up", "fov"})
+        if unknown:
+            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} "
+                             "(expected position, forward, up, fov)")
+        fov = cam.get("fov", DEFAULT_FOV)
+        if isinstance(fov, bool) or not isinstance(fov, (int, float)):
+            raise InputError(f"{where}.fov: expected a number of degrees, got {fov!r:.40}")
+        cameras.append(_pose(cam["position"], cam["forward"], cam.get("up", up), fov, where))
+    return cameras
+
+
+def camera_path_json(cameras: Sequence[PathCamera]) -> str:
+    """The JSON text of a camera path (the format :func:`read_camera_path` reads)."""
+    return json.dumps([c.to_json() for c in cameras], indent=1)
+
+
+# --------------------------------------------------------------------------- path generation
+def _horizontal_basis(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors spanning the plane perpendicular to ``up`` (right-handed with it)."""
+    axis = np.zeros(3)
+    axis[int(np.argmin(np.abs(up)))] = 1.0
+    e1 = np.cross(up, axis)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(e1, up)
+    return e1, e2
+
+
+def _free_space(objects: SceneObjects, up: np.ndarray, eye_height: float):
+    """Heights and free cells of the scene seen from above on a horizontal grid.
+
+    Returns the grid frame (basis, origin, cell size, shape), the ground level
+    along ``up``, the free mask (nothing in the column reaches within a
+    tenth of ``eye_height`` below the eye) and the clearance (cells) of
+    each free cell to the nearest blocked one.
+    """
+    from scipy import ndimage
+
+    e1, e2 = _horizontal_basis(up)
+    corners = np.array([[x, y, z] for x in objects.bounds[:, 0] for y in objects.bounds[:, 1]
+                        for z in objects.bounds[:, 2]])
+    h = corners @ up
+    a, b = corners @ e1, corners @ e2
+    cell = max(a.max() - a.min(), b.max() - b.min()) / _GRID_CELLS
+    na = max(2, int(np.ceil((a.max() - a.min()) / cell)))
+    nb = max(2, int(np.ceil((b.max() - b.min()) / cell)))
+    ga = a.min() + (np.arange(na) + 0.5) * cell
+    gb = b.min() + (np.arange(nb) + 0.5) * cell
+    top = h.max() + 0.01 * (h.max() - h.min() + cell)
+    aa, bb = np.meshgrid(ga, gb, indexing="ij")
+    origins = aa.reshape(-1, 1) * e1 + bb.reshape(-1, 1) * e2 + top * up
+    scene, _ = objects.combined
+    dist, _ = scene.first_hit(origins, np.broadcast_to(-up, origins.shape))
+    height = np.where(np.isfinite(dist), top - dist, -np.inf).reshape(na, nb)
+    hit = np.isfinite(height)
+    ground = float(np.percentile(height[hit], 5)) if hit.any() else float(h.min())
+    height = np.where(hit, height, ground)
+    blocked = height > ground + _HEAD_ROOM * eye_height
+    # beyond the grid counts as blocked: the scene's rim is no wide open place
+    clearance = ndimage.distance_transform_edt(np.pad(~blocked, 1))[1:-1, 1:-1]
+    return (e1, e2, a.min(), b.min(), cell, (na, nb)), ground, ~blocked, clearance, height
+
+
+def _route(free: np.ndarray, clearance: np.ndarray, tall: np.ndarray,
+           rng: np.random.Generator, waypoints: int) -> np.ndarray:
+    """A walk through the free cells visiting ``waypoints`` open places among tall things.
+
+    Returns (m, 2) cell coordinates along the walk.
+    """
+    from scipy import ndimage
+    from skimage.graph import route_through_array
+
+    ok = free & (clearance >= _MIN_CLEARANCE_CELLS + 1)
+    if not ok.any():
+        ok = free
+    labels, count = ndimage.label(ok)
+    if count == 0:
+        return np.zeros((0, 2))
+    sizes = np.bincount(labels.ravel())[1:]
+    main = labels == (int(np.argmax(sizes)) + 1)  # the largest connected free region
+    # waypoints: open (clearance capped at its median, so that one wide square
+    # does not take them all) and among the tall things (no closer to the scene's
+    # rim than the median free cell is to something tall)
+    to_tall = ndimage.distance_transform_edt(~tall) if tall.any() else np.zeros(tall.shape)
+    among = main & (to_tall <= np.median(to_tall[main]))
+    cells = np.argwhere(among if among.any() else main)
+    open_ = clearance[tuple(cells.T)]
+    weight = np.minimum(open_, np.median(open_)) ** 2
+    picks = rng.choice(len(cells), size=min(waypoints, len(cells)), replace=False,
+                       p=weight / weight.sum())
+    points = cells[picks]
+    # visit them in a greedy nearest-neighbour tour from the first
+    order = [0]
+    left = set(range(1, len(points)))
+    while left:
+        last = points[order[-1]]
+        nxt = min(left, key=lambda k: float(np.sum((points[k] - last) ** 2)))
+        order.append(nxt)
+        left.remove(nxt)
+    points = points[order]
+    # least cost: short, off the walls, and among the tall things (not round the rim)
+    med = max(float(np.median(to_tall[main])), 1.0)
+    cost = 1.0 + 2.0 / (clearance + 0.5) + np.maximum(0.0, to_tall - med) / med
+    cost = np.where(main, cost, -1.0)  # negative: impassable
+    path = [points[:1]]
+    for p, q in zip(points[:-1], points[1:], strict=True):
+        route, _ = route_through_array(cost, tuple(p), tuple(q), fully_connected=True,
+                                       geometric=True)
+        path.append(np.asarray(route)[1:])
+    return np.concatenate(path).astype(np.float64)
+
+
+def _resample(polyline: np.ndarray, count: int, start: float = 0.0, stop: float = 1.0
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` points evenly spaced along a polyline between two arc-length fractions,
+    and the unit tangents there (smoothed over a few cells)."""
+    seg = np.linalg.norm(np.diff(polyline, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    total = s[-1]
+    if count <= 0:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    if total == 0:
+        return np.repeat(polyline[:1], count, 0), np.tile([1.0, 0.0], (count, 1))
+    t = np.linspace(start, stop, count, endpoint=count == 1) * total
+    pts = np.stack([np.interp(t, s, polyline[:, k]) for k in (0, 1)], axis=1)
+    ahead = np.stack([np.interp(np.minimum(t + 6.0, total), s, polyline[:, k]) for k in (0, 1)], 1)
+    behind = np.stack([np.interp(np.maximum(t - 6.0, 0), s, polyline[:, k]) for k in (0, 1)], 1)
+    tangent = ahead - behind
+    norm = np.linalg.norm(tangent, axis=1)
+    tangent = np.where(norm[:, None] > 0, tangent / np.maximum(norm, 1e-12)[:, None], [1.0, 0.0])
+    return pts, tangent
+
+
+def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
+                eye_height: float = EYE_HEIGHT, fov: float = DEFAULT_FOV,
+                up: npt.ArrayLike | None = None) -> list[PathCamera]:
+    """A deterministic camera path through a scene's free space.
+
+    The walk the culling simulation follows: street level at eye height
+    (looking ahead, and every fourth frame turned to the nearest wall for a
+    close-up, where solid occluders beat planar ones: Papaioannou et al. 2006,
+    Fig. 5, locations A-C), then an elevated pass over the same streets
+    looking down, then views from far outside the scene towards its centre.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+        The scene (:func:`viscore.scene_graph.load_scene_objects`).
+    frames : int, optional
+        Number of cameras, >= 1 (default 120). About 70% street level (a
+        quarter of them close-ups), 20% elevated, 10% far away.
+    seed : int, optional
+        Seed of the waypoint choice (default 0): same scene and seed, same path.
+    eye_height : float, optional
+        Street-level eye height above the ground, world units (default 1.7).
+    fov : float, optional
+        Horizontal field of view of every camera, degrees (default 90).
+    up : (3,) float, optional
+        The scene's up axis. Default ``objects.up`` (+Y for glTF).
+
+    Returns
+    -------
+    list of PathCamera
+
+    Raises
+    ------
+    InputError
+        On a bad option.
+
+    Notes
+    -----
+    Free space is found by casting one vertical ray down per cell of a
+    256-cell grid over the scene's footprint: a cell is free when nothing in
+    it rises above 90% of the eye height over the ground (the 5th
+    percentile of the first-hit heights), so street-level cameras are never
+    inside an object. Waypoints are free cells drawn with probability
+    proportional to their squared clearance (wide streets and squares) in
+    the largest connected free region, visited in a nearest-neighbour tour,
+    joined by least-cost routes that keep to the middle of the free space
+    (:func:`skimage.graph.route_through_array`).
+    """
+    frames = as_positive_int(frames, "frames", maximum=100_000)
+    seed = as_seed(seed)
+    eye_height = as_positive(eye_height, "eye_height")
+    fov = as_positive(fov, "fov")
+    if fov >= 180:
+        raise InputError(f"fov: expected degrees in (0, 180), got {fov:g}")
+    up = np.asarray(objects.up if up is None else as_vector(up, "up"), dtype=np.float64)
+    if np.linalg.norm(up) == 0:
+        raise InputError("up: zero-length vector")
+    up = up / np.linalg.norm(up)
+    rng = np.random.default_rng(seed)
+    (e1, e2, a0, b0, cell, shape), ground, free, clearance, height = _free_space(
+        objects, up, eye_height)
+    n_far = frames // 10
+    n_high = frames // 5
+    n_street = frames - n_far - n_high
+    top = float(height.max())
+    tall = height > ground + max(3 * eye_height, 0.15 * (top - ground))
+    route = _route(free, clearance, tall, rng, waypoints=max(3, min(12, frames // 8 + 2)))
+
+    def world(cells: np.ndarray, level: np.ndarray | float) -> np.ndarray:
+        a = a0 + (cells[:, 0] + 0.5) * cell
+        b = b0 + (cells[:, 1] + 0.5) * cell
+        return a[:, None] * e1 + b[:, None] * e2 + np.reshape(level, (-1, 1)) * up
+
+    def horizontal(d2: np.ndarray) -> np.ndarray:
+        return d2[:, :1] * e1 + d2[:, 1:] * e2
+
+    cams: list[PathCamera] = []
+    if len(route) >= 2:
+        pts, tangent = _resample(route, n_street)
+        forward = horizontal(tangent)
+        # close-ups: every fourth street frame faces the nearest tall thing (a wall)
+        from scipy import ndimage
+
+        _, (ia, ib) = ndimage.distance_transform_edt(~tall, return_indices=True)
+        for k in range(2, n_street, 4):
+            i, j = np.clip(np.round(pts[k]).astype(int), 0, np.array(shape) - 1)
+            to_wall = np.array([ia[i, j] - pts[k, 0], ib[i, j] - pts[k, 1]])
+            if np.linalg.norm(to_wall) > 0:
+                forward[k] = horizontal((to_wall / np.linalg.norm(to_wall))[None])[0]
+        positions = world(pts, ground + eye_height)
+        cams += [_pose(p, f, up, fov, "camera") for p, f in zip(positions, forward, strict=True)]
+        # elevated pass: back along the route, rising, looking ahead and down
+        pts, tangent = _resample(route, n_high, 1.0, 0.0)
+        rise = np.linspace(0.25, 0.9, max(1, n_high)) * max(top - ground, 4 * eye_height)
+        positions = world(pts, ground + eye_height + rise)
+        down = np.tan(np.radians(25.0))
+        forward = horizontal(tangent) - down * up
+        cams += [_pose(p, f, up, fov, "camera") for p, f in zip(positions, forward, strict=True)]
+    else:  # no free route: the street and elevated frames circle the scene instead
+        n_far += n_street + n_high
+    # far away: around the scene, outside its footprint, looking at its centre
+    centre2 = np.array([(shape[0] - 1) / 2, (shape[1] - 1) / 2])
+    radius = 0.75 * np.hypot(*shape)
+    phase = rng.uniform(0, 2 * np.pi)
+    angles = phase + 2 * np.pi * np.arange(n_far) / max(1, n_far)
+    ring = centre2 + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    lift = ground + 0.3 * radius * cell + eye_height
+    positions = world(ring, np.full(n_far, lift))
+    targets = world(np.repeat(centre2[None], n_far, 0), np.full(n_far, ground))
+    cams += [_pose(p, t - p, up, fov, "camera") for p, t in zip(positions, targets, strict=True)]
+    return cams
+
+
+# --------------------------------------------------------------------------- runtimes
+@dataclass(frozen=True)
+class Runtime:
+    """A culling runtime as the simulation drives it.
+
+    Attributes
+    ----------
+    cull : callable
+        ``cull(camera, lower, upper) -> (n,) bool``: the occludees hidden this
+        frame, given the frame's :class:`~viscore.PerspectiveCamera` and the
+        ``(n, 3)`` lower and upper corners of the boxes that survived view
+        frustum culling. Its wall time is the runtime's overhead.
+    conservative : bool
+        True when every occluder it uses carries a conservativeness guarantee
+        (the generator registry's ``conservative`` flag); a conservative
+        runtime must never cull a visible object.
+    occluders : int
+        Occluders (solids, polygons or meshes) it holds; 0 for ``none``.
+    """
+
+    cull: Callable[[PerspectiveCamera, np.ndarray, np.ndarray], np.ndarray]
+    conservative: bool = True
+    occluders: int = 0
+
+
+def _nothing(camera, lower, upper) -> np.ndarray:
+    return np.zeros(len(lower), dtype=bool)
+
+
+def no_culling() -> Runtime:
+    """The ``none`` runtime: no occlusion culling (view frustum culling only)."""
+    return Runtime(cull=_nothing, conservative=True, occluders=0)
+
+
+def frusta_runtime(solids: Sequence, *, mode: str = "solid", active: int = 15,
+                   polygons: Sequence | None = None, conservative: bool = True) -> Runtime:
+    """Shadow-frustum runtime of convex solids (Papaioannou et al. 2006).
+
+    Parameters
+    ----------
+    solids : list of (vertices, faces)
+        Convex solids in world units (``Occluder.parts["solids"]``).
+    mode : {'solid', 'planar'}, optional
+        One frustum per solid (``solid-frusta``, default) or one per face
+        (``planar-frusta``): the comparison of the paper.
+    active : int, optional
+        Occluders ranked best each frame that make frusta (default 15, sec. 3).
+    polygons : list of (m, 3) float, optional
+        Extra convex planar occluders (two-sided).
+    conservative : bool, optional
+        Whether the solids carry the conservativeness guarantee (default True).
+
+    Returns
+    -------
+    Runtime
+
+    Raises
+    ------
+    InputError
+        From :class:`viscore.frusta.FrustumCuller` on a solid that is not
+        closed and convex, or a bad option.
+    """
+    from viscore.frusta import FrustumCuller
+
+    culler = FrustumCuller(list(solids), polygons=polygons, mode=mode, active=active)
+    return Runtime(cull=culler.cull, conservative=bool(conservative), occluders=culler.count)
+
+
+def depth_buffer_runtime(occluders, *, reduction: int = 4, conservative: bool = True,
+                         count: int | None = None) -> Runtime:
+    """Conservative reduced-resolution depth-buffer runtime (occluder skins, sec. 5-6).
+
+    Parameters
+    ----------
+    occluders : list of Occluder or trimesh.Trimesh, or callable
+        The occluders in world units, anything
+        :class:`viscore.depth_buffer.OccluderScene` accepts (prepared once
+        here); or ``occluders(camera) -> OccluderScene`` called every frame
+        (for example the cut of a planar-sections hierarchy for the frame's
+        camera), whose time counts in the overhead.
+    reduction : int, optional
+        Screen pixels per buffer pixel along each side (default 4: 320 x 180
+        for 1280 x 720, the quarter-size buffer of sec. 7).
+    conservative : bool, optional
+        Whether the occluders carry the conservativeness guarantee.
+    count : int, optional
+        Occluders it holds, for the report (default: ``len(occluders)`` for a
+        list).
+
+    Returns
+    -------
+    Runtime
+
+    Notes
+    -----
+    Conservative by construction (see :mod:`viscore.depth_buffer`): a buffer
+    pixel holds a depth only where its whole footprint is covered, never
+    farther than the occluders, so objects seen through sub-pixel gaps are
+    not culled.
+    """
+    from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
+
+    reduction = as_positive_int(reduction, "reduction", maximum=1024)
+    if callable(occluders):
+        per_frame = occluders
+        n = 0 if count is None else int(count)
+    else:
+        items = list(occluders)
+        prepared = OccluderScene(items)
+
+        def per_frame(camera, prepared=prepared):
+            return prepared
+        n = len(items) if count is None else int(count)
+
+    def cull(camera: PerspectiveCamera, lower, upper) -> np.ndarray:
+        rows, cols = camera.shape
+        buffer = ConservativeDepthBuffer.from_occluders(
+            per_frame(camera), camera, width=max(1, cols // reduction),
+            height=max(1, rows // reduction))
+        return buffer.occluded(lower, upper)
+
+    return Runtime(cull=cull, conservative=bool(conservative), occluders=n)
+
+
+# --------------------------------------------------------------------------- simulation
+def check_culling_memory(width: int, height: int) -> tuple[int, int]:
+    """Check a ground-truth image size and that its rays fit in memory, before any work.
+
+    Returns
+    -------
+    width, height : int
+
+    Raises
+    ------
+    InputError
+        A size that is not an integer in [1, 16384], or rays that do not fit
+        (:func:`viscore._validate.check_memory`).
+    """
+    width = as_positive_int(width, "width", maximum=16384)
+    height = as_positive_int(height, "height", maximum=16384)
+    check_memory(float(width) * height * _BYTES_PER_PIXEL,
+                 f"ground truth at {width} x {height} pixels")
+    return width, height
+
+
+def view_frustum_mask(camera: PerspectiveCamera, lower: npt.ArrayLike, upper: npt.ArrayLike
+                      ) -> np.ndarray:
+    """Boxes that may intersect the camera's view frustum (conservative).
+
+    A box is rejected when it lies wholly outside one of the four side planes
+    through the eye and the image edges, or wholly behind the eye; every box
+    holding a point that projects inside the image is kept.
+
+    Parameters
+    ----------
+    camera : PerspectiveCamera
+    lower, upper : (n, 3) float
+        Box corners, world units.
+
+    Returns
+    -------
+    in_view : (n,) bool
+
+    Examples
+    --------
+    >>> from viscore import PerspectiveCamera
+    >>> cam = PerspectiveCamera((0, 0, 0), (0, 0, 1), up=(0, 1, 0), fov=90, resolution=4)
+    >>> view_frustum_mask(cam, [[-1, -1, 5], [-1, -1, -6]], [[1, 1, 6], [1, 1, -5]]).tolist()
+    [True, False]
+    """
+    lo = np.asarray(lower, dtype=np.float64).reshape(-1, 3)
+    hi = np.asarray(upper, dtype=np.float64).reshape(-1, 3)
+    f, r, u = camera.basis
+    hx = float(np.tan(np.radians(camera.fov) / 2))
+    hy = float(np.tan(np.radians(camera.vertical_fov) / 2))
+    normals = np.array([hx * f - r, hx * f + r, hy * f - u, hy * f + u, f])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    d = -(normals @ camera.position)
+    # the box corner furthest along each inward normal
+    far = np.where(normals[None, :, :] >= 0, hi[:, None, :], lo[:, None, :])
+    reach = np.einsum("nkj,kj->nk", far, normals) + d
+    return (reach >= 0).all(axis=1)
+
+
+@dataclass(frozen=True)
+class RuntimeFrames:
+    """Per-frame figures of one runtime.
+
+    Attributes
+    ----------
+    culled : (F,) int64
+        Objects culled by the runtime, beyond view frustum culling.
+    false_culls : (F,) int64
+        Culled objects that the ground truth sees (>= 1 pixel).
+    triangles_rendered : (F,) int64
+        Triangles of the objects sent to render (in view, not culled).
+    overhead_ms : (F,) float64
+        Wall time of the runtime's ``cull`` call, milliseconds.
+    conservative : bool
+        The runtime's :attr:`Runtime.conservative`.
+    false_cull_names : tuple of tuple of str
+        Per frame, the names of the first (at most 10) falsely culled objects.
+    """
+
+    culled: np.ndarray
+    false_culls: np.ndarray
+    triangles_rendered: np.ndarray
+    overhead_ms: np.ndarray
+    conservative: bool
+    false_cull_names: tuple = ()
+
+
+@dataclass(frozen=True)
+class CullingResult:
+    """The simulation's figures per frame and runtime, with the ground truth.
+
+    Attributes
+    ----------
+    cameras : tuple of PathCamera
+        (F,) the path.
+    width, height : int
+        Ground-truth image size, pixels.
+    objects, triangles : int
+        Objects in the scene and their triangles (instances counted each time).
+    in_view : (F,) int64
+        Objects that survive view frustum culling, per frame.
+    in_view_triangles : (F,) int64
+        Their triangles (what the ``none`` runtime renders).
+    visible : (F,) int64
+        Objects with at least one pixel in the ray-cast object-id image.
+    visible_triangles : (F,) int64
+        Their triangles (what an exact occlusion culler would render).
+    runtimes : dict of str -> RuntimeFrames
+        Per runtime name (``none``, ``planar-frusta``, ``solid-frusta``,
+        ``depth-buffer:<method>``, ...), in the order given.
+    """
+
+    cameras: tuple
+    width: int
+    height: int
+    objects: int
+    triangles: int
+    in_view: np.ndarray
+    in_view_triangles: np.ndarray
+    visible: np.ndarray
+    visible_triangles: np.ndarray
+    runtimes: dict = field(default_factory=dict)
+
+    def totals(self) -> dict[str, dict]:
+        """Per runtime: totals over the path (see :meth:`to_json`)."""
+        out = {}
+        in_view = int(self.in_view.sum())
+        frames = max(1, len(self.cameras))
+        for name, rf in self.runtimes.items():
+            culled = int(rf.culled.sum())
+            out[name] = {
+                "culled": culled,
+                "culled_share": culled / in_view if in_view else 0.0,
+                "false_culls": int(rf.false_culls.sum()),
+                "frames_with_false_culls": int((rf.false_culls > 0).sum()),
+                "triangles_rendered": int(rf.triangles_rendered.sum()),
+                "triangles_rendered_per_frame": float(rf.triangles_rendered.sum()) / frames,
+                "overhead_ms": float(rf.overhead_ms.mean()) if len(rf.overhead_ms) else 0.0,
+                "overhead_ms_max": float(rf.overhead_ms.max()) if len(rf.overhead_ms) else 0.0,
+                "conservative": bool(rf.conservative),
+            }
+        return out
+
+    def to_json(self) -> dict:
+        """The JSON document: ``frames``, ``totals``, ``ground_truth`` and ``settings``.
+
+        ``frames`` holds one entry per frame: ``frame`` (index), ``camera``
+        (position, forward, up, fov), ``in_view``, ``visible`` and
+        ``visible_triangles`` (ground truth), and one entry per runtime name
+        with ``culled``, ``culled_share`` (of the objects in view),
+        ``false_culls``, ``triangles_rendered`` and ``overhead_ms`` (and
+        ``false_cull_objects``, the first names, when there are any).
+        ``totals`` holds one entry per runtime name: ``culled`` (sum over the
+        frames), ``culled_share`` (of the objects in view, over all frames),
+        ``false_culls`` (sum), ``frames_with_false_culls``,
+        ``triangles_rendered`` (sum) and ``triangles_rendered_per_frame``
+        (mean), ``overhead_ms`` (mean per frame) and ``overhead_ms_max``, and
+        ``conservative``. ``ground_truth`` holds the same sums for an exact
+        culler (only the visible objects rendered).
+        """
+        frames = []
+        for k, cam in enumerate(self.cameras):
+            entry = {"frame": k, "camera": cam.to_json(), "in_view": int(self.in_view[k]),
+                     "visible": int(self.visible[k]),
+                     "visible_triangles": int(self.visible_triangles[k])}
+            for name, rf in self.runtimes.items():
+                n = int(self.in_view[k])
+                entry[name] = {"culled": int(rf.culled[k]),
+                               "culled_share": int(rf.culled[k]) / n if n else 0.0,
+                               "false_culls": int(rf.false_culls[k]),
+                               "triangles_rendered": int(rf.triangles_rendered[k]),
+                               "overhead_ms": float(rf.overhead_ms[k])}
+                if rf.false_cull_names and rf.false_cull_names[k]:
+                    entry[name]["false_cull_objects"] = list(rf.false_cull_names[k])
+            frames.append(entry)
+        in_view = int(self.in_view.sum())
+        hidden = in_view - int(self.visible.sum())
+        return {
+            "settings": {"frames": len(self.cameras), "width": self.width, "height": self.height,
+                         "objects": self.objects, "triangles": self.triangles},
+            "frames": frames,
+            "totals": self.totals(),
+            "ground_truth": {
+                "in_view": in_view, "visible": int(self.visible.sum()),
+                "hidden_share": hidden / in_view if in_view else 0.0,
+                "triangles_in_view": int(self.in_view_triangles.sum()),
+                "triangles_visible": int(self.visible_triangles.sum()),
+            },
+        }
+
+
+def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
+                     path: Sequence[PathCamera], *, width: int = DEFAULT_WIDTH,
+                     height: int = DEFAULT_HEIGHT,
+                     progress: Callable[[int], None] | None = None) -> CullingResult:
+    """Run every culling runtime along a camera path against the ray-cast ground truth.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+        The scene; every object is an occludee, tested through its world box.
+    runtimes : dict of str -> Runtime
+        The runtimes by name (``none``: :func:`no_culling`; ``solid-frusta``,
+        ``planar-frusta``: :func:`frusta_runtime`; ``depth-buffer:<method>``:
+        :func:`depth_buffer_runtime`). At least one.
+    path : sequence of PathCamera
+        The cameras (:func:`camera_path`, :func:`read_camera_path`).
+    width, height : int, optional
+        Ground-truth image size, pixels (default 1280 x 720); the cameras'
+        fields of view are horizontal.
+    progress : callable, optional
+        Called with 1 after each frame (a progress bar's ``update``).
+
+    Returns
+    -------
+    CullingResult
+
+    Raises
+    ------
+    InputError
+        No runtime or camera, a bad size, or an image whose rays do not fit in
+        memory (checked before any work).
+
+    Notes
+    -----
+    Per frame: the ground truth casts one ray per pixel centre of a
+    ``width`` x ``height`` image through the scene (all objects in one Embree
+    scene) and maps each first hit to its object; objects with at least one
+    pixel are visible. An object visible only between pixel centres (smaller
+    than a pixel, or seen through a gap narrower than one) counts as hidden:
+    that is the limit of the ground truth, and a false cull of such an object
+    is not counted. View frustum culling is then applied, identically for every
+    runtime (:func:`view_frustum_mask`), and each runtime gets the surviving
+    boxes; its ``cull`` call is timed (``time.perf_counter``) as its overhead.
+    A culled object that is visible is a false cull. Deterministic given the
+    runtimes; the overheads vary from run to run.
+    """
+    if not runtimes:
+        raise InputError("runtimes: expected at least one runtime")
+    for name, rt in runtimes.items():
+        if not isinstance(rt, Runtime):
+            raise InputError(f"runtimes[{name!r}]: expected a Runtime, got {type(rt).__name__}")
+    cameras = tuple(path)
+    if not cameras:
+        raise InputError("path: expected at least one camera")
+    width, height = check_culling_memory(width, height)
+    scene, triangle_object = objects.combined
+    n = len(objects)
+    lower, upper, tris = objects.lower, objects.upper, objects.triangles
+    names = list(runtimes)
+    count = len(cameras)
+    in_view_n = np.zeros(count, np.int64)
+    in_view_t = np.zeros(count, np.int64)
+    visible_n = np.zeros(count, np.int64)
+    visible_t = np.zeros(count, np.int64)
+    per = {k: {"culled": np.zeros(count, np.int64), "false": np.zeros(count, np.int64),
+               "tris": np.zeros(count, np.int64), "ms": np.zeros(count), "names": []}
+           for k in names}
+    for f, pose in enumerate(cameras):
+        camera = pose.camera(width, height)
+        origins, directions = camera.rays()
+        _, tri = scene.first_hit(origins, directions)
+        del origins, directions
+        hit = tri[tri >= 0]
+        visible = np.zeros(n, dtype=bool)
+        visible[np.unique(triangle_object[hit])] = True
+        in_view = view_frustum_mask(camera, lower, upper)
+        idx = np.flatnonzero(in_view)
+        in_view_n[f], in_view_t[f] = len(idx), int(tris[idx].sum())
+        visible_n[f], visible_t[f] = int(visible.sum()), int(tris[visible].sum())
+        lo, hi = lower[idx], upper[idx]
+        for name in names:
+            start = time.perf_counter()
+            mask = np.asarray(runtimes[name].cull(camera, lo, hi), dtype=bool)
+            elapsed = time.perf_counter() - start
+            if mask.shape != (len(idx),):
+                raise ValueError(f"runtime {name!r}: cull returned shape {mask.shape}, "
+                                 f"expected ({len(idx)},)")
+            culled = idx[mask]
+            false = culled[visible[culled]]
+            rendered = tris[idx].sum() - tris[culled].sum()
+            rec = per[name]
+            rec["culled"][f], rec["false"][f] = len(culled), len(false)
+            rec["tris"][f], rec["ms"][f] = int(rendered), 1e3 * elapsed
+            rec["names"].append(tuple(objects.names[i] for i in false[:10]))
+            if len(false) and runtimes[name].conservative:
+                _log.warning("frame %d: %s culled %d visible object(s), e.g. %s", f, name,
+                             len(false), objects.names[int(false[0])])
+        if progress is not None:
+            progress(1)
+    results = {k: RuntimeFrames(culled=per[k]["culled"], false_culls=per[k]["false"],
+                                triangles_rendered=per[k]["tris"], overhead_ms=per[k]["ms"],
+                                conservative=runtimes[k].conservative,
+                                false_cull_names=tuple(per[k]["names"])) for k in names}
+    return CullingResult(cameras=cameras, width=width, height=height, objects=n,
+                         triangles=objects.total_triangles, in_view=in_view_n,
+                         in_view_triangles=in_view_t, visible=visible_n,
+                         visible_triangles=visible_t, runtimes=results)
+
+
+# --------------------------------------------------------------------------- plot
+def culling_plot(result: CullingResult, path: str | os.PathLike, *, title: str | None = None
+                 ) -> None:
+    """Triangles rendered per frame for every runtime (Papaioannou et al. 2006, Figs. 5-6).
+
+    One line per runtime, and the ground truth (triangles of the visible
+    objects, what an exact culler renders) dashed.
+
+    Parameters
+    ----------
+    result : CullingResult
+    path : str or path-like
+        Figure file (``.png``, ``.pdf`` or ``.svg``), 1000 x 420 pixels,
+        written atomically.
+    title : str, optional
+        Figure title.
+
+    Raises
+    ------
+    InputError
+        If the suffix of ``path`` is not a figure format, or the result has
+        no frames.
+    """
+    from .plots import _figure, _format_of, _save
+
+    _format_of(path)
+    if not len(result.cameras):
+        raise InputError("result: no frames to plot")
+    fig = _figure(10, 4.2)
+    ax = fig.subplots()
+    x = np.arange(len(result.cameras))
+    for k, (name, rf) in enumerate(result.runtimes.items()):
+        ax.plot(x, rf.triangles_rendered, "-", color=f"C{k}", lw=1.2, label=name)
+    ax.plot(x, result.visible_triangles, "k--", lw=1.0, label="visible (ray-cast truth)")
+    ax.set_xlabel("frame along the camera path")
+    ax.set_ylabel("triangles rendered")
+    ax.set_ylim(bottom=0)
+    ax.set_xlim(0, max(1, len(x) - 1))
+    if title:
+        ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    _save(fig, Path(path))

@@ -1,0 +1,273 @@
+"""Culling simulation (viscore.metrics.culling) and scene occluders (generators.scene_occluders)."""
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+from viscore.generators import generate
+from viscore.generators.scene_occluders import (
+    culling_runtimes,
+    occluder_objects,
+    scene_occluders,
+    transform_occluder,
+)
+from viscore.metrics.culling import (
+    PathCamera,
+    Runtime,
+    camera_path,
+    camera_path_json,
+    culling_plot,
+    no_culling,
+    read_camera_path,
+    simulate_culling,
+    view_frustum_mask,
+)
+
+from viscore import InputError, PerspectiveCamera
+from viscore.scene_graph import load_scene_objects
+
+UP = np.array([0.0, 1.0, 0.0])
+
+
+def _pose(position, forward, fov=90.0):
+    return PathCamera(position=np.asarray(position, float), forward=np.asarray(forward, float),
+                      up=UP, fov=fov)
+
+
+@pytest.fixture(scope="module")
+def wall_scene():
+    """A wall (x in [-5, 5], z in [-0.1, 0.1], y in [0, 6]) and a 1 m box 5 m behind it."""
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.creation.box(bounds=[[-5, 0, -0.1], [5, 6, 0.1]]),
+                       geom_name="wall", node_name="wall")
+    scene.add_geometry(trimesh.creation.box(bounds=[[-0.5, 0, 4.5], [0.5, 1, 5.5]]),
+                       geom_name="box", node_name="box")
+    return load_scene_objects(scene)
+
+
+def _cull_all(camera, lower, upper):
+    return np.ones(len(lower), dtype=bool)
+
+
+def test_simulate_culling_ground_truth_wall(wall_scene):
+    behind = _pose((0, 1.5, -10), (0, 0, 1))  # the wall hides the box
+    beside = _pose((12, 1.5, 5), (-1, 0, 0))  # past the wall's end, looking at the box
+    runtimes = {"none": no_culling(), "all": Runtime(cull=_cull_all, conservative=False)}
+    result = simulate_culling(wall_scene, runtimes, [behind, beside], width=96, height=54)
+    assert result.in_view.tolist() == [2, 2]
+    assert result.visible.tolist() == [1, 2]  # frame 0: the wall only
+    rt = result.runtimes
+    assert rt["none"].culled.tolist() == [0, 0] and rt["none"].false_culls.tolist() == [0, 0]
+    assert rt["none"].triangles_rendered.tolist() == [24, 24]
+    # culling everything: the wall is a false cull in frame 0, both objects in frame 1
+    assert rt["all"].false_culls.tolist() == [1, 2]
+    assert rt["all"].triangles_rendered.tolist() == [0, 0]
+    assert rt["all"].false_cull_names[0] == ("wall",)
+    assert result.visible_triangles.tolist() == [12, 24]
+
+
+def test_simulate_culling_frusta_cull_box_behind_wall(wall_scene):
+    wall = trimesh.creation.box(bounds=[[-4.9, 0, -0.05], [4.9, 5.9, 0.05]])  # inside the wall
+    from viscore.metrics.culling import depth_buffer_runtime, frusta_runtime
+
+    runtimes = {"solid-frusta": frusta_runtime([(wall.vertices, wall.faces)]),
+                "depth-buffer": depth_buffer_runtime([wall])}
+    poses = [_pose((0, 1.5, -10), (0, 0, 1)), _pose((12, 1.5, 5), (-1, 0, 0))]
+    result = simulate_culling(wall_scene, runtimes, poses, width=96, height=54)
+    for name in runtimes:
+        assert result.runtimes[name].culled.tolist() == [1, 0], name
+        assert result.runtimes[name].false_culls.tolist() == [0, 0], name
+
+
+def test_view_frustum_mask_behind_and_beside():
+    cam = PerspectiveCamera((0, 0, 0), (0, 0, 1), up=(0, 1, 0), fov=90, resolution=32, height=18)
+    lower = np.array([[-1, -1, 5], [-1, -1, -6], [20, -1, 5], [-0.1, 3.5, 5], [-0.1, 2.5, 5]])
+    upper = lower + [[2, 2, 1], [2, 2, 1], [1, 1, 1], [0.2, 0.2, 1], [0.2, 0.2, 1]]
+    # vertical half-angle: tan = 9/16, so at depth 5..6 the top edge is at y = 2.81..3.38
+    assert view_frustum_mask(cam, lower, upper).tolist() == [True, False, False, False, True]
+
+
+def test_camera_path_json_roundtrip(tmp_path, wall_scene):
+    poses = [_pose((0, 1.5, -10), (0, 0, 1), fov=70), _pose((12, 1.5, 5), (-2, 0, 0))]
+    path = tmp_path / "cameras.json"
+    path.write_text(camera_path_json(poses))
+    back = read_camera_path(path)
+    assert len(back) == 2 and back[0].fov == 70
+    np.testing.assert_allclose(back[1].forward, [-1, 0, 0])
+    path.write_text(json.dumps([{"position": [0, 1, 0], "forward": [0, 0, 1]}]))
+    (only,) = read_camera_path(path, up=(0, 1, 0))
+    assert only.fov == 90.0 and only.up.tolist() == [0, 1, 0]
+
+
+@pytest.mark.parametrize("text, match", [
+    ("", "not a valid JSON"),
+    ("{}", "non-empty JSON list"),
+    ("[]", "non-empty JSON list"),
+    ('[{"position": [0, 0, 0]}]', "missing forward"),
+    ('[{"position": [0, 0, 0], "forward": [0, 0, 0]}]', "zero-length"),
+    ('[{"position": [0, 0, 0], "forward": [0, 1, 0]}]', "parallel"),
+    ('[{"position": [0, "a", 0], "forward": [0, 0, 1]}]', "position"),
+    ('[{"position": [0, 0, 0], "forward": [0, 0, 1], "fov": 180}]', "fov"),
+    ('[{"position": [0, 0, 0], "forward": [0, 0, 1], "zoom": 2}]', "unknown key"),
+])
+def test_read_camera_path_invalid_input(tmp_path, text, match):
+    path = tmp_path / "cameras.json"
+    path.write_text(text)
+    with pytest.raises(InputError, match=match):
+        read_camera_path(path)
+
+
+def test_simulate_culling_invalid_input(wall_scene):
+    with pytest.raises(InputError, match="at least one runtime"):
+        simulate_culling(wall_scene, {}, [_pose((0, 1, -5), (0, 0, 1))])
+    with pytest.raises(InputError, match="at least one camera"):
+        simulate_culling(wall_scene, {"none": no_culling()}, [])
+    with pytest.raises(InputError, match="width"):
+        simulate_culling(wall_scene, {"none": no_culling()}, [_pose((0, 1, -5), (0, 0, 1))],
+                         width=0)
+    with pytest.raises(InputError, match="Runtime"):
+        simulate_culling(wall_scene, {"x": lambda *a: None}, [_pose((0, 1, -5), (0, 0, 1))])
+
+
+def test_transform_occluder_boxes_become_moved_solids():
+    box = trimesh.creation.box(extents=(2.0, 1.0, 1.0))
+    occ = generate("aabb-skins", box, voxels=8)
+    turn = trimesh.transformations.rotation_matrix(np.pi / 2, (0, 0, 1))
+    turn[:3, 3] = (10, 0, 0)
+    moved = transform_occluder(occ, turn)
+    assert "boxes" not in moved.parts and len(moved.parts["solids"]) == len(occ.parts["boxes"])
+    v, f = moved.parts["solids"][0]
+    solid = trimesh.Trimesh(v, f, process=False)
+    assert solid.volume > 0  # still outward-facing
+    np.testing.assert_allclose(moved.mesh.bounds.mean(axis=0), [10, 0, 0], atol=1e-9)
+    mirror = np.diag([-1.0, 1, 1, 1])
+    flipped = transform_occluder(occ, mirror).parts["solids"][0]
+    assert trimesh.Trimesh(*flipped, process=False).volume > 0
+
+
+# --------------------------------------------------------------------------- the city
+@pytest.fixture(scope="module")
+def city():
+    return load_scene_objects("city")
+
+
+@pytest.fixture(scope="module")
+def city_run(city):
+    """Five street-level frames of the built-in path, runtimes from aabb-skins at 32 voxels."""
+    indices = occluder_objects(city)
+    runtimes, info = culling_runtimes(city, indices, ["aabb-skins"],
+                                      params={"aabb-skins": {"voxels": 32}})
+    path = camera_path(city, frames=40)[::8]
+    return simulate_culling(city, runtimes, path, width=256, height=144), info
+
+
+def test_occluder_objects_city(city):
+    chosen = occluder_objects(city)
+    names = {city.names[i].split("_")[0] for i in chosen}
+    assert names <= {"building", "ground"} and "building" in names
+    assert occluder_objects(city, names=["building_0003"]).tolist() == [
+        city.names.index("building_0003")]
+    with pytest.raises(InputError, match="no object named"):
+        occluder_objects(city, names=["nope"])
+    with pytest.raises(InputError, match="no object"):
+        occluder_objects(city, size_threshold=1e9)
+
+
+def test_city_conservative_runtimes_never_cull_visible_objects(city_run):
+    result, info = city_run
+    assert set(result.runtimes) == {"none", "planar-frusta", "solid-frusta",
+                                    "depth-buffer:aabb-skins"}
+    for name, rf in result.runtimes.items():
+        assert rf.conservative and info[name]["conservative"]
+        assert rf.false_culls.tolist() == [0] * len(result.cameras), name
+        assert (rf.triangles_rendered >= result.visible_triangles).all(), name
+    for name in ("planar-frusta", "solid-frusta", "depth-buffer:aabb-skins"):
+        assert result.runtimes[name].culled.sum() > 0, name
+    # the path's frames together: solid frusta cull at least what planar ones do
+    assert result.runtimes["solid-frusta"].culled.sum() >= (
+        result.runtimes["planar-frusta"].culled.sum())
+
+
+def test_culling_result_json_keys(city_run):
+    result, _ = city_run
+    doc = json.loads(json.dumps(result.to_json()))
+    assert set(doc) >= {"frames", "totals", "ground_truth", "settings"}
+    assert len(doc["frames"]) == len(result.cameras)
+    frame = doc["frames"][0]
+    for name in result.runtimes:
+        assert set(frame[name]) >= {"culled", "culled_share", "false_culls",
+                                    "triangles_rendered", "overhead_ms"}
+        assert set(doc["totals"][name]) >= {"culled", "culled_share", "false_culls",
+                                            "triangles_rendered", "overhead_ms",
+                                            "conservative"}
+    assert doc["totals"]["none"]["culled"] == 0
+    assert doc["totals"]["none"]["triangles_rendered"] == int(result.in_view_triangles.sum())
+
+
+def test_culling_plot_writes_png(city_run, tmp_path):
+    result, _ = city_run
+    culling_plot(result, tmp_path / "triangles.png", title="city")
+    assert (tmp_path / "triangles.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(InputError, match="figure"):
+        culling_plot(result, tmp_path / "triangles.txt")
+
+
+def test_camera_path_deterministic_and_in_free_space(city):
+    a = camera_path(city, frames=30, seed=3)
+    b = camera_path(city, frames=30, seed=3)
+    assert len(a) == 30
+    assert all(np.array_equal(p.position, q.position) and np.array_equal(p.forward, q.forward)
+               for p, q in zip(a, b, strict=True))
+    street = [p for p in a if abs(p.position[1] - 1.7) < 0.1]
+    assert len(street) >= 15  # most frames at eye height above the street
+    # never inside a building: an upward ray crosses each closed building's surface an
+    # even number of times
+    scene, owner = city.combined
+    eyes = np.array([p.position for p in street])
+    hits = scene.all_hits(eyes, np.tile([0.0, 1.0, 0.0], (len(eyes), 1)))
+    building = np.array([n.startswith("building") for n in city.names])[owner[hits.triangle]]
+    assert (np.bincount(hits.ray[building], minlength=len(eyes)) % 2 == 0).all()
+    # and nothing rises to the eye right below it (the free-space map's promise)
+    t, _ = scene.first_hit(eyes, np.tile([0.0, -1.0, 0.0], (len(eyes), 1)))
+    assert (t > 0.1).all()
+    far = [p for p in a if np.linalg.norm(p.position[[0, 2]]) > 300]
+    assert far  # and some from far away
+
+
+def test_scene_occluders_instances_share_one_generation(city):
+    indices = occluder_objects(city)[:6]
+    occ = scene_occluders(city, indices, "bbox")
+    assert set(occ) <= set(indices.tolist())
+    for i, o in occ.items():  # each instance's bounding box occluder sits on its object
+        np.testing.assert_allclose(o.mesh.bounds, np.stack([city.lower[i], city.upper[i]]),
+                                   atol=1e-6)
+
+
+@pytest.mark.slow
+def test_city_full_path_no_false_culls_full_resolution(city):
+    indices = occluder_objects(city)
+    runtimes, _ = culling_runtimes(city, indices, ["aabb-skins"])
+    result = simulate_culling(city, runtimes, camera_path(city, frames=100))
+    for name, rf in result.runtimes.items():
+        assert rf.false_culls.tolist() == [0] * 100, name
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(reason="issue 13 target not met yet: with the eq. 2 near cap and separate "
+                          "active sets, solid frusta cull fewer objects than planar frusta on "
+                          "some frames (20 of 100 on city); more on average", strict=False)
+@pytest.mark.parametrize("scene", ["city", "city-dense"])
+def test_solid_frusta_cull_at_least_planar_every_frame(scene):
+    objects = load_scene_objects(scene)
+    runtimes, _ = culling_runtimes(objects, occluder_objects(objects), [])
+    fewer = []
+    for k, pose in enumerate(camera_path(objects, frames=100)):
+        cam = pose.camera(1280, 720)
+        keep = view_frustum_mask(cam, objects.lower, objects.upper)
+        lo, hi = objects.lower[keep], objects.upper[keep]
+        solid = runtimes["solid-frusta"].cull(cam, lo, hi).sum()
+        planar = runtimes["planar-frusta"].cull(cam, lo, hi).sum()
+        if solid < planar:
+            fewer.append(k)
+    assert fewer == []
