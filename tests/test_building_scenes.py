@@ -97,7 +97,8 @@ def test_building_counts_and_loose_panels(name, shipped):
     assert len(faces) >= 30  # loose panels, none welded to another
     assert closed.sum() >= 0.6 * len(faces)  # most are closed boxes; the rest open boxes or sheets
     # duplicated faces: some triangle occurs twice, coincident
-    corners = np.sort(np.round(mesh.vertices[mesh.faces], 6).reshape(-1, 9), axis=1)
+    _, point = np.unique(np.round(mesh.vertices, 6), axis=0, return_inverse=True)
+    corners = np.sort(point.ravel()[mesh.faces], axis=1)  # the face's three positions
     assert len(np.unique(corners, axis=0)) < len(corners)
 
 
