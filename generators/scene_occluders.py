@@ -49,8 +49,8 @@ from viscore.scene_graph import SceneObjects
 from .occluder import Occluder
 from .registry import REGISTRY, generate, get_generator
 
-__all__ = ["occluder_objects", "scene_occluders", "transform_occluder", "culling_runtimes",
-           "frusta_method", "SIZE_FACTOR"]
+__all__ = ["occluder_objects", "scene_occluders", "scene_hierarchy", "transform_occluder",
+           "culling_runtimes", "frusta_method", "SIZE_FACTOR"]
 
 _log = logging.getLogger(__name__)
 
@@ -229,6 +229,33 @@ def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, 
     return dict(sorted(out.items()))
 
 
+def scene_hierarchy(objects: SceneObjects, indices: Sequence[int], method: str, *,
+                    seed: int = 0, **params) -> Occluder:
+    """One occluder of a hierarchical method over all the given objects together.
+
+    The objects' world meshes are joined into one mesh and handed to the
+    generator, which builds its tree over the scene's parts (Silvennoinen et
+    al. 2014, sec. 5: one hierarchy over the scene, cut per frame).
+
+    Parameters
+    ----------
+    objects : SceneObjects
+    indices : sequence of int
+    method : str
+        A registered generator whose occluders carry ``parts["hierarchy"]``.
+    seed : int, optional
+    **params
+        Its options.
+
+    Returns
+    -------
+    Occluder
+    """
+    meshes = [objects.object_mesh(int(i)) for i in indices]
+    joined = trimesh.util.concatenate(meshes) if len(meshes) > 1 else meshes[0]
+    return generate(method, joined, seed=as_seed(seed), **params)
+
+
 def frusta_method() -> str:
     """The method whose solids feed the frusta runtimes: ``solid-frusta`` if registered,
     else ``aabb-skins`` (its boxes are convex solids)."""
@@ -311,7 +338,11 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
     -------
     runtimes : dict of str -> Runtime
         ``none``, then ``planar-frusta`` and ``solid-frusta``, then
-        ``depth-buffer:<method>`` per method.
+        ``depth-buffer:<method>`` per method. A method whose occluders carry
+        a hierarchy (probed on the first mesh) gets one tree over all the
+        objects (:func:`scene_hierarchy`), cut for each frame's camera
+        (``cut_hierarchy`` with the camera's horizontal field of view and
+        width in pixels); the cut's occluder scenes are cached by cut.
     info : dict
         Per runtime: the source method, occluder count, and whether its
         occluders are conservative (the registry flag).
@@ -330,11 +361,24 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
     source = frusta_method()
     cache: dict[str, dict[int, Occluder]] = {}
 
+    indices = np.asarray(indices, dtype=np.int64)
+
     def occluders(method: str) -> dict[int, Occluder]:
         if method not in cache:
             _log.debug("generating %s occluders for %d objects", method, len(indices))
-            cache[method] = scene_occluders(objects, indices, method, seed=seed,
-                                            progress=progress, **params.get(method, {}))
+            options = params.get(method, {})
+            # a probe on the first distinct mesh: a hierarchical method gets one
+            # tree over all the occluder objects instead of one per mesh
+            first = indices[objects.mesh_ids[indices] == objects.mesh_ids[indices[0]]]
+            probe = scene_occluders(objects, first[:1], method, seed=seed, **options)
+            if any("hierarchy" in o.parts for o in probe.values()):
+                cache[method] = {-1: scene_hierarchy(objects, indices, method, seed=seed,
+                                                     **options)}
+                if progress is not None:
+                    progress(len(set(objects.mesh_ids[indices].tolist())))
+            else:
+                cache[method] = scene_occluders(objects, indices, method, seed=seed,
+                                                progress=progress, **options)
         return cache[method]
 
     runtimes: dict[str, Runtime] = {"none": no_culling()}

@@ -271,3 +271,37 @@ def test_solid_frusta_cull_at_least_planar_every_frame(scene):
         if solid < planar:
             fewer.append(k)
     assert fewer == []
+
+
+def test_culling_runtimes_hierarchy_cut_per_frame(monkeypatch):
+    from viscore.generators import registry
+    from viscore.generators.planar_hierarchy import generate_planar_hierarchy
+
+    calls = []
+
+    def tree(mesh, *, budget=None, seed=0):
+        calls.append(len(mesh.faces))
+        return generate_planar_hierarchy(mesh, budget=24, seed=seed, voxels=16,
+                                         node_occluder="aabb-skins")
+
+    spec = registry.GeneratorSpec("test-hierarchy", tree, "test", conservative=True,
+                                  budgeted=False)
+    monkeypatch.setitem(registry.REGISTRY, "test-hierarchy", spec)
+    scene = trimesh.Scene()
+    for k, x in enumerate((-3.0, -1.0, 1.0)):  # three walls side by side
+        scene.add_geometry(trimesh.creation.box(bounds=[[x, 0, -0.5], [x + 2, 6, 0.5]]),
+                           geom_name=f"wall{k}", node_name=f"wall{k}")
+    scene.add_geometry(trimesh.creation.box(bounds=[[-0.3, 0.6, 4.7], [0.3, 1.2, 5.3]]),
+                       geom_name="box", node_name="box")
+    objects = load_scene_objects(scene)
+    indices = occluder_objects(objects, names=["wall0", "wall1", "wall2"])
+    runtimes, info = culling_runtimes(objects, indices, ["test-hierarchy"], frusta=False)
+    assert info["depth-buffer:test-hierarchy"]["hierarchy"] is True
+    assert info["depth-buffer:test-hierarchy"]["occluders"] == 1  # one tree for the scene
+    assert calls[-1] == 3 * 12  # ... generated once over the three walls joined
+    poses = [_pose((0, 1.5, -10), (0, 0, 1)), _pose((0, 1.5, -400), (0, 0, 1)),
+             _pose((12, 1.5, 5), (-1, 0, 0))]
+    result = simulate_culling(objects, runtimes, poses, width=192, height=108)
+    rf = result.runtimes["depth-buffer:test-hierarchy"]
+    assert rf.false_culls.tolist() == [0, 0, 0]
+    assert rf.culled[0] == 1 and rf.culled[2] == 0  # the box behind the middle wall
