@@ -227,6 +227,12 @@ def test_frusta_invalid_input():
         FrustumCuller([], mode="cone")
     with pytest.raises(InputError, match="active"):
         FrustumCuller([], active=0)
+    with pytest.raises(InputError, match="cap"):
+        FrustumCuller([], cap="far")
+    with pytest.raises(InputError, match="rank"):
+        FrustumCuller([], rank="eq5")
+    with pytest.raises(InputError, match="cap"):
+        solid_frustum(box.vertices, box.faces, (5, 5, 5), cap="none")
     fr = solid_frustum(box.vertices, box.faces, (0, 0, -3))
     with pytest.raises(InputError, match="lower"):
         boxes_in_frustum(fr, [[1, 1, 1]], [[0, 0, 0]])
@@ -241,3 +247,65 @@ def _concave():
     outline = Polygon([(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)])
     m = trimesh.creation.extrude_polygon(outline, 1.0)
     return m.vertices, m.faces
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 10_000))
+def test_solid_frustum_front_faces_cap_exact_shadow(seed):
+    """The front-face caps contain the eq. 2 frustum, and what they cull is hidden."""
+    rng = np.random.default_rng(seed)
+    mesh = _hull(seed)
+    eye = _eye_outside(mesh, rng)
+    eq2 = solid_frustum(mesh.vertices, mesh.faces, eye)
+    exact = solid_frustum(mesh.vertices, mesh.faces, eye, cap="front-faces")
+    lo, hi = _boxes_in(eq2, rng)
+    a, b = boxes_in_frustum(eq2, lo, hi), boxes_in_frustum(exact, lo, hi)
+    assert not (a & ~b).any()
+    if b.any():
+        corners = np.stack([np.where(np.array(m)[None], hi, lo)[b]
+                            for m in np.ndindex(2, 2, 2)], axis=1).reshape(-1, 3)
+        assert _hidden(Scene(mesh), eye, corners).all()
+
+
+def _scene_solids(rng, n=25):
+    solids = []
+    for _ in range(n):
+        c = rng.uniform([-30, 0, 0], [30, 60, 10])
+        if rng.random() < 0.5:
+            m = trimesh.creation.box(extents=rng.uniform(2, 10, 3))
+        else:
+            m = trimesh.convex.convex_hull(rng.normal(size=(10, 3)) * rng.uniform(1, 5, 3))
+        m.apply_translation(c)
+        solids.append((np.asarray(m.vertices), np.asarray(m.faces)))
+    return solids
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_frustum_culler_solid_culls_superset_of_planar(seed):
+    """With front-face caps and face ranking, every box planar frusta cull, solid frusta
+    cull too, frame by frame (and the paper's defaults may not)."""
+    rng = np.random.default_rng(seed)
+    solids = _scene_solids(rng)
+    centre = rng.uniform([-40, -10, -2], [40, 80, 15], (2000, 3))
+    lo = centre - rng.uniform(0.1, 1.5, (2000, 3))
+    hi = centre + rng.uniform(0.1, 1.5, (2000, 3))
+    solid = FrustumCuller(solids, cap="front-faces", rank="faces", active=8)
+    planar = FrustumCuller(solids, mode="planar", active=8)
+    more = 0
+    for _ in range(12):
+        eye = rng.uniform([-30, -20, 1], [30, 70, 3])
+        cam = PerspectiveCamera(eye, rng.normal(size=3) * [1, 1, 0.1], fov=90, resolution=16,
+                                height=9)
+        a, b = solid.cull(cam, lo, hi), planar.cull(cam, lo, hi)
+        assert not (b & ~a).any()
+        more += int(a.sum() > b.sum())
+    assert more > 0
+
+
+def test_frustum_culler_eye_inside_solid_uses_its_faces():
+    room = trimesh.creation.box(extents=(10, 10, 10))
+    culler = FrustumCuller([(room.vertices, room.faces)])
+    fr = culler.frusta((1.0, 2.0, 0.5))
+    assert len(fr) == 6 and {f.kind for f in fr} == {"planar"}
+    culled = culler.cull((1.0, 2.0, 0.5), [[7, -1, -1], [1, 1, 1]], [[8, 1, 1], [2, 2, 2]])
+    assert culled.tolist() == [True, False]

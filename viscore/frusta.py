@@ -233,88 +233,200 @@ def solid_faces_as_polygons(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> li
 
 
 # ----------------------------------------------------------------------------- frustum building
-def _side_planes(eye, a, b, inner, scale_ref):
-    """Unit inward planes through ``eye`` and each edge (a[i], b[i]), oriented so that
-    ``inner[i]`` is inside. Returns planes (e, 4) and a (e,) bool of valid ones."""
+#: Near caps of a solid frustum: the paper's plane (eq. 2) or the planes of the front faces.
+CAPS = ("eq2", "front-faces")
+
+
+def _ranges(start: np.ndarray, select: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Concatenated index ranges ``start[s]:start[s+1]`` of the selected items, and the
+    position (0..k-1) in ``select`` of each index."""
+    counts = start[select + 1] - start[select]
+    total = int(counts.sum())
+    first = np.repeat(start[select] - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
+    return first + np.arange(total), np.repeat(np.arange(len(select)), counts)
+
+
+def _group_sum(values: np.ndarray, group: np.ndarray, k: int) -> np.ndarray:
+    """(k, 3) sums of (n, 3) rows by group."""
+    return np.stack([np.bincount(group, weights=values[:, j], minlength=k) for j in range(3)],
+                    axis=1)
+
+
+def _oriented_side_planes(eye, a, b, inner, tol):
+    """Unit planes through the eye and each edge (a[i], b[i]), inward towards inner[i];
+    (e, 4) and (e,) bool of the well-defined ones."""
     n = np.cross(a - eye, b - eye)
-    norm = np.linalg.norm(n, axis=1)
-    ok = norm > _DEGENERATE_RELATIVE * scale_ref**2
+    norm = np.sqrt(np.einsum("ij,ij->i", n, n))
+    ok = norm > tol
     n = n / np.where(ok, norm, 1.0)[:, None]
     d = -(n @ eye)
     side = np.einsum("ij,ij->i", n, inner) + d
+    ok &= side != 0
     flip = np.where(side < 0, -1.0, 1.0)
-    ok &= np.abs(side) > 0
     return np.concatenate([n * flip[:, None], (d * flip)[:, None]], axis=1), ok
 
 
-def _solid_frusta(solids: list[dict], eye: np.ndarray, select: np.ndarray | None = None):
-    """Frusta of the chosen solids: (planes (P, 4), owner (P,) sorted, kept solid ids,
-    per-frustum silhouette edge lists and near points)."""
-    chosen = range(len(solids)) if select is None else select
-    planes, owners, kept, sil, near = [], [], [], [], []
-    for k in chosen:  # loop over the (at most ``active``) occluders of the frame
-        s = solids[k]
-        front = (s["normals"] @ eye - s["offset"]) > 0  # eye strictly in front of the face
-        if not front.any():
-            continue  # the eye is inside (or on) the solid
-        silhouette = front[s["edge_face"]] & ~front[s["twin_face"]]  # eq. 1
-        if not silhouette.any():
-            continue
-        v = s["vertices"]
-        a, b = v[s["edge_a"][silhouette]], v[s["edge_b"][silhouette]]
-        dist_ref = float(np.linalg.norm(eye - s["centroid"])) + s["scale"]
-        side, ok = _side_planes(eye, a, b, np.broadcast_to(s["centroid"], a.shape), dist_ref)
-        if not ok.all():
-            continue  # the eye on the line of a silhouette edge: no safe frustum
-        # eq. 2: the cap normal is the mean direction from the silhouette points
-        # to the eye; our inward normal points the other way, away from the eye.
-        points = a  # each silhouette vertex starts one edge of the (oriented) loop
-        m = (points - eye).sum(axis=0)
-        mn = np.linalg.norm(m)
-        if not mn > 0:
-            continue
-        m = m / mn
-        far = points[np.argmax(points @ m)]
-        cap = np.concatenate([m, [-(m @ far)]])
-        p = np.vstack([side, cap])
-        p[:, 3] -= MARGIN_RELATIVE * dist_ref
-        planes.append(p)
-        owners.append(np.full(len(p), len(kept)))
-        kept.append(k)
-        sil.append(np.stack([a, b], axis=1))
-        near.append(far)
-    return planes, owners, kept, sil, near
+@dataclass(frozen=True)
+class _Planes:
+    """Frusta of one frame: planes grouped by frustum, and what made them."""
+
+    planes: np.ndarray  # (P, 4), margin applied
+    owner: np.ndarray  # (P,) frustum 0..k-1, ascending
+    item: np.ndarray  # (k,) solid or polygon index
+    edges: np.ndarray  # (E, 2, 3) silhouette / polygon edges
+    edge_owner: np.ndarray  # (E,) frustum of each edge, ascending
+    near: np.ndarray  # (k, 3)
+
+    @staticmethod
+    def empty() -> _Planes:
+        z = np.zeros(0, dtype=np.int64)
+        return _Planes(np.zeros((0, 4)), z, z, np.zeros((0, 2, 3)), z, np.zeros((0, 3)))
+
+    def __len__(self) -> int:
+        return len(self.item)
+
+    def frusta(self, eye: np.ndarray, kind: str) -> list[Frustum]:
+        ps = np.split(self.planes, np.flatnonzero(np.diff(self.owner)) + 1)
+        es = np.split(self.edges, np.flatnonzero(np.diff(self.edge_owner)) + 1)
+        return [Frustum(planes=p, eye=eye, silhouette=e, near_point=n, kind=kind)
+                for p, e, n in zip(ps, es, self.near, strict=True)] if len(self) else []
 
 
-def _polygon_frusta(polys: list[dict], eye: np.ndarray, select=None):
-    """Frusta of the chosen convex polygons; as :func:`_solid_frusta`."""
-    chosen = range(len(polys)) if select is None else select
-    planes, owners, kept, sil, near = [], [], [], [], []
-    for k in chosen:
-        q = polys[k]
-        h = float(q["normal"] @ eye - q["offset"])  # eye height over the polygon's plane
-        dist_ref = float(np.linalg.norm(eye - q["centroid"])) + q["scale"]
-        if abs(h) <= _DEGENERATE_RELATIVE * dist_ref:
-            continue  # the eye in the polygon's plane
-        p = q["points"]
-        a, b = p, np.roll(p, -1, axis=0)
-        side, ok = _side_planes(eye, a, b, np.broadcast_to(q["centroid"], a.shape), dist_ref)
-        if not ok.all():
-            continue
-        sign = -1.0 if h > 0 else 1.0  # inward: the far side of the plane from the eye
-        cap = np.concatenate([sign * q["normal"], [-sign * q["offset"]]])
-        rows = np.vstack([side, cap])
-        rows[:, 3] -= MARGIN_RELATIVE * dist_ref
-        planes.append(rows)
-        owners.append(np.full(len(rows), len(kept)))
-        kept.append(k)
-        sil.append(np.stack([a, b], axis=1))
-        near.append(p[0])
-    return planes, owners, kept, sil, near
+def _assemble(groups: list[tuple[np.ndarray, np.ndarray]], valid: np.ndarray,
+              margin: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Planes of the valid groups, sorted by group; returns planes, owner 0..k'-1 and the
+    old-to-new group map."""
+    planes = np.vstack([g[0] for g in groups])
+    group = np.concatenate([g[1] for g in groups])
+    keep = valid[group]
+    planes, group = planes[keep], group[keep]
+    order = np.argsort(group, kind="stable")
+    planes, group = planes[order], group[order]
+    remap = np.cumsum(valid) - 1
+    planes = planes.copy()
+    planes[:, 3] -= margin
+    return planes, remap[group], remap
 
 
-def solid_frustum(vertices: npt.ArrayLike, faces: npt.ArrayLike,
-                  eye: npt.ArrayLike) -> Frustum | None:
+class _SolidSet:
+    """Convex solids concatenated, for vectorised silhouettes over a selection."""
+
+    def __init__(self, solids: list[dict]) -> None:
+        self.count = len(solids)
+        nv = np.cumsum([0] + [len(s["vertices"]) for s in solids])
+        nf = np.cumsum([0] + [len(s["faces"]) for s in solids])
+        self.face_start = nf
+        self.edge_start = 3 * nf  # three directed edges per triangle
+        cat = np.concatenate
+        self.vertices = np.vstack([s["vertices"] for s in solids]) if solids else np.zeros((0, 3))
+        self.normals = np.vstack([s["normals"] for s in solids]) if solids else np.zeros((0, 3))
+        self.offset = cat([s["offset"] for s in solids]) if solids else np.zeros(0)
+        if solids:
+            self.edge_a = cat([s["edge_a"] + nv[i] for i, s in enumerate(solids)])
+            self.edge_b = cat([s["edge_b"] + nv[i] for i, s in enumerate(solids)])
+            self.edge_face = cat([s["edge_face"] + nf[i] for i, s in enumerate(solids)])
+            self.twin_face = cat([s["twin_face"] + nf[i] for i, s in enumerate(solids)])
+        self.centroid = np.array([s["centroid"] for s in solids]).reshape(-1, 3)
+        self.volume = np.array([s["volume"] for s in solids], dtype=np.float64)
+        self.radius = np.array([s["radius"] for s in solids], dtype=np.float64)
+
+    def eye_inside(self, eye: np.ndarray, select: np.ndarray) -> np.ndarray:
+        """(k,) bool: the eye is inside or on the selected solids (no face seen from front)."""
+        fidx, fgrp = _ranges(self.face_start, select)
+        front = (self.normals[fidx] @ eye - self.offset[fidx]) > 0
+        return np.bincount(fgrp[front], minlength=len(select)) == 0
+
+    def planes(self, eye: np.ndarray, select: np.ndarray, cap: str, scale: float) -> _Planes:
+        """Frusta of the selected solids; ``scale`` is the frame's length scale."""
+        margin, tol = MARGIN_RELATIVE * scale, _DEGENERATE_RELATIVE * scale * scale
+        k = len(select)
+        if k == 0:
+            return _Planes.empty()
+        fidx, fgrp = _ranges(self.face_start, select)
+        front_sel = (self.normals[fidx] @ eye - self.offset[fidx]) > 0
+        front = np.zeros(len(self.normals), dtype=bool)
+        front[fidx] = front_sel
+        eidx, egrp = _ranges(self.edge_start, select)
+        sil = front[self.edge_face[eidx]] & ~front[self.twin_face[eidx]]  # eq. 1
+        e, g = eidx[sil], egrp[sil]
+        a, b = self.vertices[self.edge_a[e]], self.vertices[self.edge_b[e]]
+        side, ok = _oriented_side_planes(eye, a, b, self.centroid[select[g]], tol)
+        n_sil = np.bincount(g, minlength=k)
+        valid = (n_sil > 0) & (np.bincount(g, weights=~ok, minlength=k) == 0)
+        # eq. 2: mean direction between the silhouette points and the eye (each
+        # silhouette vertex starts one edge of the oriented outline loop); the
+        # inward normal points away from the eye
+        m = _group_sum(a - eye, g, k)
+        mn = np.linalg.norm(m, axis=1)
+        valid &= mn > 0
+        m = m / np.where(mn > 0, mn, 1.0)[:, None]
+        along = np.einsum("ij,ij->i", a, m[g])
+        order = np.lexsort((along, g))  # by group, then along the cap normal
+        last = order[np.r_[np.flatnonzero(np.diff(g[order])), len(order) - 1]] \
+            if len(order) else np.zeros(0, np.int64)
+        far = np.zeros((k, 3))
+        far[g[last]] = a[last]
+        if cap == "eq2":
+            caps = (np.concatenate([m, -np.einsum("ij,ij->i", m, far)[:, None]], axis=1),
+                    np.arange(k))
+        else:  # the planes of the front faces, facing away from the eye
+            fi, fg = fidx[front_sel], fgrp[front_sel]
+            caps = (np.concatenate([-self.normals[fi], self.offset[fi][:, None]], axis=1), fg)
+        planes, owner, remap = _assemble([(side, g), caps], valid, margin)
+        keep_e = valid[g]
+        return _Planes(planes=planes, owner=owner, item=select[valid],
+                       edges=np.stack([a, b], axis=1)[keep_e], edge_owner=remap[g[keep_e]],
+                       near=far[valid])
+
+
+class _PolygonSet:
+    """Convex polygons concatenated, for vectorised frusta over a selection."""
+
+    def __init__(self, polys: list[dict]) -> None:
+        self.count = len(polys)
+        sizes = [len(p["points"]) for p in polys]
+        self.start = np.cumsum([0] + sizes)
+        self.points = np.vstack([p["points"] for p in polys]) if polys else np.zeros((0, 3))
+        nxt = np.arange(len(self.points)) + 1
+        if polys:
+            nxt[self.start[1:] - 1] = self.start[:-1]  # the closing edge of each loop
+        self.next = nxt
+        self.normal = np.array([p["normal"] for p in polys]).reshape(-1, 3)
+        self.offset = np.array([p["offset"] for p in polys], dtype=np.float64)
+        self.area = np.array([p["area"] for p in polys], dtype=np.float64)
+        self.centroid = np.array([p["centroid"] for p in polys]).reshape(-1, 3)
+        self.radius = np.array([p["radius"] for p in polys], dtype=np.float64)
+
+    def planes(self, eye: np.ndarray, select: np.ndarray, scale: float) -> _Planes:
+        """Frusta of the selected polygons; ``scale`` is the frame's length scale."""
+        margin, tol = MARGIN_RELATIVE * scale, _DEGENERATE_RELATIVE * scale
+        k = len(select)
+        if k == 0:
+            return _Planes.empty()
+        h = self.normal[select] @ eye - self.offset[select]  # eye height over each plane
+        valid = np.abs(h) > tol
+        eidx, g = _ranges(self.start, select)
+        a, b = self.points[eidx], self.points[self.next[eidx]]
+        side, ok = _oriented_side_planes(eye, a, b, self.centroid[select[g]],
+                                         tol * scale)
+        valid &= np.bincount(g, weights=~ok, minlength=k) == 0
+        sign = np.where(h > 0, -1.0, 1.0)  # inward: the far side of the plane from the eye
+        caps = (np.concatenate([sign[:, None] * self.normal[select],
+                                (-sign * self.offset[select])[:, None]], axis=1), np.arange(k))
+        planes, owner, remap = _assemble([(side, g), caps], valid, margin)
+        keep_e = valid[g]
+        return _Planes(planes=planes, owner=owner, item=select[valid],
+                       edges=np.stack([a, b], axis=1)[keep_e], edge_owner=remap[g[keep_e]],
+                       near=self.points[self.start[select]][valid])
+
+
+def _frame_scale(eye: np.ndarray, center: np.ndarray, diagonal: float) -> float:
+    """Length scale of a frame: eye distance to the occluders' centre plus their size."""
+    return float(np.linalg.norm(eye - center)) + diagonal
+
+
+def solid_frustum(vertices: npt.ArrayLike, faces: npt.ArrayLike, eye: npt.ArrayLike, *,
+                  cap: str = "eq2") -> Frustum | None:
     """Shadow frustum of a convex solid seen from ``eye`` (Papaioannou et al. 2006, sec. 2).
 
     Parameters
@@ -326,6 +438,12 @@ def solid_frustum(vertices: npt.ArrayLike, faces: npt.ArrayLike,
         outside) convex solid.
     eye : (3,) float
         Viewpoint, world units.
+    cap : {'eq2', 'front-faces'}, optional
+        'eq2' (default): one near cap, the plane of eq. 2 of [1]_ through
+        the furthest silhouette point. 'front-faces': the planes of the
+        triangles the eye sees, each facing away from it; the exact shadow of
+        the solid, which contains the eq. 2 frustum and every face's planar
+        frustum.
 
     Returns
     -------
@@ -337,7 +455,7 @@ def solid_frustum(vertices: npt.ArrayLike, faces: npt.ArrayLike,
     ------
     InputError
         If the solid is not closed, consistently oriented, convex, or has no
-        volume; or ``eye`` is not a finite 3-vector.
+        volume; ``eye`` is not a finite 3-vector; or ``cap`` is unknown.
 
     Notes
     -----
@@ -345,15 +463,20 @@ def solid_frustum(vertices: npt.ArrayLike, faces: npt.ArrayLike,
     sees strictly from the front and one it does not (edge-on triangles count
     as back-facing); oriented as in their front triangle they form the outline
     loop. Every side plane through the eye and a silhouette edge supports the
-    solid, so their intersection is the cone of rays that hit the solid. The
-    near cap has the normal of eq. 2 (the mean of ``S_i - C`` here: inward
-    means away from the eye) and passes through the silhouette point furthest
-    along it. Guarantee: every point inside all planes is hidden by the solid.
-    In any plane through the eye the visible part of the solid's outline lies in
-    the triangle of the eye and the two tangent points, so the whole visible
-    surface lies in the convex hull of the eye and the silhouette, on the eye's
-    side of the cap; a point behind the cap inside the cone is therefore at or
-    beyond the visible surface along its ray from the eye.
+    solid, so their intersection is the cone of rays that hit the solid.
+
+    'eq2' cap: the normal of eq. 2 (the mean of ``S_i - C``; inward means away
+    from the eye) through the silhouette point furthest *along that normal*
+    (the point furthest in distance could leave other silhouette points
+    beyond the plane). Guarantee: in any plane through the eye the visible
+    part of the solid's outline lies in the triangle of the eye and the two
+    tangent points, so the whole visible surface lies in the convex hull of
+    the eye and the silhouette, on the eye's side of the cap; a point behind
+    the cap inside the cone is at or beyond the visible surface along its ray.
+
+    'front-faces' caps: a ray in the cone enters the solid through a front
+    triangle, after crossing the planes of all front triangles; so a point of
+    the cone beyond all of them is beyond the entry point, and conversely.
 
     References
     ----------
@@ -370,12 +493,14 @@ def solid_frustum(vertices: npt.ArrayLike, faces: npt.ArrayLike,
     >>> solid_frustum(box.vertices, box.faces, (0, 0, 0)) is None   # eye inside
     True
     """
+    if cap not in CAPS:
+        raise InputError(f"cap: expected one of {', '.join(CAPS)}, got {cap!r}")
     s = _solid_arrays(vertices, faces, 0)
     e = as_vector(eye, "eye")
-    planes, _, kept, sil, near = _solid_frusta([s], e)
-    if not kept:
-        return None
-    return Frustum(planes=planes[0], eye=e, silhouette=sil[0], near_point=near[0], kind="solid")
+    scale = _frame_scale(e, s["centroid"], s["scale"])
+    planes = _SolidSet([s]).planes(e, np.array([0]), cap, scale)
+    fr = planes.frusta(e, "solid")
+    return fr[0] if fr else None
 
 
 def polygon_frustum(polygon: npt.ArrayLike, eye: npt.ArrayLike) -> Frustum | None:
@@ -409,11 +534,10 @@ def polygon_frustum(polygon: npt.ArrayLike, eye: npt.ArrayLike) -> Frustum | Non
     """
     q = _polygon_arrays(polygon, 0)
     e = as_vector(eye, "eye")
-    planes, _, kept, sil, near = _polygon_frusta([q], e)
-    if not kept:
-        return None
-    return Frustum(planes=planes[0], eye=e, silhouette=sil[0], near_point=near[0],
-                   kind="planar")
+    scale = _frame_scale(e, q["centroid"], q["scale"])
+    planes = _PolygonSet([q]).planes(e, np.array([0]), scale)
+    fr = planes.frusta(e, "planar")
+    return fr[0] if fr else None
 
 
 # ----------------------------------------------------------------------------- box tests
@@ -429,18 +553,21 @@ def _as_boxes(lower, upper) -> tuple[np.ndarray, np.ndarray]:
 
 def _inside_any(planes: np.ndarray, owner: np.ndarray, lo: np.ndarray,
                 hi: np.ndarray) -> np.ndarray:
-    """(n,) bool: box wholly inside at least one frustum. ``owner`` sorted, (P,)."""
+    """(n,) bool: box wholly inside at least one frustum. ``owner`` sorted, (P,).
+
+    The box corner deepest outside plane (n, d) gives n.c + d - |n|.h (c the
+    box centre, h its half extents): the box is inside the plane iff that is
+    >= 0. Two (n, 3) x (3, P) products and one minimum per frustum.
+    """
     n = len(lo)
     if n == 0 or len(planes) == 0:
         return np.zeros(n, dtype=bool)
     center = 0.5 * (lo + hi)
     half = 0.5 * (hi - lo)
     normals = planes[:, :3]
-    # the box corner deepest outside each plane: n.c + d - |n|.h
     worst = center @ normals.T - half @ np.abs(normals).T + planes[:, 3]
     starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
-    per_frustum = np.minimum.reduceat(worst, starts, axis=1)
-    return (per_frustum >= 0).any(axis=1)
+    return (np.minimum.reduceat(worst, starts, axis=1) >= 0).any(axis=1)
 
 
 def boxes_in_frustum(frustum: Frustum, lower: npt.ArrayLike,
@@ -587,15 +714,21 @@ class FrustumCuller:
     polygons : list of (m, 3) float, optional
         Extra convex planar occluders, two-sided. Default none.
     mode : {'solid', 'planar'}, optional
-        'solid' (default): each solid gives one solid frustum, ranked by eq. 4,
-        beside the polygons ranked by eq. 3 (one unified ranking, as [1]_
-        sec. 3). 'planar': every face of every solid is its own planar
-        occluder (coplanar triangles merged, see
+        'solid' (default): each solid gives one solid frustum, beside the
+        polygons (one unified ranking, [1]_ sec. 3). 'planar': every face of
+        every solid is its own planar occluder (coplanar triangles merged, see
         :func:`solid_faces_as_polygons`), ranked by eq. 3 as printed (faces
         turned away rank last): the planar-frusta runtime [1]_ compares with.
     active : int, optional
-        Frusta built per frame: the ``active`` best-ranked occluders among those
-        that may lie in the view (default 15, [1]_ sec. 3).
+        Occluders that make frusta each frame: the ``active`` best-ranked among
+        those that may lie in the view (default 15, [1]_ sec. 3).
+    cap : {'eq2', 'front-faces'}, optional
+        Near cap of the solid frusta (see :func:`solid_frustum`). 'eq2'
+        (default): the paper's single plane. 'front-faces': the exact shadow.
+    rank : {'eq4', 'faces'}, optional
+        Ranking of the solids in 'solid' mode. 'eq4' (default): f_solid =
+        Vol / |V|^3 ([1]_ eq. 4), polygons by |eq. 3|. 'faces': a solid ranks
+        as its best face by eq. 3 (the planar mode's score of that face).
 
     Attributes
     ----------
@@ -614,9 +747,21 @@ class FrustumCuller:
     Conservative: a box is culled only when it lies inside one frustum by more
     than the margin, and every frustum lies in its occluder's shadow (see
     :func:`solid_frustum`); with occluders inside the scene's geometry, no
-    culled box is visible. Occluders whose bounding sphere is outside the
-    camera's view are never selected (they could only cull boxes outside the
-    view). Ranking and selection are recomputed every frame.
+    culled box is visible. An occluder is selected only when its bounding
+    sphere (a face's, for 'faces' ranking: any face's) may meet the camera's
+    view. In 'solid' mode a selected solid that holds the eye gives its faces'
+    planar frusta instead (from inside, every face hides what lies beyond it).
+    All frusta of a frame share one margin (:data:`MARGIN_RELATIVE` of the eye's
+    distance to the occluders' centre plus their extent).
+
+    **Solid at least as good as planar, every frame.** With ``cap='front-faces'``
+    and ``rank='faces'`` (and the same ``active`` and occluders), 'solid' culls
+    every box 'planar' culls: a face's planar frustum lies inside its solid's
+    exact shadow, and the owners of the ``active`` best faces are among the
+    ``active`` best solids ranked by their best face. The defaults follow the
+    paper (eq. 2 cap, eq. 4 ranking), which gives no such guarantee: an eq. 2
+    cap through the far top corner of a tall building tilts up and spares what
+    stands right behind it, where the front face's plane culls (its Fig. 4).
 
     References
     ----------
@@ -635,36 +780,43 @@ class FrustumCuller:
     """
 
     def __init__(self, solids, *, polygons=None, mode: str = "solid",
-                 active: int = ACTIVE_OCCLUDERS) -> None:
+                 active: int = ACTIVE_OCCLUDERS, cap: str = "eq2", rank: str = "eq4") -> None:
         if mode not in ("solid", "planar"):
             raise InputError(f"mode: expected 'solid' or 'planar', got {mode!r}")
-        self.mode = mode
+        if cap not in CAPS:
+            raise InputError(f"cap: expected one of {', '.join(CAPS)}, got {cap!r}")
+        if rank not in ("eq4", "faces"):
+            raise InputError(f"rank: expected 'eq4' or 'faces', got {rank!r}")
+        self.mode, self.cap, self.rank = mode, cap, rank
         self.active = as_positive_int(active, "active")
         solids = list(solids) if solids is not None else []
         polygons = list(polygons) if polygons is not None else []
-        if mode == "planar":
-            faces = []
-            for v, f in solids:
-                faces.extend(solid_faces_as_polygons(v, f))
-            self._solids: list[dict] = []
-            self._polys = [_polygon_arrays(p, i) for i, p in enumerate(faces + polygons)]
-            self._two_sided = np.array([False] * len(faces) + [True] * len(polygons))
+        arrays = [_solid_arrays(v, f, i) for i, (v, f) in enumerate(solids)]
+        extra = [_polygon_arrays(p, i) for i, p in enumerate(polygons)]
+        # every solid's faces as polygons: the planar mode's occluders, the 'faces'
+        # ranking, and the frusta of a solid that holds the eye
+        face_polys, owner = [], []
+        for i, (v, f) in enumerate(solids):  # a loop over occluders, at construction
+            loops = solid_faces_as_polygons(v, f)
+            face_polys.extend(_polygon_arrays(p, i) for p in loops)
+            owner.extend([i] * len(loops))
+        self._solids = _SolidSet(arrays if mode == "solid" else [])
+        self._faces = _PolygonSet(face_polys)
+        self._face_owner = np.array(owner, dtype=np.int64)
+        self._face_start = np.searchsorted(self._face_owner, np.arange(len(solids) + 1))
+        self._extra = _PolygonSet(extra)
+        points = [s["vertices"] for s in arrays] + [q["points"] for q in extra]
+        if points:
+            allp = np.vstack(points)
+            lo, hi = allp.min(axis=0), allp.max(axis=0)
+            self._center, self._diagonal = 0.5 * (lo + hi), float(np.linalg.norm(hi - lo))
         else:
-            self._solids = [_solid_arrays(v, f, i) for i, (v, f) in enumerate(solids)]
-            self._polys = [_polygon_arrays(p, i) for i, p in enumerate(polygons)]
-            self._two_sided = np.ones(len(polygons), dtype=bool)
-        self._s_vol = np.array([s["volume"] for s in self._solids], dtype=np.float64)
-        self._s_center = np.array([s["centroid"] for s in self._solids]).reshape(-1, 3)
-        self._s_radius = np.array([s["radius"] for s in self._solids], dtype=np.float64)
-        self._p_area = np.array([p["area"] for p in self._polys], dtype=np.float64)
-        self._p_normal = np.array([p["normal"] for p in self._polys]).reshape(-1, 3)
-        self._p_center = np.array([p["centroid"] for p in self._polys]).reshape(-1, 3)
-        self._p_radius = np.array([p["radius"] for p in self._polys], dtype=np.float64)
-        self.count = len(self._solids) + len(self._polys)
+            self._center, self._diagonal = np.zeros(3), 0.0
+        self.count = (len(arrays) if mode == "solid" else len(face_polys)) + len(extra)
 
     @classmethod
-    def from_occluders(cls, occluders, *, mode: str = "solid",
-                       active: int = ACTIVE_OCCLUDERS) -> FrustumCuller:
+    def from_occluders(cls, occluders, *, mode: str = "solid", active: int = ACTIVE_OCCLUDERS,
+                       cap: str = "eq2", rank: str = "eq4") -> FrustumCuller:
         """Culler from generator outputs: their ``parts`` solids, boxes and polygons.
 
         Parameters
@@ -674,7 +826,7 @@ class FrustumCuller:
             become 12-triangle box solids when the occluder has no solids;
             ``parts["polygons"]`` become planar occluders when convex (others
             are skipped: a non-convex polygon has no convex frustum).
-        mode, active
+        mode, active, cap, rank
             As the constructor.
 
         Returns
@@ -699,40 +851,66 @@ class FrustumCuller:
                 except InputError:
                     continue
                 polygons.append(np.asarray(p, dtype=np.float64))
-        return cls(solids, polygons=polygons, mode=mode, active=active)
+        return cls(solids, polygons=polygons, mode=mode, active=active, cap=cap, rank=rank)
 
-    def _select(self, camera_or_eye) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Eye, chosen solid ids and chosen polygon ids (best ranked first)."""
+    # ------------------------------------------------------------------ per frame
+    def _eye_and_view(self, camera_or_eye):
         from .cameras import PerspectiveCamera
 
         if isinstance(camera_or_eye, PerspectiveCamera):
-            eye = camera_or_eye.position
-            vn, vd = _view_planes(camera_or_eye)
+            return camera_or_eye.position, _view_planes(camera_or_eye)
+        return as_vector(camera_or_eye, "eye"), None
+
+    @staticmethod
+    def _in_view(view, centers: np.ndarray, radii: np.ndarray) -> np.ndarray:
+        if view is None or len(centers) == 0:
+            return np.ones(len(centers), dtype=bool)
+        vn, vd = view
+        return ((centers @ vn.T + vd) >= -radii[:, None]).all(axis=1)
+
+    def _select(self, eye, view) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Chosen solids, solid faces (planar mode) and extra polygons, best first."""
+        ex = self._extra
+        extra_rank = np.abs(rank_planar(ex.area, ex.normal, ex.centroid, eye))
+        extra_rank = np.where(self._in_view(view, ex.centroid, ex.radius), extra_rank, -np.inf)
+        none = np.zeros(0, dtype=np.int64)
+        fc = self._faces
+        if self.mode == "planar" or self.rank == "faces":
+            face_rank = rank_planar(fc.area, fc.normal, fc.centroid, eye)
+            face_rank = np.where(self._in_view(view, fc.centroid, fc.radius), face_rank, -np.inf)
+        if self.mode == "planar":
+            first = face_rank
+        elif self.rank == "faces":
+            starts = self._face_start[:-1]
+            first = np.maximum.reduceat(face_rank, starts) if len(face_rank) else face_rank
         else:
-            eye = as_vector(camera_or_eye, "eye")
-            vn = None
-        rank = np.concatenate([rank_solids(self._s_vol, self._s_center, eye),
-                               np.where(self._two_sided,
-                                        np.abs(rank_planar(self._p_area, self._p_normal,
-                                                           self._p_center, eye)),
-                                        rank_planar(self._p_area, self._p_normal,
-                                                    self._p_center, eye))])
-        rank = np.nan_to_num(rank, nan=-np.inf)
-        if vn is not None:
-            centers = np.vstack([self._s_center, self._p_center])
-            radii = np.concatenate([self._s_radius, self._p_radius])
-            in_view = ((centers @ vn.T + vd) >= -radii[:, None]).all(axis=1)
-            rank = np.where(in_view, rank, -np.inf)
+            sv = self._solids
+            first = rank_solids(sv.volume, sv.centroid, eye)
+            first = np.where(self._in_view(view, sv.centroid, sv.radius), first, -np.inf)
+        rank = np.concatenate([first, extra_rank])
+        rank[np.isnan(rank)] = -np.inf
         order = np.argsort(-rank, kind="stable")[:self.active]
         order = order[rank[order] > -np.inf]
-        ns = len(self._solids)
-        return eye, order[order < ns], order[order >= ns] - ns
+        n = len(first)
+        chosen, extra = order[order < n], order[order >= n] - n
+        if self.mode == "planar":
+            return none, chosen, extra
+        return chosen, none, extra
 
-    def _planes(self, camera_or_eye):
-        eye, sel_s, sel_p = self._select(camera_or_eye)
-        ps, os_, ks, ss, ns = _solid_frusta(self._solids, eye, sel_s)
-        pp, op, kp, sp, np_ = _polygon_frusta(self._polys, eye, sel_p)
-        return eye, ps + pp, ks, kp, ss + sp, ns + np_
+    def _frame(self, camera_or_eye) -> tuple[np.ndarray, list[tuple[_Planes, str]]]:
+        eye, view = self._eye_and_view(camera_or_eye)
+        sel_solids, sel_faces, sel_extra = self._select(eye, view)
+        scale = _frame_scale(eye, self._center, self._diagonal)
+        if len(sel_solids):
+            inside = self._solids.eye_inside(eye, sel_solids)
+            if inside.any():  # from inside a solid, its faces hide what lies beyond them
+                held, _ = _ranges(self._face_start, sel_solids[inside])
+                sel_faces = np.concatenate([sel_faces, held])
+                sel_solids = sel_solids[~inside]
+        out = [(self._solids.planes(eye, sel_solids, self.cap, scale), "solid"),
+               (self._faces.planes(eye, sel_faces, scale), "planar"),
+               (self._extra.planes(eye, sel_extra, scale), "planar")]
+        return eye, [(p, k) for p, k in out if len(p)]
 
     def frusta(self, camera_or_eye) -> list[Frustum]:
         """The frame's active frusta.
@@ -745,12 +923,11 @@ class FrustumCuller:
         Returns
         -------
         list of Frustum
-            At most ``active``; occluders the eye is inside of give none.
+            One per active occluder the eye is outside of (a solid holding the
+            eye gives one per face).
         """
-        eye, planes, ks, kp, sil, near = self._planes(camera_or_eye)
-        kinds = ["solid"] * len(ks) + ["planar"] * len(kp)
-        return [Frustum(planes=p, eye=eye, silhouette=s, near_point=n, kind=k)
-                for p, s, n, k in zip(planes, sil, near, kinds, strict=True)]
+        eye, parts = self._frame(camera_or_eye)
+        return [f for p, kind in parts for f in p.frusta(eye, kind)]
 
     def cull(self, camera_or_eye, lower: npt.ArrayLike, upper: npt.ArrayLike) -> np.ndarray:
         """Occludees hidden this frame: boxes wholly inside one active frustum.
@@ -772,8 +949,10 @@ class FrustumCuller:
             On bad boxes or eye.
         """
         lo, hi = _as_boxes(lower, upper)
-        _, planes, _, _, _, _ = self._planes(camera_or_eye)
-        if not planes:
+        _, parts = self._frame(camera_or_eye)
+        if not parts:
             return np.zeros(len(lo), dtype=bool)
-        owner = np.repeat(np.arange(len(planes)), [len(p) for p in planes])
-        return _inside_any(np.vstack(planes), owner, lo, hi)
+        planes = np.vstack([p.planes for p, _ in parts])
+        shift = np.cumsum([0] + [len(p) for p, _ in parts])[:-1]
+        owner = np.concatenate([p.owner + o for (p, _), o in zip(parts, shift, strict=True)])
+        return _inside_any(planes, owner, lo, hi)
