@@ -39,7 +39,7 @@ def shipped():
 
 
 def _parts(mesh):
-    """Per connected part (shared vertices): face count, watertight flag, sorted extents."""
+    """Per connected part (shared vertices): face count, closed flag, sorted extents, box."""
     labels = trimesh.graph.connected_component_labels(mesh.face_adjacency,
                                                       node_count=len(mesh.faces))
     n = labels.max() + 1
@@ -54,7 +54,7 @@ def _parts(mesh):
     corners = mesh.vertices[mesh.faces]
     np.minimum.at(lo, labels, corners.min(axis=1))
     np.maximum.at(hi, labels, corners.max(axis=1))
-    return faces, closed, np.sort(hi - lo, axis=1)
+    return faces, closed, np.sort(hi - lo, axis=1), (lo, hi)
 
 
 @pytest.fixture(scope="module")
@@ -93,13 +93,18 @@ def test_buildings_regenerate_identically(make_scenes, built, tmp_path):
 def test_building_counts_and_loose_panels(name, shipped):
     mesh = shipped[name][0]
     assert 500 <= len(mesh.faces) <= 20_000
-    faces, closed, _ = _parts(mesh)
+    faces, closed, _, (lo, hi) = _parts(mesh)
     assert len(faces) >= 30  # loose panels, none welded to another
     assert closed.sum() >= 0.6 * len(faces)  # most are closed boxes; the rest open boxes or sheets
     # duplicated faces: some triangle occurs twice, coincident
     _, point = np.unique(np.round(mesh.vertices, 6), axis=0, return_inverse=True)
     corners = np.sort(point.ravel()[mesh.faces], axis=1)  # the face's three positions
     assert len(np.unique(corners, axis=0)) < len(corners)
+    # intersecting panels: parts whose bounding boxes overlap in volume (frames in walls,
+    # walls through corners, roofs through gables)
+    depth = np.minimum(hi[:, None], hi[None]) - np.maximum(lo[:, None], lo[None])
+    overlap = (depth > 1e-3).all(axis=2)
+    assert np.triu(overlap, 1).sum() >= 20
 
 
 @pytest.mark.parametrize("name", BUILDINGS)
@@ -109,7 +114,7 @@ def test_building_wall_thickness(name, built, shipped):
     diag = float(np.linalg.norm(np.ptp(mesh.bounds, axis=0)))
     assert 0.005 <= t / diag <= 0.05
     # the wall panels: boxes whose thinnest side is the wall thickness
-    faces, _, extents = _parts(mesh)
+    faces, _, extents, _ = _parts(mesh)
     boxes = extents[(faces == 12) | (faces == 10)]  # closed boxes, boxes open at the bottom
     panels = np.isclose(boxes[:, 0], t, atol=1e-4) & (boxes[:, 2] > 5 * t)
     assert panels.sum() >= 10
