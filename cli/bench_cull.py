@@ -181,3 +181,19 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
     return {m: {key: totals[f"depth-buffer:{m}"][key]
                 for key in ("culled_share", "false_culls", "conservative", "overhead_ms")}
             for m in dict.fromkeys(methods)}
+
+
+def bench_cull_text(r: dict) -> str:
+    """The human-readable lines of a :func:`bench_cull` result."""
+    f, b = r["frusta"], r["depth_buffer"]
+    return "\n".join([
+        f"{r['scene']}: {r['frames']} frames, {r['occludees']} occludee boxes per frame, "
+        f"occluders from {r['occluder_method']} on {r['occluder_objects']} objects, 1 core",
+        f"  solid frusta, {f['active']} active of {f['solids']} solids: median "
+        f"{f['median_ms']:.2f} ms, p95 {f['p95_ms']:.2f} ms per frame "
+        f"(target < {f['target_ms']:.0f} ms: {'met' if f['meets_target'] else 'NOT met'}); "
+        f"{f['culled_per_frame']:.0f} culled per frame",
+        f"  depth buffer {b['buffer'][0]} x {b['buffer'][1]}, {b['pieces']} convex pieces: "
+        f"median {b['median_ms']:.2f} ms, p95 {b['p95_ms']:.2f} ms per frame "
+        f"(target < {b['target_ms']:.0f} ms: {'met' if b['meets_target'] else 'NOT met'}); "
+        f"{b['culled_per_frame']:.0f} culled per frame"])

@@ -120,3 +120,19 @@ def test_cull_bad_path_and_options_exit_2(run, street, tmp_path, capsys, monkeyp
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and match in err, err
     assert not (tmp_path / "viscore-cull").exists()
+
+
+def test_bench_cull_and_culling_column_on_a_small_scene(street):
+    from viscore.cli.bench_cull import bench_cull, bench_cull_text, culling_column
+
+    scene, _ = street
+    r = bench_cull(scene=str(scene), frames=3, repeats=1)
+    assert r["occludees"] == 4 and r["workers"] == 1 and r["frames"] == 3
+    for key in ("frusta", "depth_buffer"):
+        assert r[key]["median_ms"] > 0 and isinstance(r[key]["meets_target"], bool)
+    assert "depth buffer 320 x 180" in bench_cull_text(r)
+    column = culling_column(["aabb-skins", "bbox"], scene=str(scene), frames=3, width=64,
+                            height=36)
+    assert set(column) == {"aabb-skins", "bbox"}
+    assert column["aabb-skins"]["false_culls"] == 0 and column["aabb-skins"]["conservative"]
+    assert 0 <= column["bbox"]["culled_share"] <= 1
