@@ -52,6 +52,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import stat
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -101,12 +102,12 @@ _MIN_CLEARANCE_CELLS = 1.0
 #: stays below a 1.7 m eye; a van does not).
 _HEAD_ROOM = 0.9
 
-#: Names of frame entries that are not runtimes (the rest of a frame's keys are).
-_FRAME_KEYS = ("frame", "camera", "in_view", "visible", "visible_triangles")
+#: Largest camera path file read, bytes (about a million cameras).
+_MAX_PATH_BYTES = 256 << 20
 
 
 # --------------------------------------------------------------------------- cameras
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PathCamera:
     """One camera of a path.
 
@@ -190,10 +191,16 @@ def read_camera_path(path: str | os.PathLike, *, up: npt.ArrayLike = (0.0, 1.0, 
     """
     label = str(path)
     try:
+        st = os.stat(path)
+        if stat.S_ISDIR(st.st_mode):
+            raise InputError(f"{label}: is a directory, expected a camera path JSON file")
+        if not stat.S_ISREG(st.st_mode):  # a FIFO or device would block or never end
+            raise InputError(f"{label}: not a regular file, expected a camera path JSON file")
+        if st.st_size > _MAX_PATH_BYTES:
+            raise InputError(f"{label}: {st.st_size:,} bytes, more than a camera path file "
+                             f"may hold ({_MAX_PATH_BYTES:,})")
         with open(path, "rb") as fh:
-            data = fh.read(64 << 20)
-    except IsADirectoryError:
-        raise InputError(f"{label}: is a directory, expected a camera path JSON file") from None
+            data = fh.read(_MAX_PATH_BYTES + 1)
     except FileNotFoundError:
         raise InputError(f"{label}: no such file") from None
     except OSError as exc:
@@ -643,7 +650,7 @@ def view_frustum_mask(camera: PerspectiveCamera, lower: npt.ArrayLike, upper: np
     return (reach >= 0).all(axis=1)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class RuntimeFrames:
     """Per-frame figures of one runtime.
 
@@ -671,7 +678,7 @@ class RuntimeFrames:
     false_cull_names: tuple = ()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class CullingResult:
     """The simulation's figures per frame and runtime, with the ground truth.
 

@@ -118,6 +118,19 @@ def test_read_camera_path_invalid_input(tmp_path, text, match):
         read_camera_path(path)
 
 
+def test_read_camera_path_not_a_regular_file(tmp_path):
+    import os
+
+    with pytest.raises(InputError, match="directory"):
+        read_camera_path(tmp_path)
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match="not a regular file"):  # refused, never read
+        read_camera_path(fifo)
+    with pytest.raises(InputError, match="no such file"):
+        read_camera_path(tmp_path / "missing.json")
+
+
 def test_simulate_culling_invalid_input(wall_scene):
     with pytest.raises(InputError, match="at least one runtime"):
         simulate_culling(wall_scene, {}, [_pose((0, 1, -5), (0, 0, 1))])
