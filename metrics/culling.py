@@ -903,7 +903,7 @@ def culling_plot(result: CullingResult, path: str | os.PathLike, *, title: str |
     ----------
     result : CullingResult
     path : str or path-like
-        Figure file (``.png``, ``.pdf`` or ``.svg``), 1000 x 420 pixels,
+        Figure file (``.png``, ``.pdf`` or ``.svg``), 1100 x 420 pixels,
         written atomically.
     title : str, optional
         Figure title.
@@ -919,7 +919,7 @@ def culling_plot(result: CullingResult, path: str | os.PathLike, *, title: str |
     _format_of(path)
     if not len(result.cameras):
         raise InputError("result: no frames to plot")
-    fig = _figure(10, 4.2)
+    fig = _figure(11, 4.2)
     ax = fig.subplots()
     x = np.arange(len(result.cameras))
     for k, (name, rf) in enumerate(result.runtimes.items()):
@@ -931,6 +931,6 @@ def culling_plot(result: CullingResult, path: str | os.PathLike, *, title: str |
     ax.set_xlim(0, max(1, len(x) - 1))
     if title:
         ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     fig.tight_layout()
     _save(fig, Path(path))
