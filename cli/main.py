@@ -26,10 +26,19 @@ import traceback
 from viscore import InputError, set_workers
 from viscore._validate import as_seed
 
-from . import bench_cmd, compare_cmd, data_cmd, generate_cmd, metrics_cmd, uncertainty_cmd
+from . import (
+    bench_cmd,
+    compare_cmd,
+    cull_cmd,
+    data_cmd,
+    generate_cmd,
+    metrics_cmd,
+    uncertainty_cmd,
+)
 
 #: Subcommand modules; each has ``add_parser(subparsers, common)`` and sets ``run``.
-_COMMANDS = [compare_cmd, generate_cmd, metrics_cmd, uncertainty_cmd, data_cmd, bench_cmd]
+_COMMANDS = [compare_cmd, generate_cmd, metrics_cmd, uncertainty_cmd, data_cmd, cull_cmd,
+             bench_cmd]
 
 #: Exit codes (see the module docstring and the README).
 EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130

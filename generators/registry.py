@@ -40,6 +40,7 @@ from .aabb_skins import TRIANGLES_PER_BOX, generate_aabb_skins
 from .baselines import generate_bbox, generate_original, generate_qem
 from .godot import generate_godot
 from .occluder import Occluder
+from .solid_frusta import generate_solid_frusta
 
 __all__ = ["GeneratorOption", "GeneratorSpec", "REGISTRY", "get_generator", "generate",
            "COMMON_OPTIONS"]
@@ -282,6 +283,23 @@ REGISTRY: dict[str, GeneratorSpec] = {
                 GeneratorOption("seed_voxel", str, "max-volume",
                                 "largest box over all voxels, or grow from the densest voxel",
                                 choices=("max-volume", "densest")),
+            ),
+            conservative=True, min_budget=TRIANGLES_PER_BOX),
+        GeneratorSpec(
+            "solid-frusta", generate_solid_frusta,
+            "a few convex solids inside the mesh (aabb-skins boxes, shrunk voxel-cluster "
+            "hulls) for shadow-frustum culling",
+            options=(
+                GeneratorOption("voxels", int, 64, "voxels along the longest bounding-box side",
+                                low=1, high=2048),
+                GeneratorOption("solids", int, 8, "at most this many convex solids", low=1),
+                GeneratorOption("pieces", str, "voxel-hulls",
+                                "candidates: aabb-skins boxes and shrunk convex hulls of "
+                                "inner-voxel clusters, or the boxes alone",
+                                choices=("voxel-hulls", "boxes-only")),
+                GeneratorOption("shrink_steps", int, 6,
+                                "bisection steps on a hull's scale until it lies inside",
+                                low=1, high=30),
             ),
             conservative=True, min_budget=TRIANGLES_PER_BOX),
         GeneratorSpec("qem", generate_qem, "quadric edge-collapse decimation to the budget",
