@@ -316,7 +316,11 @@ def test_generate_planar_hierarchy_with_planar_sections():
     pytest.importorskip("viscore.generators.planar_sections")
     boxes = [trimesh.creation.box(bounds=[[1.5 * i, 0, 0], [1.5 * i + 1, 1, 1]])
              for i in range(3)]
-    occ = generate_planar_hierarchy(boxes, budget=16, voxels=12)
+    # every option planar sections hands over for --hierarchy, at its defaults
+    handed = {"voxel_size": None, "direction_bins": 16, "depth_bins": 4, "alpha": 1.0,
+              "measure": "om", "reduce": "area", "conservative": False, "pixel_error": None,
+              "distance": None, "fov": 60.0, "screen": 1920, "lod_distances": None, "dilate": 0}
+    occ = generate_planar_hierarchy(boxes, budget=16, seed=0, voxels=12, **handed)
     root = occ.parts["hierarchy"]
     assert occ.info["builder"] == "planar-sections" and occ.double_sided
     assert check_parts(occ.parts) == {"hierarchy": 5}
