@@ -118,8 +118,9 @@ def city_block() -> trimesh.Trimesh:
 # Each ``building_<style>(seed=...)`` returns a ``trimesh.Trimesh`` (process=False) whose
 # ``metadata`` records, by construction: "doors" (every outside door as (centre, inward
 # unit direction, width): the centre lies in the wall's mid-plane), "rooms" (points at
-# standing height inside rooms, clear of every panel), "wall_thickness" (m) and
-# "open_bottom" (no geometry on or under the ground). The seed varies the details
+# standing height inside rooms, clear of every panel), "wall_thickness" (m),
+# "open_bottom" (no geometry on or under the ground) and "split_faces" (each flat side of
+# a part has its own vertices, as in exported game kits). The seed varies the details
 # (window rhythm, which windows are framed, small dimensions); the defaults make the
 # shipped files.
 
@@ -163,14 +164,34 @@ def _rect_minus(u0: float, u1: float, v0: float, v1: float,
 class _Builder:
     """Collects loose convex parts (each with its own vertices) and construction data."""
 
-    def __init__(self) -> None:
+    def __init__(self, *, split: bool = False) -> None:
         self.parts: list[tuple[np.ndarray, np.ndarray]] = []
         self.doors: list[tuple[list[float], list[float], float]] = []
         self.rooms: list[list[float]] = []
+        self.split = split  # every flat side its own vertices, as exported game kits are
 
     def add(self, vertices: np.ndarray, faces: np.ndarray) -> int:
-        self.parts.append((np.asarray(vertices, np.float64), np.asarray(faces, np.int64)))
+        vertices, faces = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
+        if not self.split or len(faces) <= 2:
+            self.parts.append((vertices, faces))
+            return len(self.parts) - 1
+        tri = vertices[faces]
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        normal = np.round(normal / np.linalg.norm(normal, axis=1)[:, None], 6)
+        _, side = np.unique(normal, axis=0, return_inverse=True)
+        for k in range(side.max() + 1):
+            used, inverse = np.unique(faces[side.ravel() == k], return_inverse=True)
+            self.parts.append((vertices[used], inverse.reshape(-1, 3)))
         return len(self.parts) - 1
+
+    def sheet(self, corners, up) -> int:
+        """One-sided flat quad (4, 3), wound so its normal points along ``up``."""
+        corners = np.asarray(corners, float)
+        faces = np.array([[0, 1, 2], [0, 2, 3]])
+        normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+        if normal @ np.asarray(up, float) < 0:
+            faces = faces[:, ::-1]
+        return self.add(corners, faces)
 
     def box(self, lo, hi, open_sides: str = "") -> int:
         """Axis-aligned box; ``open_sides`` lists sides left open, e.g. "-z"."""
@@ -349,8 +370,15 @@ class _Builder:
             def zb(b, edge=edge, sign=sign):
                 return zt - 0.03 + slope * sign * (b - (edge - sign * 0.5 * t))
             ba, bb = edge - sign * over, mid + sign * 0.15
+            ends = (a0 - 0.5 * t - over, a1 + 0.5 * t + over)
+            if thick <= 0:  # a single one-sided sheet, as game kits make roofs
+                quad = [(a, b, zb(b)) for a, b in ((ends[0], ba), (ends[1], ba), (ends[1], bb),
+                                                   (ends[0], bb))]
+                quad = np.array(quad)[:, [0, 1, 2] if axis == 0 else [1, 0, 2]]
+                self.sheet(quad, (0.0, 0.0, 1.0))
+                continue
             poly = [(ba, zb(ba)), (bb, zb(bb)), (bb, zb(bb) + thick), (ba, zb(ba) + thick)]
-            self.prism(poly, axis, a0 - 0.5 * t - over, a1 + 0.5 * t + over)
+            self.prism(poly, axis, *ends)
         top = zt + slope * (0.5 * (b1 - b0) + 0.5 * t)
         if gables:
             tri = [(b0 - 0.5 * t, zt), (b1 + 0.5 * t, zt), (mid, top)]
@@ -365,8 +393,8 @@ class _Builder:
         vertices = np.concatenate([v for v, _ in self.parts])
         faces = np.concatenate([f + o for (_, f), o in zip(self.parts, offsets[:-1], strict=True)])
         mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
-        mesh.metadata.update(doors=self.doors, rooms=self.rooms,
-                             wall_thickness=wall_thickness, open_bottom=open_bottom)
+        mesh.metadata.update(doors=self.doors, rooms=self.rooms, wall_thickness=wall_thickness,
+                             open_bottom=open_bottom, split_faces=self.split)
         return mesh
 
 
@@ -765,6 +793,50 @@ def building_lshaped(seed: int = 7) -> trimesh.Trimesh:
     return b.mesh(wall_thickness=t, open_bottom=True)
 
 
+def building_cottage(seed: int = 8) -> trimesh.Trimesh:
+    """Cottage made the way exported game kits are: every flat side of every part has its
+    own vertices (no two faces of a box share an index), the roof is two one-sided
+    sheets; open at the bottom, shutters, flower boxes, an attic reached by a ladder."""
+    rng = np.random.default_rng(seed)
+    b = _Builder(split=True)
+    t, h = 0.12, 2.8
+    x0, x1, y0, y1 = -3.0, 3.0, -2.5, 2.5
+    framed = rng.random(4) < 0.6
+    front = [(-0.45, 0.45, 0.0, 2.0, True), (-2.4, -1.4, 0.9, 1.9, True),
+             (1.4, 2.4, 0.9, 1.9, True)]
+    walls = {"front": front,
+             "back": [(-1.5, -0.5, 0.9, 1.9, bool(framed[0])), (1.2, 2.2, 0.9, 1.9, False)],
+             "left": [(-0.5, 0.5, 0.9, 1.9, bool(framed[1]))],
+             "right": [(-0.5, 0.5, 0.9, 1.9, bool(framed[2]))]}
+    b.storey(x0, x1, y0, y1, 0.0, h, t, walls, open_bottom=True, frame=0.08, depth=0.03)
+    for a0, a1, *_ in front[1:]:  # shutters and flower boxes
+        for u in (a0 - 0.08 - 0.45, a1 + 0.08):
+            b.box((u, y0 - 0.12, 0.85), (u + 0.45, y0 - 0.08, 1.95))
+        b.box((a0, y0 - 0.3, 0.6), (a1, y0 - 0.07, 0.78))
+    b.wall("y", 0.8, y0 + 0.06, y1 - 0.06, 0.0, h, 0.1, [(0.6, 1.4, 0.0, 1.9, False)],
+           open_bottom=True)
+    b.slab(x0, x1, y0, y1, h, h + 0.1, holes=[(-2.65, -1.85, 1.3, 2.3)])  # attic floor
+    for x in (-2.5, -2.0):  # ladder
+        b.box((x - 0.03, 1.95, 0.0), (x + 0.03, 2.0, h + 0.6), "-z")
+    for z in np.arange(0.3, h + 0.4, 0.3):
+        b.box((-2.5, 1.96, z), (-2.0, 1.99, z + 0.04))
+    b.gable_roof(x0, x1, y0, y1, h + 0.1, 2.4, t, ridge="x", over=0.35, thick=0.0)
+    b.box((1.8, 0.6, 2.0), (2.3, 1.1, 6.0))  # chimney through the roof sheet
+    b.box((-0.8, y0 - 0.5, 0.0), (0.8, y0 - 0.06, 0.15), "-z")  # door step
+    b.box((-0.8, y0 - 0.6, 2.25), (0.8, y0 - 0.06, 2.32))  # door canopy
+    b.box((-2.2, -0.9, 0.72), (-1.2, -0.1, 0.77))  # table and its legs
+    for x in (-2.15, -1.3):
+        for y in (-0.85, -0.2):
+            b.box((x, y, 0.0), (x + 0.05, y + 0.05, 0.72), "-z")
+    b.box((1.2, 1.0, 0.0), (2.8, 2.3, 0.5), "-z")  # bed
+    # (the attic under the one-sided roof sheets reads as inside by winding number: 0.56)
+    b.rooms.extend([[-1.0, 0.8, 1.2], [1.9, -0.6, 1.2]])
+    b.doors.append(([0.0, y0, 1.0], [0.0, 1.0, 0.0], 0.9))
+    b.decal(b.box((-0.2, y0 - 0.1, 2.05), (0.2, y0 - 0.065, 2.2)), (0, -1, 0))  # number
+    b.duplicate(7)
+    return b.mesh(wall_thickness=t, open_bottom=True)
+
+
 #: Building scenes: scene name -> (file, function); every function takes ``seed``.
 BUILDINGS = {
     "building-house": ("building_house.ply", building_house),
@@ -774,6 +846,7 @@ BUILDINGS = {
     "building-church": ("building_church.ply", building_church),
     "building-shop": ("building_shop.ply", building_shop),
     "building-lshaped": ("building_lshaped.ply", building_lshaped),
+    "building-cottage": ("building_cottage.ply", building_cottage),
 }
 
 SCENES = {

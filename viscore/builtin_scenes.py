@@ -41,6 +41,8 @@ _BUILDINGS = {
                       "shelves, parapet and railing; 4.0k triangles"),
     "building-lshaped": ("building_lshaped.ply", "L-shaped, open at the bottom, gabled and "
                          "flat-roofed wings joined by archways; 4.5k triangles"),
+    "building-cottage": ("building_cottage.ply", "cottage as game kits export it: every flat "
+                         "side its own vertices, one-sided roof sheets; 0.96k triangles"),
 }
 _PROCEDURAL.update(_BUILDINGS)
 
