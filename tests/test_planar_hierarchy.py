@@ -352,3 +352,13 @@ def test_build_hierarchy_builder_refusals():
     root = build_hierarchy(pair, node_occluder=refuse_small, voxels=4)
     assert root["triangles"] == 12 and not root["note"]
     assert all(leaf["triangles"] == 0 and leaf["note"] == "too small" for leaf in _leaves(root))
+
+
+def test_build_hierarchy_small_object_beside_a_large_one_keeps_its_faces():
+    # a 1e-4 box beside a 1e3 box: its faces would be degenerate at the scene's scale
+    big = trimesh.creation.box(extents=(1e3, 1e3, 1e3))
+    small = trimesh.creation.box(extents=(1e-4,) * 3)
+    small.apply_translation((2e3, 0, 0))
+    root = build_hierarchy([big, small], node_occluder="qem", budget=12, voxels=8)
+    assert [c["triangles"] for c in root["children"]] == [12, 12]
+    assert root["children"][1]["voxel_size"] == pytest.approx(1e-4 / 8)
