@@ -1,0 +1,267 @@
+"""Planar sections (Silvennoinen et al. 2014, sec. 4): each step, the generator, its options."""
+
+import numpy as np
+import pytest
+import shapely
+import trimesh
+from shapely.geometry import Polygon
+from viscore.generators._section_loops import slice_polygons
+from viscore.generators._section_select import (
+    project_candidates,
+    select_greedy,
+    soup_measures,
+)
+from viscore.generators._section_simplify import simplification_chain
+from viscore.generators._section_slices import (
+    best_slices,
+    make_slice,
+    section_solid,
+    slice_image,
+)
+from viscore.generators.planar_sections import (
+    generate_planar_sections,
+    screen_space_voxel_size,
+)
+from viscore.metrics import check_conservative, directional_occlusion_measure
+
+from viscore import InputError, Scene, load_mesh, voxel_boundary_mesh
+
+#: Few bins: the generator's speed is a benchmark figure, not a test's.
+FAST = {"direction_bins": 6, "depth_bins": 2}
+
+
+@pytest.fixture(scope="module")
+def torus():
+    return load_mesh("fat-torus")
+
+
+@pytest.fixture(scope="module")
+def torus_occluder(torus):
+    return generate_planar_sections(torus, budget=64, voxels=32, **FAST)
+
+
+# ---------------------------------------------------------------- 4.1 / 4.2 slicing
+def test_section_solid_cube_slice_is_a_square():
+    cube = trimesh.creation.box(extents=(2, 2, 2))
+    sec = section_solid(cube, resolution=16)
+    p = sec.grid.pitch
+    s = make_slice(sec, (0, 0, 1), depth=0.0)
+    # the surface voxels are centred on the faces: the solid spans 2 + one voxel
+    assert s.area == pytest.approx((2 + p) ** 2)
+    img = slice_image(sec, s)
+    assert img.sum() * p * p == pytest.approx(s.area)
+
+
+def test_section_solid_sphere_slice_is_a_disk():
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    sec = section_solid(sphere, resolution=32)
+    p = sec.grid.pitch
+    s = make_slice(sec, (0.3, 0.2, 0.93), depth=0.0)
+    assert np.pi * (1 - p) ** 2 < s.area < np.pi * (1 + p) ** 2
+
+
+def test_slice_sampling_equals_ray_parity_on_the_voxel_mesh():
+    mesh = load_mesh("fat-torus")
+    sec = section_solid(mesh, resolution=24)
+    s = make_slice(sec, (0.31, -0.17, 0.93), depth=0.05)
+    img = slice_image(sec, s)
+    ny, nx = s.shape
+    jj, ii = np.meshgrid(np.arange(nx) + 0.5, np.arange(ny) + 0.5)
+    pts = s.to_world(np.stack([jj.ravel(), ii.ravel()], axis=1))
+    hits = Scene(voxel_boundary_mesh(sec.solid, sec.grid)).all_hits(
+        pts, np.broadcast_to(s.direction, pts.shape))
+    parity = (hits.count % 2 == 1).reshape(ny, nx)
+    assert img.sum() > 100
+    assert (parity == img).mean() > 0.995
+
+
+def test_best_slices_one_per_bin_and_maximal():
+    cube = trimesh.creation.box(extents=(2, 1, 1))
+    sec = section_solid(cube, resolution=16)
+    slices = best_slices(sec, 4, 2)
+    assert len({s.bin for s in slices}) == len(slices) <= 8
+    axis = make_slice(sec, (1, 0, 0))  # an axis plane is sampled too: bins hold at least it
+    assert max(s.area for s in slices) >= axis.area
+
+
+# ---------------------------------------------------------------- 4.3 loops
+def test_loops_two_squares_touching_at_a_corner_are_two_polygons():
+    img = np.zeros((6, 6), bool)
+    img[1:3, 1:3] = True
+    img[3:5, 3:5] = True
+    polys = slice_polygons(img, tolerance=None)
+    assert len(polys) == 2
+    assert all(len(c.ring) == 4 and c.holes == 0 and c.polygon.area == 4 for c in polys)
+
+
+def test_loops_ring_gives_outer_and_bridged_hole():
+    img = np.zeros((8, 8), bool)
+    img[1:7, 1:7] = True
+    img[3:5, 3:5] = False
+    (c,) = slice_polygons(img, tolerance=None)
+    assert c.holes == 1 and c.polygon.area == 32
+    assert len(c.ring) == 4 + 4 + 2  # outer, hole, and the bridge's two end copies
+    x, y = c.ring[:, 0], c.ring[:, 1]
+    assert 0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) == pytest.approx(32)
+
+
+def test_loops_rdp_tolerance_bounds_the_deviation():
+    yy, xx = np.mgrid[0:60, 0:60]
+    img = (xx - 30) ** 2 + (yy - 30) ** 2 < 25**2
+    (raw,) = slice_polygons(img, tolerance=None)
+    (c,) = slice_polygons(img, tolerance=1.0)
+    assert len(c.ring) < len(raw.ring) / 3
+    assert c.polygon.hausdorff_distance(raw.polygon) <= 1.0 + 1e-9
+
+
+# ---------------------------------------------------------------- 4.4 chain
+@pytest.mark.parametrize("hole", [False, True])
+def test_chain_stages_stay_inside_with_fewer_vertices(hole):
+    yy, xx = np.mgrid[0:40, 0:40]
+    img = ((xx - 20) ** 2 / 300 + (yy - 18) ** 2 / 150 < 1) | ((xx > 25) & (yy > 20) & (yy < 35))
+    if hole:
+        img &= (xx - 14) ** 2 + (yy - 18) ** 2 > 16
+    (c,) = slice_polygons(img, tolerance=1.0)
+    assert c.holes == int(hole)
+    ch = simplification_chain(c.ring)
+    inside = c.polygon.buffer(1e-9)
+    sizes = [len(ch.stage_ring(s)) for s in range(ch.stages)]
+    assert sizes == list(range(len(c.ring), len(c.ring) - ch.stages, -1))
+    assert ch.counts[-1] == 1 and (np.diff(ch.counts) <= 0).all() and (np.diff(ch.areas) <= 0).all()
+    for s in range(ch.stages):
+        tri = ch.stage_triangles(s)
+        union = shapely.union_all([Polygon(ch.ring[t]) for t in tri])
+        assert inside.contains(union)
+        assert union.area == pytest.approx(ch.areas[s])  # triangles do not overlap
+        assert len(tri) == ch.counts[s]
+    if hole:  # until the chain opens it, the hole stays uncovered
+        assert not shapely.union_all([Polygon(ch.ring[t]) for t in ch.stage_triangles(0)]
+                                     ).contains(shapely.Point(14, 18))
+
+
+# ---------------------------------------------------------------- 4.5 selection
+def test_soup_measure_equals_the_metrics_estimator():
+    rng = np.random.default_rng(3)
+    from scipy import ndimage
+
+    imgs = np.stack([ndimage.binary_dilation(rng.random((40, 40)) < 0.01, iterations=4)
+                     for _ in range(3)])
+    ours = soup_measures(imgs, 0.1)
+    ref = [directional_occlusion_measure(img, 0.1)[0] for img in imgs]
+    assert ours == pytest.approx(ref, rel=1e-12)
+
+
+def test_projection_of_a_square_seen_head_on():
+    square = np.array([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]])
+    bm = project_candidates([square], np.array([[0, 0, 1.0]]), np.zeros(3), 2.0, 64)
+    assert bm.shape == (1, 1, 64, 64) and bm.sum() == 32 * 32
+
+
+def test_select_greedy_alpha_and_cap():
+    bm = np.zeros((3, 2, 16, 16), bool)
+    bm[0, :, 2:10, 2:10] = True
+    bm[1, :, 3:9, 3:9] = True  # inside the first: adds nothing
+    bm[2, :, 11:14, 11:14] = True
+    chosen, totals = select_greedy(bm, 1.0, alpha=0.0)
+    assert chosen.tolist() == [0, 2] and (np.diff(totals) > 0).all()
+    chosen, _ = select_greedy(bm, 1.0, alpha=1000.0)
+    assert chosen.tolist() == [0]
+    chosen, _ = select_greedy(bm, 1.0, alpha=0.0, max_polygons=1)
+    assert len(chosen) == 1
+    lazy, _ = select_greedy(bm, 1.0, alpha=0.0, lazy=True)
+    exhaustive, _ = select_greedy(bm, 1.0, alpha=0.0, lazy=False)
+    assert lazy.tolist() == exhaustive.tolist()
+
+
+@pytest.mark.parametrize("budget", [1, 6, 20])
+def test_generate_respects_the_budget_double_sided(torus, budget):
+    occ = generate_planar_sections(torus, budget=budget, voxels=24, **FAST)
+    assert 0 < occ.triangles <= budget
+    assert occ.double_sided and occ.info["triangles_single_sided"] == 2 * occ.triangles
+    assert len(occ.parts["polygons"]) == occ.info["polygons"] <= budget
+    for loop in occ.parts["polygons"]:  # planar loops
+        centred = loop - loop.mean(axis=0)
+        assert np.linalg.svd(centred, compute_uv=False)[-1] < 1e-9 * occ.info["voxels"]
+
+
+def test_fat_torus_keeps_its_hole(torus, torus_occluder):
+    occ = torus_occluder
+    assert occ.triangles <= 64
+    scene = Scene(occ.mesh)
+    origins = np.array([[0, 0, 5.0], [0.15, 0, 5.0], [0, -0.15, 5.0], [0.1, 0.1, 5.0]])
+    t, _ = scene.first_hit(origins, np.broadcast_to([0, 0, -1.0], origins.shape))
+    assert np.isinf(t).all()
+    t, _ = scene.first_hit(np.array([[1.0, 0, 5.0]]), np.array([[0, 0, -1.0]]))
+    assert np.isfinite(t).all()  # while the tube itself is covered
+
+
+def test_conservative_fat_torus_no_ray_sees_the_occluder_first(torus):
+    occ = generate_planar_sections(torus, budget=64, voxels=32, conservative=True, **FAST)
+    assert occ.info["conservative_guaranteed"] and occ.triangles > 0
+    for domain in ("orbit", "volume"):
+        rep = check_conservative(torus, occ.mesh, rays=20_000, domain=domain, seed=5)
+        assert rep.violations == 0, rep.summary()
+
+
+def test_screen_space_knob_sets_the_voxel_size():
+    cube = trimesh.creation.box(extents=(2, 2, 2))
+    size = screen_space_voxel_size(4.0, 100.0, fov=60.0, screen=1920)
+    assert size == pytest.approx(4 * 2 * 100 * np.tan(np.radians(30)) / 1920)
+    occ = generate_planar_sections(cube, budget=8, pixel_error=4.0, distance=100.0, **FAST)
+    assert occ.info["voxel_size"] == pytest.approx(size)
+    assert occ.info["voxels"] == int(np.ceil(2 / size))
+
+
+def test_lod_distances_one_occluder_per_distance_nearest_first():
+    cube = trimesh.creation.box(extents=(2, 2, 2))
+    occ = generate_planar_sections(cube, budget=8, pixel_error=4.0, lod_distances="400,100",
+                                   **FAST)
+    lods = occ.parts["lods"]
+    assert [lod["distance"] for lod in lods] == [100.0, 400.0]
+    assert lods[0]["voxels"] > lods[1]["voxels"]
+    assert lods[0]["mesh"] is occ.mesh and all(lod["mesh"].faces.shape[0] <= 8 for lod in lods)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"budget": 0}, "budget"),
+    ({"voxels": 0}, "voxels"),
+    ({"voxels": 32, "pixel_error": 1.0, "distance": 10.0}, "one way"),
+    ({"pixel_error": 1.0}, "distance"),
+    ({"distance": 10.0}, "pixel_error"),
+    ({"pixel_error": 1.0, "distance": 1.0, "lod_distances": "1,2"}, "lod_distances"),
+    ({"pixel_error": 1.0, "lod_distances": "a,b"}, "lod_distances"),
+    ({"pixel_error": 1e-9, "distance": 1.0}, "voxels along"),
+    ({"measure": "volume"}, "measure"),
+    ({"reduce": "x"}, "reduce"),
+    ({"alpha": -1}, "alpha"),
+    ({"fov": 180}, "fov"),
+    ({"direction_bins": 0}, "direction_bins"),
+    ({"rdp_tolerance": 0}, "rdp_tolerance"),
+    ({"conservative": "yes"}, "conservative"),
+])
+def test_generate_planar_sections_invalid_input(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        generate_planar_sections(trimesh.creation.box(), **kwargs)
+
+
+def test_generate_planar_sections_hierarchy_or_clear_error():
+    from viscore.generators.planar_sections import _hierarchy_builder
+
+    if _hierarchy_builder() is None:
+        with pytest.raises(InputError, match="not available yet"):
+            generate_planar_sections(trimesh.creation.box(), hierarchy=True)
+
+
+# ---------------------------------------------------------------- slow evidence
+_WATERTIGHT = ["fat-torus", "box-with-hole", "sponge", "hairball", "buildings", "bunny"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _WATERTIGHT)
+def test_conservative_million_rays_on_watertight_builtins(name):
+    mesh = load_mesh(name)
+    occ = generate_planar_sections(mesh, budget=64, conservative=True)
+    assert occ.info["conservative_guaranteed"]
+    for domain in ("orbit", "volume"):
+        rep = check_conservative(mesh, occ.mesh, rays=1_000_000, domain=domain, seed=17)
+        assert rep.violations == 0, rep.summary()
