@@ -22,9 +22,8 @@ The pieces the paper leaves open, and the choices made here:
   diagonal is split first, until every leaf holds at most ``leaf_objects``
   objects or there are ``max_leaves`` leaves. (A median split rather than
   SAH: SAH minimises ray-traversal cost, which is not what an occluder tree
-  is for; median splits give balanced trees of compact nodes, and the tree
-  depth, hence the number of levels an error must step through, is
-  ``ceil(log2(leaves))``.)
+  is for; median splits give balanced trees of compact nodes, about
+  ``log2(leaves)`` levels deep.)
 - **Voxel size per node.** Sec. 5 applies "our algorithm independently for
   each node" at the resolution the allowed error sets (sec. 4.1); it does
   not tie a node's voxel size to its children's. Each node is voxelized with
@@ -38,7 +37,8 @@ The pieces the paper leaves open, and the choices made here:
   apart are glued into one solid ("This has the effect of gluing neighbors
   together", sec. 5) and the solid grows by one voxel (the error stays
   bounded). Leaves are single objects (nothing to glue) and are not dilated.
-  A builder that takes a ``dilation`` keyword voxelizes the node itself;
+  A builder that takes a ``dilation`` (or ``dilate``) keyword voxelizes
+  the node itself, as planar sections does;
   any other builder is given the closed voxel mesh of the dilated solid
   (:func:`dilated_voxel_mesh`), which it voxelizes again: at the same voxel
   size, that grid is offset by half a voxel and adds half a voxel of error.
@@ -133,7 +133,7 @@ def _aabb_skins_builder(mesh, *, budget, seed, voxel_size, **options):
 
 
 def _planar_sections_builder():
-    """A's generator, when it exists; None until then."""
+    """The planar-sections generator, or None in a build without it."""
     try:
         from .planar_sections import generate_planar_sections
     except ImportError:
