@@ -132,13 +132,6 @@ def _aabb_skins_builder(mesh, *, budget, seed, voxel_size, **options):
                                **options)
 
 
-def _planar_sections_builder():
-    """The planar-sections generator, or None in a build without it."""
-    try:
-        from .planar_sections import generate_planar_sections
-    except ImportError:
-        return None
-    return generate_planar_sections
 
 
 #: Named per-node builders. ``planar-sections`` is the paper's; ``qem`` (quadric
@@ -150,14 +143,14 @@ NODE_OCCLUDERS = ("planar-sections", "qem", "aabb-skins")
 
 def _resolve_builder(node_occluder) -> tuple[Callable, str]:
     if node_occluder is None:
-        node_occluder = "planar-sections" if _planar_sections_builder() else "qem"
+        node_occluder = "planar-sections"
     if callable(node_occluder):
         return node_occluder, getattr(node_occluder, "__name__", "callable")
     if node_occluder == "planar-sections":
-        fn = _planar_sections_builder()
-        if fn is None:
-            raise InputError("node_occluder: planar-sections is not available in this build")
-        return fn, node_occluder
+        # imported here: planar_sections imports this module for --hierarchy
+        from .planar_sections import generate_planar_sections
+
+        return generate_planar_sections, node_occluder
     if node_occluder == "qem":
         return _qem_builder, node_occluder
     if node_occluder == "aabb-skins":

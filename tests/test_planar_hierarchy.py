@@ -362,3 +362,10 @@ def test_build_hierarchy_small_object_beside_a_large_one_keeps_its_faces():
     root = build_hierarchy([big, small], node_occluder="qem", budget=12, voxels=8)
     assert [c["triangles"] for c in root["children"]] == [12, 12]
     assert root["children"][1]["voxel_size"] == pytest.approx(1e-4 / 8)
+
+
+def test_build_hierarchy_default_builder_is_planar_sections():
+    from viscore.generators.planar_hierarchy import _resolve_builder
+    from viscore.generators.planar_sections import generate_planar_sections
+
+    assert _resolve_builder(None) == (generate_planar_sections, "planar-sections")
