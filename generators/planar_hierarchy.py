@@ -411,6 +411,10 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
     max_leaves = as_positive_int(max_leaves, "max_leaves")
     seed = as_seed(seed, "seed")
     builder, builder_name = _resolve_builder(node_occluder)
+    reserved = sorted(set(node_options) & {"voxel_size", "pitch", "dilation", "dilate"})
+    if reserved:
+        raise InputError(f"{', '.join(reserved)}: set per node by the hierarchy (voxels over "
+                         "the node's extent; dilation at inner nodes)")
     mesh, objects = _scene_objects(mesh_or_meshes)
 
     tri = np.asarray(mesh.vertices)[np.asarray(mesh.faces)]  # (f, 3, 3)

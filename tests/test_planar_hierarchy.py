@@ -241,7 +241,8 @@ def test_build_hierarchy_invalid_input():
     for bad, kwargs in (([], {}), ("city-block", {}), ([box, "x"], {}),
                         (box, {"budget": 0}), (box, {"voxels": 0}), (box, {"leaf_objects": 0}),
                         (box, {"max_leaves": -1}), (box, {"seed": -1}),
-                        (box, {"node_occluder": "nope"})):
+                        (box, {"node_occluder": "nope"}), (box, {"voxel_size": 0.1}),
+                        (box, {"dilate": 1}), (box, {"inner_dilation": True})):
         with pytest.raises(InputError):
             build_hierarchy(bad, **kwargs)
     with pytest.raises(InputError):
