@@ -176,7 +176,7 @@ class OccluderScene:
     """
 
     def __init__(self, occluders, *, workers: int | None = None) -> None:
-        from .frusta import _solid_arrays
+        from .frusta import _plane_groups, _solid_arrays
 
         items = occluders if isinstance(occluders, list | tuple) and not _is_pair(occluders) \
             else [occluders]
@@ -190,12 +190,14 @@ class OccluderScene:
             if len(f) == 0:
                 return
             offset = sum(len(x) for x in verts)
+            lab = None
             if solid_piece:
-                try:
-                    _solid_arrays(v, f, 0)
+                try:  # a convex solid: its planar facets are the polytope's (convex) faces
+                    lab = _plane_groups(_solid_arrays(v, f, 0))[1].astype(np.int64)
                 except InputError:
                     solid_piece = False
-            lab = _facet_labels(v, f)
+            if lab is None:
+                lab = _facet_labels(v, f)
             facet.append(lab + count)
             count += int(lab.max()) + 1
             solid.append(np.full(len(f), -1 if not solid_piece else len(solid), np.int64))

@@ -99,6 +99,15 @@ class Frustum:
 
 
 # ----------------------------------------------------------------------------- occluder sets
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (n, 3) arrays (np.cross costs more in small calls)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
 def _solid_arrays(vertices, faces, index: int) -> dict:
     """Validated arrays of one convex solid: twins of directed edges, normals, centroid."""
     what = f"solids[{index}]"
@@ -111,7 +120,7 @@ def _solid_arrays(vertices, faces, index: int) -> dict:
     if f.min() < 0 or f.max() >= len(v):
         raise InputError(f"{what} faces: a face indexes a missing vertex")
     tri = v[f]
-    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normals = _cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     volume = float(np.einsum("ij,ij->i", tri[:, 0], normals).sum() / 6.0)
     scale = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
     if not volume > SHAPE_TOLERANCE * scale**3:
@@ -153,7 +162,7 @@ def _polygon_arrays(polygon, index: int) -> dict:
     if len(p) < 3:
         raise InputError(f"{what}: expected at least 3 vertices, got {len(p)}")
     c = p.mean(axis=0)
-    area_vec = 0.5 * np.cross(p - c, np.roll(p, -1, axis=0) - c).sum(axis=0)
+    area_vec = 0.5 * _cross(p - c, np.roll(p, -1, axis=0) - c).sum(axis=0)
     area = float(np.linalg.norm(area_vec))
     scale = float(np.linalg.norm(p.max(axis=0) - p.min(axis=0)))
     if not area > SHAPE_TOLERANCE * scale**2:
@@ -162,13 +171,13 @@ def _polygon_arrays(polygon, index: int) -> dict:
     if np.abs((p - c) @ normal).max() > SHAPE_TOLERANCE * scale:
         raise InputError(f"{what}: not planar")
     e = np.roll(p, -1, axis=0) - p
-    turn = np.cross(e, np.roll(e, -1, axis=0)) @ normal
+    turn = _cross(e, np.roll(e, -1, axis=0)) @ normal
     if turn.min() < -SHAPE_TOLERANCE * scale**2:
         raise InputError(f"{what}: not convex (or not a simple loop)")
-    centroid = c  # the vertex mean: inside a convex polygon, enough for ranking
-    return {"points": p, "normal": normal, "offset": float(normal @ c), "area": area,
-            "centroid": centroid, "radius": float(np.linalg.norm(p - c, axis=1).max()),
-            "scale": scale}
+    # the vertex mean as centre: inside a convex polygon, enough for ranking
+    return {"points": p, "start": np.array([0, len(p)]), "normal": normal[None],
+            "offset": np.array([normal @ c]), "area": np.array([area]), "centroid": c[None],
+            "radius": np.array([np.linalg.norm(p - c, axis=1).max()]), "scale": scale}
 
 
 def solid_faces_as_polygons(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> list[np.ndarray]:
@@ -199,37 +208,65 @@ def solid_faces_as_polygons(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> li
     >>> [len(p) for p in solid_faces_as_polygons(box.vertices, box.faces)]
     [4, 4, 4, 4, 4, 4]
     """
-    s = _solid_arrays(vertices, faces, 0)
-    v, n, off = s["vertices"], s["normals"], s["offset"]
+    p = _face_polygons(_solid_arrays(vertices, faces, 0))
+    return np.split(p["points"], p["start"][1:-1])
+
+
+def _plane_groups(s: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles of a validated convex solid grouped by plane: the first triangle of each
+    group (g,) and the group of each triangle (f,), 0..g-1. Each group is a face of the
+    polytope, hence a convex polygon."""
+    n, off = s["normals"], s["offset"]
     tol = SHAPE_TOLERANCE * s["scale"]
-    # group faces by plane: same normal (dot ~ 1) and same offset
-    groups = np.full(len(n), -1)
-    planes = []
-    for i in range(len(n)):  # loop over the solid's faces (a handful), not over rays
-        if groups[i] >= 0:
-            continue
-        same = (n @ n[i] > 1 - 1e-9) & (np.abs(off - off[i]) <= tol) & (groups < 0)
-        groups[same] = len(planes)
-        planes.append(i)
-    polygons = []
-    for g, i in enumerate(planes):
-        idx = np.unique(s["faces"][groups == g])
-        pts = v[idx]
-        normal = n[i]
-        c = pts.mean(axis=0)
-        # in-plane frame, angular order counter-clockwise about the outward normal
-        ref = pts - c
-        ax = ref[np.argmax(np.linalg.norm(ref, axis=1))]
-        ax = ax / np.linalg.norm(ax)
-        ay = np.cross(normal, ax)
-        ang = np.arctan2(ref @ ay, ref @ ax)
-        loop = pts[np.argsort(ang)]
-        # drop vertices in the middle of an edge (collinear)
-        e0 = loop - np.roll(loop, 1, axis=0)
-        e1 = np.roll(loop, -1, axis=0) - loop
-        keep = np.linalg.norm(np.cross(e0, e1), axis=1) > tol * s["scale"]
-        polygons.append(loop[keep] if keep.sum() >= 3 else loop)
-    return polygons
+    same = (n @ n.T > 1 - 1e-9) & (np.abs(off[:, None] - off[None, :]) <= tol)
+    first = np.argmax(same, axis=1)  # the first face on the same plane
+    firsts, group = np.unique(first, return_inverse=True)
+    return firsts, group.reshape(-1)
+
+
+def _face_polygons(s: dict) -> dict:
+    """The faces of a validated convex solid as polygon arrays, coplanar triangles merged.
+
+    Returns points (P, 3) grouped by polygon, each loop counter-clockwise about
+    its outward normal; start (g + 1,) offsets; normal (g, 3); offset (g,);
+    area (g,); centroid (g, 3) (the vertex mean); radius (g,).
+    """
+    v, n, f = s["vertices"], s["normals"], s["faces"]
+    tol = SHAPE_TOLERANCE * s["scale"]
+    firsts, group = _plane_groups(s)
+    g = len(firsts)
+    pairs = np.unique(np.stack([np.repeat(group, 3), f.reshape(-1)], axis=1), axis=0)
+    pg, pts = pairs[:, 0], v[pairs[:, 1]]
+    counts = np.bincount(pg, minlength=g)
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    centre = _group_sum(pts, pg, g) / counts[:, None]
+    normal = n[firsts]
+    ref = pts - centre[pg]
+    ax = ref[start] / np.linalg.norm(ref[start], axis=1)[:, None]
+    ay = _cross(normal, ax)
+    ang = np.arctan2(np.einsum("ij,ij->i", ref, ay[pg]), np.einsum("ij,ij->i", ref, ax[pg]))
+    order = np.lexsort((ang, pg))
+    pts = pts[order]
+    # drop vertices in the middle of an edge (collinear with their neighbours)
+    idx = np.arange(len(pts))
+    last = start + counts - 1
+    prev = np.where(idx == start[pg], last[pg], idx - 1)
+    nxt = np.where(idx == last[pg], start[pg], idx + 1)
+    bend = np.linalg.norm(_cross(pts - pts[prev], pts[nxt] - pts), axis=1)
+    keep = bend > tol * s["scale"]
+    keep |= (np.bincount(pg, weights=keep, minlength=g) < 3)[pg]
+    pts, pg = pts[keep], pg[keep]
+    counts = np.bincount(pg, minlength=g)
+    start = np.concatenate([[0], np.cumsum(counts)])
+    idx = np.arange(len(pts))
+    nxt = np.where(idx == start[1:][pg] - 1, start[:-1][pg], idx + 1)
+    rel = pts - centre[pg]
+    area = 0.5 * np.bincount(pg, weights=np.einsum("ij,ij->i", _cross(rel, rel[nxt]),
+                                                   normal[pg]), minlength=g)
+    radius = np.maximum.reduceat(np.linalg.norm(rel, axis=1), start[:-1])
+    return {"points": pts, "start": start, "normal": normal,
+            "offset": np.einsum("ij,ij->i", normal, centre), "area": area,
+            "centroid": centre, "radius": radius}
 
 
 # ----------------------------------------------------------------------------- frustum building
@@ -255,7 +292,7 @@ def _group_sum(values: np.ndarray, group: np.ndarray, k: int) -> np.ndarray:
 def _oriented_side_planes(eye, a, b, inner, tol):
     """Unit planes through the eye and each edge (a[i], b[i]), inward towards inner[i];
     (e, 4) and (e,) bool of the well-defined ones."""
-    n = np.cross(a - eye, b - eye)
+    n = _cross(a - eye, b - eye)
     norm = np.sqrt(np.einsum("ij,ij->i", n, n))
     ok = norm > tol
     n = n / np.where(ok, norm, 1.0)[:, None]
@@ -382,20 +419,33 @@ class _SolidSet:
 class _PolygonSet:
     """Convex polygons concatenated, for vectorised frusta over a selection."""
 
-    def __init__(self, polys: list[dict]) -> None:
-        self.count = len(polys)
-        sizes = [len(p["points"]) for p in polys]
-        self.start = np.cumsum([0] + sizes)
-        self.points = np.vstack([p["points"] for p in polys]) if polys else np.zeros((0, 3))
-        nxt = np.arange(len(self.points)) + 1
-        if polys:
-            nxt[self.start[1:] - 1] = self.start[:-1]  # the closing edge of each loop
+    def __init__(self, points: np.ndarray, start: np.ndarray, normal: np.ndarray,
+                 offset: np.ndarray, area: np.ndarray, centroid: np.ndarray,
+                 radius: np.ndarray) -> None:
+        self.count = len(start) - 1
+        self.start, self.points = start, points
+        nxt = np.arange(len(points)) + 1
+        if self.count:
+            nxt[start[1:] - 1] = start[:-1]  # the closing edge of each loop
         self.next = nxt
-        self.normal = np.array([p["normal"] for p in polys]).reshape(-1, 3)
-        self.offset = np.array([p["offset"] for p in polys], dtype=np.float64)
-        self.area = np.array([p["area"] for p in polys], dtype=np.float64)
-        self.centroid = np.array([p["centroid"] for p in polys]).reshape(-1, 3)
-        self.radius = np.array([p["radius"] for p in polys], dtype=np.float64)
+        self.normal, self.offset, self.area = normal, offset, area
+        self.centroid, self.radius = centroid, radius
+
+    @classmethod
+    def concat(cls, parts: list[dict]) -> _PolygonSet:
+        """From dicts of polygon arrays (:func:`_face_polygons` or one polygon each)."""
+        if not parts:
+            return cls(np.zeros((0, 3)), np.zeros(1, np.int64), np.zeros((0, 3)), np.zeros(0),
+                       np.zeros(0), np.zeros((0, 3)), np.zeros(0))
+        sizes = [len(p["points"]) for p in parts]
+        shift = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        start = np.concatenate([p["start"][:-1] + o for p, o in zip(parts, shift, strict=True)]
+                               + [[int(np.sum(sizes))]])
+        cat = np.concatenate
+        return cls(np.vstack([p["points"] for p in parts]), start.astype(np.int64),
+                   np.vstack([p["normal"] for p in parts]), cat([p["offset"] for p in parts]),
+                   cat([p["area"] for p in parts]), np.vstack([p["centroid"] for p in parts]),
+                   cat([p["radius"] for p in parts]))
 
     def planes(self, eye: np.ndarray, select: np.ndarray, scale: float) -> _Planes:
         """Frusta of the selected polygons; ``scale`` is the frame's length scale."""
@@ -534,8 +584,8 @@ def polygon_frustum(polygon: npt.ArrayLike, eye: npt.ArrayLike) -> Frustum | Non
     """
     q = _polygon_arrays(polygon, 0)
     e = as_vector(eye, "eye")
-    scale = _frame_scale(e, q["centroid"], q["scale"])
-    planes = _PolygonSet([q]).planes(e, np.array([0]), scale)
+    scale = _frame_scale(e, q["centroid"][0], q["scale"])
+    planes = _PolygonSet.concat([q]).planes(e, np.array([0]), scale)
     fr = planes.frusta(e, "planar")
     return fr[0] if fr else None
 
@@ -795,16 +845,13 @@ class FrustumCuller:
         extra = [_polygon_arrays(p, i) for i, p in enumerate(polygons)]
         # every solid's faces as polygons: the planar mode's occluders, the 'faces'
         # ranking, and the frusta of a solid that holds the eye
-        face_polys, owner = [], []
-        for i, (v, f) in enumerate(solids):  # a loop over occluders, at construction
-            loops = solid_faces_as_polygons(v, f)
-            face_polys.extend(_polygon_arrays(p, i) for p in loops)
-            owner.extend([i] * len(loops))
+        faces = [_face_polygons(a) for a in arrays]  # a loop over occluders, at construction
+        per_solid = np.array([len(p["start"]) - 1 for p in faces], dtype=np.int64)
         self._solids = _SolidSet(arrays if mode == "solid" else [])
-        self._faces = _PolygonSet(face_polys)
-        self._face_owner = np.array(owner, dtype=np.int64)
-        self._face_start = np.searchsorted(self._face_owner, np.arange(len(solids) + 1))
-        self._extra = _PolygonSet(extra)
+        self._faces = _PolygonSet.concat(faces)
+        self._face_owner = np.repeat(np.arange(len(arrays)), per_solid)
+        self._face_start = np.concatenate([[0], np.cumsum(per_solid)]).astype(np.int64)
+        self._extra = _PolygonSet.concat(extra)
         points = [s["vertices"] for s in arrays] + [q["points"] for q in extra]
         if points:
             allp = np.vstack(points)
@@ -812,7 +859,7 @@ class FrustumCuller:
             self._center, self._diagonal = 0.5 * (lo + hi), float(np.linalg.norm(hi - lo))
         else:
             self._center, self._diagonal = np.zeros(3), 0.0
-        self.count = (len(arrays) if mode == "solid" else len(face_polys)) + len(extra)
+        self.count = (len(arrays) if mode == "solid" else self._faces.count) + len(extra)
 
     @classmethod
     def from_occluders(cls, occluders, *, mode: str = "solid", active: int = ACTIVE_OCCLUDERS,

@@ -1,0 +1,30 @@
+"""bench_cull_runtimes: structure and the invariants it reports (no timing assertions)."""
+
+import numpy as np
+import pytest
+from viscore.cli.bench_cull_runtimes import KEYS, bench_city, bench_cull_runtimes
+
+from viscore import InputError
+
+
+def test_bench_cull_runtimes_small_run():
+    res = bench_cull_runtimes(frames=3, occludees=200, width=64, height=36)
+    for key in KEYS:
+        assert res[key]["best_ms"] > 0 and res[key]["median_ms"] >= res[key]["best_ms"]
+    for share in (*res["culled_share"].values(), *res["culled_share_in_view"].values()):
+        assert 0.0 <= share <= 1.0
+    assert res["frames_solid_below_planar"]["frusta_solid_exact"] == 0
+    assert res["workers"] == 1 and res["buffer"] == [64, 36]
+
+
+def test_bench_city_shapes():
+    solids, lo, hi = bench_city(occludees=10, seed=3)
+    assert len(solids) >= 144 and lo.shape == hi.shape == (10, 3)
+    assert (hi > lo).all() and np.allclose(lo[:, 2], 0)
+
+
+def test_bench_cull_runtimes_invalid_input():
+    with pytest.raises(InputError, match="frames"):
+        bench_cull_runtimes(frames=0)
+    with pytest.raises(InputError, match="occludees"):
+        bench_city(occludees=0)
