@@ -309,3 +309,30 @@ def test_frustum_culler_eye_inside_solid_uses_its_faces():
     assert len(fr) == 6 and {f.kind for f in fr} == {"planar"}
     culled = culler.cull((1.0, 2.0, 0.5), [[7, -1, -1], [1, 1, 1]], [[8, 1, 1], [2, 2, 2]])
     assert culled.tolist() == [True, False]
+
+
+@pytest.mark.parametrize("seed", [3, 4])
+def test_frustum_culler_culled_boxes_hidden_in_scene(seed):
+    """Every runtime variant culls only boxes whose corners and samples are hidden by the
+    solids (ray casts from the eye), on random scenes and cameras."""
+    rng = np.random.default_rng(seed)
+    solids = _scene_solids(rng)
+    scene = Scene(trimesh.util.concatenate([trimesh.Trimesh(v, f) for v, f in solids]))
+    centre = rng.uniform([-40, -10, -2], [40, 80, 15], (1500, 3))
+    lo = centre - rng.uniform(0.1, 1.5, (1500, 3))
+    hi = centre + rng.uniform(0.1, 1.5, (1500, 3))
+    cullers = [FrustumCuller(solids), FrustumCuller(solids, mode="planar"),
+               FrustumCuller(solids, cap="front-faces", rank="faces")]
+    total = 0
+    for _ in range(6):
+        eye = rng.uniform([-30, -20, 1], [30, 70, 3])
+        cam = PerspectiveCamera(eye, rng.normal(size=3) * [1, 1, 0.1], fov=90, resolution=16)
+        for culler in cullers:
+            c = culler.cull(cam, lo, hi)
+            total += int(c.sum())
+            corners = np.stack([np.where(np.array(m)[None], hi, lo)[c]
+                                for m in np.ndindex(2, 2, 2)], axis=1).reshape(-1, 3)
+            u = rng.random((c.sum(), 8, 3))
+            inner = (lo[c][:, None] + u * (hi - lo)[c][:, None]).reshape(-1, 3)
+            assert _hidden(scene, eye, np.vstack([corners, inner])).all()
+    assert total > 100
