@@ -446,6 +446,81 @@ class ReferenceViews:
         todo = self._images[first:image + 1]
         return [r for b in self._reference_batches(todo, {}) for r in b][-1]
 
+    def pixel_rays(self, unit: int, cam: int, box: tuple | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """Origins and unit directions of one image's pixel rays, as :meth:`score` casts them.
+
+        Parameters
+        ----------
+        unit, cam : int
+            Orbit: the view twice. Volume: the position and the frustum (0-5).
+        box : (row0, col0, row1, col1), optional
+            Only the pixels of this box (exclusive ends); default the whole image.
+
+        Returns
+        -------
+        origins, directions : (h * w, 3) float64
+            World units, row-major over the box (read-only views may be returned).
+        """
+        return self._rays(int(unit), int(cam), None if box is None else tuple(box))
+
+    def scored_images(self, occluder_bounds: np.ndarray | None) -> tuple[list, np.ndarray]:
+        """The original's side of every image that :meth:`score` counts for an occluder.
+
+        Incremental scorers (metric-guided simplification) tally these images
+        themselves: with the occluder's coverage over each image's box,
+        :func:`viscore.metrics.quads.occluder_counts` summed into
+        ``per_view`` rows gives the counts of :meth:`score` bit for bit.
+
+        Parameters
+        ----------
+        occluder_bounds : (2, 3) float or None
+            The occluder's bounding box (world units); None for an empty occluder.
+
+        Returns
+        -------
+        images : list of ImageQuads
+            In scoring order: ``unit`` (row of ``per_view``), ``cam``,
+            ``box``, ``quads`` relative to the box (None: the image counts
+            nothing), ``n`` and ``a`` (pixels of each quad and those the
+            original covers). Volume positions whose frusta see the
+            occluder's box but not the original's have all their quads drawn
+            anew, as :meth:`score` does.
+        sees : (len(images),) bool
+            Whether the occluder's box can be seen in the image (where not,
+            the occluder covers none of its pixels).
+
+        Raises
+        ------
+        InputError
+            On depth-aware views (their tallies depend on depths, not coverage).
+        """
+        if self.depth_aware:
+            raise InputError("scored_images: depth-aware views are scored by depth, "
+                             "not coverage")
+        timing: dict = {}
+        if self.protocol == "orbit":
+            refs = (list(self._refs) if self._refs is not None else
+                    [r for b in self._reference_batches(self._images, timing) for r in b])
+            return refs, np.full(len(refs), occluder_bounds is not None)
+        sees = self._sees
+        sees_occ = np.zeros_like(sees)
+        if occluder_bounds is not None:
+            bounds = np.asarray(occluder_bounds, dtype=np.float64)
+            sees_occ = frusta_see_box(self.positions, self._axes, *bounds)
+            lo = np.minimum(self._mesh_box[0], bounds[0])
+            hi = np.maximum(self._mesh_box[1], bounds[1])
+            if (lo < self._mesh_box[0]).any() or (hi > self._mesh_box[1]).any():
+                sees = frusta_see_box(self.positions, self._axes, lo, hi)
+        affected = (sees & ~self._sees).any(axis=1)
+        if self._refs is not None:
+            refs = [r for r in self._refs if not affected[r.unit]]
+            again = np.argwhere(sees & affected[:, None])
+            refs += [r for b in self._reference_batches(again, timing) for r in b]
+        else:
+            refs = [r for b in self._reference_batches(np.argwhere(sees), timing) for r in b]
+        return refs, np.array([bool(sees_occ[r.unit, r.cam]) for r in refs], dtype=bool)
+
     def quads(self, image: int) -> np.ndarray:
         """``(Q, 4) int64`` quads of one image: row0, col0, row1, col1 in pixels (exclusive
         ends); ``(0, 4)`` for an image that counts nothing (the original misses it)."""
