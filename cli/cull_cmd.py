@@ -102,6 +102,12 @@ def add_parser(sub, common) -> None:
                         "(default 4: 320 x 180 at 1280 x 720)")
     c.add_argument("--active", type=int, default=15,
                    help="frusta runtimes: active occluders per frame (default 15)")
+    c.add_argument("--cap", choices=["front-faces", "eq2"], default="front-faces",
+                   help="near cap of the solid frusta: the planes of the faces the eye sees "
+                        "(default; the exact shadow) or the paper's eq. 2 plane")
+    c.add_argument("--rank", choices=["faces", "eq4"], default="faces",
+                   help="ranking of the solids: as their best face by eq. 3 (default) or the "
+                        "paper's f_solid of eq. 4")
     c.add_argument("--out", default="viscore-cull",
                    help="output folder, created if missing; its parent must exist "
                         "(default ./viscore-cull)")
@@ -194,15 +200,16 @@ def run_cull(args) -> int:
     with tqdm(total=todo, desc="occluders", unit="mesh", disable=not progress,
               leave=False) as bar:
         runtimes, info = culling_runtimes(objects, indices, methods, active=active,
-                                          reduction=reduction, seed=seed,
-                                          progress=bar.update)
+                                          reduction=reduction, seed=seed, cap=args.cap,
+                                          rank=args.rank, progress=bar.update)
     with tqdm(total=len(path), desc="frames", unit="frame", disable=not progress,
               leave=False) as bar:
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
                                   progress=bar.update)
     doc = {"scene": args.scene, "occluder_objects": len(indices),
            "frusta_method": frusta_method(), "methods": methods, "seed": seed,
-           "active": active, "buffer_scale": reduction, **result.to_json(),
+           "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
+           **result.to_json(),
            "runtimes": info, "provenance": provenance()}
     # 3. the files, each atomic
     out.mkdir(exist_ok=True)

@@ -307,7 +307,8 @@ def _hierarchy_source(occluders: list[Occluder], width_of: Callable) -> Callable
 
 def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Sequence[str], *,
                      active: int = 15, reduction: int = 4, seed: int = 0,
-                     frusta: bool = True, params: dict[str, dict] | None = None,
+                     frusta: bool = True, cap: str = "front-faces", rank: str = "faces",
+                     params: dict[str, dict] | None = None,
                      progress: Callable[[int], None] | None = None
                      ) -> tuple[dict[str, Runtime], dict]:
     """The runtimes of the culling simulation for a scene's occluder objects.
@@ -329,6 +330,10 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
     frusta : bool, optional
         Build ``planar-frusta`` and ``solid-frusta`` from the solids of
         :func:`frusta_method` (default True).
+    cap, rank : str, optional
+        Near cap and ranking of ``solid-frusta`` (default 'front-faces' and
+        'faces'; the paper's are 'eq2' and 'eq4'): see
+        :func:`viscore.metrics.culling.frusta_runtime`.
     params : dict of str -> dict, optional
         Generator options per method.
     progress : callable, optional
@@ -388,10 +393,13 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
         conservative = REGISTRY[source].conservative
         for mode in ("planar", "solid"):
             name = f"{mode}-frusta"
-            runtimes[name] = frusta_runtime(solids, mode=mode, active=active,
-                                            conservative=conservative)
+            runtimes[name] = frusta_runtime(solids, mode=mode, active=active, cap=cap,
+                                            rank=rank, conservative=conservative)
             info[name] = {"method": source, "occluders": runtimes[name].occluders,
-                          "solids": len(solids), "conservative": conservative}
+                          "solids": len(solids), "conservative": conservative,
+                          "active": active}
+            if mode == "solid":
+                info[name].update(cap=cap, rank=rank)
     for m in methods:
         occ = list(occluders(m).values())
         name = f"depth-buffer:{m}"

@@ -501,7 +501,8 @@ def no_culling() -> Runtime:
 
 
 def frusta_runtime(solids: Sequence, *, mode: str = "solid", active: int = 15,
-                   polygons: Sequence | None = None, conservative: bool = True) -> Runtime:
+                   polygons: Sequence | None = None, cap: str = "front-faces",
+                   rank: str = "faces", conservative: bool = True) -> Runtime:
     """Shadow-frustum runtime of convex solids (Papaioannou et al. 2006).
 
     Parameters
@@ -515,6 +516,16 @@ def frusta_runtime(solids: Sequence, *, mode: str = "solid", active: int = 15,
         Occluders ranked best each frame that make frusta (default 15, sec. 3).
     polygons : list of (m, 3) float, optional
         Extra convex planar occluders (two-sided).
+    cap : {'front-faces', 'eq2'}, optional
+        Near cap of the solid frusta: 'front-faces' (default), the planes of
+        the faces the eye sees (the exact shadow, which holds every face's
+        planar frustum), or 'eq2', the paper's single plane through the
+        furthest silhouette point.
+    rank : {'faces', 'eq4'}, optional
+        Ranking of the solids: 'faces' (default), a solid ranks as its best
+        face by eq. 3, or 'eq4', f_solid = Vol / |V|^3. With 'front-faces'
+        and 'faces', solid frusta cull every box the planar frusta of the same
+        solids cull, every frame (:class:`viscore.frusta.FrustumCuller`).
     conservative : bool, optional
         Whether the solids carry the conservativeness guarantee (default True).
 
@@ -530,7 +541,8 @@ def frusta_runtime(solids: Sequence, *, mode: str = "solid", active: int = 15,
     """
     from viscore.frusta import FrustumCuller
 
-    culler = FrustumCuller(list(solids), polygons=polygons, mode=mode, active=active)
+    culler = FrustumCuller(list(solids), polygons=polygons, mode=mode, active=active, cap=cap,
+                           rank=rank)
     return Runtime(cull=culler.cull, conservative=bool(conservative), occluders=culler.count)
 
 
