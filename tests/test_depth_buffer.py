@@ -166,3 +166,18 @@ def test_depth_buffer_invalid_input():
     with pytest.raises(InputError, match="lower"):
         buf.occluded([[1, 1, 1]], [[0, 0, 0]])
     assert buf.occluded(np.zeros((0, 3)), np.zeros((0, 3))).shape == (0,)
+
+
+def test_depth_buffer_casting_only_occluder_rectangles_changes_nothing(monkeypatch, rng):
+    import viscore.depth_buffer as db
+
+    solids = [(b.vertices, b.faces) for b in _city(rng, 12)]
+    occ = OccluderScene(solids)
+    cam = PerspectiveCamera((0, -15, 0.5), (0.1, 1, 0.05), fov=70, resolution=160, height=90)
+    restricted = ConservativeDepthBuffer.from_occluders(occ, cam)
+    cast = db._corners_to_cast(occ._bounds, cam.position, cam.basis,
+                               np.tan(np.radians(35)), np.tan(np.radians(35)) * 90 / 160, 40, 22)
+    assert 0 < cast.mean() < 1
+    monkeypatch.setattr(db, "_corners_to_cast", lambda *a: np.ones((23, 41), bool))
+    full = ConservativeDepthBuffer.from_occluders(occ, cam)
+    np.testing.assert_array_equal(restricted.depth, full.depth)

@@ -180,7 +180,7 @@ class OccluderScene:
 
         items = occluders if isinstance(occluders, list | tuple) and not _is_pair(occluders) \
             else [occluders]
-        verts, faces, facet, solid = [], [], [], []
+        verts, faces, facet, solid, bounds = [], [], [], [], []
         count = 0
 
         def add(v, f, solid_piece: bool) -> None:
@@ -202,6 +202,8 @@ class OccluderScene:
             count += int(lab.max()) + 1
             solid.append(np.full(len(f), -1 if not solid_piece else len(solid), np.int64))
             verts.append(v)
+            bounds.append(np.stack([v[f].reshape(-1, 3).min(axis=0),
+                                    v[f].reshape(-1, 3).max(axis=0)]))
             faces.append(f + offset)
 
         for item in items:
@@ -244,6 +246,29 @@ class OccluderScene:
         self._offset = np.einsum("ij,ij->i", n, tri[:, 0])
         self.pieces = len(np.unique(self._facet[~has])) + self._n_solids
         self._center = 0.5 * (self.scene.bounds[0] + self.scene.bounds[1])
+        #: (k, 2, 3) bounding box of each added piece: rays outside their screen
+        #: rectangles are not cast
+        self._bounds = np.stack(bounds)
+        self._grids: dict = {}
+
+    def _corner_directions(self, w: int, h: int, hx: float, hy: float) -> np.ndarray:
+        """((h+1)(w+1), 3) unit directions through the buffer's pixel corners, in camera
+        coordinates (right, up, forward); cached per buffer size and field of view."""
+        key = (w, h, hx, hy)
+        if key not in self._grids:
+            if len(self._grids) > 8:
+                self._grids.clear()
+            xs = (np.arange(w + 1) / w - 0.5) * (2 * hx)
+            ys = (0.5 - np.arange(h + 1) / h) * (2 * hy)
+            d = np.empty((h + 1, w + 1, 3))
+            d[..., 0] = xs[None, :]
+            d[..., 1] = ys[:, None]
+            d[..., 2] = 1.0
+            d = d.reshape(-1, 3)
+            d /= np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
+            d.flags.writeable = False
+            self._grids[key] = d
+        return self._grids[key]
 
     def labels(self, eye: np.ndarray) -> np.ndarray:
         """(f,) int64 convex-piece label of each triangle for this eye: the solid's label
@@ -272,17 +297,33 @@ def _is_pair(item) -> bool:
         and a.shape[-1:] == (3,) and b.shape[-1:] == (3,) and np.issubdtype(b.dtype, np.integer)
 
 
-def _range_max_rows(depth: np.ndarray) -> list[np.ndarray]:
-    """Sparse table along columns: level k holds the max over 2^k consecutive columns."""
-    levels = [depth]
-    width = depth.shape[1]
-    k = 1
-    while (1 << k) <= width:
-        prev = levels[-1]
-        half = 1 << (k - 1)
-        levels.append(np.maximum(prev[:, :prev.shape[1] - half], prev[:, half:]))
-        k += 1
-    return levels
+def _corners_to_cast(bounds: np.ndarray, eye: np.ndarray, basis, hx: float, hy: float,
+                     w: int, h: int) -> np.ndarray:
+    """(h + 1, w + 1) bool: corner rays that may hit an occluder piece.
+
+    A ray can hit a piece only inside the screen rectangle of the piece's
+    bounding box (the hull of its 8 projected corners), widened by one corner
+    each side; a box reaching the eye's plane or behind it needs every ray.
+    """
+    f, r, u = basis
+    corners = np.stack([np.where(np.array(m, bool), bounds[:, 1], bounds[:, 0])
+                        for m in np.ndindex(2, 2, 2)], axis=1) - eye
+    z = corners @ f
+    if (z <= 0).any(axis=1).any():
+        return np.ones((h + 1, w + 1), dtype=bool)
+    col = ((corners @ r) / z / (2 * hx) + 0.5) * w
+    row = (0.5 - (corners @ u) / z / (2 * hy)) * h
+    c0 = np.clip(np.floor(col.min(axis=1)) - 1, 0, w + 1).astype(np.int64)
+    c1 = np.clip(np.ceil(col.max(axis=1)) + 2, 0, w + 1).astype(np.int64)  # exclusive
+    r0 = np.clip(np.floor(row.min(axis=1)) - 1, 0, h + 1).astype(np.int64)
+    r1 = np.clip(np.ceil(row.max(axis=1)) + 2, 0, h + 1).astype(np.int64)
+    ok = (c1 > c0) & (r1 > r0)
+    diff = np.zeros((h + 2, w + 2), dtype=np.int64)
+    np.add.at(diff, (r0[ok], c0[ok]), 1)
+    np.add.at(diff, (r0[ok], c1[ok]), -1)
+    np.add.at(diff, (r1[ok], c0[ok]), -1)
+    np.add.at(diff, (r1[ok], c1[ok]), 1)
+    return (diff.cumsum(axis=0).cumsum(axis=1) > 0)[:h + 1, :w + 1]
 
 
 @dataclass(frozen=True, eq=False)
@@ -313,6 +354,14 @@ class ConservativeDepthBuffer:
     def shape(self) -> tuple[int, int]:
         """(H, W) buffer pixels."""
         return self.depth.shape
+
+    def _level(self, k: int) -> np.ndarray:
+        """Sparse-table level k (max over 2^k consecutive columns), built on demand."""
+        while len(self._levels) <= k:
+            prev = self._levels[-1]
+            half = 1 << (len(self._levels) - 1)
+            self._levels.append(np.maximum(prev[:, :prev.shape[1] - half], prev[:, half:]))
+        return self._levels[k]
 
     @property
     def covered(self) -> np.ndarray:
@@ -368,12 +417,13 @@ class ConservativeDepthBuffer:
         f, r, u = camera.basis
         hx = float(np.tan(np.radians(camera.fov) / 2))
         hy = hx * rows / cols
-        xs = (np.arange(w + 1) / w - 0.5) * (2 * hx)
-        ys = (0.5 - np.arange(h + 1) / h) * (2 * hy)
-        d = f + xs[None, :, None] * r + ys[:, None, None] * u
-        d = d.reshape(-1, 3)
-        d /= np.linalg.norm(d, axis=1)[:, None]
-        t, tri = occ.scene.first_hit(eye[None], d)
+        # unit corner directions in camera coordinates (right, up, forward), rotated
+        d = occ._corner_directions(w, h, hx, hy) @ np.stack([r, u, f])
+        cast = _corners_to_cast(occ._bounds, eye, (f, r, u), hx, hy, w, h).reshape(-1)
+        t = np.full(len(d), np.inf)
+        tri = np.full(len(d), -1, dtype=np.int64)
+        if cast.any():
+            t[cast], tri[cast] = occ.scene.first_hit(eye[None], d[cast])
         label = np.where(tri >= 0, occ.labels(eye)[np.maximum(tri, 0)], -1)
         label = label.reshape(h + 1, w + 1)
         t = t.reshape(h + 1, w + 1)
@@ -385,7 +435,7 @@ class ConservativeDepthBuffer:
                                           + float(np.linalg.norm(eye - occ._center)))
         depth = np.where(same, far + margin, np.inf)
         return cls(depth=depth, camera=camera, hits=int((tri >= 0).sum()),
-                   _levels=_range_max_rows(depth))
+                   _levels=[depth])
 
     def screen_rectangles(self, lower: npt.ArrayLike, upper: npt.ArrayLike
                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -478,7 +528,7 @@ class ConservativeDepthBuffer:
         best = np.empty(len(idx))
         for k in np.unique(level):  # at most log2(W) + 1 levels
             sel = np.flatnonzero(level == k)
-            table = self._levels[k]
+            table = self._level(int(k))
             heights = r1[sel] - r0[sel] + 1
             starts = np.concatenate([[0], np.cumsum(heights)[:-1]])
             row = np.repeat(r0[sel] - starts, heights) + np.arange(heights.sum())
