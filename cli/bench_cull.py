@@ -53,8 +53,8 @@ def _stats(ms: list[float]) -> dict:
             "p95_ms": float(np.percentile(arr, 95)), "max_ms": float(arr.max())}
 
 
-def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed: int = 0
-               ) -> dict:
+def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed: int = 0,
+               method: str | None = None) -> dict:
     """Per-frame overhead of the frusta and depth-buffer runtimes, one core.
 
     Parameters
@@ -67,6 +67,9 @@ def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed:
         Each frame is timed this many times; the best counts (default 3).
     seed : int, optional
         Seed of the path and the generators.
+    method : str, optional
+        Generator of the occluders (solids for the frusta, pieces for the
+        buffer); default ``solid-frusta`` when registered, else ``aabb-skins``.
 
     Returns
     -------
@@ -92,7 +95,7 @@ def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed:
     seed = as_seed(seed)
     objects = load_scene_objects(scene)
     indices = occluder_objects(objects)
-    method = frusta_method()
+    method = frusta_method() if method is None else method
     occluders = list(scene_occluders(objects, indices, method, seed=seed).values())
     boxes = _occludees(objects, OCCLUDEES)
     lower, upper = objects.lower[boxes], objects.upper[boxes]
@@ -100,7 +103,8 @@ def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed:
     before = get_workers()
     set_workers(1)
     try:
-        culler = FrustumCuller.from_occluders(occluders, mode="solid", active=ACTIVE)
+        culler = FrustumCuller.from_occluders(occluders, mode="solid", active=ACTIVE,
+                                              cap="front-faces", rank="faces")
         prepared = OccluderScene(occluders, workers=1)
         frusta_ms, buffer_ms, culled_f, culled_b = [], [], 0, 0
         for pose in path:

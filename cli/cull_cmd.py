@@ -102,6 +102,9 @@ def add_parser(sub, common) -> None:
                         "(default 4: 320 x 180 at 1280 x 720)")
     c.add_argument("--active", type=int, default=15,
                    help="frusta runtimes: active occluders per frame (default 15)")
+    c.add_argument("--frusta-method", default=None,
+                   help="generator whose convex solids (or boxes) feed planar-frusta and "
+                        f"solid-frusta (default {frusta_method()})")
     c.add_argument("--cap", choices=["front-faces", "eq2"], default="front-faces",
                    help="near cap of the solid frusta: the planes of the faces the eye sees "
                         "(default; the exact shadow) or the paper's eq. 2 plane")
@@ -123,11 +126,11 @@ def _names(text: str | None, option: str) -> list[str] | None:
     return names
 
 
-def _methods(text: str | None) -> list[str]:
-    methods = _names(_default_methods() if text is None else text, "--methods")
+def _methods(text: str | None, option: str = "--methods") -> list[str]:
+    methods = _names(_default_methods() if text is None else text, option)
     unknown = [m for m in methods if m not in REGISTRY]
     if unknown:
-        raise InputError(f"--methods: unknown {', '.join(unknown)} "
+        raise InputError(f"{option}: unknown {', '.join(unknown)} "
                          f"(registered: {', '.join(REGISTRY)})")
     return methods
 
@@ -178,6 +181,10 @@ def run_cull(args) -> int:
     threshold = None if args.size_threshold is None else as_positive(args.size_threshold,
                                                                       "--size-threshold")
     methods = _methods(args.methods)
+    source = _methods(args.frusta_method or frusta_method(), "--frusta-method")
+    if len(source) != 1:
+        raise InputError(f"--frusta-method: expected one method, got {args.frusta_method!r}")
+    source = source[0]
     names = _names(args.occluders, "--occluders")
     out = _out_dir(args.out)
     check_culling_memory(width, height)
@@ -196,18 +203,19 @@ def run_cull(args) -> int:
     if path is None:
         path = camera_path(objects, frames=frames or DEFAULT_FRAMES, seed=seed)
     distinct = len(set(objects.mesh_ids[indices].tolist()))
-    todo = distinct * (len(set(methods) | {frusta_method()}))
+    todo = distinct * (len(set(methods) | {source}))
     with tqdm(total=todo, desc="occluders", unit="mesh", disable=not progress,
               leave=False) as bar:
         runtimes, info = culling_runtimes(objects, indices, methods, active=active,
-                                          reduction=reduction, seed=seed, cap=args.cap,
+                                          reduction=reduction, seed=seed,
+                                          frusta_source=source, cap=args.cap,
                                           rank=args.rank, progress=bar.update)
     with tqdm(total=len(path), desc="frames", unit="frame", disable=not progress,
               leave=False) as bar:
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
                                   progress=bar.update)
     doc = {"scene": args.scene, "occluder_objects": len(indices),
-           "frusta_method": frusta_method(), "methods": methods, "seed": seed,
+           "frusta_method": source, "methods": methods, "seed": seed,
            "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
            **result.to_json(),
            "runtimes": info, "provenance": provenance()}

@@ -307,7 +307,8 @@ def _hierarchy_source(occluders: list[Occluder], width_of: Callable) -> Callable
 
 def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Sequence[str], *,
                      active: int = 15, reduction: int = 4, seed: int = 0,
-                     frusta: bool = True, cap: str = "front-faces", rank: str = "faces",
+                     frusta: bool = True, frusta_source: str | None = None,
+                     cap: str = "front-faces", rank: str = "faces",
                      params: dict[str, dict] | None = None,
                      progress: Callable[[int], None] | None = None
                      ) -> tuple[dict[str, Runtime], dict]:
@@ -329,7 +330,10 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
         Passed to every generator.
     frusta : bool, optional
         Build ``planar-frusta`` and ``solid-frusta`` from the solids of
-        :func:`frusta_method` (default True).
+        ``frusta_source`` (default True).
+    frusta_source : str, optional
+        The method whose solids (or boxes) feed the frusta runtimes; default
+        :func:`frusta_method` (``solid-frusta`` when registered).
     cap, rank : str, optional
         Near cap and ranking of ``solid-frusta`` (default 'front-faces' and
         'faces'; the paper's are 'eq2' and 'eq4'): see
@@ -363,7 +367,7 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
     methods = list(dict.fromkeys(methods))
     for m in methods:
         get_generator(m)
-    source = frusta_method()
+    source = frusta_method() if frusta_source is None else get_generator(frusta_source).name
     cache: dict[str, dict[int, Occluder]] = {}
 
     indices = np.asarray(indices, dtype=np.int64)

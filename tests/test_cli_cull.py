@@ -48,7 +48,8 @@ def test_cull_small_scene_json(run, street, tmp_path, capsys):
     scene, cameras = street
     out = tmp_path / "out"
     code = run(scene, "--path", cameras, "--occluders", "wall", "--methods", "aabb-skins",
-               "--width", 64, "--height", 36, "--out", out, "--json")
+               "--frusta-method", "aabb-skins", "--width", 64, "--height", 36, "--out", out,
+               "--json")
     captured = capsys.readouterr()
     assert code == 0, captured.err
     doc = json.loads(captured.out)
@@ -69,11 +70,14 @@ def test_cull_small_scene_json(run, street, tmp_path, capsys):
 def test_cull_text_table(run, street, tmp_path, capsys):
     scene, cameras = street
     code = run(scene, "--path", cameras, "--frames", 1, "--occluders", "wall", "--methods",
-               "bbox", "--width", 32, "--height", 18, "--out", tmp_path / "o", "--quiet")
+               "bbox", "--frusta-method", "bbox", "--width", 32, "--height", 18, "--out",
+               tmp_path / "o", "--quiet")
     captured = capsys.readouterr()
     assert code == 0, captured.err
     assert "depth-buffer:bbox" in captured.out and "ray-cast truth" in captured.out
-    assert " no" in captured.out.splitlines()[-4]  # bbox is not conservative
+    rows = {line.split()[0]: line for line in captured.out.splitlines()[2:6]}
+    assert rows["depth-buffer:bbox"].endswith("no")  # bbox is not conservative
+    assert rows["solid-frusta"].endswith("no")  # its box as a solid: not conservative
 
 
 @pytest.mark.parametrize("make, args, match", [
@@ -108,6 +112,8 @@ def test_cull_bad_scene_exit_2(run, tmp_path, capsys, monkeypatch, make, args, m
     ('[{"position": [0, 1, 0], "forward": [0, 0, 1]}]', ["--buffer-scale", "100"],
      "--buffer-scale"),
     ('[{"position": [0, 1, 0], "forward": [0, 0, 1]}]', ["--out", "a/b/c"], "does not exist"),
+    ('[{"position": [0, 1, 0], "forward": [0, 0, 1]}]', ["--frusta-method", "nope"],
+     "--frusta-method: unknown nope"),
 ])
 def test_cull_bad_path_and_options_exit_2(run, street, tmp_path, capsys, monkeypatch, content,
                                           extra, match):
@@ -126,7 +132,7 @@ def test_bench_cull_and_culling_column_on_a_small_scene(street):
     from viscore.cli.bench_cull import bench_cull, bench_cull_text, culling_column
 
     scene, _ = street
-    r = bench_cull(scene=str(scene), frames=3, repeats=1)
+    r = bench_cull(scene=str(scene), frames=3, repeats=1, method="aabb-skins")
     assert r["occludees"] == 4 and r["workers"] == 1 and r["frames"] == 3
     for key in ("frusta", "depth_buffer"):
         assert r[key]["median_ms"] > 0 and isinstance(r[key]["meets_target"], bool)

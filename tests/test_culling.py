@@ -169,7 +169,7 @@ def city():
 def city_run(city):
     """Five street-level frames of the built-in path, runtimes from aabb-skins at 32 voxels."""
     indices = occluder_objects(city)
-    runtimes, info = culling_runtimes(city, indices, ["aabb-skins"],
+    runtimes, info = culling_runtimes(city, indices, ["aabb-skins"], frusta_source="aabb-skins",
                                       params={"aabb-skins": {"voxels": 32}})
     path = camera_path(city, frames=40)[::8]
     return simulate_culling(city, runtimes, path, width=256, height=144), info
