@@ -7,7 +7,7 @@ depth images; :mod:`viscore.voxels` voxelizes; samplers are seeded.
 """
 
 from ._validate import InputError
-from .builtin_scenes import scene_descriptions, scene_names, scene_path
+from .builtin_scenes import scene_descriptions, scene_group, scene_names, scene_path
 from .cameras import OrthoCamera, PerspectiveCamera, camera_basis, cube_cameras
 from .images import coverage_image, depth_image
 from .mesh_io import load_mesh, validate_mesh
@@ -42,7 +42,7 @@ __all__ = [
     "cube_cameras", "camera_basis", "coverage_image", "depth_image", "directions_uniform",
     "directions_fibonacci", "grid_positions", "rays_between", "stream_seed", "provenance",
     "directions_uniform_batches", "cpu_cores",
-    "scene_names",
+    "scene_names", "scene_group",
     "scene_path", "scene_descriptions", "VoxelGrid", "Voxelization", "voxel_grid",
     "surface_voxels", "outside_voxels", "inner_voxels_six_direction", "inside_voxels_parity",
     "points_inside_parity", "voxelize", "voxel_boundary_mesh",
