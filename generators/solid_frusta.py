@@ -94,22 +94,36 @@ def _farthest_subset(points: np.ndarray, k: int) -> np.ndarray:
 
 
 def _hull(points: np.ndarray) -> trimesh.Trimesh | None:
-    """Convex hull with outward faces, or None when degenerate (flat, too few points)."""
+    """Convex hull with outward faces, or None when degenerate (flat, too few points).
+
+    Computed on the points centred and scaled to unit size (qhull's and
+    trimesh's tolerances are absolute), then mapped back exactly as given.
+    """
     if len(points) < 4:
         return None
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre, size = 0.5 * (lo + hi), float(np.linalg.norm(hi - lo))
+    if not size > 0:
+        return None
     try:
-        hull = trimesh.convex.convex_hull(points)
+        unit = trimesh.convex.convex_hull((points - centre) / size)
     except Exception:  # noqa: BLE001 - qhull on flat input: no piece
         return None
-    if len(hull.faces) < 4 or not hull.volume > 0:
+    if len(unit.faces) < 4 or not unit.volume > 1e-12:
         return None
-    return hull
+    return trimesh.Trimesh(centre + size * np.asarray(unit.vertices), np.asarray(unit.faces),
+                           process=False)
 
 
 def _planes(hull: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
-    """Unit outward normals (f, 3) and offsets (f,) of a convex hull: inside n.x <= d."""
-    n = np.asarray(hull.face_normals)
-    d = np.einsum("ij,ij->i", n, np.asarray(hull.vertices)[hull.faces[:, 0]])
+    """Unit outward normals (f, 3) and offsets (f,) of a convex hull: inside n.x <= d.
+
+    Normals from the triangles directly (trimesh zeroes those of tiny triangles).
+    """
+    tri = np.asarray(hull.vertices)[np.asarray(hull.faces)]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    d = np.einsum("ij,ij->i", n, tri[:, 0])
     return n, d
 
 

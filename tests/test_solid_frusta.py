@@ -128,3 +128,14 @@ def test_solid_frusta_invalid_input():
         generate_solid_frusta(trimesh.Trimesh())
     with pytest.raises(InputError, match="shrink_steps"):
         generate_solid_frusta(box, shrink_steps=0)
+
+
+@pytest.mark.parametrize("scale", [1e-12, 1e12])
+def test_solid_frusta_scale_invariant(scale):
+    unit = trimesh.creation.icosphere(subdivisions=2)
+    ref = generate_solid_frusta(unit, voxels=24, solids=4)
+    occ = generate_solid_frusta(unit.copy().apply_scale(scale), voxels=24, solids=4)
+    assert occ.info["kinds"] == ref.info["kinds"]
+    np.testing.assert_allclose(occ.info["volume_share"], ref.info["volume_share"], atol=0.01)
+    rep = check_conservative(unit.copy().apply_scale(scale), occ.mesh, rays=20_000, seed=2)
+    assert rep.violations == 0, rep.summary()
