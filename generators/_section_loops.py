@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, Polygon
+from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
 __all__ = ["CandidatePolygon", "pixel_region", "slice_polygons", "bridge_holes"]
@@ -49,6 +49,23 @@ __all__ = ["CandidatePolygon", "pixel_region", "slice_polygons", "bridge_holes"]
 #: Connected parts smaller than this many pixels are dropped (they cannot
 #: occlude a beam wider than a voxel).
 MIN_POLYGON_PIXELS = 4.0
+
+#: Holes smaller than this many pixels are filled (one or two voxels: within the
+#: voxelization's own error, and each would cost a bridge and triangles).
+MIN_HOLE_PIXELS = 2.0
+
+#: Parts kept per slice, largest first, and their smallest area as a fraction of
+#: the largest part's (the greedy search has no use for crumbs of a slice).
+MAX_PARTS = 8
+MIN_PART_FRACTION = 0.01
+
+#: Candidate bridges tested at once, shortest first.
+_BRIDGE_BATCH = 64
+
+#: Fraction of a bridge trimmed off each end before testing that it runs in the
+#: interior (its end points lie on the loops); coordinates are pixels, at most a
+#: few thousand, so the trimmed ends are still far from any other vertex.
+_BRIDGE_TRIM = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,13 +132,33 @@ def _dedupe(xy: np.ndarray) -> np.ndarray:
     return xy
 
 
+def _segments_meet(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """``(k,) bool``: does segment k (p0, p1) meet any of the segments (q0, q1), ends included?"""
+    if len(q0) == 0:
+        return np.zeros(len(p0), dtype=bool)
+
+    def orient(a, b, c):
+        return np.sign((b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1])
+                       - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0]))
+
+    a, b = p0[:, None], p1[:, None]
+    c, d = q0[None], q1[None]
+    o1, o2, o3, o4 = orient(a, b, c), orient(a, b, d), orient(c, d, a), orient(c, d, b)
+    proper = (o1 * o2 <= 0) & (o3 * o4 <= 0)
+    # collinear pairs meet only if their boxes overlap
+    lo_ab, hi_ab = np.minimum(a, b), np.maximum(a, b)
+    lo_cd, hi_cd = np.minimum(c, d), np.maximum(c, d)
+    boxes = ((lo_ab <= hi_cd) & (lo_cd <= hi_ab)).all(axis=-1)
+    return (proper & boxes).any(axis=1)
+
+
 def bridge_holes(polygon: Polygon) -> np.ndarray:
     """One weakly simple counter-clockwise loop: the outer loop with every hole bridged in.
 
     Holes are taken in order of their leftmost vertex; each joins the loop
     built so far by the shortest segment between one of its vertices and a
-    vertex of that loop (used once so far) that lies inside the polygon and
-    crosses no earlier bridge.
+    vertex of that loop (used once so far) whose inside lies in the
+    polygon's interior (touching no loop) and meets no earlier bridge.
 
     Returns
     -------
@@ -131,36 +168,54 @@ def bridge_holes(polygon: Polygon) -> np.ndarray:
     ring = _ring_array(poly.exterior)
     holes = [_ring_array(h) for h in poly.interiors]
     holes.sort(key=lambda h: float(h[:, 0].min()))
-    bridges: list[LineString] = []
-    prepared = shapely.prepared.prep(poly.buffer(1e-9))
-    for hole in holes:
-        # vertices of the loop used once (a duplicate would need its wedge to pick the copy)
-        _, inv, cnt = np.unique(ring, axis=0, return_inverse=True, return_counts=True)
-        usable = np.flatnonzero(cnt[inv.ravel()] == 1)
-        d2 = ((hole[:, None, :] - ring[None, usable, :]) ** 2).sum(axis=2)
-        order = np.argsort(d2, axis=None, kind="stable")
+    shapely.prepare(poly)
+    allpts = np.concatenate([ring, *holes]) if holes else ring
+    _, inv, cnt = np.unique(allpts, axis=0, return_inverse=True, return_counts=True)
+    shared = cnt[inv.ravel()] > 1  # vertices where loops touch: never a bridge end
+    single = shared[:len(ring)] == 0
+    hole_single = []
+    start = len(ring)
+    for h in holes:
+        hole_single.append(~shared[start:start + len(h)])
+        start += len(h)
+    b0 = np.zeros((0, 2))
+    b1 = np.zeros((0, 2))
+    for hole, hs in zip(holes, hole_single, strict=True):
+        usable = np.flatnonzero(single)
+        hv = np.flatnonzero(hs)
+        if len(usable) == 0 or len(hv) == 0:
+            continue
+        d2 = ((hole[hv, None, :] - ring[None, usable, :]) ** 2).sum(axis=2).ravel()
+        order = np.argsort(d2, kind="stable")
         chosen = None
-        for flat in order:
-            hi, vi = divmod(int(flat), len(usable))
-            a, b = hole[hi], ring[usable[vi]]
-            if d2[hi, vi] == 0:
-                chosen = (hi, usable[vi])
-                break
-            seg = LineString([a, b])
-            if prepared.contains(seg) and not any(seg.crosses(br) for br in bridges):
-                chosen = (hi, usable[vi])
-                bridges.append(seg)
+        for first in range(0, len(order), _BRIDGE_BATCH):
+            flat = order[first:first + _BRIDGE_BATCH]
+            hi, vi = np.divmod(flat, len(usable))
+            a, b = hole[hv[hi]], ring[usable[vi]]
+            # the segment without its end points must lie in the interior
+            lo, up = a + _BRIDGE_TRIM * (b - a), b - _BRIDGE_TRIM * (b - a)
+            ok = shapely.contains_properly(poly, shapely.linestrings(np.stack([lo, up], axis=1)))
+            ok &= ~_segments_meet(lo, up, b0, b1)
+            if ok.any():
+                k = int(np.argmax(ok))
+                chosen = (int(hv[hi[k]]), int(usable[vi[k]]))
+                b0 = np.concatenate([b0, a[k:k + 1]])
+                b1 = np.concatenate([b1, b[k:k + 1]])
                 break
         if chosen is None:  # cannot happen for a valid polygon; keep the hole out
             continue
         hi, vi = chosen
         walk = np.concatenate([hole[hi:], hole[:hi], hole[hi:hi + 1]])
+        walk_single = np.concatenate([hs[hi:], hs[:hi], [False]])
+        walk_single[0] = False
         ring = np.concatenate([ring[:vi + 1], walk, ring[vi:vi + 1], ring[vi + 1:]])
+        single = np.concatenate([single[:vi], [False], walk_single, [False], single[vi + 1:]])
     return _dedupe(ring)
 
 
 def slice_polygons(image: np.ndarray, *, tolerance: float | None = 1.0,
-                   min_pixels: float = MIN_POLYGON_PIXELS) -> list[CandidatePolygon]:
+                   min_pixels: float = MIN_POLYGON_PIXELS, max_parts: int = MAX_PARTS
+                   ) -> list[CandidatePolygon]:
     """Candidate polygons of one slice bitmap (sec. 4.3).
 
     Parameters
@@ -173,11 +228,19 @@ def slice_polygons(image: np.ndarray, *, tolerance: float | None = 1.0,
         variant does.
     min_pixels : float, optional
         Parts with a smaller area (pixels) are dropped. Default 4.
+    max_parts : int, optional
+        At most this many parts, largest first, each at least
+        :data:`MIN_PART_FRACTION` of the largest. Default 8.
 
     Returns
     -------
     list of CandidatePolygon
         Largest first.
+
+    Notes
+    -----
+    Holes under :data:`MIN_HOLE_PIXELS` are filled first, except in the
+    conservative variant (``tolerance=None``), which keeps every hole.
 
     Examples
     --------
@@ -185,11 +248,15 @@ def slice_polygons(image: np.ndarray, *, tolerance: float | None = 1.0,
     >>> [len(c.ring) for c in slice_polygons(img, tolerance=None)]
     [4, 4]
     """
-    region = pixel_region(image)
+    parts = sorted(_parts(pixel_region(image)), key=lambda g: -g.area)
+    if parts:
+        floor = max(min_pixels, MIN_PART_FRACTION * parts[0].area)
+        parts = [g for g in parts if g.area >= floor][:max_parts]
     out = []
-    for part in _parts(region):
-        if part.area < min_pixels:
-            continue
+    for part in parts:
+        if tolerance is not None:
+            part = Polygon(part.exterior, [h for h in part.interiors
+                                           if Polygon(h).area >= MIN_HOLE_PIXELS])
         simple = part.simplify(0.0 if tolerance is None else float(tolerance),
                                preserve_topology=True)
         for p in _parts(simple):

@@ -15,10 +15,12 @@ one before, and the removed ears, in reverse, triangulate every stage (the
 triangles of the stage with j triangles are the last j - 1 ears plus the
 final triangle), so the chain needs no separate triangulator and each stage
 has exactly its vertex count minus two triangles, zero-area ones included
-(they are dropped from the counts). A polygon always has an ear (the
-two-ears theorem), so the chain reaches one triangle; should exact
-degeneracies leave no ear, the stage reached is triangulated by
-``mapbox_earcut`` and the chain stops there.
+(they are dropped from the counts). A simple polygon always has an ear
+(the two-ears theorem); where zero-width parts (loops overlapping along an
+edge after earlier cuts) leave no ear by the strict test below, the chain
+falls back to the usual loose test of ear clipping (no vertex strictly
+inside the triangle), and should even that find none, the stage reached is
+triangulated by ``mapbox_earcut`` and the chain stops there.
 
 The ear test runs in exact arithmetic: the loops of :mod:`._section_loops`
 have integer pixel-corner coordinates. Loops with bridged holes are weakly
@@ -103,6 +105,23 @@ def _is_ear(x, y, nxt, prv, alive_list, m, a, b, c):  # pragma: no cover
 
 
 @njit_cached()
+def _is_ear_loose(x, y, alive_list, m, a, b, c):  # pragma: no cover
+    """Fallback test: no other vertex strictly inside the triangle."""
+    ax, ay, bx, by, cx, cy = x[a], y[a], x[b], y[b], x[c], y[c]
+    for t in range(m):
+        p = alive_list[t]
+        if p == a or p == b or p == c:
+            continue
+        px, py = x[p], y[p]
+        d1 = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+        d2 = (cx - bx) * (py - by) - (cy - by) * (px - bx)
+        d3 = (ax - cx) * (py - cy) - (ay - cy) * (px - cx)
+        if d1 > 0 and d2 > 0 and d3 > 0:
+            return False
+    return True
+
+
+@njit_cached()
 def _ear_chain(x, y):  # pragma: no cover
     """Removal order and ears of the greedy smallest-ear chain.
 
@@ -142,6 +161,12 @@ def _ear_chain(x, y):  # pragma: no cover
             if cross[t] == 0 or _is_ear(x, y, nxt, prv, alive_list, m, prv[i], i, nxt[i]):
                 found = i
                 break
+        if found < 0:  # degenerate (zero-width) parts: the loose ear test of ear clipping
+            for t in order:
+                i = alive_list[t]
+                if cross[t] > 0 and _is_ear_loose(x, y, alive_list, m, prv[i], i, nxt[i]):
+                    found = i
+                    break
         if found < 0:
             break
         a, c = prv[found], nxt[found]

@@ -167,11 +167,12 @@ def _resolution(mesh: trimesh.Trimesh, voxels, voxel_size, what: str) -> dict:
 
 
 def _hierarchy_builder():
+    """:func:`viscore.generators.planar_hierarchy.generate_planar_hierarchy`, or None."""
     if importlib.util.find_spec("viscore.generators.planar_hierarchy") is None:
         return None
     from . import planar_hierarchy
 
-    return getattr(planar_hierarchy, "build_hierarchy", None)
+    return getattr(planar_hierarchy, "generate_planar_hierarchy", None)
 
 
 def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, seed: int = 0,
@@ -238,8 +239,10 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         ``pixel_error`` at that distance. Needs ``pixel_error``, excludes
         ``distance``.
     hierarchy : bool, optional
-        Per-object occluder hierarchy (sec. 5), by
-        :mod:`viscore.generators.planar_hierarchy` when it is installed.
+        Occluder hierarchy over the scene's objects (sec. 5): delegates to
+        :func:`viscore.generators.planar_hierarchy.generate_planar_hierarchy`
+        with these options (``mesh`` may then be a list of meshes); the tree
+        is in ``parts["hierarchy"]``. Default False.
     dilate : int, optional
         Dilation steps of the voxel solid (sec. 5's gluing step), >= 0.
         Default 0.
@@ -290,7 +293,7 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     True
     """
     start = time.perf_counter()
-    if not isinstance(mesh, trimesh.Trimesh):
+    if not isinstance(mesh, trimesh.Trimesh) and not hierarchy:
         raise InputError("mesh: expected a trimesh.Trimesh")
     budget = None if budget is None else as_positive_int(budget, "budget")
     seed = as_seed(seed)
@@ -338,7 +341,6 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         build = _hierarchy_builder()
         if build is None:
             raise InputError("hierarchy: not available yet (planar_hierarchy is not installed)")
-    mesh = validate_mesh(mesh)
     params = {"budget": budget, "seed": seed, "voxels": voxels, "voxel_size": voxel_size,
               "direction_bins": direction_bins, "depth_bins": depth_bins, "alpha": alpha,
               "measure": measure, "reduce": reduce, "rdp_tolerance": rdp_tolerance,
@@ -346,8 +348,9 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
               "pixel_error": pixel_error, "distance": distance, "fov": fov, "screen": screen,
               "lod_distances": None if distances is None else list(distances),
               "hierarchy": bool(hierarchy), "dilate": int(dilate)}
-    if hierarchy:
+    if hierarchy:  # sec. 5: a BVH over the objects, this generator at every node
         return build(mesh, **{k: v for k, v in params.items() if k != "hierarchy"})
+    mesh = validate_mesh(mesh)
 
     options = dict(budget=budget, direction_bins=direction_bins, depth_bins=depth_bins,
                    alpha=alpha, measure=measure, reduce=reduce,
