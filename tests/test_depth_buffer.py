@@ -181,3 +181,13 @@ def test_depth_buffer_casting_only_occluder_rectangles_changes_nothing(monkeypat
     monkeypatch.setattr(db, "_corners_to_cast", lambda *a: np.ones((23, 41), bool))
     full = ConservativeDepthBuffer.from_occluders(occ, cam)
     np.testing.assert_array_equal(restricted.depth, full.depth)
+
+
+@pytest.mark.parametrize("scale", [1e-9, 1e9])
+def test_depth_buffer_scale_invariant(scale):
+    wall = trimesh.creation.box(extents=(10, 1, 10)).apply_scale(scale)
+    cam = PerspectiveCamera(np.array([0, -20, 0]) * scale, (0, 1, 0), **CAM)
+    buf = ConservativeDepthBuffer.from_occluders(wall, cam)
+    lo = np.array([[-1, 3, -1], [6.0, 3, -1], [-1, -4, -1]]) * scale
+    hi = np.array([[1, 4, 1], [9.0, 4, 1], [1, -3, 1]]) * scale
+    assert buf.occluded(lo, hi).tolist() == [True, False, False]

@@ -336,3 +336,14 @@ def test_frustum_culler_culled_boxes_hidden_in_scene(seed):
             inner = (lo[c][:, None] + u * (hi - lo)[c][:, None]).reshape(-1, 3)
             assert _hidden(scene, eye, np.vstack([corners, inner])).all()
     assert total > 100
+
+
+@pytest.mark.parametrize("scale", [1e-9, 1e9])
+def test_frustum_culler_scale_invariant(scale):
+    wall = trimesh.creation.box(extents=(4, 1, 4)).apply_scale(scale)
+    lo = np.array([[-0.5, 3, -0.5], [5, 3, 0], [-0.5, -3, -0.5]]) * scale
+    hi = np.array([[0.5, 4, 0.5], [6, 4, 1], [0.5, -2, 0.5]]) * scale
+    for kw in ({}, {"mode": "planar"}, {"cap": "front-faces", "rank": "faces"}):
+        culler = FrustumCuller([(wall.vertices, wall.faces)], **kw)
+        assert culler.cull(np.array([0.3, -5, 0.2]) * scale, lo, hi).tolist() == \
+            [True, False, False]

@@ -89,7 +89,8 @@ DEFAULT_REDUCTION = 4
 #: relative), so a depth is never reported nearer than the occluder really is.
 DEPTH_MARGIN_RELATIVE = 1e-5
 
-#: Relative tolerance (of the piece's size) for coplanarity and convex unions of facets.
+#: Tolerance for coplanarity (fraction of the mesh's diagonal) and for convex unions
+#: of facets (relative area).
 _FACET_TOLERANCE = 1e-9
 
 #: Peak bytes per corner ray of one frame (origins, directions, float32 copies,
@@ -112,10 +113,13 @@ def _facet_labels(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     label = np.arange(n, dtype=np.int64)
     if n < 2:
         return label
-    mesh = trimesh.Trimesh(vertices, _merged(vertices, faces), process=False)
-    tri = vertices[faces]
-    scale = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0))) or 1.0
-    tol = _FACET_TOLERANCE * scale
+    # trimesh's facet tolerances are absolute: work on the mesh scaled to unit size
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    size = float(np.linalg.norm(hi - lo)) or 1.0
+    unit = (vertices - 0.5 * (lo + hi)) / size
+    mesh = trimesh.Trimesh(unit, _merged(vertices, faces), process=False)
+    tri = unit[faces]
+    tol = _FACET_TOLERANCE
     for group in mesh.facets:  # a loop over facets (precomputation), not over rays
         pts = tri[group].reshape(-1, 3)
         normal = mesh.face_normals[group[0]]
@@ -134,7 +138,7 @@ def _facet_labels(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
             hull_area = float(ConvexHull(flat).volume)
         except Exception:  # noqa: BLE001 - qhull on a degenerate facet: keep triangles apart
             continue
-        if abs(hull_area - area) <= 1e-9 * max(hull_area, scale * scale * 1e-12):
+        if abs(hull_area - area) <= _FACET_TOLERANCE * max(hull_area, 1e-12):
             label[group] = group.min()
     _, dense = np.unique(label, return_inverse=True)
     return dense.astype(np.int64)
