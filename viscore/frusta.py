@@ -8,19 +8,25 @@ inside one frustum is hidden by that occluder and culled.
 - A **convex solid** (sec. 2 of [1]_) gives one frustum: its silhouette edges
   from the eye are the edges shared by a front- and a back-facing triangle
   (eq. 1); one side plane passes through the eye and each silhouette edge; the
-  near cap passes through the silhouette point furthest from the eye, with the
-  averaged direction of eq. 2 as its normal.
+  near cap passes through the silhouette point furthest from the eye (along
+  the cap normal), with the averaged direction of eq. 2 as its normal. Option
+  ``cap='front-faces'`` caps it instead with the planes of the triangles the
+  eye sees: the exact shadow, which contains every face's planar frustum.
 - A **convex planar polygon** (the planar occluders of [2]_) gives one
   frustum: side planes through the eye and each edge, capped by the polygon's
   own plane.
 - Each frame, occluders are ranked by f_solid = Vol / |V|^3 (eq. 4) and
   f_planar = -A N.V / |V|^2 (eq. 3), V the vector from the eye to the
   occluder's centre, and only the ``active`` best (default 15, sec. 3) make
-  frusta.
+  frusta. Option ``rank='faces'`` ranks a solid as its best face by eq. 3;
+  with ``cap='front-faces'`` the solid runtime then culls, every frame, every
+  box the planar runtime culls (see :class:`FrustumCuller`).
 
 Planes are stored *inward-positive*: a point ``x`` is inside plane
 ``(a, b, c, d)`` when ``a x + b y + c z + d >= 0``; normals are unit. A frustum
-is the intersection of its planes; the near cap is the last row.
+is the intersection of its planes: the side planes first, then the near
+cap(s) (one row for 'eq2' and for polygons, one per front triangle for
+'front-faces').
 
 References
 ----------
@@ -71,10 +77,11 @@ class Frustum:
     ----------
     planes : (k, 4) float64
         Inward-positive planes ``(nx, ny, nz, d)`` with unit normals: ``x`` is
-        inside when ``n . x + d >= 0``. Rows ``0..k-2`` are the side planes,
-        each through the eye and one silhouette edge; row ``k-1`` is the near
-        cap. ``d`` already includes the safety margin (see :data:`MARGIN_RELATIVE`):
-        a point is culled only when it is inside by more than the margin.
+        inside when ``n . x + d >= 0``. First the side planes, each through the
+        eye and one silhouette edge; then the near cap (the last row; with
+        ``cap='front-faces'`` one row per front triangle). ``d`` already
+        includes the safety margin (see :data:`MARGIN_RELATIVE`): a point is
+        culled only when it is inside by more than the margin.
     eye : (3,) float64
         The viewpoint, world units.
     silhouette : (m, 2, 3) float64
@@ -94,7 +101,7 @@ class Frustum:
 
     @property
     def cap(self) -> np.ndarray:
-        """``(4,)`` the near cap plane (inward-positive: away from the eye)."""
+        """``(4,)`` the last near cap plane (inward-positive: away from the eye)."""
         return self.planes[-1]
 
 
