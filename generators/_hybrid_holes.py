@@ -1,0 +1,108 @@
+"""Hole test of the hybrid generator's planar patches (Wu et al. 2022, sec. 3.1.1, Fig. 6).
+
+A hole of a planar patch is either an opening of the building (a door, a
+window: it must stay open, or the occluder hides what players see through
+it) or the footprint of a decoration whose faces were cut out of the wall (a
+ledge, a pillar, a frame: removing the small decoration patch leaves the hole,
+and filling it costs nothing). The paper's test: triangulate the hole, place
+test segments of length ``l_s`` (1% of the bounding-box diagonal, sec. 4.2)
+along the plane's normal at points sampled uniformly inside it; if one segment
+misses the input there is a hollow and the hole stays open, if all of them hit
+the hole is filled.
+
+Here each segment runs ``l_s`` both ways from its sample point along the
+normal (two rays of length ``l_s``, one batched Embree any-hit query per
+direction for all points of all holes of the patch), so a decoration standing
+on either side of the wall, or the back face of a thin slab, stops it; a
+doorway through a thin wall, with the room behind it deeper than ``l_s``, does
+not. Sample points keep a margin of ``l_s / 20`` from the hole's rim, so that
+rays grazing a window reveal do not count as hits.
+
+References
+----------
+.. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669` (sec. 3.1.1, hole filling; Fig. 6; sec. 4.2, l_s)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["holes_to_fill", "sample_polygon", "SEGMENT_LENGTH"]
+
+#: l_s as a fraction of the input's bounding-box diagonal (Wu et al. 2022, sec. 4.2).
+SEGMENT_LENGTH = 0.01
+
+#: Sample points per hole: one per (l_s / 2)^2 of hole area, within these bounds.
+MIN_SAMPLES = 16
+MAX_SAMPLES = 1024
+
+#: Margin kept from the hole's rim, as a fraction of l_s.
+RIM_MARGIN = 0.05
+
+
+def sample_polygon(polygon, count: int, rng: np.random.Generator) -> np.ndarray:
+    """``(count, 2) float64`` points uniform over a shapely polygon (by its triangles).
+
+    A polygon of no area gives its representative point ``count`` times.
+    """
+    from ._hybrid_patches import triangulate_polygon
+
+    verts, tris = triangulate_polygon(polygon) if polygon.area > 0 else (None, [])
+    if len(tris) == 0:
+        p = polygon.representative_point()
+        return np.repeat([[p.x, p.y]], count, axis=0)
+    a, b, c = verts[tris[:, 0]], verts[tris[:, 1]], verts[tris[:, 2]]
+    ab, ac = b - a, c - a
+    area = 0.5 * np.abs(ab[:, 0] * ac[:, 1] - ab[:, 1] * ac[:, 0])
+    pick = rng.choice(len(tris), size=count, p=area / area.sum())
+    r1, r2 = rng.random(count), rng.random(count)
+    s = np.sqrt(r1)
+    w0, w1, w2 = 1 - s, s * (1 - r2), s * r2
+    return w0[:, None] * a[pick] + w1[:, None] * b[pick] + w2[:, None] * c[pick]
+
+
+def holes_to_fill(scene, holes: list, frame: np.ndarray, *, segment_length: float,
+                  rng: np.random.Generator) -> np.ndarray:
+    """Which holes of one planar patch the segment test fills.
+
+    Parameters
+    ----------
+    scene : viscore.Scene
+        Embree scene of the input mesh.
+    holes : list of shapely.Polygon
+        The holes, in the plane coordinates of ``frame``.
+    frame : (4, 3) float64
+        Origin, u, v, n of the plane: a plane point ``(x, y)`` is
+        ``origin + x u + y v`` in world units; ``n`` is the unit normal.
+    segment_length : float
+        l_s, world units: each test segment reaches this far from its sample
+        point along ``+n`` and along ``-n``.
+    rng : numpy.random.Generator
+        Draws the sample points.
+
+    Returns
+    -------
+    fill : (k,) bool
+        True where every segment of the hole hits the input.
+    """
+    origin, u, v, n = frame
+    points, owner = [], []
+    for k, hole in enumerate(holes):
+        inner = hole.buffer(-RIM_MARGIN * segment_length)
+        if inner.is_empty or inner.area <= 0:
+            inner = hole
+        count = int(np.clip(np.ceil(inner.area / (0.5 * segment_length) ** 2),
+                            MIN_SAMPLES, MAX_SAMPLES))
+        points.append(sample_polygon(inner, count, rng))
+        owner.append(np.full(count, k))
+    if not points:
+        return np.zeros(0, dtype=bool)
+    xy = np.concatenate(points)
+    owner = np.concatenate(owner)
+    world = origin + xy[:, :1] * u + xy[:, 1:2] * v
+    hit = scene.any_hit(world, np.broadcast_to(n, world.shape), max_distance=segment_length)
+    hit |= scene.any_hit(world, np.broadcast_to(-n, world.shape), max_distance=segment_length)
+    missed = np.bincount(owner, weights=~hit, minlength=len(holes))
+    return missed == 0

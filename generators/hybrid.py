@@ -1,0 +1,389 @@
+"""Hybrid patch + voxel occluders for game buildings (Wu et al. 2022, sec. 3).
+
+The method of Wu, He, Pan and Gao [1]_ for buildings made of hundreds of
+loose, intersecting, open parts, where neither voxelization nor mesh
+simplification works alone:
+
+1. patch-based candidates (sec. 3.1.1, :mod:`._hybrid_patches`): planar
+   patches (dihedral angle below 1e-3), curved patches (below ``eps_a``) or
+   xatlas charts, quadric simplification of curved patches with boundaries
+   kept, Ramer-Douglas-Peucker and constrained re-triangulation of planar
+   ones, hole filling checked by ray segments (:mod:`._hybrid_holes`), and
+   the reduction by patch area to ``N_P`` faces;
+2. voxel-based candidates (sec. 3.1.2, :mod:`._hybrid_voxel`): generalized
+   winding number on an ``N_v`` grid, its 0.5 isosurface, quadric
+   simplification, and conservative enforcement (eqs. 1-3,
+   :mod:`._hybrid_enforce`);
+3. combination and metric-guided occluder simplification (sec. 3.3,
+   :func:`viscore.generators._mgos.metric_guided_simplify`).
+
+How the candidates are combined, as we read the paper: the two coarse
+meshes are *not* merged geometrically. Their faces are pooled into one
+candidate set ("we combine the generated coarse meshes to populate the
+candidate face set as a large solution space", sec. 1; "combining the
+outputs ... to form a large candidate set of faces, as the initial occluder
+M_occluder", sec. 3; Table 2: 500 patch faces + 53 voxel faces = 553
+combined), and the metric-guided step alone selects the subset: first it
+drops every face whose removal raises precision by more than ``eps_p``, then
+faces whose removal lowers recall by less than ``eps_r`` (Fig. 4e colours the
+final faces by their source). No face is preferred for its source.
+
+The budget. The paper's metric-guided step stops at its thresholds (its
+average, 260 faces, is what ``eps_P = eps_R = 1e-3`` reached on its data).
+Here, when the step stops above ``budget``, it is run again on its own output
+with ``eps_r`` doubled each time (same views, precision step off), until the
+occluder fits or :data:`MAX_BUDGET_ROUNDS` rounds have run; ``info`` records
+the rounds. Without the metric-guided step (``mgos=False``, the ablation of
+Fig. 11 a-d) the candidate set is returned as it is and may exceed the budget.
+
+Ablation switches (Fig. 11): ``candidates='voxel'`` with ``enforce`` False or
+True (a, b), ``'patch'`` (c), ``'combined'`` (d), each with ``mgos`` (e: patch
+with MGOS, f: combined with MGOS, the method).
+
+References
+----------
+.. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669`
+.. [2] Jacobson, A., Kavan, L., Sorkine-Hornung, O. "Robust Inside-Outside
+   Segmentation using Generalized Winding Numbers". ACM Transactions on
+   Graphics 32(4), 2013. :DOI:`10.1145/2461912.2461916`
+.. [3] Garland, M., Heckbert, P. S. "Surface Simplification Using Quadric Error
+   Metrics". Proceedings of SIGGRAPH '97, 1997, pp. 209-216.
+   :DOI:`10.1145/258734.258849`
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import numbers
+import time
+
+import numpy as np
+import trimesh
+
+from viscore import InputError, Scene, validate_mesh
+from viscore._validate import as_fraction, as_positive_int, as_seed, check_memory
+from viscore.constants import DEGENERATE_AREA_RELATIVE
+from viscore.winding import is_closed_oriented
+
+from ._hybrid_enforce import enforce_conservative
+from ._hybrid_holes import SEGMENT_LENGTH
+from ._hybrid_patches import patch_candidates
+from ._hybrid_voxel import BYTES_PER_SAMPLE, grid_shape, simplify_isosurface, winding_isosurface
+from .occluder import Occluder
+
+__all__ = ["generate_hybrid", "GROUPINGS", "CANDIDATES"]
+
+_log = logging.getLogger(__name__)
+
+#: Patch groupings: dihedral angles (the paper) or xatlas charts.
+GROUPINGS = ("dihedral", "xatlas")
+
+#: Candidate sets of the ablation (Fig. 11).
+CANDIDATES = ("combined", "patch", "voxel")
+
+#: Defaults of the paper's Table 1 and sec. 4.2: N_P, N_v, eps_a, eps_P, eps_R.
+PATCH_FACES = 600
+VOXELS = 64
+EPS_A = math.pi / 3
+EPS_P = 1e-3
+EPS_R = 1e-3
+
+#: Final face budget: the paper's average face count (sec. 4.2, Table 2).
+BUDGET = 260
+
+#: Faces of the simplified isosurface. The paper gives no target; its voxel
+#: candidates average 53 faces (Table 2), and a closed coarse mesh of that size
+#: has under 30 vertices, the "less than 100 vertices" of sec. 3.1.2.
+VOXEL_FACES = 60
+
+#: Largest N_v accepted (the memory check refuses most grids below it).
+MAX_VOXELS = 512
+
+#: Runs of the metric-guided step, eps_r doubled each time, to reach the budget.
+MAX_BUDGET_ROUNDS = 8
+
+
+def _check_flag(value: object, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise InputError(f"{name}: expected True or False, got {value!r}")
+    return bool(value)
+
+
+def _check_choice(value: object, name: str, choices: tuple) -> str:
+    if not isinstance(value, str) or value not in choices:
+        raise InputError(f"{name}: expected one of {', '.join(choices)}, got {value!r}")
+    return value
+
+
+def _check_angle(value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"eps_a: expected an angle in (0, pi] radians, got {value!r}")
+    value = float(value)
+    if not (math.isfinite(value) and 0 < value <= math.pi):
+        raise InputError(f"eps_a: expected an angle in (0, pi] radians, got {value}")
+    return value
+
+
+def _kept_by_validation(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(f,) bool``: faces :func:`viscore.validate_mesh` surely keeps (area above 10x its
+    threshold, relative to the squared diagonal of the used vertices)."""
+    if len(faces) == 0:
+        return np.zeros(0, dtype=bool)
+    used = vertices[np.unique(faces)]
+    diag = float(np.linalg.norm(np.ptp(used, axis=0)))
+    if diag <= 0:
+        return np.zeros(len(faces), dtype=bool)
+    tri = vertices[faces] / diag
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    return area > 10 * DEGENERATE_AREA_RELATIVE
+
+
+def _empty() -> trimesh.Trimesh:
+    return trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), process=False)
+
+
+def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed: int = 0,
+                    voxels: int = VOXELS, eps_a: float = EPS_A, grouping: str = "dihedral",
+                    candidates: str = "combined", enforce: bool = True, mgos: bool = True,
+                    patch_faces: int = PATCH_FACES, voxel_faces: int = VOXEL_FACES,
+                    fill_holes: bool = True, eps_p: float = EPS_P,
+                    eps_r: float = EPS_R, mgos_spacing: float | None = None,
+                    mgos_resolution: int | None = None,
+                    mgos_quads: int | None = None) -> Occluder:
+    """Occluder for a game building from patch and voxel candidates and metric-guided selection.
+
+    Wu et al. 2022 [1]_, sec. 3; see the module docstring for how the
+    candidates are combined and how the budget is met.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        Any triangle soup: loose parts, duplicated and intersecting faces,
+        open boundaries. Never assumed watertight.
+    budget : int or None, optional
+        Face (triangle) budget of the metric-guided step's output, default
+        260 (the paper's average). None: the paper's thresholds alone.
+        Ignored without the metric-guided step.
+    seed : int, optional
+        Seeds the hole test's sample points and the views of the metric-guided
+        step. Default 0.
+    voxels : int, optional
+        N_v: voxel size is the bounding-box diagonal / ``voxels``, 4 to 512.
+        Default 64 (Table 1).
+    eps_a : float, optional
+        Curved-patch threshold on dihedral angles, radians in (0, pi].
+        Default pi / 3 (Table 1).
+    grouping : {'dihedral', 'xatlas'}, optional
+        Curved patches by dihedral angle (the paper, default) or xatlas's charts.
+    candidates : {'combined', 'patch', 'voxel'}, optional
+        The candidate set (Fig. 11 ablation). Default 'combined'.
+    enforce : bool, optional
+        Conservative enforcement of the voxel candidates (default True).
+    mgos : bool, optional
+        Run the metric-guided occluder simplification (default True).
+    patch_faces : int, optional
+        N_P of the patch reduction, default 600 (Table 1).
+    voxel_faces : int, optional
+        Target faces of the simplified isosurface, default 60.
+    fill_holes : bool, optional
+        Run the hole test of the planar patches (default True).
+    eps_p, eps_r : float, optional
+        Thresholds of the metric-guided step in [0, 1], default 1e-3 each
+        (Table 1).
+    mgos_spacing : float, optional
+        View spacing of the metric-guided step's volume-protocol views, as a
+        fraction of the bounding-box diagonal in (0, 1]. Default None: that
+        step's own default (8%).
+    mgos_resolution, mgos_quads : int, optional
+        Pixels per frustum side and quads per frustum of those views. Default
+        None: the step's own defaults (64 and 1,000).
+
+    Returns
+    -------
+    Occluder
+        ``double_sided`` unless the occluder is closed and consistently
+        oriented (patches are open). ``parts`` is empty: the kept faces are
+        pieces of patches, not whole polygons. ``info``:
+
+        - ``faces``: triangles of the occluder; ``triangles_single_sided``:
+          twice that when double-sided (as the paper's Table 2 doubles the
+          planar occluders' count for single-sided rendering);
+        - ``faces_patch``, ``faces_voxel``: the final faces by source, and
+          ``candidates_patch``, ``candidates_voxel`` before selection;
+        - ``seconds_patch``, ``seconds_voxel``, ``seconds_enforce``,
+          ``seconds_mgos``: wall time per stage;
+        - ``patch``, ``voxel``, ``enforce``, ``mgos``: each stage's own
+          figures (the metric-guided step's precision and recall are on its
+          own views; judge the occluder on others);
+        - ``budget_rounds``: extra metric-guided runs made to meet ``budget``.
+
+    Raises
+    ------
+    InputError
+        On a mesh that fails validation, an option out of its type or range,
+        or a voxel grid that would not fit in memory; before any work.
+
+    Notes
+    -----
+    Not conservative: the patches are faces of the input (conservative up to
+    simplification), the voxel faces are pushed inside the winding-number
+    isosurface, which itself can leave the input; the metric-guided step
+    trades what is left for recall at ``eps_p``. Deterministic given ``seed``.
+
+    References
+    ----------
+    .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings
+       in Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+       :DOI:`10.1111/cgf.14669`
+
+    Examples
+    --------
+    >>> occ = generate_hybrid(trimesh.creation.box(), mgos=False, candidates="patch")
+    >>> occ.triangles, occ.double_sided
+    (12, False)
+    """
+    start = time.perf_counter()
+    mesh = validate_mesh(mesh)
+    budget = None if budget is None else as_positive_int(budget, "budget")
+    seed = as_seed(seed)
+    voxels = as_positive_int(voxels, "voxels", maximum=MAX_VOXELS)
+    if voxels < 4:
+        raise InputError(f"voxels: expected at least 4, got {voxels}")
+    eps_a = _check_angle(eps_a)
+    grouping = _check_choice(grouping, "grouping", GROUPINGS)
+    candidates = _check_choice(candidates, "candidates", CANDIDATES)
+    enforce = _check_flag(enforce, "enforce")
+    mgos = _check_flag(mgos, "mgos")
+    fill_holes = _check_flag(fill_holes, "fill_holes")
+    patch_faces = as_positive_int(patch_faces, "patch_faces")
+    voxel_faces = as_positive_int(voxel_faces, "voxel_faces")
+    eps_p = as_fraction(eps_p, "eps_p")
+    eps_r = as_fraction(eps_r, "eps_r")
+    if mgos_spacing is not None:
+        mgos_spacing = as_fraction(mgos_spacing, "mgos_spacing", open_low=True)
+    if mgos_resolution is not None:
+        mgos_resolution = as_positive_int(mgos_resolution, "mgos_resolution", maximum=8192)
+    if mgos_quads is not None:
+        mgos_quads = as_positive_int(mgos_quads, "mgos_quads")
+    params = {"budget": budget, "seed": seed, "voxels": voxels, "eps_a": eps_a,
+              "grouping": grouping, "candidates": candidates, "enforce": enforce, "mgos": mgos,
+              "patch_faces": patch_faces, "voxel_faces": voxel_faces, "fill_holes": fill_holes,
+              "eps_p": eps_p, "eps_r": eps_r, "mgos_spacing": mgos_spacing,
+              "mgos_resolution": mgos_resolution, "mgos_quads": mgos_quads}
+    use_patch = candidates in ("combined", "patch")
+    use_voxel = candidates in ("combined", "voxel")
+    origin, pitch, shape = grid_shape(mesh.bounds, voxels)
+    if use_voxel:
+        check_memory(float(np.prod(shape)) * BYTES_PER_SAMPLE, f"voxels={voxels}")
+    diagonal = float(np.linalg.norm(np.ptp(np.asarray(mesh.vertices), axis=0)))
+    info: dict = {}
+    scene = Scene(mesh)
+
+    patch_mesh = _empty()
+    t0 = time.perf_counter()
+    if use_patch:
+        pc = patch_candidates(mesh, scene, eps_a=eps_a, grouping=grouping,
+                              patch_faces=patch_faces, fill_holes=fill_holes,
+                              segment_length=SEGMENT_LENGTH * diagonal, seed=seed)
+        patch_mesh = pc.mesh
+        info["patch"] = pc.info
+    info["seconds_patch"] = time.perf_counter() - t0
+
+    voxel_mesh = _empty()
+    t0 = time.perf_counter()
+    info["seconds_enforce"] = 0.0
+    if use_voxel:
+        iso, vinfo = winding_isosurface(mesh, voxels=voxels)
+        if len(iso.faces):
+            voxel_mesh = simplify_isosurface(iso, faces=voxel_faces)
+            vinfo["isosurface_faces"] = len(iso.faces)
+            vinfo["faces"] = len(voxel_mesh.faces)
+            info["seconds_voxel"] = time.perf_counter() - t0
+            if enforce:
+                t1 = time.perf_counter()
+                voxel_mesh, info["enforce"] = enforce_conservative(
+                    voxel_mesh, iso, origin=origin, pitch=pitch, shape=shape)
+                info["seconds_enforce"] = time.perf_counter() - t1
+        info["voxel"] = vinfo
+    info.setdefault("seconds_voxel", time.perf_counter() - t0 - info["seconds_enforce"])
+
+    # the candidate set: patch faces first, then voxel faces; faces that validation would
+    # drop go now, so that the metric-guided step's face indices follow ``source``
+    pv = np.asarray(patch_mesh.vertices, dtype=np.float64)
+    vertices = np.concatenate([pv, np.asarray(voxel_mesh.vertices, dtype=np.float64)])
+    faces = np.concatenate([np.asarray(patch_mesh.faces, dtype=np.int64),
+                            np.asarray(voxel_mesh.faces, dtype=np.int64) + len(pv)])
+    source = np.repeat([0, 1], [len(patch_mesh.faces), len(voxel_mesh.faces)])
+    keep = _kept_by_validation(vertices, faces)
+    faces, source = faces[keep], source[keep]
+    info["candidates_patch"] = int((source == 0).sum())
+    info["candidates_voxel"] = int((source == 1).sum())
+    combined = trimesh.Trimesh(vertices, faces, process=False)
+    combined.remove_unreferenced_vertices()
+
+    t0 = time.perf_counter()
+    info["budget_rounds"] = 0
+    if mgos and len(combined.faces):
+        result, source, info["mgos"], info["budget_rounds"] = _select(
+            mesh, combined, source, budget=budget, eps_p=eps_p, eps_r=eps_r, seed=seed,
+            views=(mgos_spacing, mgos_resolution, mgos_quads))
+    else:
+        result = combined
+    info["seconds_mgos"] = time.perf_counter() - t0
+    if len(result.faces):
+        result = validate_mesh(result, name="hybrid occluder")
+    closed = bool(len(result.faces)) and is_closed_oriented(result.vertices, result.faces)
+    faces_out = len(result.faces)
+    info |= {"faces": faces_out,
+             "triangles_single_sided": faces_out if closed else 2 * faces_out,
+             "faces_patch": int((source == 0).sum()), "faces_voxel": int((source == 1).sum())}
+    _log.info("hybrid: %d patch + %d voxel candidates -> %d faces (%d patch, %d voxel)",
+              info["candidates_patch"], info["candidates_voxel"], faces_out,
+              info["faces_patch"], info["faces_voxel"])
+    return Occluder(mesh=result, method="hybrid", params=params, double_sided=not closed,
+                    seconds=time.perf_counter() - start, parts={}, info=info)
+
+
+def _select(original: trimesh.Trimesh, combined: trimesh.Trimesh, source: np.ndarray, *,
+            budget: int | None, eps_p: float, eps_r: float, seed: int, views: tuple):
+    """The metric-guided step, repeated with doubled ``eps_r`` until ``budget`` is met."""
+    from viscore.metrics import ReferenceViews
+
+    from ._mgos import (
+        MGOS_QUADS,
+        MGOS_RESOLUTION,
+        MGOS_SPACING_FRACTION,
+        metric_guided_simplify,
+    )
+
+    spacing, resolution, quads = views
+    diagonal = float(np.linalg.norm(np.ptp(np.asarray(original.vertices), axis=0)))
+    spacing = (MGOS_SPACING_FRACTION if spacing is None else spacing) * diagonal
+    reference = ReferenceViews(original, protocol="volume", spacing=spacing,
+                               quads=MGOS_QUADS if quads is None else quads,
+                               resolution=MGOS_RESOLUTION if resolution is None else resolution,
+                               seed=seed)
+    current, info = metric_guided_simplify(original, combined, reference=reference,
+                                           eps_p=eps_p, eps_r=eps_r, seed=seed)
+    source = source[np.asarray(info["kept"], dtype=np.int64)]
+    summary = {k: v for k, v in info.items() if k != "kept"}
+    rounds = 0
+    threshold = eps_r
+    while budget is not None and len(current.faces) > budget and rounds < MAX_BUDGET_ROUNDS:
+        rounds += 1
+        threshold = min(1.0, 2 * threshold)
+        current, more = metric_guided_simplify(original, current, reference=reference,
+                                               eps_p=1.0, eps_r=threshold, seed=seed)
+        source = source[np.asarray(more["kept"], dtype=np.int64)]
+        summary |= {"faces_after": more["faces_after"],
+                    "removed_recall": summary["removed_recall"] + more["removed_recall"],
+                    "precision_after": more["precision_after"],
+                    "recall_after": more["recall_after"],
+                    "precision_after_ci": more["precision_after_ci"],
+                    "recall_after_ci": more["recall_after_ci"],
+                    "eps_r_final": threshold,
+                    "seconds": summary["seconds"] + more["seconds"]}
+    return current, source, summary, rounds
