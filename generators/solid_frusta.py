@@ -10,14 +10,16 @@ deepest voxel until it lies inside the mesh. A greedy pass then keeps the
 ``solids`` candidates that add the most covered inner voxels, in that order.
 
 Containment of a convex piece H (shrunk by a bisection of ``shrink_steps``
-steps on the scale factor) is accepted when, for H widened by a margin of
-:data:`MARGIN_PITCH` voxels:
+steps on the scale factor) is accepted when:
 
 1. every vertex of H is inside the mesh by the winding number
-   (:func:`viscore.winding.points_inside`);
-2. no edge of a mesh triangle meets H (segment clipping against H's planes,
-   float64, every mesh edge near H): this also catches mesh vertices inside H;
-3. no edge of H crosses a mesh triangle (Embree segment queries).
+   (:func:`viscore.winding.points_inside`; implied by 2-3 when H contains
+   the inner voxel it shrinks towards);
+2. no edge of a mesh triangle meets H widened by :data:`MARGIN_PITCH` voxels
+   (segment clipping against its planes, float64, every mesh edge near H):
+   this also catches mesh vertices inside H;
+3. no edge of H crosses a mesh triangle (Embree segment queries; within
+   float32 rounding of a triangle's edge, test 2 on the widened H catches it).
 
 If a mesh triangle met H, their intersection (a convex polygon) would have a
 vertex that is a triangle vertex in H, a triangle edge crossing H's boundary
@@ -160,32 +162,42 @@ class _Containment:
         self.margin = MARGIN_PITCH * pitch
 
     def inside(self, hull: trimesh.Trimesh, centre: np.ndarray) -> bool:
-        """Tests 1-3 of the module docstring on ``hull`` widened by the margin.
+        """Tests 1-3 of the module docstring; test 2 on ``hull`` widened by the margin.
 
         ``centre`` is a point known to be inside the mesh (an inner voxel's
         centre); when the hull contains it, test 1 holds for every vertex once
         tests 2-3 pass (the surface does not meet the hull), so the winding
-        number is evaluated only when it does not.
+        number is evaluated only when it does not. The cheap test 3 runs first.
+        If a mesh triangle met the hull, a vertex of their intersection would
+        be a triangle vertex in the hull or a triangle edge crossing its
+        boundary (test 2, on the widened hull, which also covers Embree's
+        float32 misses near triangle edges) or a hull edge crossing the
+        triangle (test 3, Embree segment queries along the hull's own edges).
         """
         v = np.asarray(hull.vertices)
+        e = np.asarray(hull.edges_unique)
+        d = v[e[:, 1]] - v[e[:, 0]]
+        length = np.linalg.norm(d, axis=1)
+        keep = length > 0
+        if self.scene.any_hit(v[e[keep, 0]], d[keep] / length[keep, None],
+                              max_distance=length[keep]).any():
+            return False
         normals, offsets = _planes(hull)
         if (normals @ centre - offsets).max() > 0 and not points_inside(self.scene, v).all():
             return False
-        offsets = offsets + self.margin
+        # mesh edges near the hull: bounding box, then bounding sphere
         lo, hi = v.min(axis=0) - self.margin, v.max(axis=0) + self.margin
-        near = ((self.hi >= lo) & (self.lo <= hi)).all(axis=1)
-        if near.any() and _segments_meet(self.a[near], self.b[near], normals, offsets):
-            return False
-        # hull edges, pushed out by the margin from the centroid, against the mesh
+        near = np.flatnonzero(((self.hi >= lo) & (self.lo <= hi)).all(axis=1))
+        if len(near) == 0:
+            return True
         c = v.mean(axis=0)
-        grow = v + self.margin * (v - c) / np.maximum(
-            np.linalg.norm(v - c, axis=1), 1e-300)[:, None] * np.sqrt(3)
-        e = np.asarray(hull.edges_unique)
-        d = grow[e[:, 1]] - grow[e[:, 0]]
-        length = np.linalg.norm(d, axis=1)
-        keep = length > 0
-        return not self.scene.any_hit(grow[e[keep, 0]], d[keep] / length[keep, None],
-                                      max_distance=length[keep]).any()
+        radius = float(np.linalg.norm(v - c, axis=1).max()) + self.margin
+        a, b = self.a[near], self.b[near]
+        ab = b - a
+        t = np.clip(np.einsum("ij,ij->i", c - a, ab) / np.maximum(
+            np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
+        close = np.linalg.norm(a + t[:, None] * ab - c, axis=1) <= radius
+        return not _segments_meet(a[close], b[close], normals, offsets + self.margin)
 
 
 def _shrink_into(hull: trimesh.Trimesh, centre: np.ndarray, test: _Containment,

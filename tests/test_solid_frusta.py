@@ -25,9 +25,10 @@ def _check_solids(mesh, occ, rng):
     for v, f in occ.parts["solids"]:
         assert solid_frustum(v, f, v.max(axis=0) + 10 * (v.max(axis=0) - v.min(axis=0))) \
             is not None  # convexity and orientation are checked there
-        w = rng.dirichlet(np.ones(len(v)), size=200) @ v
-        np.testing.assert_allclose(winding_numbers(mesh.vertices, mesh.faces, w, exact=True), 1.0,
-                                   atol=1e-6)
+        w = rng.dirichlet(np.ones(len(v)), size=100) @ v
+        # fast winding numbers (error ~1e-3): 1 inside, 0 outside
+        np.testing.assert_allclose(winding_numbers(mesh.vertices, mesh.faces, w), 1.0,
+                                   atol=0.02)
 
 
 @pytest.mark.parametrize("name,options", [("fat-torus", {"voxels": 40}),
