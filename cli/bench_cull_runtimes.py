@@ -52,7 +52,7 @@ __all__ = ["bench_cull_runtimes", "bench_city", "KEYS"]
 _BLOCKS, _PITCH, _STREET = 12, 30.0, 10.0
 
 
-def bench_city(*, occludees: int = 1000, seed: int = 0
+def bench_city(*, occludees: int = 1000, blocks: int = _BLOCKS, seed: int = 0
                ) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray, np.ndarray]:
     """A procedural city: building solids and street-level occludee boxes.
 
@@ -60,24 +60,27 @@ def bench_city(*, occludees: int = 1000, seed: int = 0
     ----------
     occludees : int, optional
         Occludee boxes (cars, benches, lamps: 0.5 to 4.5 m), default 1000.
+    blocks : int, optional
+        Blocks per side of the street grid, default 12.
     seed : int, optional
         Default 0.
 
     Returns
     -------
     solids : list of (vertices (8, 3) float64, faces (12, 3) int64)
-        One to three stacked boxes per block, 12 x 12 blocks, 8 to 60 m tall.
+        One to three stacked boxes per block, blocks x blocks, 8 to 60 m tall.
     lower, upper : (occludees, 3) float64
         Occludee boxes on the streets, world units.
     """
     occludees = as_positive_int(occludees, "occludees")
+    blocks = as_positive_int(blocks, "blocks", maximum=1000)
     rng = np.random.default_rng(as_seed(seed))
     unit = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
     uv, uf = np.asarray(unit.vertices), np.asarray(unit.faces)
     solids = []
     size = _PITCH - _STREET
-    for i in range(_BLOCKS):
-        for j in range(_BLOCKS):
+    for i in range(blocks):  # loops over blocks (scene construction)
+        for j in range(blocks):
             lo = np.array([i * _PITCH, j * _PITCH, 0.0])
             height = rng.uniform(8, 60)
             parts = rng.integers(1, 4)
@@ -88,8 +91,8 @@ def bench_city(*, occludees: int = 1000, seed: int = 0
                 solids.append((b_lo + uv * (b_hi - b_lo), uf.copy()))
     # occludees in the streets: along x or along y
     along_x = rng.random(occludees) < 0.5
-    street = rng.integers(0, _BLOCKS, occludees) * _PITCH - 0.5 * _STREET
-    run = rng.uniform(0, _BLOCKS * _PITCH, occludees)
+    street = rng.integers(0, blocks, occludees) * _PITCH - 0.5 * _STREET
+    run = rng.uniform(0, blocks * _PITCH, occludees)
     across = street + rng.uniform(-0.4, 0.4, occludees) * _STREET
     x = np.where(along_x, run, across)
     y = np.where(along_x, across, run)
@@ -98,12 +101,13 @@ def bench_city(*, occludees: int = 1000, seed: int = 0
     return solids, lower, lower + ext
 
 
-def _path(frames: int, rng: np.random.Generator) -> list[PerspectiveCamera]:
+def _path(frames: int, rng: np.random.Generator, blocks: int = _BLOCKS
+          ) -> list[PerspectiveCamera]:
     """Cameras at eye height along the streets, looking along and across them."""
     cams = []
-    extent = _BLOCKS * _PITCH
+    extent = blocks * _PITCH
     for k in range(frames):
-        street = (k % _BLOCKS) * _PITCH - 0.5 * _STREET
+        street = (k % blocks) * _PITCH - 0.5 * _STREET
         s = (k + 0.5) / frames * extent
         eye = np.array([s, street, 1.7]) if k % 2 == 0 else np.array([street, s, 1.7])
         heading = rng.uniform(0, 2 * np.pi)
@@ -127,7 +131,7 @@ KEYS = ("frusta_solid", "frusta_solid_exact", "frusta_planar", "depth_buffer_bui
 
 def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
                         active: int = ACTIVE_OCCLUDERS, width: int = 320, height: int = 180,
-                        seed: int = 0) -> dict:
+                        blocks: int = _BLOCKS, seed: int = 0) -> dict:
     """Per-frame milliseconds of the frusta and depth-buffer runtimes on one core.
 
     Parameters
@@ -140,6 +144,8 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
         Active occluders of the frusta runtime, default 15.
     width, height : int, optional
         Depth-buffer pixels, default 320 x 180 (a quarter of 1280 x 720 per side).
+    blocks : int, optional
+        Blocks per side of the city (:func:`bench_city`), default 12.
     seed : int, optional
         Seed of the city and the path, default 0.
 
@@ -178,9 +184,9 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
     active = as_positive_int(active, "active")
     width = as_positive_int(width, "width", maximum=4096)
     height = as_positive_int(height, "height", maximum=4096)
-    solids, lower, upper = bench_city(occludees=occludees, seed=seed)
+    solids, lower, upper = bench_city(occludees=occludees, blocks=blocks, seed=seed)
     rng = np.random.default_rng(as_seed(seed) + 1)
-    cams = _path(frames, rng)
+    cams = _path(frames, rng, blocks)
     cullers = {"frusta_solid": FrustumCuller(solids, mode="solid", active=active),
                "frusta_solid_exact": FrustumCuller(solids, mode="solid", active=active,
                                                    cap="front-faces", rank="faces"),
@@ -230,6 +236,7 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
             for k in ("frusta_solid", "frusta_solid_exact")},
         "frames": frames, "occludees": len(lower), "active": active,
         "buffer": [width, height], "screen": [1280, 720], "solids": len(solids),
+        "blocks": blocks,
         "workers": 1, "targets_ms": {"frusta": 2.0, "depth_buffer": 5.0},
         "load_average": _load_average()})
     return out
