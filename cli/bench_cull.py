@@ -76,7 +76,8 @@ def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed:
     dict
         ``frusta`` and ``depth_buffer``: median, mean, p95 and max ms per
         frame, the target and whether the median meets it; the settings
-        (occludees, active, buffer size, occluder counts, workers = 1).
+        (occludees, active, buffer size, occluder counts, workers = 1) and
+        the machine's load average (timings on a busy machine are inflated).
     """
     from viscore.generators.scene_occluders import (
         frusta_method,
@@ -126,8 +127,11 @@ def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed:
     finally:
         set_workers(before)
     f, b = _stats(frusta_ms), _stats(buffer_ms)
+    import os
+
     return {
         "scene": scene, "frames": len(path), "occludees": len(boxes), "workers": 1,
+        "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
         "occluder_method": method, "occluder_objects": len(indices),
         "frusta": {**f, "active": ACTIVE, "solids": culler.count,
                    "target_ms": FRUSTA_TARGET_MS, "meets_target": f["median_ms"] < FRUSTA_TARGET_MS,
@@ -192,7 +196,8 @@ def bench_cull_text(r: dict) -> str:
     f, b = r["frusta"], r["depth_buffer"]
     return "\n".join([
         f"{r['scene']}: {r['frames']} frames, {r['occludees']} occludee boxes per frame, "
-        f"occluders from {r['occluder_method']} on {r['occluder_objects']} objects, 1 core",
+        f"occluders from {r['occluder_method']} on {r['occluder_objects']} objects, 1 core"
+        + (f" (load average {r['load_average'][0]:.1f})" if r.get("load_average") else ""),
         f"  solid frusta, {f['active']} active of {f['solids']} solids: median "
         f"{f['median_ms']:.2f} ms, p95 {f['p95_ms']:.2f} ms per frame "
         f"(target < {f['target_ms']:.0f} ms: {'met' if f['meets_target'] else 'NOT met'}); "
