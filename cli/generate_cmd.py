@@ -71,6 +71,11 @@ def add_parser(sub, common) -> None:
         m.add_argument("-o", "--output", required=True, help="occluder mesh file (.ply, .obj, ...)")
         m.add_argument("--budget", type=_budget, default=None, help=budget_help)
         for option in spec.options:
+            if option.type is bool:  # a switch pair: --conservative / --no-conservative
+                m.add_argument(option.flag, dest=option.name,
+                               action=argparse.BooleanOptionalAction, default=argparse.SUPPRESS,
+                               help=option.describe().replace("%", "%%"))
+                continue
             m.add_argument(option.flag, dest=option.name, type=_option_type(option),
                            default=argparse.SUPPRESS, help=option.describe().replace("%", "%%"),
                            metavar="|".join(option.choices) if option.choices

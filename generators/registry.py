@@ -40,6 +40,14 @@ from .aabb_skins import TRIANGLES_PER_BOX, generate_aabb_skins
 from .baselines import generate_bbox, generate_original, generate_qem
 from .godot import generate_godot
 from .occluder import Occluder
+from .planar_sections import DEFAULT_ALPHA as PLANAR_ALPHA
+from .planar_sections import DEFAULT_DEPTH_BINS as PLANAR_DEPTH_BINS
+from .planar_sections import DEFAULT_DIRECTION_BINS as PLANAR_DIRECTION_BINS
+from .planar_sections import DEFAULT_FOV as PLANAR_FOV
+from .planar_sections import DEFAULT_SCREEN as PLANAR_SCREEN
+from .planar_sections import MAX_VOXELS as PLANAR_MAX_VOXELS
+from .planar_sections import RDP_TOLERANCE as PLANAR_RDP_TOLERANCE
+from .planar_sections import generate_planar_sections
 from .solid_frusta import generate_solid_frusta
 
 __all__ = ["GeneratorOption", "GeneratorSpec", "REGISTRY", "get_generator", "generate",
@@ -48,7 +56,11 @@ __all__ = ["GeneratorOption", "GeneratorSpec", "REGISTRY", "get_generator", "gen
 _log = logging.getLogger(__name__)
 
 #: Option types a spec may declare.
-_TYPES = {int: "an integer", float: "a number", str: "a string"}
+_TYPES = {int: "an integer", float: "a number", str: "a string", bool: "true or false"}
+
+
+#: Words :meth:`GeneratorOption.parse` reads as a ``bool``.
+_BOOL_WORDS = {"true": True, "yes": True, "1": True, "false": False, "no": False, "0": False}
 
 
 def _flag(name: str) -> str:
@@ -65,9 +77,11 @@ class GeneratorOption:
     name : str
         The generator's keyword (``max_boxes``); the CLI flag is the same
         with dashes (``--max-boxes``).
-    type : {int, float, str}
+    type : {int, float, str, bool}
         Value type. Integers are not accepted for ``str``; integers are
-        accepted for ``float``; floats are refused for ``int``.
+        accepted for ``float``; floats are refused for ``int``; only
+        ``True`` and ``False`` are a ``bool`` (on the CLI a switch pair,
+        ``--conservative`` / ``--no-conservative``).
     default : object
         The generator's own default (a test checks the two agree); ``None``
         when the default is computed from the mesh (``help`` says how).
@@ -100,7 +114,7 @@ class GeneratorOption:
 
     def __post_init__(self) -> None:
         if self.type not in _TYPES:
-            raise TypeError(f"option {self.name}: type must be int, float or str")
+            raise TypeError(f"option {self.name}: type must be int, float, str or bool")
 
     @property
     def flag(self) -> str:
@@ -128,6 +142,10 @@ class GeneratorOption:
         if value is None and self.nullable:
             return None
         bad = InputError(f"{label}: expected {self.expected()}, got {value!r}")
+        if self.type is bool:
+            if not isinstance(value, bool):
+                raise bad
+            return value
         if self.type is str:
             if not isinstance(value, str) or (self.choices and value not in self.choices):
                 raise bad
@@ -156,6 +174,11 @@ class GeneratorOption:
             return None
         if self.type is str:
             return self.check(text, label)
+        if self.type is bool:
+            word = text.strip().lower()
+            if word not in _BOOL_WORDS:
+                raise InputError(f"{label}: expected {self.expected()}, got {text!r}")
+            return _BOOL_WORDS[word]
         try:
             value = int(text) if self.type is int else float(text)
         except ValueError:
@@ -285,6 +308,57 @@ REGISTRY: dict[str, GeneratorSpec] = {
                                 choices=("max-volume", "densest")),
             ),
             conservative=True, min_budget=TRIANGLES_PER_BOX),
+        GeneratorSpec(
+            "planar-sections", generate_planar_sections,
+            "double-sided planar sections of the voxelized solid, chosen by occlusion measure "
+            "(Silvennoinen et al. 2014)",
+            options=(
+                GeneratorOption("voxels", int, None, "voxels along the longest bounding-box side",
+                                low=1, high=PLANAR_MAX_VOXELS, nullable=True,
+                                default_text="64 unless --voxel-size or --pixel-error"),
+                GeneratorOption("voxel_size", float, None,
+                                "voxel side in world units (instead of --voxels)",
+                                low=0, low_open=True, nullable=True),
+                GeneratorOption("direction_bins", int, PLANAR_DIRECTION_BINS,
+                                "bins of plane normals over the hemisphere", low=1, high=256),
+                GeneratorOption("depth_bins", int, PLANAR_DEPTH_BINS,
+                                "bins of plane depths per direction", low=1, high=64),
+                GeneratorOption("alpha", float, PLANAR_ALPHA,
+                                "alpha-completeness of the greedy search, percent", low=0),
+                GeneratorOption("measure", str, "om",
+                                "selection measure: occlusion measure or projected area",
+                                choices=("om", "area")),
+                GeneratorOption("reduce", str, "area",
+                                "budget cut keeps the cut of largest surface area (the paper), "
+                                "projected area or occlusion measure",
+                                choices=("area", "projected-area", "om")),
+                GeneratorOption("rdp_tolerance", float, PLANAR_RDP_TOLERANCE,
+                                "Ramer-Douglas-Peucker tolerance of the edge loops, voxels",
+                                low=0, low_open=True),
+                GeneratorOption("conservative", bool, False,
+                                "slice only through voxels wholly inside the mesh, so that no "
+                                "ray sees the occluder before a closed mesh"),
+                GeneratorOption("pixel_error", float, None,
+                                "screen-space error in pixels that sets the voxel size "
+                                "(with --distance or --lod-distances)",
+                                low=0, low_open=True, nullable=True),
+                GeneratorOption("distance", float, None,
+                                "viewer distance of --pixel-error, world units",
+                                low=0, low_open=True, nullable=True),
+                GeneratorOption("fov", float, PLANAR_FOV, "that viewer's field of view, degrees",
+                                low=0, low_open=True, high=180, high_open=True),
+                GeneratorOption("screen", int, PLANAR_SCREEN, "that viewer's screen width, pixels",
+                                low=1),
+                GeneratorOption("lod_distances", str, None,
+                                "levels of detail: comma-separated viewer distances, one "
+                                "occluder each (with --pixel-error)", nullable=True),
+                GeneratorOption("hierarchy", bool, False,
+                                "occluder hierarchy over the mesh's parts, with a tree cut per "
+                                "camera (sec. 5); writes the tree beside the output"),
+                GeneratorOption("dilate", int, 0,
+                                "dilation steps of the voxel solid (sec. 5's gluing step)", low=0),
+            ),
+            min_budget=1),
         GeneratorSpec(
             "solid-frusta", generate_solid_frusta,
             "a few convex solids inside the mesh (aabb-skins boxes, shrunk voxel-cluster "

@@ -30,7 +30,7 @@ def test_registry_options_match_the_generator_signature(name):
         assert option.name in params, f"{name}: {option.name} is not a keyword of the function"
         assert params[option.name].kind is inspect.Parameter.KEYWORD_ONLY
         assert params[option.name].default == option.default, (name, option.name)
-        assert option.type in (int, float, str)
+        assert option.type in (int, float, str, bool)
         if option.default is not None:
             assert option.check(option.default) == option.default
     # every keyword option of the function is declared (or common)
@@ -166,3 +166,29 @@ def test_check_params_refuses_budgets_below_the_methods_minimum():
         spec.check_params({"budget": 11})
     # a method that ignores the budget takes any
     assert REGISTRY["bbox"].check_params({"budget": 1}) == {"budget": 1}
+
+
+def test_bool_options_take_only_booleans_and_parse_words():
+    option = GeneratorOption("conservative", bool, False, "a switch")
+    assert option.check(True) is True and option.check(False) is False
+    for bad in (1, 0, "true", None, 1.0):
+        with pytest.raises(InputError, match="true or false"):
+            option.check(bad)
+    assert option.parse("Yes") is True and option.parse("0") is False
+    with pytest.raises(InputError, match="--conservative: expected true or false"):
+        option.parse("maybe")
+
+
+def test_bool_options_are_switch_pairs_on_the_command_line(tmp_path, capsys):
+    from viscore.cli.main import main
+
+    spec = REGISTRY["planar-sections"]
+    assert spec.option("conservative").type is bool
+    assert main(["generate", "planar-sections", "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "--conservative, --no-conservative" in out
+    # a value after the switch is a usage error, not a silently ignored word
+    code = main(["generate", "planar-sections", "fat-torus", "-o", str(tmp_path / "o.ply"),
+                 "--conservative", "maybe"])
+    assert code == 2
+    assert not (tmp_path / "o.ply").exists()
