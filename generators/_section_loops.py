@@ -56,7 +56,7 @@ MIN_HOLE_PIXELS = 2.0
 
 #: Parts kept per slice, largest first, and their smallest area as a fraction of
 #: the largest part's (the greedy search has no use for crumbs of a slice).
-MAX_PARTS = 8
+MAX_PARTS = 4
 MIN_PART_FRACTION = 0.01
 
 #: Candidate bridges tested at once, shortest first.
@@ -230,7 +230,7 @@ def slice_polygons(image: np.ndarray, *, tolerance: float | None = 1.0,
         Parts with a smaller area (pixels) are dropped. Default 4.
     max_parts : int, optional
         At most this many parts, largest first, each at least
-        :data:`MIN_PART_FRACTION` of the largest. Default 8.
+        :data:`MIN_PART_FRACTION` of the largest. Default 4.
 
     Returns
     -------

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from viscore import OrthoCamera, directions_fibonacci
+from viscore import camera_basis, directions_fibonacci
 from viscore._jit import njit_cached
 from viscore._validate import check_memory
 
@@ -91,12 +91,13 @@ def project_candidates(rings: list[np.ndarray], directions: np.ndarray, center: 
     out = np.zeros((n, nd, r, r), dtype=bool)
     if n == 0:
         return out
-    points = np.concatenate(rings)
+    points = np.concatenate(rings) - np.asarray(center, dtype=np.float64)
     starts = np.concatenate([[0], np.cumsum([len(g) for g in rings])]).astype(np.int64)
-    for k, d in enumerate(directions):
-        px, _ = OrthoCamera(d, center, extent, r).project(points)
-        _fill_polygons(np.ascontiguousarray(px[:, 0]), np.ascontiguousarray(px[:, 1]), starts,
-                       out, k)
+    for k, d in enumerate(directions):  # as OrthoCamera(d, center, extent, r).project
+        _, right, up = camera_basis(d)
+        cols = (points @ right / extent + 0.5) * r
+        rows = (0.5 - points @ up / extent) * r
+        _fill_polygons(cols, rows, starts, out, k)
     return out
 
 
@@ -415,10 +416,14 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
         Those of the chosen candidates, in order.
     budget : int or None
         None: keep the full polygons.
-    reduce : {'area', 'om'}
-        Keep, at each step, the cut of largest total surface area (the
-        paper's rule) or of largest occlusion measure (``bitmaps_of(i, s)``
-        gives candidate i's stage-s bitmaps ``(N, R, R)``).
+    reduce : {'area', 'projected-area', 'om'}
+        Keep, at each step, the cut of largest surface area, the sum of its
+        polygons' areas (``'area'``, the paper's rule, default); or of
+        largest projected area over the measure directions, A(I_{d,0}) of
+        the paper's sec. 3.1 (``'projected-area'``: overlaps count once); or
+        of largest occlusion measure (``'om'``, slower). ``bitmaps_of(i, s)``
+        gives candidate i's stage-s bitmaps ``(N, R, R)`` (not needed for
+        ``'area'``).
 
     Returns
     -------
@@ -432,7 +437,7 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
     if budget is None:
         return stage, tri
     counts_img = None
-    if reduce == "om" and k:
+    if reduce != "area" and k:
         counts_img = sum(bitmaps_of(i, 0).astype(np.int32) for i in range(k))
     while tri > budget:
         best, best_val, best_next = -1, -np.inf, -1
@@ -444,6 +449,11 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
             if reduce == "area":
                 after = ch.areas[nxt] if nxt < ch.stages else 0.0
                 val = -(ch.areas[s] - after)
+            elif reduce == "projected-area":  # pixels only this polygon covers, lost
+                lost = bitmaps_of(i, s) & (counts_img == 1)
+                if nxt < ch.stages:
+                    lost &= ~bitmaps_of(i, nxt)
+                val = -float(np.count_nonzero(lost))
             else:
                 img = counts_img - bitmaps_of(i, s)
                 if nxt < ch.stages:

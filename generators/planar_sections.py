@@ -85,6 +85,10 @@ RDP_TOLERANCE = 1.0
 #: Alpha-completeness of the greedy search, percent (sec. 4.5).
 DEFAULT_ALPHA = 1.0
 
+#: Candidate polygons kept for the greedy search, largest first (its cost grows
+#: with their number; a tangle such as the hairball gives thousands of small ones).
+MAX_CANDIDATES = 160
+
 #: Bytes per voxel cell of the whole generation: the voxelization's working
 #: memory (:data:`viscore.voxels.VOXELIZE_BYTES_PER_CELL`, 24) and the solid,
 #: its erosion and the winding-number labels of the conservative variant.
@@ -95,6 +99,7 @@ DEFAULT_FOV = 60.0
 DEFAULT_SCREEN = 1920
 
 _MEASURES = ("om", "area")
+_REDUCTIONS = ("area", "projected-area", "om")
 
 
 def screen_space_voxel_size(pixel_error: float, distance: float, *, fov: float = DEFAULT_FOV,
@@ -213,9 +218,12 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         Selection measure: the total occlusion measure (default) or the
         projected area of the soup (the paper's surface-area comparison,
         Fig. 11).
-    reduce : {'area', 'om'}, optional
-        Budget cut: keep the cut of largest surface area at each step (the
-        paper's rule, default) or of largest occlusion measure (slower).
+    reduce : {'area', 'projected-area', 'om'}, optional
+        Budget cut: keep at each step the cut of largest surface area, the
+        sum of its polygons' areas (the paper's rule; default);
+        ``'projected-area'``: of largest projected area over the measure
+        directions (sec. 3.1's A(I_{d,0}); overlaps count once); ``'om'``:
+        of largest occlusion measure (slower).
     rdp_tolerance : float, optional
         Ramer-Douglas-Peucker tolerance of the edge loops, voxels, > 0
         (default :data:`RDP_TOLERANCE`; see Notes).
@@ -306,8 +314,8 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     if measure not in _MEASURES:
         raise InputError(f"measure: expected 'om' or 'area', got {measure!r}")
     rdp_tolerance = as_positive(rdp_tolerance, "rdp_tolerance")
-    if reduce not in ("area", "om"):
-        raise InputError(f"reduce: expected 'area' or 'om', got {reduce!r}")
+    if reduce not in _REDUCTIONS:
+        raise InputError(f"reduce: expected one of {', '.join(_REDUCTIONS)}, got {reduce!r}")
     for name, flag in (("conservative", conservative), ("hierarchy", hierarchy)):
         if not isinstance(flag, (bool, np.bool_)):
             raise InputError(f"{name}: expected True or False, got {flag!r}")
@@ -413,6 +421,10 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
         for poly in slice_polygons(slice_image(sec, s), tolerance=tolerance):
             cands.append((s, poly))
             chains.append(simplification_chain(poly.ring))
+    if len(cands) > MAX_CANDIDATES:  # the largest polygons; crumbs of tangles cost time only
+        keep = np.argsort([-ch.areas[0] for ch in chains], kind="stable")[:MAX_CANDIDATES]
+        cands = [cands[i] for i in keep]
+        chains = [chains[i] for i in keep]
     timing["polygons"] = time.perf_counter() - t0
     info.update(slices=len(slices), candidates=len(cands))
 
