@@ -50,6 +50,8 @@ def test_metric_guided_simplify_hidden_face_removed_without_recall_change(box_vi
     occ = _join(_box(), tiny)
     before = box_views.score(occ)
     out, info = metric_guided_simplify(_box(), occ, reference=box_views, eps_r=1e-9)
+    assert (info["precision_before"], info["recall_before"]) == (before.precision,
+                                                                  before.recall)
     assert 12 not in info["kept"]
     assert info["removed_recall"] >= 1
     assert info["recall_after"] == before.recall == 1.0
@@ -186,7 +188,7 @@ def test_metric_guided_simplify_empty_occluder(box_views):
     ({"eps_p": -0.1}, "eps_p"), ({"eps_r": 2.0}, "eps_r"), ({"eps_p": float("nan")}, "eps_p"),
     ({"skip_unseen": 1}, "skip_unseen"), ({"skip_backfacing": "yes"}, "skip_backfacing"),
     ({"seed": -1}, "seed"), ({"quads": 0}, "quads"), ({"resolution": 0}, "resolution"),
-    ({"spacing": -1.0}, "spacing"),
+    ({"spacing": -1.0}, "spacing"), ({"max_faces": 0}, "max_faces"),
 ])
 def test_metric_guided_simplify_invalid_input(kwargs, match):
     with pytest.raises(InputError, match=match):
@@ -206,3 +208,18 @@ def test_metric_guided_simplify_invalid_reference(box_views):
         metric_guided_simplify(other, _box(), reference=box_views)
     with pytest.raises(InputError, match="occluder_mesh"):
         metric_guided_simplify(_box(), "box", reference=box_views)
+
+
+def test_metric_guided_simplify_max_faces_continues_the_greedy(box_views):
+    occ = _join(_box(), _sheet(1.7, 0.6))
+    _, free = metric_guided_simplify(_box(), occ, reference=box_views, eps_r=1e-9)
+    out, info = metric_guided_simplify(_box(), occ, reference=box_views, eps_r=1e-9,
+                                       max_faces=6)
+    assert len(out.faces) == info["faces_after"] == 6
+    assert info["removed_budget"] == free["faces_after"] - 6
+    assert info["eps_r_final"] > 1e-9
+    assert info["recall_after"] < free["recall_after"]
+    # the same as a larger threshold just above the last loss removed
+    _, wide = metric_guided_simplify(_box(), occ, reference=box_views,
+                                     eps_r=info["eps_r_final"] * (1 + 1e-9))
+    assert wide["faces_after"] <= 6
