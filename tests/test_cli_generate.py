@@ -171,3 +171,22 @@ def test_generate_without_parts_writes_only_the_output(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert "hierarchy" not in doc and "lods" not in doc
     assert [p.name for p in tmp_path.iterdir()] == ["b.ply"]
+
+
+@pytest.mark.slow
+def test_generate_planar_sections_hierarchy_writes_the_tree(tmp_path, capsys):
+    from viscore.generators.planar_hierarchy import cut_hierarchy, hierarchy_from_json
+
+    pair = trimesh.util.concatenate([trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]]),
+                                     trimesh.creation.box(bounds=[[1.5, 0, 0], [2.5, 1, 1]])])
+    src, out = tmp_path / "pair.ply", tmp_path / "occ.ply"
+    pair.export(src)
+    assert main(["generate", "planar-sections", str(src), "-o", str(out), "--hierarchy",
+                 "--voxels", "12", "--budget", "16", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["nodes"] == 3 and doc["objects"] == 2 and doc["hierarchy"]["nodes"] == 3
+    root = hierarchy_from_json(doc["hierarchy"]["file"])
+    written = trimesh.load(out, force="mesh", process=False)
+    np.testing.assert_array_equal(written.faces, root["occluder"].faces)
+    assert len(cut_hierarchy(root, (1e6, 0, 0))) == 1
+    assert len(cut_hierarchy(root, (1.25, 0.5, 0.5))) == 2  # between the boxes: both leaves
