@@ -347,3 +347,18 @@ def test_frustum_culler_scale_invariant(scale):
         culler = FrustumCuller([(wall.vertices, wall.faces)], **kw)
         assert culler.cull(np.array([0.3, -5, 0.2]) * scale, lo, hi).tolist() == \
             [True, False, False]
+
+
+def test_frustum_culler_from_occluders_nonconvex_polygon_triangulated():
+    from viscore.generators.occluder import Occluder
+
+    ell = np.array([[0, 0, 0], [4, 0, 0], [4, 0, 1], [1, 0, 1], [1, 0, 4], [0, 0, 4]], float)
+    bent = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 1], [0, 1, 0]], float)
+    occ = Occluder(mesh=trimesh.Trimesh(), method="x", params={}, double_sided=True,
+                   seconds=0.0, parts={"polygons": [ell, bent]})
+    culler = FrustumCuller.from_occluders([occ], mode="planar")
+    assert culler.count == 4  # the L in four triangles, the bent loop skipped
+    eye = (0.5, -5, 0.5)
+    # behind the L's foot: culled; behind its notch (2..4 x 2..4): seen through it
+    lo = np.array([[1.8, 4.9, 0.45], [2.8, 4.9, 2.8]])
+    assert culler.cull(eye, lo, lo + 0.1).tolist() == [True, False]

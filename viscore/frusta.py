@@ -749,6 +749,43 @@ def rank_planar(areas: npt.ArrayLike, normals: npt.ArrayLike, centers: npt.Array
     return np.abs(f) if two_sided else f
 
 
+def _convex_pieces(polygon, index: int) -> list[np.ndarray]:
+    """A planar polygon as convex pieces: itself when convex, else its triangles
+    (mapbox-earcut); [] when it is not planar or has no area."""
+    try:
+        _polygon_arrays(polygon, index)
+        return [np.asarray(polygon, dtype=np.float64)]
+    except InputError:
+        pass
+    p = np.asarray(polygon, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3 or len(p) < 3 or not np.isfinite(p).all():
+        return []
+    c = p.mean(axis=0)
+    normal = _cross(p - c, np.roll(p, -1, axis=0) - c).sum(axis=0)
+    size = float(np.linalg.norm(p.max(axis=0) - p.min(axis=0)))
+    norm = float(np.linalg.norm(normal))
+    if not norm > SHAPE_TOLERANCE * size * size:
+        return []
+    normal = normal / norm
+    if np.abs((p - c) @ normal).max() > SHAPE_TOLERANCE * size:
+        return []
+    ax = p[np.argmax(np.linalg.norm(p - c, axis=1))] - c
+    ax /= np.linalg.norm(ax)
+    ay = np.cross(normal, ax)
+    import mapbox_earcut
+
+    flat = np.stack([(p - c) @ ax, (p - c) @ ay], axis=1)
+    tri = mapbox_earcut.triangulate_float64(flat, np.array([len(p)], dtype=np.uint32))
+    pieces = []
+    for t in tri.reshape(-1, 3):  # a loop over the polygon's triangles (construction)
+        try:
+            _polygon_arrays(p[t], index)
+        except InputError:
+            continue  # a sliver
+        pieces.append(p[t])
+    return pieces
+
+
 # ----------------------------------------------------------------------------- runtime
 def _view_planes(camera) -> tuple[np.ndarray, np.ndarray]:
     """Four inward side planes of a perspective camera (unit normals, through the eye)."""
@@ -878,8 +915,10 @@ class FrustumCuller:
         occluders : iterable of Occluder
             ``parts["solids"]`` are taken as they are; ``parts["boxes"]``
             become 12-triangle box solids when the occluder has no solids;
-            ``parts["polygons"]`` become planar occluders when convex (others
-            are skipped: a non-convex polygon has no convex frustum).
+            ``parts["polygons"]`` become planar occluders: convex ones as
+            they are, non-convex planar ones as their ear-clipping triangles
+            (each triangle its own frustum); non-planar or degenerate loops are
+            skipped.
         mode, active, cap, rank
             As the constructor.
 
@@ -900,11 +939,7 @@ class FrustumCuller:
                     solids.append((lo + np.asarray(unit.vertices) * (hi - lo),
                                    np.asarray(unit.faces)))
             for i, p in enumerate(parts.get("polygons", [])):
-                try:
-                    _polygon_arrays(p, i)
-                except InputError:
-                    continue
-                polygons.append(np.asarray(p, dtype=np.float64))
+                polygons.extend(_convex_pieces(p, i))
         return cls(solids, polygons=polygons, mode=mode, active=active, cap=cap, rank=rank)
 
     # ------------------------------------------------------------------ per frame
