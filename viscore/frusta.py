@@ -614,15 +614,14 @@ def _inside_any(planes: np.ndarray, owner: np.ndarray, lo: np.ndarray,
 
     The box corner deepest outside plane (n, d) gives n.c + d - |n|.h (c the
     box centre, h its half extents): the box is inside the plane iff that is
-    >= 0. Two (n, 3) x (3, P) products and one minimum per frustum.
+    >= 0: one (n, 7) x (7, P) product and one minimum per frustum.
     """
     n = len(lo)
     if n == 0 or len(planes) == 0:
         return np.zeros(n, dtype=bool)
-    center = 0.5 * (lo + hi)
-    half = 0.5 * (hi - lo)
-    normals = planes[:, :3]
-    worst = center @ normals.T - half @ np.abs(normals).T + planes[:, 3]
+    boxes = np.concatenate([0.5 * (lo + hi), 0.5 * (hi - lo), np.ones((n, 1))], axis=1)
+    rows = np.concatenate([planes[:, :3], -np.abs(planes[:, :3]), planes[:, 3:]], axis=1)
+    worst = boxes @ rows.T
     starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
     return (np.minimum.reduceat(worst, starts, axis=1) >= 0).any(axis=1)
 
