@@ -11,6 +11,7 @@ import numpy as np
 from viscore.metrics.precision_recall import jsonable
 
 from viscore._atomic import check_output_path, write_atomic
+from viscore.mesh_io import ply_bytes
 
 __all__ = ["dumps", "emit", "check_output_path", "write_atomic", "check_mesh_path"]
 
@@ -80,15 +81,7 @@ def _mesh_bytes(mesh, fmt: str, path) -> bytes:
                 + _text_rows("3 ", faces, "%d"))
         return text.encode()
     if fmt == "ply":
-        header = ("ply\nformat binary_little_endian 1.0\n"
-                  f"element vertex {len(vertices)}\n"
-                  "property double x\nproperty double y\nproperty double z\n"
-                  f"element face {len(faces)}\n"
-                  "property list uchar int vertex_indices\nend_header\n").encode()
-        packed = np.empty(len(faces), dtype=[("n", "u1"), ("f", "<i4", (3,))])
-        packed["n"] = 3
-        packed["f"] = faces
-        return header + vertices.astype("<f8").tobytes() + packed.tobytes()
+        return ply_bytes(mesh)
     if len(vertices):
         with np.errstate(over="ignore"):
             v32 = vertices.astype(np.float32).astype(np.float64)

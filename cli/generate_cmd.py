@@ -17,7 +17,7 @@ import numbers
 from pathlib import Path
 
 from viscore.generators import REGISTRY, generate, get_generator
-from viscore.generators.planar_hierarchy import hierarchy_to_json
+from viscore.generators import hierarchy_to_json
 
 from viscore import InputError, load_mesh, provenance
 from viscore._validate import as_seed

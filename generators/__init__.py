@@ -12,8 +12,22 @@ from .aabb_skins import boxes_mesh, generate_aabb_skins
 from .baselines import generate_bbox, generate_original, generate_qem
 from .godot import generate_godot
 from .occluder import Occluder, check_parts
+from .planar_hierarchy import (
+    HierarchyIndex,
+    build_hierarchy,
+    cut_hierarchy,
+    generate_planar_hierarchy,
+    hierarchy_from_json,
+    hierarchy_to_json,
+    index_hierarchy,
+)
+from .planar_sections import generate_planar_sections
 from .registry import REGISTRY, GeneratorOption, GeneratorSpec, generate, get_generator
+from .solid_frusta import generate_solid_frusta
 
 __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOption",
            "generate", "get_generator", "generate_aabb_skins", "boxes_mesh", "generate_qem",
-           "generate_bbox", "generate_original", "generate_godot"]
+           "generate_bbox", "generate_original", "generate_godot", "generate_planar_sections",
+           "generate_solid_frusta", "build_hierarchy", "cut_hierarchy", "index_hierarchy",
+           "HierarchyIndex", "generate_planar_hierarchy", "hierarchy_to_json",
+           "hierarchy_from_json"]

@@ -80,6 +80,7 @@ import trimesh
 from viscore import InputError
 from viscore._atomic import check_output_path, write_atomic
 from viscore._validate import as_positive, as_positive_int, as_seed, as_vector, check_memory
+from viscore.mesh_io import ply_bytes
 from viscore.voxels import (
     VOXELIZE_BYTES_PER_CELL,
     outside_voxels,
@@ -681,21 +682,6 @@ def cut_hierarchy(tree, camera_position, *, fov_degrees: float = 60.0,
 
 # --------------------------------------------------------------------------- files
 
-def _ply_bytes(mesh: trimesh.Trimesh) -> bytes:
-    """Binary little-endian PLY with float64 vertices (trimesh writes float32)."""
-    vertices = np.asarray(mesh.vertices, dtype="<f8")
-    faces = np.asarray(mesh.faces, dtype=np.int64)
-    header = ("ply\nformat binary_little_endian 1.0\n"
-              f"element vertex {len(vertices)}\n"
-              "property double x\nproperty double y\nproperty double z\n"
-              f"element face {len(faces)}\n"
-              "property list uchar int vertex_indices\nend_header\n").encode()
-    packed = np.empty(len(faces), dtype=[("n", "u1"), ("f", "<i4", (3,))])
-    packed["n"] = 3
-    packed["f"] = faces
-    return header + vertices.tobytes() + packed.tobytes()
-
-
 def _walk(root: dict) -> list[dict]:
     out, stack = [], [root]
     while stack:
@@ -764,7 +750,7 @@ def hierarchy_to_json(tree: dict, folder: str | os.PathLike, stem: str) -> Path:
         name = None
         if isinstance(occ, trimesh.Trimesh) and len(occ.faces):
             name = f"{stem}.node{i:04d}.ply"
-            write_atomic(folder / name, _ply_bytes(occ))
+            write_atomic(folder / name, ply_bytes(occ))
         gb = n.get("geometry_bounds", n["bounds"])
         records.append({
             "id": i, "bounds": np.asarray(n["bounds"], dtype=float).tolist(),

@@ -37,7 +37,7 @@ import trimesh
 from ._validate import InputError, _human_bytes, check_memory
 from .constants import DEGENERATE_AREA_RELATIVE
 
-__all__ = ["load_mesh", "validate_mesh"]
+__all__ = ["load_mesh", "validate_mesh", "ply_bytes"]
 
 _log = logging.getLogger(__name__)
 
@@ -592,3 +592,32 @@ def load_mesh(source: str | os.PathLike | trimesh.Trimesh) -> trimesh.Trimesh:
         resolver = trimesh.resolvers.FilePathResolver(str(path.resolve()))
         mesh = _parse(data, fmt, label, resolver)
     return validate_mesh(mesh, name=label)
+
+
+def ply_bytes(mesh: trimesh.Trimesh) -> bytes:
+    """Binary little-endian PLY of a triangle mesh with ``double`` vertex coordinates.
+
+    trimesh writes PLY vertices as float32; this writer keeps every float64
+    coordinate exactly, so an occluder read back is the one that was scored.
+
+    Examples
+    --------
+    >>> box = trimesh.creation.box()
+    >>> data = ply_bytes(box)
+    >>> data.startswith(b"ply") and b"property double x" in data
+    True
+    >>> back = trimesh.load(trimesh.util.wrap_as_stream(data), file_type="ply", process=False)
+    >>> bool(np.array_equal(back.vertices, box.vertices))
+    True
+    """
+    vertices = np.asarray(mesh.vertices, dtype="<f8")
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    header = ("ply\nformat binary_little_endian 1.0\n"
+              f"element vertex {len(vertices)}\n"
+              "property double x\nproperty double y\nproperty double z\n"
+              f"element face {len(faces)}\n"
+              "property list uchar int vertex_indices\nend_header\n").encode()
+    packed = np.empty(len(faces), dtype=[("n", "u1"), ("f", "<i4", (3,))])
+    packed["n"] = 3
+    packed["f"] = faces
+    return header + vertices.tobytes() + packed.tobytes()
