@@ -16,8 +16,7 @@ import logging
 import numbers
 from pathlib import Path
 
-from viscore.generators import REGISTRY, generate, get_generator
-from viscore.generators import hierarchy_to_json
+from viscore.generators import REGISTRY, generate, get_generator, hierarchy_to_json
 
 from viscore import InputError, load_mesh, provenance
 from viscore._validate import as_seed
