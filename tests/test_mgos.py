@@ -223,3 +223,13 @@ def test_metric_guided_simplify_max_faces_continues_the_greedy(box_views):
     _, wide = metric_guided_simplify(_box(), occ, reference=box_views,
                                      eps_r=info["eps_r_final"] * (1 + 1e-9))
     assert wide["faces_after"] <= 6
+
+
+def test_metric_guided_simplify_kept_indexes_the_given_faces(box_views):
+    # a degenerate face first: validation drops it, ``kept`` still indexes the input
+    flat = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[0, 1, 2]], process=False)
+    occ = _join(flat, _box(), _sheet(1.7, 0.6))
+    out, info = metric_guided_simplify(_box(), occ, reference=box_views, eps_r=0.0)
+    assert info["faces_before"] == 14
+    assert info["kept"] == list(range(1, 13))
+    np.testing.assert_allclose(out.vertices[out.faces], occ.vertices[occ.faces[1:13]])
