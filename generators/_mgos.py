@@ -36,8 +36,10 @@ re-cast against the remaining faces before each removal, so the tallies
 stay those of a fresh :meth:`~viscore.metrics.ReferenceViews.score`.
 Exact duplicate faces (the same three points) share one ray record. A ray
 through an edge shared by two faces lists one of them, so the kept loss of
-either can be overestimated there, never underestimated (on the built-in
-buildings about 1% of the re-cast pixels were covered by an unlisted face).
+either can be overestimated there, never underestimated (of the pixels
+re-cast on the built-in buildings, an unlisted face covered about 1% for
+``qem`` occluders and 13-15% for hybrid candidate sets, whose patch faces
+overlap).
 
 Skipping rules (sec. 3.3, "Sample Skipping"):
 
@@ -688,9 +690,11 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
         counts both sides of every face (the Embree scorer, so the result
         must be drawn double-sided), and once a removal opens the occluder
         its inner sides are what views through the opening see; the rule
-        then underestimates those faces' losses and removes them (on a
-        closed box it lowers recall below the unskipped result; see the
-        tests). Exact only for occluders drawn and scored single-sided.
+        then underestimates those faces' losses and removes them. On
+        ``building-house`` with a 298-face ``qem`` occluder it kept 43 faces
+        at recall 0.895 where the exact evaluation keeps 62 at 0.938 (its
+        95% interval 0.920-0.954). Exact only for occluders drawn and
+        scored single-sided.
 
     max_faces : int, optional
         A face budget: once no face is below ``eps_r``, the recall step goes
