@@ -1,10 +1,11 @@
-"""``viscore bench rays|voxels|evaluate|generate``: figures, never assertions."""
+"""``viscore bench rays|voxels|evaluate|generate|cull``: figures, never assertions."""
 
 from __future__ import annotations
 
 import sys
 
 from viscore import provenance
+from viscore._validate import as_positive_int
 
 from ._common import emit, parse_list
 from .benchmarks import (
@@ -51,6 +52,17 @@ def add_parser(sub, common) -> None:
                    help=f"folder of extra benchmark meshes (spot.obj, fandisk.obj, ...); default "
                    f"${MODELS_ENV}, else only the built-in scenes")
     g.set_defaults(run=run_generate)
+    k = bsub.add_parser("cull", parents=[common],
+                        help="culling runtimes per frame on one core (targets: frusta < 2 ms, "
+                             "depth buffer at 320 x 180 < 5 ms)")
+    k.add_argument("--scene", default="city",
+                   help="culling scene: city, city-dense or a glTF/GLB file (default city)")
+    k.add_argument("--frames", type=int, default=60, help="cameras on the path (default 60)")
+    k.add_argument("--repeats", type=int, default=3,
+                   help="times each frame is timed, best counts (default 3)")
+    k.add_argument("--method", default=None,
+                   help="generator of the occluders (default solid-frusta)")
+    k.set_defaults(run=run_cull)
 
 
 def run_rays(args) -> int:
@@ -117,4 +129,15 @@ def run_generate(args) -> int:
                      f"{row['triangles']:>5} {row['volume_share']:>7.3f} {peer:>6} "
                      f"{row['fill']:>6.3f} {row['inside']:<10} {row['seconds']:>7.3f}")
     emit({**r, "provenance": provenance()}, args.json, "\n".join(lines))
+    return 0
+
+
+def run_cull(args) -> int:
+    from .bench_cull import bench_cull, bench_cull_text
+
+    frames = as_positive_int(args.frames, "--frames", maximum=100_000)
+    repeats = as_positive_int(args.repeats, "--repeats", maximum=100)
+    r = bench_cull(scene=args.scene, frames=frames, repeats=repeats, seed=args.seed,
+                   method=args.method)
+    emit({**r, "provenance": provenance()}, args.json, bench_cull_text(r))
     return 0
