@@ -65,6 +65,11 @@ PLANAR_ANGLE = 1e-3
 #: steps of a 10 m building, and keeps every feature a game occluder needs.
 RDP_TOLERANCE = 2e-3
 
+#: Largest share of a planar patch's area that Ramer-Douglas-Peucker may take
+#: away; a patch that would lose more (narrower than the tolerance: a needle,
+#: a thin trim) keeps its unsimplified outline.
+RDP_MAX_AREA_LOSS = 0.1
+
 #: Grid (fraction of the diagonal) the planar union snaps to: GEOS unions of
 #: many triangles are exact only on a precision grid; 1e-7 of the diagonal is
 #: far below any feature and above float64 noise of the projection.
@@ -314,11 +319,15 @@ def _rdp_polygon(polygon, tolerance: float, min_area: float) -> list:
         return pts
 
     outer = ring(polygon.exterior.coords)
-    if outer is None:
-        return []
     holes = [h for h in (ring(r.coords) for r in polygon.interiors) if h is not None]
-    fixed = shapely.make_valid(shapely.Polygon(outer, holes))
-    return [g for g in _polygons_of(fixed) if g.area >= min_area]
+    pieces = []
+    if outer is not None:
+        fixed = shapely.make_valid(shapely.Polygon(outer, holes))
+        pieces = [g for g in _polygons_of(fixed) if g.area >= min_area]
+    if sum(g.area for g in pieces) < (1 - RDP_MAX_AREA_LOSS) * polygon.area:
+        # a patch narrower than the tolerance: kept as it is rather than lost
+        return [polygon] if polygon.area >= min_area else []
+    return pieces
 
 
 def _polygons_of(geometry) -> list:

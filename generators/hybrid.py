@@ -275,19 +275,25 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
               "mgos_resolution": mgos_resolution, "mgos_quads": mgos_quads}
     use_patch = candidates in ("combined", "patch")
     use_voxel = candidates in ("combined", "voxel")
-    origin, pitch, shape = grid_shape(mesh.bounds, voxels)
+    # the candidates are made on a centred copy of unit diagonal (merging tolerances,
+    # grid and solver are then scale-free) and scaled back before the selection
+    lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
+    centre = 0.5 * (lo + hi)
+    diagonal = float(np.linalg.norm(hi - lo))
+    unit = trimesh.Trimesh((np.asarray(mesh.vertices, dtype=np.float64) - centre) / diagonal,
+                           np.asarray(mesh.faces, dtype=np.int64), process=False)
+    origin, pitch, shape = grid_shape(unit.bounds, voxels)
     if use_voxel:
         check_memory(float(np.prod(shape)) * BYTES_PER_SAMPLE, f"voxels={voxels}")
-    diagonal = float(np.linalg.norm(np.ptp(np.asarray(mesh.vertices), axis=0)))
     info: dict = {}
-    scene = Scene(mesh)
+    scene = Scene(unit)
 
     patch_mesh = _empty()
     t0 = time.perf_counter()
     if use_patch:
-        pc = patch_candidates(mesh, scene, eps_a=eps_a, grouping=grouping,
+        pc = patch_candidates(unit, scene, eps_a=eps_a, grouping=grouping,
                               patch_faces=patch_faces, fill_holes=fill_holes,
-                              segment_length=SEGMENT_LENGTH * diagonal, seed=seed)
+                              segment_length=SEGMENT_LENGTH * 1.0, seed=seed)
         patch_mesh = pc.mesh
         info["patch"] = pc.info
     info["seconds_patch"] = time.perf_counter() - t0
@@ -296,7 +302,7 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
     t0 = time.perf_counter()
     info["seconds_enforce"] = 0.0
     if use_voxel:
-        iso, vinfo = winding_isosurface(mesh, voxels=voxels)
+        iso, vinfo = winding_isosurface(unit, voxels=voxels)
         if len(iso.faces):
             voxel_mesh = simplify_isosurface(iso, faces=voxel_faces)
             vinfo["isosurface_faces"] = len(iso.faces)
@@ -306,7 +312,10 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
                 t1 = time.perf_counter()
                 voxel_mesh, info["enforce"] = enforce_conservative(
                     voxel_mesh, iso, origin=origin, pitch=pitch, shape=shape)
+                for key in ("max_sdf_before", "max_sdf_after"):
+                    info["enforce"][key] *= diagonal  # world units
                 info["seconds_enforce"] = time.perf_counter() - t1
+        vinfo["pitch"] *= diagonal  # world units
         info["voxel"] = vinfo
     info.setdefault("seconds_voxel", time.perf_counter() - t0 - info["seconds_enforce"])
 
@@ -314,6 +323,7 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
     # drop go now, so that the metric-guided step's face indices follow ``source``
     pv = np.asarray(patch_mesh.vertices, dtype=np.float64)
     vertices = np.concatenate([pv, np.asarray(voxel_mesh.vertices, dtype=np.float64)])
+    vertices = vertices * diagonal + centre
     faces = np.concatenate([np.asarray(patch_mesh.faces, dtype=np.int64),
                             np.asarray(voxel_mesh.faces, dtype=np.int64) + len(pv)])
     source = np.repeat([0, 1], [len(patch_mesh.faces), len(voxel_mesh.faces)])

@@ -271,6 +271,24 @@ def test_generate_hybrid_respects_budget():
     assert occ.info["mgos"]["faces_after"] == occ.triangles
 
 
+@pytest.mark.parametrize("scale", [1e-30, 1e30])
+def test_generate_hybrid_scale_free(scale):
+    box = trimesh.creation.box()
+    ref = generate_hybrid(box, mgos=False, voxels=16)
+    big = box.copy()
+    big.apply_scale(scale)
+    occ = generate_hybrid(big, mgos=False, voxels=16)
+    assert occ.triangles == ref.triangles
+    assert np.allclose(occ.mesh.bounds, ref.mesh.bounds * scale, rtol=1e-9, atol=0)
+
+
+def test_generate_hybrid_keeps_patches_thinner_than_rdp_tolerance():
+    needle = trimesh.creation.box(extents=(1000, 0.001, 0.001))
+    occ = generate_hybrid(needle, mgos=False, voxels=16)
+    assert occ.info["candidates_patch"] > 0
+    assert np.isclose(occ.mesh.area, needle.area, rtol=1e-6)
+
+
 @pytest.mark.parametrize("kwargs", [
     {"budget": 0}, {"voxels": 2}, {"voxels": 10_000}, {"eps_a": 0.0}, {"eps_a": 4.0},
     {"eps_a": float("nan")}, {"grouping": "charts"}, {"candidates": "both"},
