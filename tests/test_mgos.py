@@ -233,3 +233,9 @@ def test_metric_guided_simplify_kept_indexes_the_given_faces(box_views):
     assert info["faces_before"] == 14
     assert info["kept"] == list(range(1, 13))
     np.testing.assert_allclose(out.vertices[out.faces], occ.vertices[occ.faces[1:13]])
+
+
+def test_metric_guided_simplify_memory_checked_before_casting(box_views, monkeypatch):
+    monkeypatch.setenv("VISCORE_MEMORY_FRACTION", "1e-12")
+    with pytest.raises(InputError, match="metric-guided simplification"):
+        metric_guided_simplify(_box(), _box(), reference=box_views)
