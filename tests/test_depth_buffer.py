@@ -191,3 +191,32 @@ def test_depth_buffer_scale_invariant(scale):
     lo = np.array([[-1, 3, -1], [6.0, 3, -1], [-1, -4, -1]]) * scale
     hi = np.array([[1, 4, 1], [9.0, 4, 1], [1, -3, 1]]) * scale
     assert buf.occluded(lo, hi).tolist() == [True, False, False]
+
+
+def test_depth_buffer_from_generated_solids_hidden_by_the_mesh(rng):
+    """End to end: the cow's solid-frusta occluder fed as an Occluder (its convex solids as
+    pieces); what the buffer culls is hidden by the cow itself."""
+    from viscore.generators.solid_frusta import generate_solid_frusta
+
+    from viscore import load_mesh
+
+    cow = load_mesh("cow")
+    occ = generate_solid_frusta(cow, voxels=32, solids=6)
+    scene = OccluderScene([occ])
+    assert scene.pieces == len(occ.parts["solids"])
+    lo_c, hi_c = cow.bounds
+    size = float(np.linalg.norm(hi_c - lo_c))
+    total = 0
+    for _ in range(4):
+        d = rng.normal(size=3)
+        eye = 0.5 * (lo_c + hi_c) + 1.2 * size * d / np.linalg.norm(d)
+        cam = PerspectiveCamera(eye, 0.5 * (lo_c + hi_c) - eye, fov=50, resolution=128,
+                                height=128)
+        buf = ConservativeDepthBuffer.from_occluders(scene, cam, width=64, height=64)
+        centre = 0.5 * (lo_c + hi_c) + rng.normal(size=(600, 3)) * 0.4 * size
+        half = rng.uniform(0.002, 0.03, (600, 1)) * size
+        culled = buf.occluded(centre - half, centre + half)
+        total += int(culled.sum())
+        assert _hidden_samples(Scene(cow), eye, (centre - half)[culled], (centre + half)[culled],
+                               rng, 16, camera=cam).all()
+    assert total > 0
