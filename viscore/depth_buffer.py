@@ -13,12 +13,13 @@ reported against Godot's ray-cast occlusion culler, godot issue 53288).
 How a pixel gets a depth
 ------------------------
 One ray through each pixel *corner* ((W+1) x (H+1) rays per frame, shared by
-neighbouring pixels). Occluder triangles are labelled by *convex piece*: the
-surface of a convex solid (the ``solids`` and ``boxes`` parts of an occluder),
-or a convex planar facet (coplanar adjacent triangles whose union is convex),
-or the triangle alone. A pixel holds the largest of its four corner distances
-when the four corner rays first hit the same convex piece, else nothing
-(``inf``). Why that is safe:
+neighbouring pixels; only those inside the screen rectangle of some occluder
+piece's bounding box are cast, the others miss). Occluder triangles are
+labelled by *convex piece*: the surface of a convex solid (the ``solids``
+and ``boxes`` parts of an occluder), or a convex planar facet (coplanar
+adjacent triangles whose union is convex), or the triangle alone. A pixel
+holds the largest of its four corner distances when the four corner rays
+first hit the same convex piece, else nothing (``inf``). Why that is safe:
 
 - *Planar convex piece P* (a triangle, or a convex facet): the four hit
   points lie in P; the pixel's pyramid of rays meets P's plane in the convex
