@@ -33,7 +33,10 @@ References
 
 from __future__ import annotations
 
+import argparse
 import contextlib
+import json
+import logging
 from dataclasses import asdict
 from pathlib import Path
 
@@ -43,6 +46,7 @@ from viscore import InputError, cpu_cores, load_mesh, provenance, scene_names
 from viscore._validate import as_positive_int, as_seed, check_memory
 
 from ._common import dumps, emit, parse_list, write_atomic
+from .report import CULLING_COLUMNS
 from .study import (
     JOBS_PER_CORE,
     StudyFolder,
@@ -57,8 +61,13 @@ from .study import (
     write_occluder_glbs,
 )
 
+_log = logging.getLogger(__name__)
+
 #: Pixels per side accepted by ``--res``.
 MAX_RESOLUTION = 4096
+
+#: Frames of the culling column's walk through the built-in city.
+CULLING_FRAMES = 24
 
 
 def add_parser(sub, common) -> None:
@@ -85,6 +94,11 @@ def add_parser(sub, common) -> None:
                         "(default: qem when it runs, else no paired table)")
     c.add_argument("--scheduler", default=None,
                    help="dask.distributed scheduler address: run the jobs on that cluster")
+    c.add_argument("--culling", action=argparse.BooleanOptionalAction, default=True,
+                   help="culling column: each method's occluders feed a conservative depth "
+                        "buffer along the built-in city's camera path (default on)")
+    c.add_argument("--culling-frames", type=int, default=CULLING_FRAMES,
+                   help=f"frames of that walk (default {CULLING_FRAMES})")
     c.add_argument("--out", default="viscore-study",
                    help="study folder; its parent must exist (default ./viscore-study)")
     c.set_defaults(run=run_compare)
@@ -168,6 +182,7 @@ def run_compare(args) -> int:
     jobs = _jobs(args.jobs, args.scheduler)
     workers = getattr(args, "workers", None)
     workers = None if workers is None else as_positive_int(workers, "--workers")
+    culling_frames = as_positive_int(args.culling_frames, "--culling-frames", maximum=10_000)
     out = check_study_dir(args.out)
     budgets = _budgets(args.budget, methods)
     settings = StudySettings(protocol=args.protocol, views=views, quads=quads, resolution=res,
@@ -193,12 +208,22 @@ def run_compare(args) -> int:
                    "interval, bootstrap probability of being better):\n\n"
                    + paired_markdown(paired))
         write_atomic(out / "results.md", md.encode())
+        culling = (_culling(methods, out, frames=culling_frames, seed=seed,
+                            quiet=args.quiet or args.json) if args.culling else [])
+        if culling:
+            doc["culling"] = {"scene": "city", "frames": culling_frames, "rows": culling}
+            write_atomic(out / "results.json", dumps(doc).encode())
+            md += (f"\nCulling on the built-in city ({culling_frames} frames at 640 x 360; each "
+                   "method's occluders feed a conservative depth buffer; false culls are objects "
+                   "culled yet visible in the ray-cast object-id image):\n\n"
+                   + _culling_markdown(culling))
+            write_atomic(out / "results.md", md.encode())
         images = _plots(rows, out, meshes, seed)
         write_occluder_glbs(rows, out, originals)
         from .report import write_report
 
         write_report(out, rows, paired_rows=paired, settings=asdict(settings),
-                     provenance=doc["provenance"], images=images)
+                     provenance=doc["provenance"], images=images, culling_rows=culling)
     emit(doc, args.json, md + f"\nintervals: 95% bootstrap over views; wrote {out}/results."
          "{csv,json,md}, report.html (open it in a browser), recall.png, budget.png, "
          f"silhouettes_*.png, and a .glb beside each occluder in {out}/occluders/ "
@@ -220,3 +245,43 @@ def _plots(rows: list[dict], out: Path, meshes: list[str], seed: int) -> dict[st
         images[f"Silhouettes of {Path(mesh).stem}: black original only, yellow both, "
                "blue occluder only"] = name
     return images
+
+
+def _culling(methods: list[str], out: Path, *, frames: int, seed: int,
+             quiet: bool) -> list[dict]:
+    """The culling column, one row per method, kept in ``out/culling.json``.
+
+    Computed once per (methods, frames, seed, viscore version): running the
+    study again reuses the file, as the study store reuses finished jobs.
+    """
+    from .bench_cull import culling_column
+
+    key = {"methods": methods, "frames": frames, "seed": seed,
+           "version": provenance().get("viscore")}
+    path = out / "culling.json"
+    try:
+        cached = json.loads(path.read_text())
+        if cached.get("key") == key:
+            return cached["rows"]
+    except (OSError, ValueError, AttributeError, KeyError):
+        pass
+    if not quiet:
+        _log.info("culling column: %s on the built-in city, %d frames", ", ".join(methods),
+                  frames)
+    column = culling_column(methods, frames=frames, seed=seed)
+    rows = [{"method": m, **{k: column[m][k] for k in ("culled_share", "false_culls",
+                                                       "conservative", "overhead_ms")}}
+            for m in methods]
+    write_atomic(path, dumps({"key": key, "rows": rows}).encode())
+    return rows
+
+
+def _culling_markdown(rows: list[dict]) -> str:
+    head = ("| " + " | ".join(h for _, h in CULLING_COLUMNS) + " |\n|"
+            + "---|" * len(CULLING_COLUMNS) + "\n")
+    body = []
+    for r in rows:
+        cells = [r["method"], f"{r['culled_share']:.3f}", str(r["false_culls"]),
+                 "yes" if r["conservative"] else "no", f"{r['overhead_ms']:.1f}"]
+        body.append("| " + " | ".join(cells) + " |\n")
+    return head + "".join(body)

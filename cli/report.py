@@ -63,6 +63,12 @@ PAIRED_COLUMNS = (
     ("prob_better_precision", "P(better precision)"),
 )
 
+#: Columns of the culling table (``viscore compare``'s culling column): (row key, header).
+CULLING_COLUMNS = (
+    ("method", "method"), ("culled_share", "culled share"), ("false_culls", "false culls"),
+    ("conservative", "conservative"), ("overhead_ms", "overhead ms per frame"),
+)
+
 #: glTF base colour (linear RGBA in [0, 1]) of the original: grey, translucent.
 ORIGINAL_RGBA = (0.6, 0.6, 0.6, 0.35)
 #: glTF base colour of the occluder: orange, opaque.
@@ -199,7 +205,7 @@ def write_report(out_dir: str | os.PathLike, rows: Sequence[Mapping], *,
                  paired_rows: Sequence[Mapping] = (), settings=None,
                  provenance: Mapping | None = None,
                  images: Mapping[str, str | os.PathLike] | Sequence[str | os.PathLike] | None
-                 = None) -> Path:
+                 = None, culling_rows: Sequence[Mapping] = ()) -> Path:
     """Write ``out_dir/report.html``: one self-contained page of a comparison study.
 
     Parameters
@@ -220,6 +226,9 @@ def write_report(out_dir: str | os.PathLike, rows: Sequence[Mapping], *,
         Evaluation settings (e.g. ``StudySettings``), shown as a table.
     provenance : dict, optional
         Versions and platform (``viscore.provenance()``), shown as a table.
+    culling_rows : sequence of dict, optional
+        The culling column, one row per method keyed as :data:`CULLING_COLUMNS`
+        (culled share and false culls on the built-in city). Default none.
     images : dict of caption -> path, or sequence of paths, optional
         PNG files to inline as ``data:image/png;base64`` URIs, in order;
         captions default to the file stems.
@@ -294,6 +303,14 @@ def write_report(out_dir: str | os.PathLike, rows: Sequence[Mapping], *,
             "difference, 95% paired bootstrap interval, bootstrap probability of being "
             "better.</p>",
             _table(list(paired_rows), PAIRED_COLUMNS, row_class="paired"),
+        ]
+    if culling_rows:
+        parts += [
+            '<h2 id="culling">Culling on the built-in city</h2>',
+            "<p>Each method's occluders feed a conservative depth buffer along the city's "
+            "camera path; a false cull is an object culled yet visible in the ray-cast "
+            "object-id image.</p>",
+            _table(list(culling_rows), CULLING_COLUMNS, row_class="culling"),
         ]
     if figures:
         parts.append('<h2 id="plots">Plots</h2>')

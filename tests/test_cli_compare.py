@@ -8,9 +8,17 @@ from viscore.cli.main import main
 def test_compare_writes_outputs_and_resumes(tmp_path, capsys):
     out = tmp_path / "study"
     argv = ["compare", "building-house", "--methods", "original,bbox", "--views", "4", "--quads",
-            "500", "--res", "32", "--rays", "2000", "--out", str(out), "--json"]
+            "500", "--res", "32", "--rays", "2000", "--culling-frames", "2", "--out", str(out),
+            "--json"]
     assert main(argv) == 0
     doc = json.loads(capsys.readouterr().out)
+    # the culling column: the mesh itself never culls a visible object; the bounding box,
+    # drawn for each building of the city, hides what the buildings' gaps let through
+    culling = {r["method"]: r for r in doc["culling"]["rows"]}
+    assert culling["original"]["false_culls"] == 0 and not culling["bbox"]["conservative"]
+    assert culling["bbox"]["culled_share"] > culling["original"]["culled_share"]
+    assert "false culls" in (out / "results.md").read_text()
+    cached = (out / "culling.json").stat().st_mtime_ns
     rows = {r["method"]: r for r in doc["rows"]}
     assert rows["original"]["precision"] == 1.0 and rows["original"]["recall"] == 1.0
     assert rows["bbox"]["triangles"] == 12 and rows["bbox"]["recall"] == 1.0
@@ -24,7 +32,7 @@ def test_compare_writes_outputs_and_resumes(tmp_path, capsys):
         assert (out / name).is_file()
     # the report: a row per result, every plot inline, nothing loaded from outside
     page = (out / "report.html").read_text()
-    assert page.count('<tr class="result">') == 2
+    assert page.count('<tr class="result">') == 2 and page.count('<tr class="culling">') == 2
     assert page.count("data:image/png;base64,") == 3 and "<script" not in page
     # a .glb beside each occluder: the original and the occluder, by name
     import trimesh
@@ -46,6 +54,9 @@ def test_compare_writes_outputs_and_resumes(tmp_path, capsys):
     assert before == after and len(after) == 2
     assert again["rows"] == doc["rows"]
     assert glbs[0].is_file()
+    # ... and reuses the culling column of the same methods, frames and seed
+    assert (out / "culling.json").stat().st_mtime_ns == cached
+    assert again["culling"] == doc["culling"]
 
 
 def test_compare_unknown_method_exit_2(tmp_path, capsys):
@@ -53,7 +64,7 @@ def test_compare_unknown_method_exit_2(tmp_path, capsys):
     assert "magic" in capsys.readouterr().err
 
 
-TINY = ["--views", "4", "--quads", "300", "--res", "32", "--rays", "1000"]
+TINY = ["--views", "4", "--quads", "300", "--res", "32", "--rays", "1000", "--no-culling"]
 
 
 @pytest.mark.parametrize("argv, expected", [
@@ -102,7 +113,8 @@ def test_compare_versus_defaults_to_qem_when_it_runs(tmp_path, capsys):
 def test_compare_budgets_run_budgeted_methods_once_per_budget(tmp_path, capsys):
     out = tmp_path / "study"
     assert main(["compare", "cow", "--methods", "qem,bbox", "--budget", "32,128", "--views",
-                 "4", "--quads", "300", "--res", "32", "--rays", "1000", "--out", str(out),
+                 "4", "--quads", "300", "--res", "32", "--rays", "1000", "--no-culling",
+                 "--out", str(out),
                  "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["rows"]
     assert [(r["method"], r["budget"]) for r in rows] == [("qem", 32), ("qem", 128),
@@ -167,7 +179,7 @@ def test_interrupted_study_keeps_finished_rows_and_resumes(tmp_path):
 def test_compare_paired_against_reference(tmp_path, capsys):
     assert main(["compare", "fat-torus", "--methods", "original,bbox", "--versus", "original",
                  "--views", "6", "--quads", "500", "--res", "32", "--rays", "1000",
-                 "--out", str(tmp_path), "--json"]) == 0
+                 "--no-culling", "--out", str(tmp_path), "--json"]) == 0
     paired = json.loads(capsys.readouterr().out)["paired"]
     assert len(paired) == 1 and paired[0]["method"] == "bbox"
     assert paired[0]["precision_diff"] < 0 and paired[0]["prob_better_precision"] == 0.0
@@ -185,7 +197,7 @@ def test_compare_keeps_occluders_in_float64(tmp_path, capsys):
     box.export(mesh, encoding="ascii")
     out = tmp_path / "study"
     assert main(["compare", str(mesh), "--methods", "bbox", "--views", "2", "--quads", "20",
-                 "--res", "16", "--rays", "200", "--out", str(out),
+                 "--res", "16", "--rays", "200", "--no-culling", "--out", str(out),
                  "--quiet"]) == 0
     capsys.readouterr()
     (ply,) = (out / "occluders").glob("*.ply")

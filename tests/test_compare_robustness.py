@@ -19,7 +19,7 @@ from viscore.cli.main import main
 from viscore.cli.study import TIMING_FIELDS
 
 #: Tiny evaluation settings: a job takes a fraction of a second.
-TINY = ["--views", "4", "--quads", "300", "--res", "32", "--rays", "1000"]
+TINY = ["--views", "4", "--quads", "300", "--res", "32", "--rays", "1000", "--no-culling"]
 #: Four methods, two budgets: 6 jobs (aabb-skins and qem at each budget, bbox, original).
 STUDY = ["cow", "--methods", "qem,aabb-skins,bbox,original", "--budget", "32,64", *TINY]
 JOBS = 6
