@@ -55,3 +55,17 @@ def test_coverage_image_row_zero_is_up(cube):
     cam = OrthoCamera((0, 0, 1), (0, 0, 0), 2.0, 8, up=(0, 1, 0))
     cov = coverage_image(Scene(box), cam)
     assert cov[:4].sum() > 0 and cov[4:].sum() == 0
+
+
+def test_images_of_a_non_square_camera_have_its_shape():
+    # a 1280 x 720-style camera (here 16 x 9) looking at a wall that fills the view
+    import trimesh
+
+    from viscore import PerspectiveCamera, Scene, coverage_image, depth_image
+
+    wall = trimesh.creation.box(extents=(100.0, 100.0, 1.0))
+    cam = PerspectiveCamera((0, 0, 10), (0, 0, -1), (0, 1, 0), fov=60, resolution=16, height=9)
+    depth = depth_image(Scene(wall), cam)
+    assert depth.shape == (9, 16) and coverage_image(Scene(wall), cam).all()
+    # the centre rows look straight at the wall 9.5 units away; the corners see it farther
+    assert abs(depth[4, 7] - 9.5) < 0.1 and depth[0, 0] > depth[4, 7]

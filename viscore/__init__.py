@@ -9,6 +9,8 @@ depth images; :mod:`viscore.voxels` voxelizes; samplers are seeded.
 from ._validate import InputError
 from .builtin_scenes import scene_descriptions, scene_group, scene_names, scene_path
 from .cameras import OrthoCamera, PerspectiveCamera, camera_basis, cube_cameras
+from .depth_buffer import ConservativeDepthBuffer, OccluderScene
+from .frusta import Frustum, FrustumCuller, polygon_frustum, solid_frustum
 from .images import coverage_image, depth_image
 from .mesh_io import load_mesh, validate_mesh
 from .run_provenance import provenance
@@ -21,6 +23,7 @@ from .samplers import (
     stream_seed,
 )
 from .scene import AllHits, Scene, cpu_cores, get_workers, set_workers
+from .scene_graph import SceneObjects, load_scene_objects
 from .voxels import (
     VoxelGrid,
     Voxelization,
@@ -42,7 +45,8 @@ __all__ = [
     "cube_cameras", "camera_basis", "coverage_image", "depth_image", "directions_uniform",
     "directions_fibonacci", "grid_positions", "rays_between", "stream_seed", "provenance",
     "directions_uniform_batches", "cpu_cores",
-    "scene_names", "scene_group",
+    "scene_names", "scene_group", "ConservativeDepthBuffer", "OccluderScene", "Frustum",
+    "FrustumCuller", "polygon_frustum", "solid_frustum", "SceneObjects", "load_scene_objects",
     "scene_path", "scene_descriptions", "VoxelGrid", "Voxelization", "voxel_grid",
     "surface_voxels", "outside_voxels", "inner_voxels_six_direction", "inside_voxels_parity",
     "points_inside_parity", "voxelize", "voxel_boundary_mesh",

@@ -36,8 +36,9 @@ def depth_image(scene: Scene, camera: OrthoCamera | PerspectiveCamera) -> np.nda
 
     Returns
     -------
-    depth : (R, R) float64
-        World units along the ray; ``inf`` where the ray misses. Row 0 is the
+    depth : (H, W) float64
+        ``camera.shape``: (R, R), or (height, R) for a non-square
+        :class:`PerspectiveCamera`. World units along the ray; ``inf`` where the ray misses. Row 0 is the
         top edge (towards the camera's up), column 0 the left edge.
 
     Examples
@@ -50,7 +51,7 @@ def depth_image(scene: Scene, camera: OrthoCamera | PerspectiveCamera) -> np.nda
     """
     origins, directions = camera.rays()
     t, _ = scene.first_hit(origins, directions)
-    return t.reshape(camera.resolution, camera.resolution)
+    return t.reshape(camera.shape)
 
 
 def coverage_image(scene: Scene, camera: OrthoCamera | PerspectiveCamera) -> np.ndarray:
@@ -58,7 +59,7 @@ def coverage_image(scene: Scene, camera: OrthoCamera | PerspectiveCamera) -> np.
 
     Returns
     -------
-    covered : (R, R) bool
+    covered : (H, W) bool
         True where the pixel-centre ray hits any triangle (either side).
 
     Examples
