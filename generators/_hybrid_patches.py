@@ -23,7 +23,8 @@ soup (loose parts, duplicated and intersecting faces, open boundaries):
    :mod:`viscore.generators._hybrid_holes` says the input is solid there
    (a removed decoration), and kept open otherwise (doors, windows);
 5. reduction: patches sorted by area, largest first, added until the face
-   count first exceeds ``N_P`` (600 in Table 1).
+   count first exceeds ``N_P`` (600 in Table 1). Planar patches far down that
+   order are not simplified at all (:data:`PROCESS_FACTOR`).
 
 Edges shared by three or more faces (non-manifold edges of a soup) join every
 pair of their faces, and two faces across an edge that they both run in the
@@ -81,6 +82,14 @@ SNAP = 1e-7
 #: and the metric-guided step select among the results anyway.
 CURVED_KEEP = 0.1
 
+#: Planar patches are simplified largest first (by their triangles' area) until
+#: their faces exceed this multiple of N_P; the smaller ones could not enter the
+#: reduction's selection (it keeps the largest patches up to N_P faces) unless
+#: hole filling grew them past the area of a patch ranked above, which a patch
+#: of a small raw area cannot do by much. Saves the per-patch polygon work on
+#: buildings of thousands of small panels.
+PROCESS_FACTOR = 2
+
 #: Quadric weights of the paper's appendix: a small planar weight against
 #: degenerate quadrics on coplanar neighbourhoods, a large boundary weight.
 PLANAR_QUADRIC_WEIGHT = 1e-3
@@ -127,8 +136,10 @@ class PatchCandidates:
         The patch of each face of ``mesh`` (index into the kept patches).
     info : dict
         ``planar_patches``, ``curved_patches`` (after grouping),
-        ``patches_kept``, ``faces_before_reduction``, ``holes_filled``,
-        ``holes_open``, ``grouping``.
+        ``patches_kept``, ``planar_patches_skipped`` (too small to be
+        simplified, see :data:`PROCESS_FACTOR`), ``faces_before_reduction``
+        (of the patches simplified), ``holes_filled``, ``holes_open``,
+        ``grouping``.
     """
 
     mesh: trimesh.Trimesh
@@ -494,11 +505,24 @@ def patch_candidates(mesh: trimesh.Trimesh, scene, *, eps_a: float, grouping: st
     patches: list[Patch] = []
     order = np.argsort(groups, kind="stable")
     starts = np.searchsorted(groups[order], np.arange(ng + 1))
-    for grp in np.flatnonzero(is_planar):
+    # planar patches by their triangles' area, largest first, simplified until their faces
+    # reach PROCESS_FACTOR x N_P: the reduction keeps only the largest ones anyway
+    tri = vertices[faces]
+    face_area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                                     axis=1)
+    raw_area = np.bincount(groups, weights=face_area, minlength=ng)
+    planar_groups = np.flatnonzero(is_planar)
+    planar_groups = planar_groups[np.argsort(-raw_area[planar_groups], kind="stable")]
+    made = skipped = 0
+    for k, grp in enumerate(planar_groups):
+        if made > PROCESS_FACTOR * patch_faces:
+            skipped = len(planar_groups) - k
+            break
         idx = order[starts[grp]:starts[grp + 1]]
-        patches += _planar_patch(vertices, faces[idx], scene, tree, diagonal=diagonal, rdp=rdp,
-                                 segment_length=segment_length, fill_holes=fill_holes,
-                                 rng=rng)
+        new = _planar_patch(vertices, faces[idx], scene, tree, diagonal=diagonal, rdp=rdp,
+                            segment_length=segment_length, fill_holes=fill_holes, rng=rng)
+        made += sum(len(p.faces) for p in new)
+        patches += new
     patches += _curved_patches(vertices, faces, groups, np.flatnonzero(~is_planar))
     counts = np.array([len(p.faces) for p in patches], dtype=np.int64)
     areas = np.array([p.area for p in patches])
@@ -511,6 +535,7 @@ def patch_candidates(mesh: trimesh.Trimesh, scene, *, eps_a: float, grouping: st
     info = {"grouping": grouping, "planar_patches": int(planar.max()) + 1,
             "groups": ng, "curved_patches": int((~is_planar).sum()),
             "patches": len(patches), "patches_kept": len(kept),
+            "planar_patches_skipped": int(skipped),
             "faces_before_reduction": int(counts.sum()),
             "holes_filled": int(sum(p.holes_filled for p in patches)),
             "holes_open": int(sum(p.holes_open for p in patches))}
