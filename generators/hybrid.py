@@ -30,11 +30,12 @@ final faces by their source). No face is preferred for its source.
 
 The budget. The paper's metric-guided step stops at its thresholds (its
 average, 260 faces, is what ``eps_P = eps_R = 1e-3`` reached on its data).
-Here, when the step stops above ``budget``, it is run again on its own output
-with ``eps_r`` doubled each time (same views, precision step off), until the
-occluder fits or :data:`MAX_BUDGET_ROUNDS` rounds have run; ``info`` records
-the rounds. Without the metric-guided step (``mgos=False``, the ablation of
-Fig. 11 a-d) the candidate set is returned as it is and may exceed the budget.
+Here, when the step would stop above ``budget``, its recall step goes on,
+least recall loss first, until ``budget`` faces are left (``max_faces`` of
+:func:`~viscore.generators._mgos.metric_guided_simplify`; ``info['mgos']``
+records ``removed_budget`` and ``eps_r_final``). Without the metric-guided
+step (``mgos=False``, the ablation of Fig. 11 a-d) the candidate set is
+returned as it is and may exceed the budget.
 
 Ablation switches (Fig. 11): ``candidates='voxel'`` with ``enforce`` False or
 True (a, b), ``'patch'`` (c), ``'combined'`` (d), each with ``mgos`` (e: patch
@@ -101,10 +102,6 @@ VOXEL_FACES = 60
 
 #: Largest N_v accepted (the memory check refuses most grids below it).
 MAX_VOXELS = 512
-
-#: Runs of the metric-guided step, eps_r doubled each time, to reach the budget.
-MAX_BUDGET_ROUNDS = 8
-
 
 def _check_flag(value: object, name: str) -> bool:
     if not isinstance(value, (bool, np.bool_)):
@@ -196,10 +193,10 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
     mgos_spacing : float, optional
         View spacing of the metric-guided step's volume-protocol views, as a
         fraction of the bounding-box diagonal in (0, 1]. Default None: that
-        step's own default (8%).
+        step's own default (12%).
     mgos_resolution, mgos_quads : int, optional
         Pixels per frustum side and quads per frustum of those views. Default
-        None: the step's own defaults (64 and 1,000).
+        None: the step's own defaults (32 and 1,000).
 
     Returns
     -------
@@ -218,7 +215,6 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
         - ``patch``, ``voxel``, ``enforce``, ``mgos``: each stage's own
           figures (the metric-guided step's precision and recall are on its
           own views; judge the occluder on others);
-        - ``budget_rounds``: extra metric-guided runs made to meet ``budget``.
 
     Raises
     ------
@@ -335,9 +331,8 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
     combined.remove_unreferenced_vertices()
 
     t0 = time.perf_counter()
-    info["budget_rounds"] = 0
     if mgos and len(combined.faces):
-        result, source, info["mgos"], info["budget_rounds"] = _select(
+        result, source, info["mgos"] = _select(
             mesh, combined, source, budget=budget, eps_p=eps_p, eps_r=eps_r, seed=seed,
             views=(mgos_spacing, mgos_resolution, mgos_quads))
     else:
@@ -359,7 +354,7 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
 
 def _select(original: trimesh.Trimesh, combined: trimesh.Trimesh, source: np.ndarray, *,
             budget: int | None, eps_p: float, eps_r: float, seed: int, views: tuple):
-    """The metric-guided step, repeated with doubled ``eps_r`` until ``budget`` is met."""
+    """The metric-guided step on the volume protocol, down to ``budget`` faces."""
     from viscore.metrics import ReferenceViews
 
     from ._mgos import (
@@ -377,23 +372,7 @@ def _select(original: trimesh.Trimesh, combined: trimesh.Trimesh, source: np.nda
                                resolution=MGOS_RESOLUTION if resolution is None else resolution,
                                seed=seed)
     current, info = metric_guided_simplify(original, combined, reference=reference,
-                                           eps_p=eps_p, eps_r=eps_r, seed=seed)
+                                           eps_p=eps_p, eps_r=eps_r, seed=seed,
+                                           max_faces=budget)
     source = source[np.asarray(info["kept"], dtype=np.int64)]
-    summary = {k: v for k, v in info.items() if k != "kept"}
-    rounds = 0
-    threshold = eps_r
-    while budget is not None and len(current.faces) > budget and rounds < MAX_BUDGET_ROUNDS:
-        rounds += 1
-        threshold = min(1.0, 2 * threshold)
-        current, more = metric_guided_simplify(original, current, reference=reference,
-                                               eps_p=1.0, eps_r=threshold, seed=seed)
-        source = source[np.asarray(more["kept"], dtype=np.int64)]
-        summary |= {"faces_after": more["faces_after"],
-                    "removed_recall": summary["removed_recall"] + more["removed_recall"],
-                    "precision_after": more["precision_after"],
-                    "recall_after": more["recall_after"],
-                    "precision_after_ci": more["precision_after_ci"],
-                    "recall_after_ci": more["recall_after_ci"],
-                    "eps_r_final": threshold,
-                    "seconds": summary["seconds"] + more["seconds"]}
-    return current, source, summary, rounds
+    return current, source, {k: v for k, v in info.items() if k != "kept"}
