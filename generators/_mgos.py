@@ -34,12 +34,13 @@ overlap closer than the all-hits step (coplanar duplicates), the ray lists
 miss one of them; pixels about to lose their last face are therefore
 re-cast against the remaining faces before each removal, so the tallies
 stay those of a fresh :meth:`~viscore.metrics.ReferenceViews.score`.
-Exact duplicate faces (the same three points) share one ray record. A ray
-through an edge shared by two faces lists one of them, so the kept loss of
-either can be overestimated there, never underestimated (of the pixels
-re-cast on the built-in buildings, an unlisted face covered about 1% for
-``qem`` occluders and 13-15% for hybrid candidate sets, whose patch faces
-overlap).
+Exact duplicate faces (the same three points) share one ray record, and a
+hit also lists the faces coplanar with the hit face that clearly contain the
+hit point (overlapping patches). A ray through an edge shared by two faces
+lists one of them, so the kept loss of either can be overestimated there,
+never underestimated (of the pixels re-cast on the built-in buildings, an
+unlisted face covered under 0.6%; 8-15% for hybrid candidate sets before
+coplanar faces were listed).
 
 Skipping rules (sec. 3.3, "Sample Skipping"):
 
@@ -90,6 +91,18 @@ EPS_R = 1e-3
 MGOS_SPACING_FRACTION = 0.12
 MGOS_RESOLUTION = 32
 MGOS_QUADS = 1000
+
+#: Coplanar partners (faces overlapping in one plane, which all-hits lists one of):
+#: plane distance as a fraction of the diagonal (the all-hits step, under which two
+#: surfaces count as one), normals parallel within 1 - cos, faces per chunk of the
+#: pair test; a partner is added to a hit clearly inside it (edge distance of 1e-5
+#: of the diagonal, ~100x float32's error) on a ray not grazing it (|cos| > 0.2,
+#: so that its own intersection lies within that margin of the hit).
+_COPLANAR_RELATIVE = 1e-6
+_PARALLEL_TOLERANCE = 1e-9
+_PARTNER_CHUNK = 256
+_INTERIOR_RELATIVE = 1e-5
+_GRAZING_COSINE = 0.2
 
 #: Rays per all-hits batch.
 _RAYS_PER_BATCH = 1 << 19
@@ -380,6 +393,15 @@ class _State:
         ref = self.reference
         scene = Scene(trimesh.Trimesh(self.vertices, self.faces[reps], process=False))
         self._scene_reps = reps
+        self._margin = _INTERIOR_RELATIVE * scene.diagonal
+        self._partners = _coplanar_partners(self.vertices, self.faces, self.normals, reps,
+                                            _COPLANAR_RELATIVE * scene.diagonal, self._margin)
+        # inward unit normals of each face's edges in its plane, and their offsets
+        tri = self.vertices[self.faces]
+        edges = np.roll(tri, -1, axis=1) - tri
+        planes = np.cross(self.normals[:, None, :], edges)
+        planes /= np.maximum(np.linalg.norm(planes, axis=2, keepdims=True), 1e-300)
+        self._edge_planes = planes, np.einsum("mkd,mkd->mk", planes, tri)
         live, maps, a_loc_parts, hit_pix, hit_face, hit_back = [], [], [], [], [], []
         rays_cast = 0
         n_active = 0
@@ -399,6 +421,7 @@ class _State:
             rays_cast += len(origins)
             face = reps[hits.triangle]
             ray = hits.ray
+            ray, face = self._with_partners(origins, dirs, ray, hits.t, face)
             key = np.sort(ray * len(self.faces) + face)  # one record per (pixel, face)
             key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key
             ray, face = key // len(self.faces), key % len(self.faces)
@@ -493,6 +516,30 @@ class _State:
         self.recast = self.refound = 0
         self.loss = np.zeros(m)
         self.relief = np.zeros(m)
+
+    def _with_partners(self, origins, dirs, ray, t, face):
+        """Add, to each hit, the faces coplanar with the hit face that clearly contain it.
+
+        All-hits steps past a hit, so of two overlapping coplanar faces a ray
+        lists one. A partner is added where the hit point lies in its plane
+        (within the all-hits step), inside it by a margin far above float32's
+        error, and the ray is not grazing: there Embree hits the partner
+        alone too, so the lists stay true hits.
+        """
+        ptr, idx = self._partners
+        count = ptr[face + 1] - ptr[face]
+        if not count.any():
+            return ray, face
+        h = np.repeat(np.arange(len(face)), count)
+        start = np.repeat(ptr[face], count)
+        j = idx[start + np.arange(len(h)) - np.repeat(np.cumsum(count) - count, count)]
+        d = dirs[ray[h]]
+        p = origins[ray[h]] + t[h, None] * d
+        inside = np.abs(np.einsum("ij,ij->i", d, self.normals[j])) > _GRAZING_COSINE
+        planes, offsets = self._edge_planes
+        for k in range(3):  # distance inside each edge, in the face's plane
+            inside &= np.einsum("ij,ij->i", planes[j, k], p) - offsets[j, k] >= self._margin
+        return np.concatenate([ray, ray[h[inside]]]), np.concatenate([face, j[inside]])
 
     # ------------------------------------------------------------------ figures
     def per_view(self) -> dict:
@@ -624,6 +671,67 @@ class _State:
             origins[sel] = np.broadcast_to(o, d.shape)[loc]
             dirs[sel] = d[loc]
         return origins, dirs
+
+
+def _overlap_2d(a: np.ndarray, b: np.ndarray, n: np.ndarray, margin: float) -> np.ndarray:
+    """``(P,) bool``: coplanar triangles ``a``, ``b`` (P, 3, 3) overlap by more than ``margin``.
+
+    Separating axes of the two triangles projected on the plane of normal
+    ``n``: the six edge normals; edge-sharing neighbours do not overlap.
+    """
+    if len(a) == 0:
+        return np.zeros(0, bool)
+    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    u = np.cross(n, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(n, u)
+    pa = np.stack([np.einsum("pkd,pd->pk", a, u), np.einsum("pkd,pd->pk", a, v)], axis=2)
+    pb = np.stack([np.einsum("pkd,pd->pk", b, u), np.einsum("pkd,pd->pk", b, v)], axis=2)
+    overlap = np.ones(len(a), bool)
+    for tri in (pa, pb):
+        for k in range(3):
+            e = tri[:, (k + 1) % 3] - tri[:, k]
+            axis = np.stack([-e[:, 1], e[:, 0]], axis=1)
+            axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-300)
+            sa = np.einsum("pkd,pd->pk", pa, axis)
+            sb = np.einsum("pkd,pd->pk", pb, axis)
+            overlap &= (sa.max(axis=1) > sb.min(axis=1) + margin) & (
+                sb.max(axis=1) > sa.min(axis=1) + margin)
+    return overlap
+
+
+def _coplanar_partners(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray,
+                       reps: np.ndarray, tol: float, margin: float
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """CSR (``ptr`` (m + 1,), ``idx``) of the faces of ``reps`` overlapping in each one's plane.
+
+    Two faces are partners when their normals are parallel (either way), the
+    corners of each lie within ``tol`` (world units) of the other's plane and
+    they overlap by more than ``margin`` (world units) in that plane.
+    """
+    m = len(faces)
+    tri = vertices[faces[reps]]
+    n = normals[reps]
+    offset = np.einsum("ij,ij->i", n, tri[:, 0])
+    lo, hi = tri.min(axis=1) - tol, tri.max(axis=1) + tol
+    rows, cols = [], []
+    for c0 in range(0, len(reps), _PARTNER_CHUNK):
+        sl = slice(c0, c0 + _PARTNER_CHUNK)
+        par = np.abs(n[sl] @ n.T) > 1 - _PARALLEL_TOLERANCE
+        near = (np.abs(np.einsum("id,jkd->ijk", n[sl], tri) - offset[sl, None, None])
+                <= tol).all(axis=2)
+        box = ((lo[sl, None] <= hi[None]) & (hi[sl, None] >= lo[None])).all(axis=2)
+        i, j = np.nonzero(par & near & box)
+        keep = (i + c0) != j
+        i, j = i[keep] + c0, j[keep]
+        keep = _overlap_2d(tri[i], tri[j], n[i], margin)
+        rows.append(reps[i[keep]])
+        cols.append(reps[j[keep]])
+    rows = np.concatenate(rows) if rows else np.zeros(0, np.int64)
+    cols = np.concatenate(cols) if cols else np.zeros(0, np.int64)
+    order = np.argsort(rows, kind="stable")
+    ptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=m))]).astype(np.int64)
+    return ptr, cols[order].astype(np.int64)
 
 
 def _sorted_corners(tri: np.ndarray) -> np.ndarray:

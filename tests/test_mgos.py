@@ -239,3 +239,21 @@ def test_metric_guided_simplify_memory_checked_before_casting(box_views, monkeyp
     monkeypatch.setenv("VISCORE_MEMORY_FRACTION", "1e-12")
     with pytest.raises(InputError, match="metric-guided simplification"):
         metric_guided_simplify(_box(), _box(), reference=box_views)
+
+
+def test_state_lists_coplanar_overlapping_faces():
+    # a small triangle lying in the sheet: all-hits lists one of the two per ray; the
+    # coplanar partner rule adds the other, so no pixel needs a re-cast when the sheet goes
+    sheet = _sheet(0.0, 1.0)
+    small = trimesh.Trimesh([[0, -0.5, -0.4], [0, 0.45, -0.5], [0, 0.1, 0.5]], [[0, 1, 2]])
+    occ = _join(sheet, small)
+    views = ReferenceViews(sheet, protocol="volume", **SMALL)
+    state = _State(views, occ, skip_unseen=True, skip_backfacing=False)
+    state.refresh_losses()
+    assert state.loss[2] == 0.0  # the sheet covers all its pixels
+    state.remove(0)
+    state.remove(1)
+    assert state.refound == 0
+    fresh = views.score(small)
+    np.testing.assert_array_equal(state.nt, fresh.per_view["nt"])
+    np.testing.assert_array_equal(state.nf, fresh.per_view["nf"])
