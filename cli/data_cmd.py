@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from viscore import InputError, load_mesh, scene_descriptions
 
-from ._common import check_mesh_path, emit, write_mesh
+from ._common import check_mesh_path, emit, write_atomic, write_mesh
 
 
 def add_parser(sub, common) -> None:
@@ -20,14 +20,32 @@ def add_parser(sub, common) -> None:
 
 
 def run_list(args) -> int:
+    from viscore.scene_graph import culling_scene_descriptions
+
     scenes = scene_descriptions()
-    width = max(map(len, scenes))
-    emit({"scenes": [{"name": k, "description": v} for k, v in scenes.items()]}, args.json,
-         "\n".join(f"{k:<{width}}  {v}" for k, v in scenes.items()))
+    culling = culling_scene_descriptions()
+    width = max(map(len, [*scenes, *culling]))
+    text = ("\n".join(f"{k:<{width}}  {v}" for k, v in scenes.items())
+            + "\n\nculling scenes (viscore cull; glTF, every mesh node an object):\n"
+            + "\n".join(f"{k:<{width}}  {v}" for k, v in culling.items()))
+    emit({"scenes": [{"name": k, "description": v} for k, v in scenes.items()],
+          "culling_scenes": [{"name": k, "description": v} for k, v in culling.items()]},
+         args.json, text)
     return 0
 
 
 def run_export(args) -> int:
+    from viscore.scene_graph import culling_scene_names, culling_scene_path
+
+    if args.name in culling_scene_names():  # a glTF scene of objects: the file as shipped
+        if check_mesh_path(args.output) != "glb":
+            raise InputError(f"{args.output}: {args.name} is a glTF scene of objects; "
+                             "export it to a .glb file")
+        data = culling_scene_path(args.name).read_bytes()
+        write_atomic(args.output, data)
+        emit({"name": args.name, "output": args.output, "bytes": len(data)}, args.json,
+             f"wrote {args.output} ({len(data):,} bytes)")
+        return 0
     if args.name not in scene_descriptions():
         raise InputError(f"{args.name}: not a built-in scene (see 'viscore data list')")
     check_mesh_path(args.output)

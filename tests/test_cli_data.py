@@ -9,6 +9,17 @@ def test_data_list_json_names_builtin_scenes(capsys):
     doc = json.loads(capsys.readouterr().out)
     names = [s["name"] for s in doc["scenes"]]
     assert {"fat-torus", "sponge", "bunny"} <= set(names)
+    assert [s["name"] for s in doc["culling_scenes"]] == ["city", "city-dense"]
+
+
+def test_data_export_copies_a_culling_scene_as_glb(tmp_path, capsys):
+    from viscore.scene_graph import load_scene_objects
+
+    out = tmp_path / "city.glb"
+    assert main(["data", "export", "city", "-o", str(out)]) == 0
+    assert len(load_scene_objects(out).names) == len(load_scene_objects("city").names) >= 1000
+    assert main(["data", "export", "city", "-o", str(tmp_path / "city.ply")]) == 2
+    assert not (tmp_path / "city.ply").exists()
 
 
 def test_data_export_writes_loadable_mesh(tmp_path, capsys):
