@@ -269,3 +269,17 @@ def test_conservative_million_rays_on_watertight_builtins(name):
     for domain in ("orbit", "volume"):
         rep = check_conservative(mesh, occ.mesh, rays=1_000_000, domain=domain, seed=17)
         assert rep.violations == 0, rep.summary()
+
+
+def test_ablation_functions_return_data_and_write_png(tmp_path):
+    from viscore.cli.bench_planar import measure_ablation, resolution_ablation
+
+    res = resolution_ablation("fat-torus", voxels=(8, 12), budget=8, views=4,
+                              path=tmp_path / "fig9.png")
+    assert [r["voxels"] for r in res["rows"]] == [8, 12]
+    assert all(0 <= r["recall"] <= 1 and r["triangles"] <= 8 for r in res["rows"])
+    assert (tmp_path / "fig9.png").stat().st_size > 0
+    ab = measure_ablation(("fat-torus",), budget=8, views=4, path=tmp_path / "fig11.png")
+    row = ab["meshes"]["fat-torus"]
+    assert len(row["om"]["per_view_recall"]) == len(row["area"]["per_view_recall"]) == 4
+    assert (tmp_path / "fig11.png").stat().st_size > 0
