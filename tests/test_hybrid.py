@@ -271,6 +271,15 @@ def test_generate_hybrid_respects_budget():
     assert occ.info["mgos"]["faces_after"] == occ.triangles
 
 
+def test_generate_hybrid_xatlas_grouping_covers_the_same_planes():
+    house = _panel_house()
+    ref = generate_hybrid(house, candidates="patch", mgos=False)
+    occ = generate_hybrid(house, candidates="patch", mgos=False, grouping="xatlas")
+    assert occ.info["patch"]["grouping"] == "xatlas"
+    assert occ.info["patch"]["groups"] >= ref.info["patch"]["planar_patches"] - 1
+    assert np.isclose(occ.mesh.area, ref.mesh.area, rtol=1e-6)
+
+
 @pytest.mark.parametrize("scale", [1e-30, 1e30])
 def test_generate_hybrid_scale_free(scale):
     box = trimesh.creation.box()
