@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from viscore import provenance
+from viscore import InputError, provenance
 from viscore._validate import as_positive_int
 
 from ._common import emit, parse_list
@@ -47,7 +47,11 @@ def add_parser(sub, common) -> None:
                    help="rays of the same-run bench rays reference (default 500000)")
     e.set_defaults(run=run_evaluate)
     g = bsub.add_parser("generate", parents=[common], help="generator speed and coverage")
-    g.add_argument("method", choices=["aabb-skins"])
+    g.add_argument("method", choices=["aabb-skins", "planar-sections"])
+    g.add_argument("--ablation", default=None, metavar="DIR",
+                   help="planar-sections: also run the ablations (occlusion measure vs "
+                        "surface area, Silvennoinen et al. Fig. 11; voxel resolution, Fig. 9) "
+                        "and write their PNGs into this existing folder")
     g.add_argument("--models", default=None, metavar="DIR",
                    help=f"folder of extra benchmark meshes (spot.obj, fandisk.obj, ...); default "
                    f"${MODELS_ENV}, else only the built-in scenes")
@@ -114,6 +118,10 @@ def run_evaluate(args) -> int:
 
 
 def run_generate(args) -> int:
+    if args.method == "planar-sections":
+        return _run_generate_planar(args)
+    if args.ablation is not None:
+        raise InputError("--ablation: only for planar-sections")
     folder = models_folder(args.models)  # a folder named but missing: InputError, exit 2
     if folder is None and not args.quiet:
         print(f"viscore: no --models and no ${MODELS_ENV}: benchmarking the built-in scenes "
@@ -140,4 +148,55 @@ def run_cull(args) -> int:
     r = bench_cull(scene=args.scene, frames=frames, repeats=repeats, seed=args.seed,
                    method=args.method)
     emit({**r, "provenance": provenance()}, args.json, bench_cull_text(r))
+    return 0
+
+
+def _run_generate_planar(args) -> int:
+    from pathlib import Path
+
+    from .bench_planar import (
+        bench_generate_planar_sections,
+        measure_ablation,
+        resolution_ablation,
+    )
+
+    folder = models_folder(args.models)
+    ablation = None
+    if args.ablation is not None:
+        ablation = Path(args.ablation)
+        if not ablation.is_dir():
+            raise InputError(f"--ablation {args.ablation}: not an existing folder")
+    r = bench_generate_planar_sections(folder, seed=args.seed)
+    b = r["bunny"]
+    p = b["paper"]
+    lines = [f"planar-sections, bunny at {p['budget']} triangles, {p['voxels']}^3 voxels, "
+             f"{r['views']} orbit views: {b['seconds']:.2f} s wall (target < 10 s), "
+             f"{b['triangles']} triangles, precision {b['precision']:.4f} (target >= 0.995), "
+             f"recall {b['recall']:.4f} (target >= 0.835; paper P {p['precision']} "
+             f"R {p['recall']})",
+             f"{'mesh':<20} {'planar tris':>11} {'P':>7} {'R':>7} {'godot tris':>10} "
+             f"{'P':>7} {'R':>7} {'qem R':>7}"]
+    for row in r["scenes"]:
+        ps, gd, qm = row["planar_sections"], row["godot"], row["qem"]
+        lines.append(f"{row['mesh']:<20} {ps['triangles']:>11} {ps['precision']:>7.4f} "
+                     f"{ps['recall']:>7.4f} {gd['triangles']:>10} {gd['precision']:>7.4f} "
+                     f"{gd['recall']:>7.4f} {qm['recall']:>7.4f}")
+    if "hairball_16" in r:
+        h = r["hairball_16"]
+        lines.append(f"hairball at 16 triangles: {h['triangles']} triangles, "
+                     f"precision {h['precision']:.4f}, recall {h['recall']:.4f}")
+    if ablation is not None:
+        r["measure_ablation"] = measure_ablation(seed=args.seed,
+                                                 path=ablation / "planar_measure.png")
+        r["resolution_ablation"] = resolution_ablation(seed=args.seed,
+                                                       path=ablation / "planar_voxels.png")
+        lines.append("measure ablation (recall, OM vs area): " + ", ".join(
+            f"{m} {v['om']['recall']:.3f} vs {v['area']['recall']:.3f}"
+            for m, v in r["measure_ablation"]["meshes"].items()))
+        lines.append("voxel resolution (voxels: P/R): " + ", ".join(
+            f"{row['voxels']}: {row['precision']:.3f}/{row['recall']:.3f}"
+            for row in r["resolution_ablation"]["rows"]))
+        lines.append(f"wrote {ablation / 'planar_measure.png'} and "
+                     f"{ablation / 'planar_voxels.png'}")
+    emit({**r, "provenance": provenance()}, args.json, "\n".join(lines))
     return 0

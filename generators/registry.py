@@ -356,7 +356,8 @@ REGISTRY: dict[str, GeneratorSpec] = {
                                 "occluder hierarchy over the mesh's parts, with a tree cut per "
                                 "camera (sec. 5); writes the tree beside the output"),
                 GeneratorOption("dilate", int, 0,
-                                "dilation steps of the voxel solid (sec. 5's gluing step)", low=0),
+                                "dilation steps of the voxel solid (sec. 5's gluing step)", low=0,
+                                high=8),
             ),
             min_budget=1),
         GeneratorSpec(
