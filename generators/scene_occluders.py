@@ -262,6 +262,24 @@ def frusta_method() -> str:
     return "solid-frusta" if "solid-frusta" in REGISTRY else "aabb-skins"
 
 
+def _guaranteed(occluder: Occluder, method: str) -> bool:
+    """Whether one occluder carries the conservativeness guarantee.
+
+    The generator's own word when it gives one (``info["conservative_guaranteed"]``:
+    aabb-skins, solid-frusta and planar-sections say False for an open or
+    inconsistently oriented mesh, where nothing is guaranteed); otherwise the
+    registry's flag, which promises conservativeness on closed meshes only, so
+    the occluder's own mesh must be closed and consistently oriented too.
+    """
+    said = occluder.info.get("conservative_guaranteed")
+    if said is not None:
+        return bool(said)
+    if not REGISTRY[method].conservative:
+        return False
+    mesh = occluder.mesh
+    return bool(len(mesh.faces)) and mesh.is_watertight and mesh.is_winding_consistent
+
+
 def _solids(occluders: Sequence[Occluder]) -> list[tuple[np.ndarray, np.ndarray]]:
     solids = []
     for occ in occluders:
@@ -353,8 +371,13 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
         (``cut_hierarchy`` with the camera's horizontal field of view and
         width in pixels); the cut's occluder scenes are cached by cut.
     info : dict
-        Per runtime: the source method, occluder count, and whether its
-        occluders are conservative (the registry flag).
+        Per runtime: the source method, occluder count, ``conservative``
+        (True only when every occluder it uses carries the guarantee: the
+        generator's ``info["conservative_guaranteed"]`` when it reports one,
+        for example False for aabb-skins or solid-frusta on an open mesh;
+        else the registry flag and a closed, consistently oriented occluder
+        mesh) and ``not_guaranteed``, the names of the objects whose occluders
+        lack it.
 
     Raises
     ------
@@ -394,20 +417,22 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
     info: dict[str, dict] = {"none": {"method": None, "occluders": 0, "conservative": True}}
     if frusta:
         solids = _solids(occluders(source).values())
-        conservative = REGISTRY[source].conservative
+        unsure = [i for i, o in occluders(source).items() if not _guaranteed(o, source)]
+        conservative = not unsure
         for mode in ("planar", "solid"):
             name = f"{mode}-frusta"
             runtimes[name] = frusta_runtime(solids, mode=mode, active=active, cap=cap,
                                             rank=rank, conservative=conservative)
             info[name] = {"method": source, "occluders": runtimes[name].occluders,
                           "solids": len(solids), "conservative": conservative,
-                          "active": active}
+                          "not_guaranteed": _unsure_names(objects, unsure), "active": active}
             if mode == "solid":
                 info[name].update(cap=cap, rank=rank)
     for m in methods:
         occ = list(occluders(m).values())
         name = f"depth-buffer:{m}"
-        conservative = REGISTRY[m].conservative
+        unsure = [i for i, o in occluders(m).items() if not _guaranteed(o, m)]
+        conservative = not unsure  # no occluder: it culls nothing
         if not occ:
             _log.warning("%s made no occluder for the %d objects: %s culls nothing", m,
                          len(indices), name)
@@ -420,5 +445,12 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
             runtimes[name] = depth_buffer_runtime(occ, reduction=reduction,
                                                   conservative=conservative)
         info[name] = {"method": m, "occluders": len(occ), "conservative": conservative,
+                      "not_guaranteed": _unsure_names(objects, unsure),
                       "hierarchy": any("hierarchy" in o.parts for o in occ)}
     return runtimes, info
+
+
+def _unsure_names(objects: SceneObjects, indices: Sequence[int]) -> list[str]:
+    """Names of the objects whose occluders lack the guarantee (-1: a scene's hierarchy)."""
+    return [objects.names[i] if i >= 0 else "(hierarchy over the occluder objects)"
+            for i in indices]

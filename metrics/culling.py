@@ -91,7 +91,11 @@ EYE_HEIGHT = 1.7
 _BYTES_PER_PIXEL = 200
 
 #: Free-space map of :func:`camera_path`: cells along the longest horizontal side.
-_GRID_CELLS = 256
+_GRID_CELLS = 512
+
+#: Half-window, in cells of the free-space map, over which the walking direction
+#: of the street-level cameras is smoothed.
+_TANGENT_CELLS = 12.0
 
 #: Horizontal clearance, in cells of the free-space map, kept between the
 #: street-level cameras and anything that reaches eye height.
@@ -248,16 +252,14 @@ def _horizontal_basis(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, e2
 
 
-def _free_space(objects: SceneObjects, up: np.ndarray, eye_height: float):
-    """Heights and free cells of the scene seen from above on a horizontal grid.
+def _height_map(objects: SceneObjects, up: np.ndarray):
+    """Top heights of the scene seen from above on a horizontal grid, and the ground level.
 
-    Returns the grid frame (basis, origin, cell size, shape), the ground level
-    along ``up``, the free mask (nothing in the column reaches within a
-    tenth of ``eye_height`` below the eye) and the clearance (cells) of
-    each free cell to the nearest blocked one.
+    Returns the grid frame (basis, origin, cell size, shape), the height along
+    ``up`` of the first hit of one ray cast down through each cell centre (the
+    scene's lowest point where the ray misses), and the ground level: the 5th
+    percentile of those heights.
     """
-    from scipy import ndimage
-
     e1, e2 = _horizontal_basis(up)
     corners = np.array([[x, y, z] for x in objects.bounds[:, 0] for y in objects.bounds[:, 1]
                         for z in objects.bounds[:, 2]])
@@ -273,14 +275,75 @@ def _free_space(objects: SceneObjects, up: np.ndarray, eye_height: float):
     origins = aa.reshape(-1, 1) * e1 + bb.reshape(-1, 1) * e2 + top * up
     scene, _ = objects.combined
     dist, _ = scene.first_hit(origins, np.broadcast_to(-up, origins.shape))
-    height = np.where(np.isfinite(dist), top - dist, -np.inf).reshape(na, nb)
-    hit = np.isfinite(height)
-    ground = float(np.percentile(height[hit], 5)) if hit.any() else float(h.min())
-    height = np.where(hit, height, ground)
-    blocked = height > ground + _HEAD_ROOM * eye_height
+    # a miss is the scene's lowest level: nothing stands there (a scene without a
+    # ground plane has its ground where its objects stand, not on their tops)
+    height = np.where(np.isfinite(dist), top - dist, h.min()).reshape(na, nb)
+    ground = float(np.percentile(height, 5))
+    return (e1, e2, a.min(), b.min(), cell, (na, nb)), height, ground
+
+
+def _edge_marks(objects: SceneObjects, up: np.ndarray, frame, level: float) -> np.ndarray:
+    """Cells of the map holding a point of an edge higher than ``level`` along ``up``.
+
+    One ray per cell centre misses things thinner than a cell (a pole, a
+    fence, a thin wall between two centres); every triangle edge of the
+    objects that reach above ``level`` is sampled at a quarter of a cell and
+    the cells of its samples above ``level`` are marked. Returns the
+    ``(na, nb)`` bool mask.
+    """
+    e1, e2, a0, b0, cell, shape = frame
+    marks = np.zeros(shape, dtype=bool)
+    corners = np.stack([objects.lower, objects.upper], axis=1)  # (n, 2, 3)
+    reach = (np.where(up >= 0, corners[:, 1], corners[:, 0]) @ up)
+    tall = np.flatnonzero(reach > level)
+    step = cell / 4
+    budget = 4_000_000  # samples per batch
+    for mesh_id in np.unique(objects.mesh_ids[tall]):
+        mesh = objects.meshes[mesh_id]
+        edges = np.asarray(mesh.edges_unique, dtype=np.int64)
+        v = np.asarray(mesh.vertices, dtype=np.float64)
+        inst = tall[objects.mesh_ids[tall] == mesh_id]
+        per = max(1, budget // max(1, 4 * len(edges)))
+        for k in range(0, len(inst), per):
+            mats = objects.transforms[inst[k:k + per]]
+            w = (np.einsum("kij,nj->kni", mats[:, :3, :3], v) + mats[:, None, :3, 3])
+            p0 = w[:, edges[:, 0]].reshape(-1, 3)
+            p1 = w[:, edges[:, 1]].reshape(-1, 3)
+            high = np.maximum(p0 @ up, p1 @ up) > level
+            p0, p1 = p0[high], p1[high]
+            d = p1 - p0
+            flat = d - np.outer(d @ up, up)
+            count = np.ceil(np.linalg.norm(flat, axis=1) / step).astype(np.int64) + 1
+            for lo in range(0, len(count), max(1, budget // 8)):
+                c = count[lo:lo + budget // 8]
+                which = np.repeat(np.arange(len(c)), c)
+                first = np.concatenate([[0], np.cumsum(c)[:-1]])
+                t = (np.arange(len(which)) - first[which]) / np.maximum(c[which] - 1, 1)
+                pts = p0[lo:][which] + t[:, None] * d[lo:][which]
+                pts = pts[pts @ up > level]
+                ia = np.clip(((pts @ e1 - a0) / cell).astype(np.int64), 0, shape[0] - 1)
+                ib = np.clip(((pts @ e2 - b0) / cell).astype(np.int64), 0, shape[1] - 1)
+                marks[ia, ib] = True
+    return marks
+
+
+def _free_space(objects: SceneObjects, up: np.ndarray, frame, height: np.ndarray,
+                ground: float, eye_height: float):
+    """Free cells of the map at street level, and their clearance in cells.
+
+    A cell is free when nothing in its column rises above ``_HEAD_ROOM`` x
+    ``eye_height`` over the ground: neither the top surface found by the
+    cell's centre ray nor any edge sample (:func:`_edge_marks`). The
+    clearance of a free cell is its distance in cells to the nearest blocked
+    one (beyond the grid counts as blocked).
+    """
+    from scipy import ndimage
+
+    level = ground + _HEAD_ROOM * eye_height
+    blocked = (height > level) | _edge_marks(objects, up, frame, level)
     # beyond the grid counts as blocked: the scene's rim is no wide open place
     clearance = ndimage.distance_transform_edt(np.pad(~blocked, 1))[1:-1, 1:-1]
-    return (e1, e2, a.min(), b.min(), cell, (na, nb)), ground, ~blocked, clearance, height
+    return ~blocked, clearance
 
 
 def _route(free: np.ndarray, clearance: np.ndarray, tall: np.ndarray,
@@ -345,8 +408,9 @@ def _resample(polyline: np.ndarray, count: int, start: float = 0.0, stop: float 
         return np.repeat(polyline[:1], count, 0), np.tile([1.0, 0.0], (count, 1))
     t = np.linspace(start, stop, count, endpoint=count == 1) * total
     pts = np.stack([np.interp(t, s, polyline[:, k]) for k in (0, 1)], axis=1)
-    ahead = np.stack([np.interp(np.minimum(t + 6.0, total), s, polyline[:, k]) for k in (0, 1)], 1)
-    behind = np.stack([np.interp(np.maximum(t - 6.0, 0), s, polyline[:, k]) for k in (0, 1)], 1)
+    w = _TANGENT_CELLS
+    ahead = np.stack([np.interp(np.minimum(t + w, total), s, polyline[:, k]) for k in (0, 1)], 1)
+    behind = np.stack([np.interp(np.maximum(t - w, 0), s, polyline[:, k]) for k in (0, 1)], 1)
     tangent = ahead - behind
     norm = np.linalg.norm(tangent, axis=1)
     tangent = np.where(norm[:, None] > 0, tangent / np.maximum(norm, 1e-12)[:, None], [1.0, 0.0])
@@ -374,7 +438,10 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     seed : int, optional
         Seed of the waypoint choice (default 0): same scene and seed, same path.
     eye_height : float, optional
-        Street-level eye height above the ground, world units (default 1.7).
+        Street-level eye height above the ground, world units (default 1.7),
+        lowered to half the height of the scene's tallest point above the
+        ground (or to 5% of its width, if that is more) when the scene is
+        lower than that: a model in other units than metres.
     fov : float, optional
         Horizontal field of view of every camera, degrees (default 90).
     up : (3,) float, optional
@@ -394,8 +461,12 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     Free space is found by casting one vertical ray down per cell of a
     256-cell grid over the scene's footprint: a cell is free when nothing in
     it rises above 90% of the eye height over the ground (the 5th
-    percentile of the first-hit heights), so street-level cameras are never
-    inside an object. Waypoints are free cells drawn with probability
+    percentile of the first-hit heights, a miss counting as the scene's
+    lowest point). Things thinner than a cell (poles, fences) can fall
+    between the rays, so every edge of the objects that rise above that
+    level is also sampled every quarter of a cell and the cells of its high
+    samples are blocked: street-level cameras, which stay in free cells, are
+    never inside an object. Waypoints are free cells drawn with probability
     proportional to their squared clearance (wide streets and squares) in
     the largest connected free region, visited in a nearest-neighbour tour,
     joined by least-cost routes that keep to the middle of the free space
@@ -412,13 +483,22 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
         raise InputError("up: zero-length vector")
     up = up / np.linalg.norm(up)
     rng = np.random.default_rng(seed)
-    (e1, e2, a0, b0, cell, shape), ground, free, clearance, height = _free_space(
-        objects, up, eye_height)
+    frame, height, ground = _height_map(objects, up)
+    e1, e2, a0, b0, cell, shape = frame
+    top = float(height.max())
+    # a scene lower than an eye (a model in other units than metres, or smaller
+    # than a person): the eye goes down to half its height above the ground (a
+    # twentieth of its width if that is more: a flat scene), so that the street
+    # frames look at it rather than over it
+    eye_height = min(eye_height, max(0.5 * (top - ground), 0.05 * cell * max(shape)))
+    free, clearance = _free_space(objects, up, frame, height, ground, eye_height)
     n_far = frames // 10
     n_high = frames // 5
     n_street = frames - n_far - n_high
-    top = float(height.max())
-    tall = height > ground + max(3 * eye_height, 0.15 * (top - ground))
+    # tall: three eye heights up (a building, not a car), at most half the
+    # tallest point (a scene whose eye went down with its size)
+    tall = height > ground + max(min(3 * eye_height, 0.5 * (top - ground)),
+                                 0.15 * (top - ground))
     route = _route(free, clearance, tall, rng, waypoints=max(3, min(12, frames // 8 + 2)))
 
     def world(cells: np.ndarray, level: np.ndarray | float) -> np.ndarray:
@@ -480,7 +560,8 @@ class Runtime:
         frustum culling. Its wall time is the runtime's overhead.
     conservative : bool
         True when every occluder it uses carries a conservativeness guarantee
-        (the generator registry's ``conservative`` flag); a conservative
+        (see :func:`viscore.generators.scene_occluders.culling_runtimes`: the
+        generator's per-mesh word, not only its registry flag); a conservative
         runtime must never cull a visible object.
     occluders : int
         Occluders (solids, polygons or meshes) it holds; 0 for ``none``.

@@ -316,3 +316,69 @@ def test_culling_runtimes_hierarchy_cut_per_frame(monkeypatch):
     rf = result.runtimes["depth-buffer:test-hierarchy"]
     assert rf.false_culls.tolist() == [0, 0, 0]
     assert rf.culled[0] == 1 and rf.culled[2] == 0  # the box behind the middle wall
+
+
+def _fenced_streets(scale: float = 1.0):
+    """Four buildings, and a fence 4 cm thick and 3 m tall across the whole scene at z = 0."""
+    scene = trimesh.Scene()
+    boxes = {"ground": [[-60, -0.2, -60], [60, 0, 60]], "fence": [[-60, 0, -0.02], [60, 3, 0.02]]}
+    for k, (x, z) in enumerate([(-30, -30), (-30, 30), (30, -30), (30, 30)]):
+        boxes[f"building{k}"] = [[x - 18, 0, z - 18], [x + 18, 12, z + 18]]
+    for name, bounds in boxes.items():
+        scene.add_geometry(trimesh.creation.box(bounds=np.asarray(bounds) * scale),
+                           geom_name=name, node_name=name)
+    return load_scene_objects(scene)
+
+
+def test_camera_path_does_not_walk_through_thin_things():
+    # the fence falls between the centre rays of the free-space map (it was crossed
+    # by every seed's path); its edges block its cells, so the walk stays on one side
+    objects = _fenced_streets()
+    for seed in (0, 1):
+        path = camera_path(objects, frames=40, seed=seed)[:36]  # street and elevated
+        z = np.array([p.position[2] for p in path])
+        assert (z > 0).all() or (z < 0).all(), seed
+        scene, _ = objects.combined
+        eyes = np.array([p.position for p in path])
+        turns = np.array([[1, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1], [0.6, 0, 0.8]])
+        t, _ = scene.first_hit(np.repeat(eyes, len(turns), 0), np.tile(turns, (len(eyes), 1)))
+        assert np.nanmin(t) > 0.2  # nothing within a cell of the map around an eye
+
+
+def test_camera_path_tiny_scene_looks_at_it():
+    # a scene in other units (1e-9): the eye height goes down with it; at 1.7 units the
+    # street frames looked over the scene and saw nothing
+    objects = _fenced_streets(1e-9)
+    path = camera_path(objects, frames=20)
+    street = path[:14]
+    assert all(p.position[1] < 12e-9 for p in street)
+    seen = [view_frustum_mask(p.camera(64, 36), objects.lower, objects.upper).sum()
+            for p in street]
+    assert min(seen) >= 1
+
+
+def test_runtimes_not_conservative_on_an_open_occluder_mesh():
+    # a wall without its bottom: aabb-skins reports conservative_guaranteed False for it,
+    # so no runtime fed by it may claim the guarantee (the registry flag alone said yes)
+    wall = trimesh.creation.box(bounds=[[-5, 0, -0.5], [5, 6, 0.5]])
+    open_wall = trimesh.Trimesh(wall.vertices, wall.faces[wall.triangles_center[:, 1] > 1e-9],
+                                process=False)
+    scene = trimesh.Scene()
+    scene.add_geometry(open_wall, geom_name="wall", node_name="wall")
+    scene.add_geometry(wall, geom_name="closed", node_name="closed",
+                       transform=trimesh.transformations.translation_matrix((20, 0, 0)))
+    scene.add_geometry(trimesh.creation.box(bounds=[[-0.5, 0, 4.5], [0.5, 1, 5.5]]),
+                       geom_name="box", node_name="box")
+    objects = load_scene_objects(scene)
+    params = {"aabb-skins": {"voxels": 16}}
+    both = occluder_objects(objects, names=["wall", "closed"])
+    runtimes, info = culling_runtimes(objects, both, ["aabb-skins"],
+                                      frusta_source="aabb-skins", params=params)
+    for name in ("planar-frusta", "solid-frusta", "depth-buffer:aabb-skins"):
+        assert runtimes[name].conservative is False and info[name]["conservative"] is False
+        assert info[name]["not_guaranteed"] == ["wall"]
+    closed = occluder_objects(objects, names=["closed"])
+    runtimes, info = culling_runtimes(objects, closed, ["aabb-skins"],
+                                      frusta_source="aabb-skins", params=params)
+    assert all(rt.conservative for rt in runtimes.values())
+    assert info["depth-buffer:aabb-skins"]["not_guaranteed"] == []
