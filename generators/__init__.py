@@ -8,9 +8,11 @@ occluder over its budget. ``Occluder.parts`` follows the schema documented in
 :mod:`viscore.generators.occluder` (:func:`check_parts`).
 """
 
+from ._mgos import metric_guided_simplify
 from .aabb_skins import boxes_mesh, generate_aabb_skins
 from .baselines import generate_bbox, generate_original, generate_qem
 from .godot import generate_godot
+from .hybrid import generate_hybrid
 from .occluder import Occluder, check_parts
 from .planar_hierarchy import (
     HierarchyIndex,
@@ -30,4 +32,4 @@ __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOpt
            "generate_bbox", "generate_original", "generate_godot", "generate_planar_sections",
            "generate_solid_frusta", "build_hierarchy", "cut_hierarchy", "index_hierarchy",
            "HierarchyIndex", "generate_planar_hierarchy", "hierarchy_to_json",
-           "hierarchy_from_json"]
+           "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify"]

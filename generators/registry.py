@@ -39,6 +39,14 @@ from viscore._validate import as_positive_int, as_seed
 from .aabb_skins import TRIANGLES_PER_BOX, generate_aabb_skins
 from .baselines import generate_bbox, generate_original, generate_qem
 from .godot import generate_godot
+from .hybrid import EPS_A as HYBRID_EPS_A
+from .hybrid import EPS_P as HYBRID_EPS_P
+from .hybrid import EPS_R as HYBRID_EPS_R
+from .hybrid import MAX_VOXELS as HYBRID_MAX_VOXELS
+from .hybrid import PATCH_FACES as HYBRID_PATCH_FACES
+from .hybrid import VOXEL_FACES as HYBRID_VOXEL_FACES
+from .hybrid import VOXELS as HYBRID_VOXELS
+from .hybrid import generate_hybrid
 from .occluder import Occluder
 from .planar_sections import DEFAULT_ALPHA as PLANAR_ALPHA
 from .planar_sections import DEFAULT_DEPTH_BINS as PLANAR_DEPTH_BINS
@@ -358,6 +366,50 @@ REGISTRY: dict[str, GeneratorSpec] = {
                 GeneratorOption("dilate", int, 0,
                                 "dilation steps of the voxel solid (sec. 5's gluing step)", low=0,
                                 high=8),
+            ),
+            min_budget=1),
+        GeneratorSpec(
+            "hybrid", generate_hybrid,
+            "game buildings: planar/curved patches with hole filling and enforced voxel "
+            "isosurface candidates, metric-guided face removal (Wu et al. 2022)",
+            options=(
+                GeneratorOption("voxels", int, HYBRID_VOXELS,
+                                "N_v: voxel size is the bounding-box diagonal / voxels",
+                                low=4, high=HYBRID_MAX_VOXELS),
+                GeneratorOption("eps_a", float, HYBRID_EPS_A,
+                                "curved-patch dihedral threshold, radians", low=0,
+                                low_open=True, high=math.pi),
+                GeneratorOption("grouping", str, "dihedral",
+                                "curved patches by dihedral angle (the paper) or xatlas charts",
+                                choices=("dihedral", "xatlas")),
+                GeneratorOption("candidates", str, "combined",
+                                "candidate set: patches and voxels, or one of them (ablation)",
+                                choices=("combined", "patch", "voxel")),
+                GeneratorOption("enforce", bool, True,
+                                "conservative enforcement of the voxel candidates"),
+                GeneratorOption("mgos", bool, True,
+                                "metric-guided occluder simplification on the volume protocol"),
+                GeneratorOption("patch_faces", int, HYBRID_PATCH_FACES,
+                                "N_P: faces kept by the patch-area reduction", low=1),
+                GeneratorOption("voxel_faces", int, HYBRID_VOXEL_FACES,
+                                "target faces of the simplified isosurface", low=1),
+                GeneratorOption("fill_holes", bool, True,
+                                "fill planar-patch holes whose test segments all hit the input"),
+                GeneratorOption("eps_p", float, HYBRID_EPS_P,
+                                "metric-guided step: precision gain that removes a face",
+                                low=0, high=1),
+                GeneratorOption("eps_r", float, HYBRID_EPS_R,
+                                "metric-guided step: recall loss below which a face goes",
+                                low=0, high=1),
+                GeneratorOption("mgos_spacing", float, None,
+                                "view spacing of the metric-guided step, fraction of the "
+                                "bounding-box diagonal", low=0, low_open=True, high=1,
+                                nullable=True, default_text="0.12"),
+                GeneratorOption("mgos_resolution", int, None,
+                                "pixels per frustum side of those views", low=1, high=4096,
+                                nullable=True, default_text="32"),
+                GeneratorOption("mgos_quads", int, None, "quads per frustum of those views",
+                                low=1, nullable=True, default_text="1000"),
             ),
             min_budget=1),
         GeneratorSpec(
