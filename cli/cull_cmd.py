@@ -26,7 +26,9 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import os
+import tempfile
 from pathlib import Path
 
 from viscore.generators import REGISTRY
@@ -40,6 +42,7 @@ from viscore.metrics.culling import (
     DEFAULT_WIDTH,
     camera_path,
     camera_path_json,
+    check_camera_path,
     check_culling_memory,
     culling_plot,
     read_camera_path,
@@ -50,7 +53,7 @@ from viscore import InputError, provenance
 from viscore._validate import as_positive, as_positive_int, as_seed
 from viscore.scene_graph import load_scene_objects
 
-from ._common import dumps, emit, write_atomic
+from ._common import dumps, emit
 
 #: Frames of a generated camera path when ``--frames`` is not given.
 DEFAULT_FRAMES = 100
@@ -136,15 +139,71 @@ def _methods(text: str | None, option: str = "--methods") -> list[str]:
 
 
 def _out_dir(text: str) -> Path:
+    """The output folder, refused before any work unless files can be made in it.
+
+    The folder may exist; if not, its parent must (only the last component is
+    created, at the end). Writability is probed by making and removing a
+    temporary folder where the files will go (permission bits say nothing
+    for root, nor for a read-only mount such as /proc).
+    """
     path = Path(text)
     if os.path.lexists(path):
         if not path.is_dir():
             raise InputError(f"--out {path}: exists and is not a folder")
-        return path
-    if not path.absolute().parent.is_dir():
-        raise InputError(f"--out {path}: the folder {str(path.parent)!r} does not exist "
-                         "(it is not created)")
+        where = path
+    else:
+        where = path.absolute().parent
+        if not where.is_dir():
+            raise InputError(f"--out {path}: the folder {str(path.parent)!r} does not exist "
+                             "(it is not created)")
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".viscore-cull-", dir=where))
+    except OSError as exc:
+        raise InputError(f"--out {path}: cannot write in {str(where)!r} "
+                         f"({exc.strerror or exc})") from None
     return path
+
+
+def _write_all(out: Path, files: dict) -> None:
+    """Write the files into ``out`` (made if missing), all or none.
+
+    ``files`` maps a name to its bytes or to a function writing that file at a
+    given path (a plot). Each goes to a temporary file in ``out`` first; they
+    are moved in place only when all are written, in the given order (the main
+    document last). On any failure or interruption the temporary files go and,
+    if this call made ``out``, the moved files and ``out`` too.
+    """
+    from viscore._atomic import _umask
+
+    created = not os.path.lexists(out)
+    out.mkdir(exist_ok=True)
+    mode = 0o666 & ~_umask()
+    temps: dict[str, Path] = {}
+    moved: list[Path] = []
+    try:
+        for name, content in files.items():
+            stem, _, suffix = name.rpartition(".")
+            fd, tmp = tempfile.mkstemp(dir=out, prefix=f".{stem}.", suffix=f".{suffix}")
+            temps[name] = Path(tmp)
+            with os.fdopen(fd, "wb") as fh:
+                if not callable(content):
+                    fh.write(content)
+            if callable(content):
+                content(Path(tmp))
+            os.chmod(tmp, mode)
+        for name in list(temps):
+            os.replace(temps[name], out / name)
+            moved.append(out / name)
+            del temps[name]
+    except BaseException:
+        for tmp in temps.values():
+            tmp.unlink(missing_ok=True)
+        if created:
+            for path in moved:
+                path.unlink(missing_ok=True)
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise
 
 
 def _table(doc: dict) -> str:
@@ -193,9 +252,15 @@ def run_cull(args) -> int:
         path = read_camera_path(args.path, up=objects.up)
         if frames is not None:
             path = path[:frames]
+        check_camera_path(objects, path)
     else:
         path = None
-    indices = occluder_objects(objects, size_threshold=threshold, names=names)
+    try:
+        indices = occluder_objects(objects, size_threshold=threshold, names=names)
+    except InputError as exc:
+        if names is not None or threshold is not None:
+            raise
+        raise InputError(f"{exc}; give --size-threshold or --occluders") from None
     progress = not (args.quiet or args.json)
     # 2. the work
     from tqdm import tqdm
@@ -219,12 +284,12 @@ def run_cull(args) -> int:
            "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
            **result.to_json(),
            "runtimes": info, "provenance": provenance()}
-    # 3. the files, each atomic
-    out.mkdir(exist_ok=True)
-    write_atomic(out / "cull.json", dumps(doc).encode())
-    write_atomic(out / "cameras.json", camera_path_json(path).encode())
-    culling_plot(result, out / "triangles.png",
-                 title=f"{args.scene}: triangles rendered per frame")
+    # 3. the files, all or none (cull.json, the main document, last)
+    _write_all(out, {
+        "triangles.png": lambda p: culling_plot(
+            result, p, title=f"{args.scene}: triangles rendered per frame"),
+        "cameras.json": camera_path_json(path).encode(),
+        "cull.json": dumps(doc).encode()})
     emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
          "(replay with --path)")
     return 0

@@ -106,8 +106,10 @@ def occluder_objects(objects: SceneObjects, *, size_threshold: float | None = No
         threshold = as_positive(size_threshold, "size_threshold")
     chosen = np.flatnonzero(size >= threshold)
     if len(chosen) == 0:
-        raise InputError(f"size_threshold: no object of {objects.source} is {threshold:.4g} "
-                         f"or larger (largest {size.max():.4g}, world units)")
+        what = ("size_threshold" if size_threshold is not None else
+                f"the default size threshold ({SIZE_FACTOR} x the median object's diagonal)")
+        raise InputError(f"{what}: no object of {objects.source} is {threshold:.4g} or larger "
+                         f"(the largest is {size.max():.4g}, world units)")
     return chosen.astype(np.int64)
 
 

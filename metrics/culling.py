@@ -71,7 +71,7 @@ if TYPE_CHECKING:  # pragma: no cover - hints only
 __all__ = ["PathCamera", "Runtime", "RuntimeFrames", "CullingResult", "simulate_culling",
            "no_culling", "frusta_runtime", "depth_buffer_runtime", "view_frustum_mask",
            "camera_path", "read_camera_path", "camera_path_json", "culling_plot",
-           "check_culling_memory",
+           "check_culling_memory", "check_camera_path",
            "DEFAULT_WIDTH", "DEFAULT_HEIGHT", "DEFAULT_FOV"]
 
 _log = logging.getLogger(__name__)
@@ -211,6 +211,9 @@ def read_camera_path(path: str | os.PathLike, *, up: npt.ArrayLike = (0.0, 1.0, 
         raise InputError(f"{label}: cannot read ({exc.strerror or exc})") from None
     try:
         doc = json.loads(data.decode("utf-8-sig"))
+    except RecursionError:
+        raise InputError(f"{label}: not a valid camera path file (JSON nested too deeply)"
+                         ) from None
     except (UnicodeDecodeError, ValueError) as exc:
         raise InputError(f"{label}: not a valid JSON file ({' '.join(str(exc).split())[:120]})"
                          ) from None
@@ -232,8 +235,58 @@ def read_camera_path(path: str | os.PathLike, *, up: npt.ArrayLike = (0.0, 1.0, 
         fov = cam.get("fov", DEFAULT_FOV)
         if isinstance(fov, bool) or not isinstance(fov, (int, float)):
             raise InputError(f"{where}.fov: expected a number of degrees, got {fov!r:.40}")
-        cameras.append(_pose(cam["position"], cam["forward"], cam.get("up", up), fov, where))
+        vectors = {k: _three_numbers(cam[k], f"{where}.{k}")
+                   for k in ("position", "forward", "up") if k in cam}
+        cameras.append(_pose(vectors["position"], vectors["forward"], vectors.get("up", up),
+                             _finite(fov, f"{where}.fov"), where))
     return cameras
+
+
+def _finite(value, where: str) -> float:
+    """A JSON number as a float; an integer beyond float64 is refused, never an OverflowError."""
+    try:
+        return float(value)
+    except OverflowError:
+        raise InputError(f"{where}: {str(value)[:20]}... is beyond float64's range") from None
+
+
+def _three_numbers(value, where: str) -> list[float]:
+    """A JSON list of exactly three numbers (not booleans, not nested lists) as floats."""
+    if (not isinstance(value, list) or len(value) != 3
+            or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in value)):
+        raise InputError(f"{where}: expected a list of 3 numbers, got {json.dumps(value)[:60]}")
+    return [_finite(x, where) for x in value]
+
+
+#: Farthest camera accepted, in scene diagonals from the scene's centre (float32
+#: ray casting loses the scene long before Embree refuses, near 1e38 diagonals).
+_MAX_CAMERA_DIAGONALS = 1e6
+
+
+def check_camera_path(objects: SceneObjects, cameras: Sequence[PathCamera]) -> None:
+    """Refuse, before any work, cameras too far from the scene to see it.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+    cameras : sequence of PathCamera
+
+    Raises
+    ------
+    InputError
+        No camera, or one farther than a million scene diagonals from the
+        scene's centre, naming its index.
+    """
+    if not len(cameras):
+        raise InputError("path: expected at least one camera")
+    lo, hi = objects.bounds
+    diagonal = float(np.linalg.norm(hi - lo))
+    far = np.array([np.linalg.norm(c.position - (lo + hi) / 2) for c in cameras])
+    bad = np.flatnonzero(~(far <= _MAX_CAMERA_DIAGONALS * diagonal))
+    if len(bad):
+        raise InputError(f"path: camera {int(bad[0])} is {far[bad[0]]:.3g} from the scene's "
+                         f"centre, more than {_MAX_CAMERA_DIAGONALS:.0e} x its diagonal "
+                         f"({diagonal:.3g}): it cannot see the scene")
 
 
 def camera_path_json(cameras: Sequence[PathCamera]) -> str:
@@ -904,8 +957,9 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     Raises
     ------
     InputError
-        No runtime or camera, a bad size, or an image whose rays do not fit in
-        memory (checked before any work).
+        No runtime or camera, a camera too far to see the scene
+        (:func:`check_camera_path`), a bad size, or an image whose rays do
+        not fit in memory (checked before any work).
 
     Notes
     -----
@@ -927,8 +981,7 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
         if not isinstance(rt, Runtime):
             raise InputError(f"runtimes[{name!r}]: expected a Runtime, got {type(rt).__name__}")
     cameras = tuple(path)
-    if not cameras:
-        raise InputError("path: expected at least one camera")
+    check_camera_path(objects, cameras)
     width, height = check_culling_memory(width, height)
     scene, triangle_object = objects.combined
     n = len(objects)

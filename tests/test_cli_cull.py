@@ -114,6 +114,17 @@ def test_cull_bad_scene_exit_2(run, tmp_path, capsys, monkeypatch, make, args, m
     ('[{"position": [0, 1, 0], "forward": [0, 0, 1]}]', ["--out", "a/b/c"], "does not exist"),
     ('[{"position": [0, 1, 0], "forward": [0, 0, 1]}]', ["--frusta-method", "nope"],
      "--frusta-method: unknown nope"),
+    # these crashed (exit 3) or ran: an integer beyond float64, JSON nested too deeply,
+    # booleans and a nested list as a vector
+    ('[{"position": [1' + "0" * 400 + ', 0, 0], "forward": [0, 0, 1]}]', [],
+     "beyond float64"),
+    ("[" * 100_000 + "]" * 100_000, [], "nested too deeply"),
+    ('[{"position": [true, false, true], "forward": [0, 0, 1]}]', [], "list of 3 numbers"),
+    ('[{"position": [[0, 1, 0]], "forward": [0, 0, 1]}]', [], "list of 3 numbers"),
+    # a camera too far to see the scene: refused before the occluders are made
+    ('[{"position": [1e300, 0, 0], "forward": [0, 0, 1]}]', [], "cannot see the scene"),
+    ('[{"position": [0, 1, 0], "forward": [0, 0, 1]}]', ["--out", "/proc/viscore-cull"],
+     "cannot write"),
 ])
 def test_cull_bad_path_and_options_exit_2(run, street, tmp_path, capsys, monkeypatch, content,
                                           extra, match):
@@ -142,3 +153,36 @@ def test_bench_cull_and_culling_column_on_a_small_scene(street):
     assert set(column) == {"aabb-skins", "bbox"}
     assert column["aabb-skins"]["false_culls"] == 0 and column["aabb-skins"]["conservative"]
     assert 0 <= column["bbox"]["culled_share"] <= 1
+
+
+def test_cull_default_threshold_names_the_options(run, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    scene = trimesh.Scene()
+    for k in range(3):  # equal objects: none is 2.5 x the median
+        scene.add_geometry(trimesh.creation.box(), geom_name=f"b{k}", node_name=f"b{k}",
+                           transform=trimesh.transformations.translation_matrix((3 * k, 0, 0)))
+    (tmp_path / "same.glb").write_bytes(scene.export(file_type="glb"))
+    assert run("same.glb", "--frames", 3, "--width", 32, "--height", 18) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--size-threshold or --occluders" in err
+
+
+@pytest.mark.parametrize("fail", [KeyboardInterrupt, OSError(28, "No space left on device")])
+def test_cull_interrupted_while_writing_leaves_nothing(run, street, tmp_path, capsys,
+                                                       monkeypatch, fail):
+    def broken_plot(*args, **kwargs):
+        raise fail
+
+    monkeypatch.setattr(cull_cmd, "culling_plot", broken_plot)
+    scene, cameras = street
+    out = tmp_path / "out"
+    code = run(scene, "--path", cameras, "--occluders", "wall", "--methods", "bbox",
+               "--frusta-method", "bbox", "--width", 32, "--height", 18, "--out", out, "--quiet")
+    assert code == (130 if fail is KeyboardInterrupt else 2)
+    assert capsys.readouterr().err.count("\n") == 1
+    assert not out.exists()
+    out.mkdir()  # an existing folder: no file, no temporary file left in it
+    assert run(scene, "--path", cameras, "--occluders", "wall", "--methods", "bbox",
+               "--frusta-method", "bbox", "--width", 32, "--height", 18, "--out", out,
+               "--quiet") == code
+    assert list(out.iterdir()) == []

@@ -127,6 +127,10 @@ def test_load_scene_objects_invalid_input(tmp_path):
     scene.graph.update(frame_to="ball_1", matrix=flat)
     with pytest.raises(InputError, match="singular transform"):
         load_scene_objects(scene)
+    # a scale of 1e300: the determinant overflowed to inf and read as "singular"
+    scene.graph.update(frame_to="ball_1", matrix=np.diag([1e300, 1e300, 1e300, 1.0]))
+    with pytest.raises(InputError, match="beyond what float64 can hold"):
+        load_scene_objects(scene)
     points = trimesh.Scene(trimesh.PointCloud(np.random.default_rng(0).random((10, 3))))
     buf = io.BytesIO(points.export(file_type="glb"))
     path = tmp_path / "points.glb"

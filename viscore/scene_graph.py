@@ -238,7 +238,8 @@ def _node_transforms(scene: trimesh.Scene, label: str
     """Node names, geometry names and ``(n, 4, 4)`` world transforms of the mesh nodes."""
     names, geoms, mats = [], [], []
     for node in sorted(scene.graph.nodes_geometry):
-        matrix, geometry = scene.graph[node]
+        with np.errstate(all="ignore"):  # a huge scale overflows in trimesh; refused below
+            matrix, geometry = scene.graph[node]
         g = scene.geometry.get(geometry)
         if not isinstance(g, trimesh.Trimesh) or len(g.faces) == 0:
             continue
@@ -257,8 +258,15 @@ def _from_trimesh_scene(scene: trimesh.Scene, label: str, up) -> SceneObjects:
         raise InputError(f"{label}: node {bad!r} has a transform with NaN or infinite values")
     lin = mats[:, :3, :3]
     scale = np.abs(lin).max(axis=(1, 2))
-    det = np.abs(np.linalg.det(lin))
-    singular = ~(det > _SINGULAR_RELATIVE * scale**3)
+    with np.errstate(over="ignore", invalid="ignore"):
+        det = np.abs(np.linalg.det(lin))
+        cube = scale**3
+    huge = ~(np.isfinite(det) & np.isfinite(cube))
+    if huge.any():
+        bad = names[int(np.flatnonzero(huge)[0])]
+        raise InputError(f"{label}: node {bad!r} has a transform whose scale "
+                         f"({scale[huge][0]:.3g}) is beyond what float64 can hold in a volume")
+    singular = ~(det > _SINGULAR_RELATIVE * cube)
     if singular.any():
         bad = names[int(np.flatnonzero(singular)[0])]
         raise InputError(f"{label}: node {bad!r} has a singular transform (a zero scale "
