@@ -325,8 +325,9 @@ def _parse_gltf(path: Path, label: str) -> trimesh.Scene:
     token = _loading.set(True)
     try:
         try:  # only trimesh's parser is wrapped: a failure in our code below is a bug
-            return trimesh.load_scene(file_obj=io.BytesIO(data), file_type=fmt,
-                                      resolver=resolver, process=False)
+            with np.errstate(all="ignore"):  # non-finite transforms: refused afterwards
+                return trimesh.load_scene(file_obj=io.BytesIO(data), file_type=fmt,
+                                          resolver=resolver, process=False)
         except MemoryError:
             raise InputError(f"{label}: not enough memory to read this file") from None
         except FileNotFoundError as exc:
