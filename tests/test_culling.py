@@ -382,3 +382,22 @@ def test_runtimes_not_conservative_on_an_open_occluder_mesh():
                                       frusta_source="aabb-skins", params=params)
     assert all(rt.conservative for rt in runtimes.values())
     assert info["depth-buffer:aabb-skins"]["not_guaranteed"] == []
+
+
+@pytest.mark.parametrize("scene", ["fence", pytest.param("city", marks=pytest.mark.slow),
+                                   pytest.param("city-dense", marks=pytest.mark.slow)])
+def test_camera_path_never_inside_an_object(scene):
+    # every camera of the path (street, elevated, far): a ray from inside a closed object
+    # crosses its surface an odd number of times, in every direction
+    objects = _fenced_streets() if scene == "fence" else load_scene_objects(scene)
+    path = camera_path(objects, frames=60 if scene == "fence" else 100)
+    eyes = np.array([p.position for p in path])
+    rays = np.array([[1, 0.1, 0.2], [-1, 0.3, 0.1], [0.2, 1, -0.1], [0.1, -1, 0.3],
+                     [0.3, 0.2, 1], [-0.2, 0.1, -1]])
+    rays /= np.linalg.norm(rays, axis=1)[:, None]
+    combined, owner = objects.combined
+    hits = combined.all_hits(np.repeat(eyes, len(rays), 0), np.tile(rays, (len(eyes), 1)))
+    counts = np.zeros((len(eyes) * len(rays), len(objects)), dtype=np.int64)
+    np.add.at(counts, (hits.ray, owner[hits.triangle]), 1)
+    odd = (counts % 2 == 1).reshape(len(eyes), len(rays), -1).all(axis=1)
+    assert not odd.any(), [(int(c), objects.names[o]) for c, o in np.argwhere(odd)[:5]]
