@@ -231,6 +231,12 @@ class GeneratorSpec:
     min_budget : int
         The smallest budget the method can meet (``aabb-skins``: 12, one box);
         smaller budgets are refused by :meth:`check_params` before any work.
+    heavy : bool
+        Takes a minute or more per mesh on two cores (``hybrid``: its
+        metric-guided step casts millions of rays per building). ``viscore
+        compare`` leaves such a method out of its culling column, which runs
+        it on every building of the city, unless ``--culling-methods`` names
+        it.
     """
 
     name: str
@@ -242,6 +248,7 @@ class GeneratorSpec:
     baseline: bool = False
     budgeted: bool = True
     min_budget: int = 1
+    heavy: bool = False
 
     def option(self, name: str) -> GeneratorOption:
         """The declared option called ``name`` (KeyError if none)."""
@@ -411,7 +418,7 @@ REGISTRY: dict[str, GeneratorSpec] = {
                 GeneratorOption("mgos_quads", int, None, "quads per frustum of those views",
                                 low=1, nullable=True, default_text="1000"),
             ),
-            min_budget=1),
+            min_budget=1, heavy=True),
         GeneratorSpec(
             "solid-frusta", generate_solid_frusta,
             "a few convex solids inside the mesh (aabb-skins boxes, shrunk voxel-cluster "

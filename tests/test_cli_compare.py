@@ -203,3 +203,12 @@ def test_compare_keeps_occluders_in_float64(tmp_path, capsys):
     (ply,) = (out / "occluders").glob("*.ply")
     kept = trimesh.load(ply, force="mesh", process=False)
     np.testing.assert_array_equal(kept.bounds, trimesh.load(mesh, process=False).bounds)
+
+
+def test_compare_refuses_unknown_culling_methods_before_work(tmp_path, capsys):
+    out = tmp_path / "study"
+    assert main(["compare", "fat-torus", "--methods", "bbox", *TINY[:-1],
+                 "--culling-methods", "bbox,magic", "--out", str(out)]) == 2
+    assert "--culling-methods: unknown magic" in capsys.readouterr().err
+    assert not out.exists()
+
