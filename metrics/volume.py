@@ -142,6 +142,9 @@ def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
     counts = _grid_counts(box_lo, box_hi, dx).astype(np.int64)
     valid = ~points_inside(scene, pts).reshape(counts)
     first = pts[0]
+    if not valid.any():  # no grid position outside the mesh (a needle thinner than dx, say)
+        raise InputError(f"volume protocol: no view position outside the mesh at spacing "
+                         f"{dx:.6g}; give a smaller spacing")
     if not merge_views:
         return pts[valid.ravel()], np.ones(int(valid.sum()))
     levels = [valid]

@@ -81,3 +81,19 @@ def test_volume_positions_blocks_keep_off_the_mesh():
         for q in p + steps * 1.0:
             if (q >= lo - 1e-9).all() and (q <= hi + 1e-9).all():
                 assert tuple(np.round(q, 9)) in grid
+
+
+def test_a_mesh_with_no_view_position_outside_it_is_refused_in_one_line():
+    # a needle thinner than the grid spacing: every grid position classifies inside
+    # (or none is outside), which used to fail deep inside numpy
+    import trimesh
+    from viscore.metrics import ReferenceViews
+    from viscore.metrics.volume import volume_positions
+
+    from viscore import InputError
+
+    needle = trimesh.creation.box(extents=(1000, 0.001, 0.001))
+    with pytest.raises(InputError, match="no view position outside the mesh"):
+        volume_positions(needle)
+    with pytest.raises(InputError, match="no view position outside the mesh"):
+        ReferenceViews(needle, protocol="volume")
