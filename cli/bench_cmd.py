@@ -47,7 +47,7 @@ def add_parser(sub, common) -> None:
                    help="rays of the same-run bench rays reference (default 500000)")
     e.set_defaults(run=run_evaluate)
     g = bsub.add_parser("generate", parents=[common], help="generator speed and coverage")
-    g.add_argument("method", choices=["aabb-skins", "planar-sections"])
+    g.add_argument("method", choices=["aabb-skins", "planar-sections", "hybrid"])
     g.add_argument("--ablation", default=None, metavar="DIR",
                    help="planar-sections: also run the ablations (occlusion measure vs "
                         "surface area, Silvennoinen et al. Fig. 11; voxel resolution, Fig. 9) "
@@ -120,6 +120,11 @@ def run_evaluate(args) -> int:
 def run_generate(args) -> int:
     if args.method == "planar-sections":
         return _run_generate_planar(args)
+    if args.method == "hybrid":
+        if args.ablation is not None:
+            raise InputError("--ablation: only for planar-sections (the hybrid ablation is "
+                             "'viscore compare building-... --methods hybrid,...')")
+        return _run_generate_hybrid(args)
     if args.ablation is not None:
         raise InputError("--ablation: only for planar-sections")
     folder = models_folder(args.models)  # a folder named but missing: InputError, exit 2
@@ -198,5 +203,35 @@ def _run_generate_planar(args) -> int:
             for row in r["resolution_ablation"]["rows"]))
         lines.append(f"wrote {ablation / 'planar_measure.png'} and "
                      f"{ablation / 'planar_voxels.png'}")
+    emit({**r, "provenance": provenance()}, args.json, "\n".join(lines))
+    return 0
+
+
+def _run_generate_hybrid(args) -> int:
+    from .bench_hybrid import bench_generate_hybrid
+
+    folder = models_folder(args.models)
+    # the occluders are fitted to views of --seed; they are scored on views of --seed + 1
+    r = bench_generate_hybrid(folder, seed=args.seed + 1)
+    st = r["settings"]
+    lines = [f"hybrid on the built-in buildings{' and ' + str(folder) if folder else ''}; "
+             f"scored on separate jittered volume views (spacing {st['spacing_fraction']:g} of "
+             f"the diagonal, {st['resolution']} px, {st['quads']} quads per frustum, seed "
+             f"{st['seed']})",
+             f"{'mesh':<22} {'faces':>5} {'P':>7} {'R':>7} {'seconds':>7} {'qem R':>7} "
+             f"{'godot faces':>11} {'godot R':>7}"]
+    for row in r["rows"]:
+        lines.append(f"{row['mesh']:<22} {row['faces']:>5} {row['precision']:>7.4f} "
+                     f"{row['recall']:>7.4f} {row['seconds']:>7.1f} "
+                     f"{row.get('qem_recall', float('nan')):>7.4f} "
+                     f"{row.get('godot_faces', 0):>11} "
+                     f"{row.get('godot_recall', float('nan')):>7.4f}")
+    m = r["means"]
+    if m:
+        faces, p, rec = r["paper"]["hybrid"]
+        lines.append(f"means over the built-in buildings: {m['faces']:.1f} faces (target <= "
+                     f"{faces}), precision {m['precision']:.4f} (target >= {p}), recall "
+                     f"{m['recall']:.4f} (target >= {rec}), {m['seconds']:.1f} s per building "
+                     "(target < 60 s)")
     emit({**r, "provenance": provenance()}, args.json, "\n".join(lines))
     return 0
