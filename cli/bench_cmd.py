@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
+
+import numpy as np
 
 from viscore import InputError, provenance
 from viscore._validate import as_positive_int
@@ -49,9 +52,11 @@ def add_parser(sub, common) -> None:
     g = bsub.add_parser("generate", parents=[common], help="generator speed and coverage")
     g.add_argument("method", choices=["aabb-skins", "planar-sections", "hybrid"])
     g.add_argument("--ablation", default=None, metavar="DIR",
-                   help="planar-sections: also run the ablations (occlusion measure vs "
-                        "surface area, Silvennoinen et al. Fig. 11; voxel resolution, Fig. 9) "
-                        "and write their PNGs into this existing folder")
+                   help="also run the method's ablations and write their PNGs into this "
+                        "existing folder: planar-sections, occlusion measure vs surface area "
+                        "(Silvennoinen et al. Fig. 11) and voxel resolution (Fig. 9); hybrid, "
+                        "the candidate sets with and without enforcement and the "
+                        "metric-guided step (Wu et al. Fig. 11)")
     g.add_argument("--models", default=None, metavar="DIR",
                    help=f"folder of extra benchmark meshes (spot.obj, fandisk.obj, ...); default "
                    f"${MODELS_ENV}, else only the built-in scenes")
@@ -121,12 +126,9 @@ def run_generate(args) -> int:
     if args.method == "planar-sections":
         return _run_generate_planar(args)
     if args.method == "hybrid":
-        if args.ablation is not None:
-            raise InputError("--ablation: only for planar-sections (the hybrid ablation is "
-                             "'viscore compare building-... --methods hybrid,...')")
         return _run_generate_hybrid(args)
     if args.ablation is not None:
-        raise InputError("--ablation: only for planar-sections")
+        raise InputError("--ablation: only for planar-sections and hybrid")
     folder = models_folder(args.models)  # a folder named but missing: InputError, exit 2
     if folder is None and not args.quiet:
         print(f"viscore: no --models and no ${MODELS_ENV}: benchmarking the built-in scenes "
@@ -157,8 +159,6 @@ def run_cull(args) -> int:
 
 
 def _run_generate_planar(args) -> int:
-    from pathlib import Path
-
     from .bench_planar import (
         bench_generate_planar_sections,
         measure_ablation,
@@ -207,11 +207,64 @@ def _run_generate_planar(args) -> int:
     return 0
 
 
+#: The configurations of Wu et al. 2022 Fig. 11 run by ``bench generate hybrid --ablation``:
+#: (label, generate_hybrid options).
+HYBRID_ABLATION = (
+    ("a voxel", {"candidates": "voxel", "enforce": False, "mgos": False}),
+    ("b voxel + enforcement", {"candidates": "voxel", "enforce": True, "mgos": False}),
+    ("c patch", {"candidates": "patch", "mgos": False}),
+    ("d combined", {"candidates": "combined", "mgos": False}),
+    ("e patch + MGOS", {"candidates": "patch", "mgos": True}),
+    ("f combined + MGOS", {"candidates": "combined", "mgos": True}),
+)
+
+#: Buildings of the hybrid ablation.
+HYBRID_ABLATION_MESHES = ("building-house", "building-tower", "building-church",
+                          "building-cottage")
+
+
+def _hybrid_ablation(folder, seed: int) -> tuple[list[dict], list[str]]:
+    """Fig. 11 of Wu et al. 2022: means over :data:`HYBRID_ABLATION_MESHES` per configuration."""
+    from viscore.metrics.plots import _figure, _save
+
+    from .bench_hybrid import bench_generate_hybrid
+
+    rows = []
+    for label, options in HYBRID_ABLATION:
+        r = bench_generate_hybrid(None, seed=seed, baselines=False,
+                                  names=HYBRID_ABLATION_MESHES, **options)
+        rows.append({"config": label, "options": options, **{
+            k: float(np.mean([row[k] for row in r["rows"]]))
+            for k in ("faces", "precision", "recall", "seconds")}})
+    fig = _figure(6.0, 3.2)
+    ax = fig.add_subplot(1, 1, 1)
+    x = np.arange(len(rows))
+    ax.bar(x - 0.2, [r["recall"] for r in rows], 0.4, label="recall")
+    ax.bar(x + 0.2, [r["precision"] for r in rows], 0.4, label="precision")
+    ax.set_xticks(x, [r["config"].split()[0] for r in rows])
+    ax.set_ylim(0, 1.05)
+    ax.set_title("hybrid ablation (Wu et al. Fig. 11), means over 4 buildings", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path = Path(folder) / "hybrid_ablation.png"
+    _save(fig, path)
+    lines = [f"{'configuration':<24} {'faces':>6} {'P':>7} {'R':>7} {'seconds':>7}"]
+    lines += [f"{r['config']:<24} {r['faces']:>6.0f} {r['precision']:>7.4f} "
+              f"{r['recall']:>7.4f} {r['seconds']:>7.1f}" for r in rows]
+    lines.append(f"wrote {path}")
+    return rows, lines
+
+
 def _run_generate_hybrid(args) -> int:
     from .bench_hybrid import bench_generate_hybrid
 
     folder = models_folder(args.models)
-    # the occluders are fitted to views of --seed; they are scored on views of --seed + 1
+    ablation = None
+    if args.ablation is not None:
+        ablation = Path(args.ablation)
+        if not ablation.is_dir():
+            raise InputError(f"--ablation {args.ablation}: not an existing folder")
+    # scored on views of seed --seed + 1; the hybrid fits its own views (seed 0)
     r = bench_generate_hybrid(folder, seed=args.seed + 1)
     st = r["settings"]
     lines = [f"hybrid on the built-in buildings{' and ' + str(folder) if folder else ''}; "
@@ -233,5 +286,8 @@ def _run_generate_hybrid(args) -> int:
                      f"{faces}), precision {m['precision']:.4f} (target >= {p}), recall "
                      f"{m['recall']:.4f} (target >= {rec}), {m['seconds']:.1f} s per building "
                      "(target < 60 s)")
+    if ablation is not None:
+        r["ablation"], more = _hybrid_ablation(ablation, args.seed + 1)
+        lines += more
     emit({**r, "provenance": provenance()}, args.json, "\n".join(lines))
     return 0
