@@ -158,6 +158,15 @@ def run_cull(args) -> int:
     return 0
 
 
+def _ablation_folder(text: str | None) -> Path | None:
+    """The ``--ablation`` folder, which must exist (nothing is created), or None."""
+    if text is None:
+        return None
+    if not Path(text).is_dir():
+        raise InputError(f"--ablation {text}: not an existing folder")
+    return Path(text)
+
+
 def _run_generate_planar(args) -> int:
     from .bench_planar import (
         bench_generate_planar_sections,
@@ -166,11 +175,7 @@ def _run_generate_planar(args) -> int:
     )
 
     folder = models_folder(args.models)
-    ablation = None
-    if args.ablation is not None:
-        ablation = Path(args.ablation)
-        if not ablation.is_dir():
-            raise InputError(f"--ablation {args.ablation}: not an existing folder")
+    ablation = _ablation_folder(args.ablation)
     r = bench_generate_planar_sections(folder, seed=args.seed)
     b = r["bunny"]
     p = b["paper"]
@@ -259,11 +264,7 @@ def _run_generate_hybrid(args) -> int:
     from .bench_hybrid import bench_generate_hybrid
 
     folder = models_folder(args.models)
-    ablation = None
-    if args.ablation is not None:
-        ablation = Path(args.ablation)
-        if not ablation.is_dir():
-            raise InputError(f"--ablation {args.ablation}: not an existing folder")
+    ablation = _ablation_folder(args.ablation)
     # scored on views of seed --seed + 1; the hybrid fits its own views (seed 0)
     r = bench_generate_hybrid(folder, seed=args.seed + 1)
     st = r["settings"]
