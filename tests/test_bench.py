@@ -137,3 +137,18 @@ def test_bench_repeats_are_capped(capsys):
         assert main(["bench", command, "--repeats", str(10**12)]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "repeats" in err[0]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["bench", "generate", "hybrid", "--ablation", "/no/such/folder"],
+     "--ablation /no/such/folder: not an existing folder"),
+    (["bench", "generate", "planar-sections", "--ablation", "/no/such/folder"],
+     "--ablation /no/such/folder: not an existing folder"),
+    (["bench", "generate", "aabb-skins", "--ablation", "."], "--ablation: only for"),
+    (["bench", "cull", "--frames", "0"], "--frames: expected a positive integer"),
+    (["bench", "cull", "--repeats", "1000"], "--repeats"),
+])
+def test_bench_generate_and_cull_refuse_bad_options_before_work(argv, message, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
