@@ -48,6 +48,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from viscore.metrics.erosion import lower_envelope_min
 
 from viscore import camera_basis, directions_fibonacci
 from viscore._jit import njit_cached
@@ -137,44 +138,14 @@ def _fill_polygons(xs, ys, starts, out, k):  # pragma: no cover
 
 @njit_cached()
 def _envelope(f, out):  # pragma: no cover
-    """Lower envelope of parabolas (q - p)^2 + f[p] at each q (Felzenszwalb, Huttenlocher)."""
+    """Lower envelope of parabolas (q - p)^2 + f[p] at each q (Felzenszwalb, Huttenlocher).
+
+    inf everywhere if every ``f[p]`` is inf; see
+    :func:`viscore.metrics.erosion.lower_envelope_min`.
+    """
     n = len(f)
-    v = np.empty(n, np.int64)
-    z = np.empty(n + 1)
-    k = -1
-    for q in range(n):
-        fq = f[q]
-        if fq == np.inf:
-            continue
-        if k < 0:
-            k = 0
-            v[0] = q
-            z[0] = -np.inf
-            z[1] = np.inf
-            continue
-        while True:
-            p = v[k]
-            s = ((fq + q * q) - (f[p] + p * p)) / (2.0 * (q - p))
-            if s <= z[k]:
-                k -= 1
-                if k < 0:
-                    break
-            else:
-                break
-        k += 1
-        v[k] = q
-        z[k] = s if k > 0 else -np.inf
-        z[k + 1] = np.inf
-    if k < 0:
-        for q in range(n):
-            out[q] = np.inf
-        return
-    j = 0
-    for q in range(n):
-        while z[j + 1] < q:
-            j += 1
-        d = q - v[j]
-        out[q] = d * d + f[v[j]]
+    out[:] = np.inf
+    lower_envelope_min(f, np.empty(n, np.int64), np.empty(n + 1), out)
 
 
 @njit_cached()

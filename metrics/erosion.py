@@ -127,40 +127,53 @@ def _row_crossing_distances(seeds: np.ndarray, out_t: np.ndarray) -> None:  # pr
     v = np.empty(h, dtype=np.int64)
     z = np.empty(h + 1)
     for j in range(w):
-        f = g[j]
-        k = -1
-        for q in range(h):
-            fq = f[q]
-            if fq == np.inf:
-                continue
-            if k < 0:
-                k = 0
-                v[0] = q
-                z[0] = -np.inf
-                z[1] = np.inf
-                continue
-            while True:
-                p = v[k]
-                s = ((fq + q * q) - (f[p] + p * p)) / (2.0 * (q - p))
-                if s <= z[k]:
-                    k -= 1  # z[0] = -inf: never below 0
-                else:
-                    break
-            k += 1
-            v[k] = q
-            z[k] = s
-            z[k + 1] = np.inf
-        if k < 0:
+        lower_envelope_min(g[j], v, z, out_t[j])
+
+
+@njit_cached()
+def lower_envelope_min(f: np.ndarray, v: np.ndarray, z: np.ndarray,
+                       row: np.ndarray) -> None:  # pragma: no cover
+    """Minimum of ``row`` and the lower envelope of parabolas ``(q - p)^2 + f[p]``.
+
+    One pass of the exact squared Euclidean distance transform (Felzenszwalb
+    and Huttenlocher 2012, algorithm DT(f)): ``row[q]`` (N,) becomes
+    ``min(row[q], min_p (q - p)^2 + f[p])``; entries of ``f`` (N,) equal to
+    inf are skipped, and ``row`` is left as it is if all are. ``v`` (N,)
+    int64 and ``z`` (N+1,) float64 are scratch buffers.
+    """
+    h = len(f)
+    k = -1
+    for q in range(h):
+        fq = f[q]
+        if fq == np.inf:
             continue
-        k = 0
-        row = out_t[j]
-        for q in range(h):
-            while z[k + 1] < q:
-                k += 1
+        if k < 0:
+            k = 0
+            v[0] = q
+            z[0] = -np.inf
+            z[1] = np.inf
+            continue
+        while True:
             p = v[k]
-            d = (q - p) ** 2 + f[p]
-            if d < row[q]:
-                row[q] = d
+            s = ((fq + q * q) - (f[p] + p * p)) / (2.0 * (q - p))
+            if s <= z[k]:
+                k -= 1  # z[0] = -inf: never below 0
+            else:
+                break
+        k += 1
+        v[k] = q
+        z[k] = s
+        z[k + 1] = np.inf
+    if k < 0:
+        return
+    k = 0
+    for q in range(h):
+        while z[k + 1] < q:
+            k += 1
+        p = v[k]
+        d = (q - p) ** 2 + f[p]
+        if d < row[q]:
+            row[q] = d
 
 
 def _crossings(padded: np.ndarray, inside: Callable | None, steps: int
