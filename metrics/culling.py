@@ -281,7 +281,8 @@ def check_camera_path(objects: SceneObjects, cameras: Sequence[PathCamera]) -> N
         raise InputError("path: expected at least one camera")
     lo, hi = objects.bounds
     diagonal = float(np.linalg.norm(hi - lo))
-    far = np.array([np.linalg.norm(c.position - (lo + hi) / 2) for c in cameras])
+    with np.errstate(over="ignore"):  # a camera at 1e300: inf, refused below
+        far = np.array([np.linalg.norm(c.position - (lo + hi) / 2) for c in cameras])
     bad = np.flatnonzero(~(far <= _MAX_CAMERA_DIAGONALS * diagonal))
     if len(bad):
         raise InputError(f"path: camera {int(bad[0])} is {far[bad[0]]:.3g} from the scene's "
