@@ -74,8 +74,9 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from ._validate import InputError, as_points, as_positive_int, check_memory
+from ._validate import InputError, as_positive_int, check_memory
 from .cameras import PerspectiveCamera
+from .frusta import _as_boxes
 from .scene import Scene
 
 __all__ = ["OccluderScene", "ConservativeDepthBuffer", "DEFAULT_REDUCTION",
@@ -462,12 +463,7 @@ class ConservativeDepthBuffer:
             Every corner strictly in front of the eye's plane and the clipped
             rectangle not empty; only these can be culled.
         """
-        lo = as_points(lower, "lower", allow_empty=True)
-        hi = as_points(upper, "upper", allow_empty=True)
-        if lo.shape != hi.shape:
-            raise InputError(f"lower and upper: shapes differ ({lo.shape} vs {hi.shape})")
-        if (lo > hi).any():
-            raise InputError("lower and upper: a lower corner exceeds its upper corner")
+        lo, hi = _as_boxes(lower, upper)
         cam = self.camera
         eye = cam.position
         f, r, u = cam.basis

@@ -599,6 +599,7 @@ def polygon_frustum(polygon: npt.ArrayLike, eye: npt.ArrayLike) -> Frustum | Non
 
 # ----------------------------------------------------------------------------- box tests
 def _as_boxes(lower, upper) -> tuple[np.ndarray, np.ndarray]:
+    """Box corners ``lo``, ``hi`` (n, 3) float64, validated (also for viscore.depth_buffer)."""
     lo = as_points(lower, "lower", allow_empty=True)
     hi = as_points(upper, "upper", allow_empty=True)
     if lo.shape != hi.shape:
