@@ -161,3 +161,12 @@ def test_scene_origin_beyond_float32_of_the_scene_refused():
     tiny = trimesh.creation.box(extents=(1e-30, 1e-30, 1e-30))
     with pytest.raises(InputError, match="too far from the mesh"):
         Scene(tiny).first_hit([[0, 0, -1e10]], [[0, 0, 1]])  # 1e40 sizes away
+
+
+def test_integers_beyond_float64_are_refused_in_one_line():
+    from viscore._validate import as_points, as_vector
+
+    with pytest.raises(InputError, match="beyond float64's range"):
+        as_vector([10**400, 0, 0], "up")
+    with pytest.raises(InputError, match="beyond float64's range"):
+        as_points([[0, 0, -(10**400)]], "origins")

@@ -34,6 +34,8 @@ def as_points(value: npt.ArrayLike, name: str, *, allow_empty: bool = False,
     """
     try:
         arr = np.asarray(value, dtype=np.float64)
+    except OverflowError as exc:  # an integer beyond float64's range
+        raise InputError(f"{name}: a value is beyond float64's range") from exc
     except (TypeError, ValueError) as exc:
         raise InputError(f"{name}: expected an (n, 3) array of numbers, got {value!r:.80}") from exc
     if arr.ndim == 1 and arr.shape[0] == 3:
@@ -51,6 +53,8 @@ def as_vector(value: npt.ArrayLike, name: str) -> np.ndarray:
     """Coerce to a finite ``(3,) float64`` vector or raise :class:`InputError`."""
     try:
         arr = np.asarray(value, dtype=np.float64).reshape(-1)
+    except OverflowError as exc:  # an integer beyond float64's range
+        raise InputError(f"{name}: a value is beyond float64's range") from exc
     except (TypeError, ValueError) as exc:
         raise InputError(f"{name}: expected 3 numbers, got {value!r:.80}") from exc
     if arr.shape != (3,):
