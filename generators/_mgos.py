@@ -167,18 +167,30 @@ def _quad_owners(q, img, quads, pm_off, pixmap, img_w, c, pptr, hface, hback, ga
 @njit_cached()
 def _exclusive_table(img, pm_off, pixmap, img_w, img_h, c, sat):
     """Summed-area table of the pixels of one image that have exactly one face left."""
-    w = img_w[img]
-    h = img_h[img]
-    base = pm_off[img]
+    _fill_sat(sat, img_w[img], img_h[img], pixmap, pm_off[img], c, sat, 1)
+
+
+@njit_cached()
+def _fill_sat(sat, w, h, pixmap, base, c, ind, mode):
+    """Summed-area table ((h + 1) x (w + 1), flat, into ``sat``) of one image's pixels.
+
+    Counts, for pixel ``i = r * w + col``: ``mode`` 0, covered pixels
+    (``pixmap[base + i] >= 0``); 1, covered pixels with exactly one face left
+    (``c[p] == 1``); 2, the values ``ind[i]``. Arguments a mode does not read
+    may be any array of the right kind.
+    """
     for col in range(w + 1):
         sat[col] = 0
     for r in range(h):
         run = 0
         sat[(r + 1) * (w + 1)] = 0
         for col in range(w):
-            p = pixmap[base + r * w + col]
-            if p >= 0 and c[p] == 1:
-                run += 1
+            if mode == 2:
+                run += ind[r * w + col]
+            else:
+                p = pixmap[base + r * w + col]
+                if p >= 0 and (mode == 0 or c[p] == 1):
+                    run += 1
             sat[(r + 1) * (w + 1) + col + 1] = sat[r * (w + 1) + col + 1] + run
 
 
@@ -229,17 +241,7 @@ def _full_quads(quads, q_off, qn, pm_off, pixmap, img_w, img_h, sat):
     full = np.zeros(len(qn), np.bool_)
     for img in range(len(q_off) - 1):
         w = img_w[img]
-        h = img_h[img]
-        base = pm_off[img]
-        for col in range(w + 1):
-            sat[col] = 0
-        for r in range(h):
-            run = 0
-            sat[(r + 1) * (w + 1)] = 0
-            for col in range(w):
-                if pixmap[base + r * w + col] >= 0:
-                    run += 1
-                sat[(r + 1) * (w + 1) + col + 1] = sat[r * (w + 1) + col + 1] + run
+        _fill_sat(sat, w, img_h[img], pixmap, pm_off[img], pixmap, sat, 0)
         for q in range(q_off[img], q_off[img + 1]):
             full[q] = _rect(sat, w, q, quads) == qn[q]
     return full
@@ -286,15 +288,7 @@ def _remove_face(g, plist, refound, a_img, a_loc, quads, q_off, qn, qa, qunit, f
             j += 1
         if changed:
             w = img_w[img]
-            h = img_h[img]
-            for col in range(w + 1):
-                sat[col] = 0
-            for r in range(h):
-                run = 0
-                sat[(r + 1) * (w + 1)] = 0
-                for col in range(w):
-                    run += ind[r * w + col]
-                    sat[(r + 1) * (w + 1) + col + 1] = sat[r * (w + 1) + col + 1] + run
+            _fill_sat(sat, w, img_h[img], pixmap, 0, c, ind, 2)
             for q in range(q_off[img], q_off[img + 1]):
                 if not full[q] or _rect(sat, w, q, quads) == 0:
                     continue
