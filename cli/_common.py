@@ -118,3 +118,38 @@ def parse_list(text: str, kind: type, option: str) -> tuple:
     if not values or min(values) <= 0:
         raise InputError(f"{option}: expected positive numbers, got {text!r}")
     return values
+
+
+def check_output_folder(path: str | os.PathLike, option: str = "--out") -> Path:
+    """An output folder, refused before any work unless files can be made in it.
+
+    The folder may exist; if not, its parent must (only the last component is
+    created, by the caller, at the end). Writability is probed by making and
+    removing a temporary folder where the files will go: permission bits say
+    nothing for root, nor for a read-only mount such as ``/proc``.
+
+    Raises
+    ------
+    InputError
+        One line naming the path and the problem.
+    """
+    import tempfile
+
+    from viscore import InputError
+
+    path = Path(path)
+    if os.path.lexists(path):
+        if not path.is_dir():
+            raise InputError(f"{option} {path}: exists and is not a folder")
+        where = path
+    else:
+        where = path.absolute().parent
+        if not where.is_dir():
+            raise InputError(f"{option} {path}: the folder {str(path.parent)!r} does not "
+                             "exist (it is not created)")
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".viscore-", dir=where))
+    except OSError as exc:
+        raise InputError(f"{option} {path}: cannot write in {str(where)!r} "
+                         f"({exc.strerror or exc})") from None
+    return path

@@ -53,7 +53,7 @@ from viscore import InputError, provenance
 from viscore._validate import as_positive, as_positive_int, as_seed
 from viscore.scene_graph import load_scene_objects
 
-from ._common import dumps, emit
+from ._common import check_output_folder, dumps, emit
 
 #: Frames of a generated camera path when ``--frames`` is not given.
 DEFAULT_FRAMES = 100
@@ -139,29 +139,8 @@ def _methods(text: str | None, option: str = "--methods") -> list[str]:
 
 
 def _out_dir(text: str) -> Path:
-    """The output folder, refused before any work unless files can be made in it.
-
-    The folder may exist; if not, its parent must (only the last component is
-    created, at the end). Writability is probed by making and removing a
-    temporary folder where the files will go (permission bits say nothing
-    for root, nor for a read-only mount such as /proc).
-    """
-    path = Path(text)
-    if os.path.lexists(path):
-        if not path.is_dir():
-            raise InputError(f"--out {path}: exists and is not a folder")
-        where = path
-    else:
-        where = path.absolute().parent
-        if not where.is_dir():
-            raise InputError(f"--out {path}: the folder {str(path.parent)!r} does not exist "
-                             "(it is not created)")
-    try:
-        os.rmdir(tempfile.mkdtemp(prefix=".viscore-cull-", dir=where))
-    except OSError as exc:
-        raise InputError(f"--out {path}: cannot write in {str(where)!r} "
-                         f"({exc.strerror or exc})") from None
-    return path
+    """The output folder, refused before any work unless files can be made in it."""
+    return check_output_folder(text)
 
 
 def _write_all(out: Path, files: dict) -> None:

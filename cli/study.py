@@ -55,7 +55,7 @@ from pathlib import Path
 
 from viscore import InputError, cpu_cores, stream_seed
 
-from ._common import _mesh_bytes, dumps, write_atomic
+from ._common import _mesh_bytes, check_output_folder, dumps, write_atomic
 
 #: Columns of the printed and written table, in order.
 TABLE_COLUMNS = ["mesh", "method", "budget", "triangles", "precision", "precision_ci", "recall",
@@ -332,25 +332,17 @@ def check_study_dir(path: str | os.PathLike) -> Path:
 
     The folder may exist (a study to resume) or not; if not, its parent must
     exist (only the study folder itself is created, never a tree). Nothing is
-    created or locked here.
+    created or locked here (a temporary folder probes that files can be made).
 
     Raises
     ------
     InputError
         One line naming the path and the problem.
     """
-    path = Path(path)
-    if os.path.lexists(path):
-        if not path.is_dir():
-            raise InputError(f"--out {path}: exists and is not a folder")
-        store = path / STORE_NAME
-        if os.path.lexists(store) and not store.is_file():
-            raise _not_a_store(store, "is a folder" if store.is_dir() else "is not a file")
-        return path
-    parent = path.absolute().parent
-    if not parent.is_dir():
-        raise InputError(f"--out {path}: the folder {str(path.parent)!r} does not exist "
-                         "(it is not created)")
+    path = check_output_folder(path)
+    store = path / STORE_NAME
+    if os.path.lexists(store) and not store.is_file():
+        raise _not_a_store(store, "is a folder" if store.is_dir() else "is not a file")
     return path
 
 

@@ -37,7 +37,7 @@ from viscore.metrics import (
 from viscore import InputError, load_mesh, provenance, stream_seed
 from viscore._validate import as_fraction, as_positive_int, as_seed
 
-from ._common import dumps, emit, parse_list
+from ._common import check_output_folder, dumps, emit, parse_list
 
 #: Factors of the convergence ablation.
 ABLATION_FACTORS = ("quads", "views", "spacing")
@@ -163,18 +163,9 @@ def _check_out(out: Path) -> Path:
     """The output folder, refused (InputError) unless it is or can be made a writable folder.
 
     Only the last component is created, later; a missing parent is an error.
+    Writability is probed (:func:`viscore.cli._common.check_output_folder`).
     """
-    if out.exists() or out.is_symlink():
-        if not out.is_dir():
-            raise InputError(f"--out: {out} exists and is not a folder")
-        folder = out
-    else:
-        folder = out.parent if str(out.parent) else Path(".")
-        if not folder.is_dir():
-            raise InputError(f"--out: folder {folder} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise InputError(f"--out: folder {folder} is not writable")
-    return out
+    return check_output_folder(out)
 
 
 def _write_outputs(out: Path, files: dict) -> None:

@@ -1,4 +1,5 @@
 import json
+import os
 import sqlite3
 
 import pytest
@@ -212,3 +213,12 @@ def test_compare_refuses_unknown_culling_methods_before_work(tmp_path, capsys):
     assert "--culling-methods: unknown magic" in capsys.readouterr().err
     assert not out.exists()
 
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs a read-only /proc")
+@pytest.mark.parametrize("command", [["compare", "fat-torus", "--methods", "bbox", *TINY],
+                                     ["uncertainty", "fat-torus", "fat-torus"]])
+def test_an_unwritable_out_is_refused_before_any_work(command, capsys):
+    # permission bits say "writable" to root on /proc: only a probe finds out
+    assert main([*command, "--out", "/proc/self/viscore-study"]) == 2
+    assert "cannot write in '/proc/self'" in capsys.readouterr().err
