@@ -75,10 +75,18 @@ def _enters(px, py, qx, qy, ax, ay, bx, by, cx, cy, diagonal):  # pragma: no cov
 
 
 @njit_cached()
-def _in_closed_triangle(px, py, ax, ay, bx, by, cx, cy):  # pragma: no cover
+def _edge_sides(px, py, ax, ay, bx, by, cx, cy):  # pragma: no cover
+    """Cross products of the edges a->b, b->c, c->a with the point p (all > 0: strictly inside
+    a counter-clockwise triangle)."""
     d1 = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
     d2 = (cx - bx) * (py - by) - (cy - by) * (px - bx)
     d3 = (ax - cx) * (py - cy) - (ay - cy) * (px - cx)
+    return d1, d2, d3
+
+
+@njit_cached()
+def _in_closed_triangle(px, py, ax, ay, bx, by, cx, cy):  # pragma: no cover
+    d1, d2, d3 = _edge_sides(px, py, ax, ay, bx, by, cx, cy)
     return d1 >= 0 and d2 >= 0 and d3 >= 0
 
 
@@ -115,10 +123,7 @@ def _is_ear_loose(x, y, alive_list, m, a, b, c):  # pragma: no cover
         p = alive_list[t]
         if p == a or p == b or p == c:
             continue
-        px, py = x[p], y[p]
-        d1 = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
-        d2 = (cx - bx) * (py - by) - (cy - by) * (px - bx)
-        d3 = (ax - cx) * (py - cy) - (ay - cy) * (px - cx)
+        d1, d2, d3 = _edge_sides(x[p], y[p], ax, ay, bx, by, cx, cy)
         if d1 > 0 and d2 > 0 and d3 > 0:
             return False
     return True
