@@ -38,6 +38,17 @@ from .conservativeness import (
     check_conservative,
     clopper_pearson_upper,
 )
+from .culling import (
+    CullingResult,
+    Runtime,
+    camera_path,
+    culling_plot,
+    depth_buffer_runtime,
+    frusta_runtime,
+    no_culling,
+    read_camera_path,
+    simulate_culling,
+)
 from .erosion import (
     OcclusionMeasure,
     directional_occlusion_measure,
@@ -69,6 +80,9 @@ __all__ = [
     # uncertainty
     "bootstrap_ratio", "paired_difference", "PairedDifference", "hierarchical_beta_model",
     "BetaModelSummary", "uncertainty_report", "convergence_ablation", "AblationResult",
+    # culling simulation
+    "simulate_culling", "CullingResult", "Runtime", "no_culling", "frusta_runtime",
+    "depth_buffer_runtime", "camera_path", "read_camera_path", "culling_plot",
     # figures
     "ablation_plot", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",
 ]
