@@ -38,8 +38,9 @@ def depth_image(scene: Scene, camera: OrthoCamera | PerspectiveCamera) -> np.nda
     -------
     depth : (H, W) float64
         ``camera.shape``: (R, R), or (height, R) for a non-square
-        :class:`PerspectiveCamera`. World units along the ray; ``inf`` where the ray misses. Row 0 is the
-        top edge (towards the camera's up), column 0 the left edge.
+        :class:`PerspectiveCamera`. World units along the ray; ``inf`` where
+        the ray misses. Row 0 is the top edge (towards the camera's up),
+        column 0 the left edge.
 
     Examples
     --------
