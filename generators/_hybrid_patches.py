@@ -417,6 +417,8 @@ def _curved_patches(vertices, faces, labels, groups) -> list[Patch]:
     """Quadric simplification of every curved group at once, boundaries kept (pymeshlab)."""
     import pymeshlab
 
+    from .baselines import quadric_edge_collapse
+
     if len(groups) == 0:
         return []
     pick = np.isin(labels, groups)
@@ -432,8 +434,8 @@ def _curved_patches(vertices, faces, labels, groups) -> list[Patch]:
                                f_scalar_array=g.astype(np.float64)))
     target = max(len(groups), int(np.ceil(CURVED_KEEP * len(fl))))
     if target < len(fl):
-        ms.meshing_decimation_quadric_edge_collapse(
-            targetfacenum=target, preserveboundary=True, boundaryweight=BOUNDARY_WEIGHT,
+        quadric_edge_collapse(
+            ms, targetfacenum=target, preserveboundary=True, boundaryweight=BOUNDARY_WEIGHT,
             preservetopology=True, preservenormal=True, optimalplacement=True,
             planarquadric=True, planarweight=PLANAR_QUADRIC_WEIGHT, autoclean=True)
     m = ms.current_mesh()

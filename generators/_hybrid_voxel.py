@@ -116,14 +116,16 @@ def simplify_isosurface(iso: trimesh.Trimesh, *, faces: int) -> trimesh.Trimesh:
     """
     import pymeshlab
 
+    from .baselines import quadric_edge_collapse
+
     if len(iso.faces) <= faces:
         return iso.copy()
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(vertex_matrix=np.asarray(iso.vertices, dtype=np.float64),
                                face_matrix=np.asarray(iso.faces, dtype=np.int32)))
     for topology in (True, False):
-        ms.meshing_decimation_quadric_edge_collapse(
-            targetfacenum=faces, preservetopology=topology, preservenormal=True,
+        quadric_edge_collapse(
+            ms, targetfacenum=faces, preservetopology=topology, preservenormal=True,
             optimalplacement=True, planarquadric=True, autoclean=True)
         if ms.current_mesh().face_number() <= faces:
             break

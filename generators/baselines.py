@@ -42,6 +42,30 @@ __all__ = ["generate_qem", "generate_bbox", "generate_original"]
 DEFAULT_BUDGET = 256
 
 
+#: Every parameter of pymeshlab's ``meshing_decimation_quadric_edge_collapse`` at
+#: MeshLab's default. pymeshlab keeps a parameter left out at the value the last call in
+#: the process gave it, so a call that names only some of them depends on what ran
+#: before (the hybrid's boundary weight changed later ``qem`` occluders); every call
+#: goes through :func:`quadric_edge_collapse`, which names them all.
+QEM_DEFAULTS = {"targetfacenum": 6, "targetperc": 0.0, "qualitythr": 0.3,
+                "preserveboundary": False, "boundaryweight": 1.0, "preservenormal": False,
+                "preservetopology": False, "optimalplacement": True, "planarquadric": False,
+                "planarweight": 0.001, "qualityweight": False, "autoclean": True,
+                "selected": False}
+
+
+def quadric_edge_collapse(ms, **params) -> None:
+    """Run pymeshlab's quadric edge collapse on ``ms`` with every parameter named.
+
+    ``params`` override :data:`QEM_DEFAULTS`; the others are passed at their
+    defaults, so that the result does not depend on earlier calls in the process.
+    """
+    unknown = set(params) - set(QEM_DEFAULTS)
+    if unknown:
+        raise TypeError(f"quadric_edge_collapse: unknown parameters {sorted(unknown)}")
+    ms.meshing_decimation_quadric_edge_collapse(**{**QEM_DEFAULTS, **params})
+
+
 def generate_qem(mesh: trimesh.Trimesh, *, budget: int = DEFAULT_BUDGET, seed: int = 0
                  ) -> Occluder:
     """Quadric edge-collapse decimation to at most ``budget`` triangles (pymeshlab).
@@ -80,9 +104,9 @@ def generate_qem(mesh: trimesh.Trimesh, *, budget: int = DEFAULT_BUDGET, seed: i
         # keep open boundaries where the budget allows; open sheets (terrain, walls)
         # cannot reach small budgets that way, so a second pass may collapse them
         for preserve in (True, False):
-            ms.meshing_decimation_quadric_edge_collapse(
-                targetfacenum=budget, preserveboundary=preserve, preservenormal=True,
-                optimalplacement=True, planarquadric=True, autoclean=True)
+            quadric_edge_collapse(ms, targetfacenum=budget, preserveboundary=preserve,
+                                  preservenormal=True, optimalplacement=True,
+                                  planarquadric=True, autoclean=True)
             if ms.current_mesh().face_number() <= budget:
                 break
     m = ms.current_mesh()

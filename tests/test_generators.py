@@ -181,3 +181,25 @@ def test_godot_scene_bakes_each_opaque_surface_in_world_space():
     assert occ.info["surfaces"] == 1 and occ.info["transparent_surfaces_dropped"] == 1
     assert occ.mesh.bounds[0][0] > 3.9  # only the opaque sphere, moved to x = 5
     assert 0 < occ.triangles < len(opaque.faces)
+
+
+def test_qem_does_not_depend_on_earlier_pymeshlab_calls_in_the_process():
+    # pymeshlab keeps a parameter a call leaves out at the value the last call gave it;
+    # a hybrid run (boundary weight 4) used to change every later qem occluder
+    import numpy as np
+    import pymeshlab
+    import trimesh
+    from viscore.generators import generate_qem
+
+    from viscore import load_mesh
+
+    cow = load_mesh("cow")
+    before = generate_qem(cow, budget=64).mesh.vertices.copy()
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=trimesh.creation.icosphere().vertices,
+                               face_matrix=trimesh.creation.icosphere().faces))
+    ms.meshing_decimation_quadric_edge_collapse(targetfacenum=40, boundaryweight=4.0,
+                                                planarweight=0.5, qualitythr=0.9,
+                                                preservetopology=True)
+    after = generate_qem(cow, budget=64).mesh.vertices
+    assert np.array_equal(before, after)
