@@ -212,27 +212,25 @@ def run_compare(args) -> int:
         rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
                          scheduler=client, progress=not (args.quiet or args.json))
         paired = paired_rows(rows, versus) if versus else []
+        culling = (_culling(culling_methods, out, frames=culling_frames, seed=seed,
+                            quiet=args.quiet or args.json)
+                   if args.culling and culling_methods else [])
         doc = {"settings": asdict(settings), "rows": rows, "paired": paired,
                "provenance": provenance()}
-        write_atomic(out / "results.json", dumps(doc).encode())
-        write_atomic(out / "results.csv", table_csv(rows).encode())
         md = table_markdown(rows)
         if paired:
             md += (f"\nPaired against {versus} on the same views (difference, 95% bootstrap "
                    "interval, bootstrap probability of being better):\n\n"
                    + paired_markdown(paired))
-        write_atomic(out / "results.md", md.encode())
-        culling = (_culling(culling_methods, out, frames=culling_frames, seed=seed,
-                            quiet=args.quiet or args.json)
-                   if args.culling and culling_methods else [])
         if culling:
             doc["culling"] = {"scene": "city", "frames": culling_frames, "rows": culling}
-            write_atomic(out / "results.json", dumps(doc).encode())
             md += (f"\nCulling on the built-in city ({culling_frames} frames at 640 x 360; each "
                    "method's occluders feed a conservative depth buffer; false culls are objects "
                    "culled yet visible in the ray-cast object-id image):\n\n"
                    + _culling_markdown(culling))
-            write_atomic(out / "results.md", md.encode())
+        write_atomic(out / "results.json", dumps(doc).encode())
+        write_atomic(out / "results.csv", table_csv(rows).encode())
+        write_atomic(out / "results.md", md.encode())
         images = _plots(rows, out, meshes, seed)
         write_occluder_glbs(rows, out, originals)
         from .report import write_report
