@@ -362,3 +362,97 @@ def test_frustum_culler_from_occluders_nonconvex_polygon_triangulated():
     # behind the L's foot: culled; behind its notch (2..4 x 2..4): seen through it
     lo = np.array([[1.8, 4.9, 0.45], [2.8, 4.9, 2.8]])
     assert culler.cull(eye, lo, lo + 0.1).tolist() == [True, False]
+
+
+def _reference_cull(culler, camera_or_eye, lo, hi):
+    """Straightforward reference of FrustumCuller.cull: numpy frusta, numpy box test."""
+    return boxes_in_frusta(culler.frusta(camera_or_eye), lo, hi)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_frustum_culler_cull_matches_reference_city(seed):
+    """The compiled per-frame path culls exactly the boxes the frusta of frusta() hold,
+    for every mode, on a street-grid city walked at eye height."""
+    from viscore.cli.bench_cull_runtimes import bench_city
+
+    solids, lo, hi = bench_city(occludees=600, blocks=5, seed=seed)
+    rng = np.random.default_rng(seed)
+    cullers = [FrustumCuller(solids), FrustumCuller(solids, mode="planar"),
+               FrustumCuller(solids, cap="front-faces", rank="faces"),
+               FrustumCuller(solids, active=4)]
+    total = 0
+    for _ in range(8):
+        eye = np.append(rng.uniform(-5, 145, 2), rng.uniform(1, 30))
+        heading = rng.uniform(0, 2 * np.pi)
+        cam = PerspectiveCamera(eye, (np.cos(heading), np.sin(heading), rng.uniform(-0.3, 0.1)),
+                                fov=90, resolution=16, height=9)
+        for culler in cullers:
+            for view in (cam, eye):
+                got = culler.cull(view, lo, hi)
+                assert got.dtype == bool and got.shape == (len(lo),)
+                np.testing.assert_array_equal(got, _reference_cull(culler, view, lo, hi))
+                total += int(got.sum())
+    assert total > 100
+
+
+@pytest.mark.parametrize("seed", [5, 6])
+def test_frustum_culler_cull_matches_reference_hulls_polygons_inside(seed):
+    """Convex hulls, extra polygons, and eyes inside solids (their faces' frusta)."""
+    rng = np.random.default_rng(seed)
+    solids = _scene_solids(rng, n=15)
+    polygons = [np.array([[x, 30, 0], [x + 6, 30, 0], [x + 6, 30, 8], [x, 30, 8]], float)
+                for x in (-20, 0, 20)]
+    centre = rng.uniform([-40, -10, -2], [40, 80, 15], (800, 3))
+    lo = centre - rng.uniform(0.05, 1.5, (800, 3))
+    hi = centre + rng.uniform(0.05, 1.5, (800, 3))
+    cullers = [FrustumCuller(solids, polygons=polygons, **kw)
+               for kw in ({}, {"mode": "planar"}, {"cap": "front-faces", "rank": "faces"},
+                          {"rank": "faces"}, {"cap": "front-faces"})]
+    eyes = [rng.uniform([-30, -20, 1], [30, 70, 3]) for _ in range(5)]
+    eyes += [np.mean(v, axis=0) for v, _ in solids[:3]]  # inside a solid
+    inside = 0
+    for eye in eyes:
+        cam = PerspectiveCamera(eye, rng.normal(size=3) * [1, 1, 0.1], fov=90, resolution=16)
+        for culler in cullers:
+            for view in (cam, eye):
+                np.testing.assert_array_equal(culler.cull(view, lo, hi),
+                                              _reference_cull(culler, view, lo, hi))
+            inside += sum(f.kind == "planar" for f in culler.frusta(eye)) if \
+                culler.mode == "solid" else 0
+    assert inside > 0
+
+
+def test_frustum_culler_cull_box_input():
+    """cull takes lists and (3,) boxes as the reference does, and refuses bad boxes."""
+    wall = trimesh.creation.box(extents=(4, 1, 4))
+    culler = FrustumCuller([(wall.vertices, wall.faces)])
+    eye = (0.3, -5, 0.2)
+    assert culler.cull(eye, [-0.5, 3, -0.5], [0.5, 4, 0.5]).tolist() == [True]
+    assert culler.cull(eye, np.zeros((0, 3)), np.zeros((0, 3))).shape == (0,)
+    lo = np.array([[-0.5, 3, -0.5], [5, 3, 0]])
+    hi = lo + 1.0
+    assert culler.cull(eye, lo.astype(np.float32), hi).tolist() == [True, False]
+    assert culler.cull(eye, np.asfortranarray(lo), hi).tolist() == [True, False]
+    for bad_lo, bad_hi, match in ((lo + [[0, 0, 0], [np.nan, 0, 0]], hi, "NaN"),
+                                  (lo, hi - [[0, 0, 0], [0, 0, np.inf]], "infinite"),
+                                  (hi, lo, "exceeds"), (lo, hi[:1], "shapes")):
+        with pytest.raises(InputError, match=match):
+            culler.cull(eye, bad_lo, bad_hi)
+
+
+def test_best_is_stable_top_k():
+    """The active set: the k best ranks, ties by index, without NaN and -inf."""
+    from viscore.frusta import _best
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        n = int(rng.integers(0, 40))
+        rank = rng.integers(-3, 4, n).astype(float)
+        rank[rng.random(n) < 0.2] = -np.inf
+        rank[rng.random(n) < 0.1] = np.nan
+        rank[rng.random(n) < 0.1] = np.inf
+        k = int(rng.integers(1, 20))
+        clean = np.where(np.isnan(rank), -np.inf, rank)
+        want = np.argsort(-clean, kind="stable")[:k]
+        want = want[clean[want] > -np.inf]
+        np.testing.assert_array_equal(_best(rank.copy(), k), want)

@@ -28,6 +28,18 @@ is the intersection of its planes: the side planes first, then the near
 cap(s) (one row for 'eq2' and for polygons, one per front triangle for
 'front-faces').
 
+Per frame, :meth:`FrustumCuller.cull` ranks the occluders with numpy and
+builds the selected frusta and tests the boxes in compiled loops
+(``viscore._frusta_kernel``, numba; compiled or loaded from numba's cache when
+the culler is made): a box is tested against one frustum's planes until the
+first it is not wholly inside. This is the same computation as
+:meth:`FrustumCuller.frusta` followed by :func:`boxes_in_frusta` (the numpy
+reference, which the tests compare it with), term by term; where numpy hands
+a dot product to BLAS the last bit may round otherwise, some 1e-16 of the
+frame's length scale, while every plane is shifted inward by the margin of
+:data:`MARGIN_RELATIVE` (1e-9) of it. A box either computation culls
+therefore lies inside the exact frustum: both are conservative.
+
 References
 ----------
 .. [1] Papaioannou, G., Gaitatzes, A., Christopoulos, D. "Efficient Occlusion
@@ -627,6 +639,18 @@ def _inside_any(planes: np.ndarray, owner: np.ndarray, lo: np.ndarray,
     return (np.minimum.reduceat(worst, starts, axis=1) >= 0).any(axis=1)
 
 
+def _fast_boxes(lower, upper) -> tuple[np.ndarray, np.ndarray]:
+    """``lo``, ``hi`` (n, 3) float64 C-ordered, for :meth:`FrustumCuller.cull`: the shape is
+    checked here, finiteness and order by the box kernel (which then calls for
+    :func:`_as_boxes` and its messages); anything else goes through :func:`_as_boxes`."""
+    lo, hi = lower, upper
+    if not (isinstance(lo, np.ndarray) and isinstance(hi, np.ndarray)
+            and lo.dtype == np.float64 and hi.dtype == np.float64 and lo.ndim == 2
+            and lo.shape[1:] == (3,) and lo.shape == hi.shape):
+        lo, hi = _as_boxes(lower, upper)
+    return np.ascontiguousarray(lo), np.ascontiguousarray(hi)
+
+
 def boxes_in_frustum(frustum: Frustum, lower: npt.ArrayLike,
                      upper: npt.ArrayLike) -> np.ndarray:
     """Which axis-aligned boxes lie wholly inside a frustum (all 8 corners inside all planes).
@@ -747,6 +771,28 @@ def rank_planar(areas: npt.ArrayLike, normals: npt.ArrayLike, centers: npt.Array
     with np.errstate(divide="ignore", invalid="ignore"):
         f = -a * np.einsum("ij,ij->i", n, v) / np.einsum("ij,ij->i", v, v)
     return np.abs(f) if two_sided else f
+
+
+def _planar_score(neg_area: np.ndarray, normals: np.ndarray, centers: np.ndarray,
+                  eye: np.ndarray) -> np.ndarray:
+    """:func:`rank_planar` (eq. 3) of validated arrays, ``neg_area`` = -A (s,)."""
+    v = centers - eye
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return neg_area * np.einsum("ij,ij->i", normals, v) / np.einsum("ij,ij->i", v, v)
+
+
+def _best(rank: np.ndarray, k: int) -> np.ndarray:
+    """Indices of the ``k`` largest ranks, best first, ties by index (a stable sort of
+    ``-rank``), without NaN and ``-inf`` ranks; sorts only the candidates."""
+    neg = -rank
+    neg[np.isnan(neg)] = np.inf
+    if len(neg) > k:
+        cut = np.partition(neg, k - 1)[k - 1]  # the k-th smallest
+        cand = np.flatnonzero(neg <= cut)
+        order = cand[np.argsort(neg[cand], kind="stable")[:k]]
+    else:
+        order = np.argsort(neg, kind="stable")
+    return order[neg[order] < np.inf]
 
 
 def _convex_pieces(polygon, index: int) -> list[np.ndarray]:
@@ -904,6 +950,37 @@ class FrustumCuller:
         else:
             self._center, self._diagonal = np.zeros(3), 0.0
         self.count = (len(arrays) if mode == "solid" else self._faces.count) + len(extra)
+        self._prepare_frame_arrays()
+
+    def _prepare_frame_arrays(self) -> None:
+        """Per-frame constants: ranking terms, and the flat arrays of the compiled path
+        (:mod:`viscore._frusta_kernel`), which compiles (or loads from its cache) here,
+        not in the first frame."""
+        from ._frusta_kernel import boxes_inside_any, frame_planes
+
+        fc, ex, sv = self._faces, self._extra, self._solids
+        self._face_neg_area, self._extra_neg_area = -fc.area, -ex.area
+        self._face_neg_radius = -fc.radius[:, None]
+        self._extra_neg_radius = -ex.radius[:, None]
+        self._solid_neg_radius = -sv.radius[:, None]
+        z3, zi = np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+        solid = (sv.vertices, sv.normals, sv.offset, sv.face_start.astype(np.int64),
+                 getattr(sv, "edge_a", zi), getattr(sv, "edge_b", zi),
+                 getattr(sv, "edge_face", zi), getattr(sv, "twin_face", zi), sv.centroid,
+                 self._face_start)
+        # faces then extra polygons, one polygon set (extra polygon i is polygon faces + i)
+        shift = len(fc.points)
+        poly = (np.vstack([fc.points, ex.points]),
+                np.concatenate([fc.start[:-1], ex.start + shift]).astype(np.int64),
+                np.concatenate([fc.next, ex.next + shift]).astype(np.int64),
+                np.vstack([fc.normal, ex.normal]), np.concatenate([fc.offset, ex.offset]),
+                np.vstack([fc.centroid, ex.centroid]))
+        self._kernel_arrays = tuple(np.ascontiguousarray(a) for a in solid + poly)
+        self._frame_planes, self._boxes_inside_any = frame_planes, boxes_inside_any
+        # compile (or load) both kernels now, with the argument types of every frame
+        planes, start = frame_planes(np.zeros(3), zi, zi, *self._kernel_arrays,
+                                     self.cap == "front-faces", 0.0, 0.0, 0.0)
+        boxes_inside_any(planes, start, z3, z3, np.zeros(0, dtype=bool))
 
     @classmethod
     def from_occluders(cls, occluders, *, mode: str = "solid", active: int = ACTIVE_OCCLUDERS,
@@ -951,22 +1028,25 @@ class FrustumCuller:
         return as_vector(camera_or_eye, "eye"), None
 
     @staticmethod
-    def _in_view(view, centers: np.ndarray, radii: np.ndarray) -> np.ndarray:
-        if view is None or len(centers) == 0:
-            return np.ones(len(centers), dtype=bool)
+    def _in_view(view, centers: np.ndarray, neg_radii: np.ndarray) -> np.ndarray | bool:
+        """(s,) bool: the spheres (``neg_radii`` (s, 1): minus the radii) may meet the view;
+        True without a view."""
+        if view is None:
+            return True
         vn, vd = view
-        return ((centers @ vn.T + vd) >= -radii[:, None]).all(axis=1)
+        return ((centers @ vn.T + vd) >= neg_radii).all(axis=1)
 
     def _select(self, eye, view) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Chosen solids, solid faces (planar mode) and extra polygons, best first."""
-        ex = self._extra
-        extra_rank = np.abs(rank_planar(ex.area, ex.normal, ex.centroid, eye))
-        extra_rank = np.where(self._in_view(view, ex.centroid, ex.radius), extra_rank, -np.inf)
-        none = np.zeros(0, dtype=np.int64)
-        fc = self._faces
+        """Chosen solids, solid faces (planar mode) and extra polygons, best first.
+
+        The ranks are :func:`rank_solids` and :func:`rank_planar` evaluated with
+        the same expressions, without re-validating the occluders every frame.
+        """
+        fc, ex = self._faces, self._extra
         if self.mode == "planar" or self.rank == "faces":
-            face_rank = rank_planar(fc.area, fc.normal, fc.centroid, eye)
-            face_rank = np.where(self._in_view(view, fc.centroid, fc.radius), face_rank, -np.inf)
+            face_rank = _planar_score(self._face_neg_area, fc.normal, fc.centroid, eye)
+            face_rank = np.where(self._in_view(view, fc.centroid, self._face_neg_radius),
+                                 face_rank, -np.inf)
         if self.mode == "planar":
             first = face_rank
         elif self.rank == "faces":
@@ -974,13 +1054,21 @@ class FrustumCuller:
             first = np.maximum.reduceat(face_rank, starts) if len(face_rank) else face_rank
         else:
             sv = self._solids
-            first = rank_solids(sv.volume, sv.centroid, eye)
-            first = np.where(self._in_view(view, sv.centroid, sv.radius), first, -np.inf)
-        rank = np.concatenate([first, extra_rank])
-        rank[np.isnan(rank)] = -np.inf
-        order = np.argsort(-rank, kind="stable")[:self.active]
-        order = order[rank[order] > -np.inf]
+            with np.errstate(divide="ignore"):
+                first = sv.volume / np.linalg.norm(sv.centroid - eye, axis=1) ** 3  # eq. 4
+            first = np.where(self._in_view(view, sv.centroid, self._solid_neg_radius), first,
+                             -np.inf)
+        if ex.count:
+            extra_rank = np.abs(_planar_score(self._extra_neg_area, ex.normal, ex.centroid,
+                                              eye))
+            extra_rank = np.where(self._in_view(view, ex.centroid, self._extra_neg_radius),
+                                  extra_rank, -np.inf)
+            rank = np.concatenate([first, extra_rank])
+        else:
+            rank = first
+        order = _best(rank, self.active)
         n = len(first)
+        none = np.zeros(0, dtype=np.int64)
         chosen, extra = order[order < n], order[order >= n] - n
         if self.mode == "planar":
             return none, chosen, extra
@@ -1037,11 +1125,17 @@ class FrustumCuller:
         InputError
             On bad boxes or eye.
         """
-        lo, hi = _as_boxes(lower, upper)
-        _, parts = self._frame(camera_or_eye)
-        if not parts:
-            return np.zeros(len(lo), dtype=bool)
-        planes = np.vstack([p.planes for p, _ in parts])
-        shift = np.cumsum([0] + [len(p) for p, _ in parts])[:-1]
-        owner = np.concatenate([p.owner + o for (p, _), o in zip(parts, shift, strict=True)])
-        return _inside_any(planes, owner, lo, hi)
+        lo, hi = _fast_boxes(lower, upper)
+        eye, view = self._eye_and_view(camera_or_eye)
+        sel_solids, sel_faces, sel_extra = self._select(eye, view)
+        if len(sel_extra):
+            sel_faces = np.concatenate([sel_faces, sel_extra + self._faces.count])
+        scale = _frame_scale(eye, self._center, self._diagonal)
+        planes, start = self._frame_planes(
+            eye, sel_solids, sel_faces, *self._kernel_arrays, self.cap == "front-faces",
+            MARGIN_RELATIVE * scale, _DEGENERATE_RELATIVE * scale * scale,
+            _DEGENERATE_RELATIVE * scale)
+        out = np.zeros(len(lo), dtype=bool)
+        if not self._boxes_inside_any(planes, start, lo, hi, out):
+            _as_boxes(lower, upper)  # raises on the bad box
+        return out
