@@ -440,9 +440,9 @@ def test_frustum_culler_cull_box_input():
             culler.cull(eye, bad_lo, bad_hi)
 
 
-def test_best_is_stable_top_k():
+def test_top_k_is_stable_sort():
     """The active set: the k best ranks, ties by index, without NaN and -inf."""
-    from viscore.frusta import _best
+    from viscore._frusta_kernel import top_k
 
     rng = np.random.default_rng(0)
     for _ in range(200):
@@ -455,4 +455,60 @@ def test_best_is_stable_top_k():
         clean = np.where(np.isnan(rank), -np.inf, rank)
         want = np.argsort(-clean, kind="stable")[:k]
         want = want[clean[want] > -np.inf]
-        np.testing.assert_array_equal(_best(rank.copy(), k), want)
+        np.testing.assert_array_equal(top_k(rank, k), want)
+
+
+def _reference_select(culler, camera_or_eye):
+    """The active set by numpy: public ranks, view test, a stable sort of all of them."""
+    if isinstance(camera_or_eye, PerspectiveCamera):
+        eye = camera_or_eye.position
+        f, r, u = camera_or_eye.basis
+        hx, hy = camera_or_eye._half, camera_or_eye._half_vertical
+        vn = np.array([hx * f - r, hx * f + r, hy * f - u, hy * f + u])
+        vn /= np.linalg.norm(vn, axis=1)[:, None]
+        vd = -(vn @ eye)
+    else:
+        eye = np.asarray(camera_or_eye, float)
+
+    def seen(c, radius):
+        if not isinstance(camera_or_eye, PerspectiveCamera):
+            return np.ones(len(c), bool)
+        return ((c @ vn.T + vd) >= -radius[:, None]).all(axis=1)
+
+    fc, ex, sv = culler._faces, culler._extra, culler._solids
+    face = np.where(seen(fc.centroid, fc.radius),
+                    rank_planar(fc.area, fc.normal, fc.centroid, eye), -np.inf)
+    if culler.mode == "planar":
+        first = face
+    elif culler.rank == "faces":
+        first = np.maximum.reduceat(face, culler._face_start[:-1])
+    else:
+        first = np.where(seen(sv.centroid, sv.radius),
+                         rank_solids(sv.volume, sv.centroid, eye), -np.inf)
+    extra = np.where(seen(ex.centroid, ex.radius),
+                     rank_planar(ex.area, ex.normal, ex.centroid, eye, two_sided=True), -np.inf)
+    rank = np.concatenate([first, extra])
+    rank[np.isnan(rank)] = -np.inf
+    order = np.argsort(-rank, kind="stable")[:culler.active]
+    order = order[rank[order] > -np.inf]
+    return order[order < len(first)], order[order >= len(first)] - len(first)
+
+
+@pytest.mark.parametrize("seed", [7, 8])
+def test_frustum_culler_selection_matches_reference(seed):
+    """The compiled ranking picks the active set numpy's ranks and sort pick."""
+    rng = np.random.default_rng(seed)
+    solids = _scene_solids(rng, n=30)
+    polygons = [np.array([[x, 30, 0], [x + 6, 30, 0], [x + 6, 30, 8], [x, 30, 8]], float)
+                for x in (-20, 0, 20)]
+    for kw in ({}, {"mode": "planar"}, {"rank": "faces"}, {"active": 3}):
+        culler = FrustumCuller(solids, polygons=polygons, **kw)
+        for _ in range(6):
+            eye = rng.uniform([-30, -20, 1], [30, 70, 3])
+            cam = PerspectiveCamera(eye, rng.normal(size=3) * [1, 1, 0.1], fov=70,
+                                    resolution=16, height=9)
+            for view in (cam, eye):
+                first, extra = _reference_select(culler, view)
+                s, f, e = culler._select(culler._view(view))
+                np.testing.assert_array_equal(f if culler.mode == "planar" else s, first)
+                np.testing.assert_array_equal(e, extra)

@@ -32,7 +32,128 @@ import numpy as np
 
 from ._jit import njit_cached
 
-__all__ = ["frame_planes", "boxes_inside_any"]
+__all__ = ["select_occluders", "top_k", "frame_planes", "boxes_inside_any"]
+
+
+@njit_cached()
+def top_k(rank, k):
+    """Indices of the ``k`` largest of ``rank`` (n,), best first, ties by index (as a
+    stable sort of ``-rank``), leaving out NaN and ``-inf``."""
+    idx = np.empty(k, dtype=np.int64)
+    val = np.empty(k)
+    count = 0
+    for i in range(len(rank)):
+        v = rank[i]
+        if not v > -np.inf:  # -inf or NaN
+            continue
+        if count == k:
+            if not v > val[k - 1]:
+                continue
+            pos = k - 1
+        else:
+            pos = count
+            count += 1
+        while pos > 0 and val[pos - 1] < v:  # after every equal or better one
+            idx[pos], val[pos] = idx[pos - 1], val[pos - 1]
+            pos -= 1
+        idx[pos], val[pos] = i, v
+    return idx[:count]
+
+
+@njit_cached(inline="always")
+def _in_view(vn, vd, c, i, neg_radius):
+    """Sphere (centre c[i], radius -neg_radius[i]) not wholly outside one view plane."""
+    for j in range(4):
+        if not (c[i, 0] * vn[j, 0] + c[i, 1] * vn[j, 1] + c[i, 2] * vn[j, 2]) + vd[j] \
+                >= neg_radius[i]:
+            return False
+    return True
+
+
+@njit_cached(inline="always")
+def _planar_score(eye, neg_area, normal, centroid, i):
+    """-A N.V / |V|^2 (eq. 3), V from the eye to the centroid (NaN or inf on it)."""
+    vx, vy, vz = centroid[i, 0] - eye[0], centroid[i, 1] - eye[1], centroid[i, 2] - eye[2]
+    return neg_area[i] * (normal[i, 0] * vx + normal[i, 1] * vy + normal[i, 2] * vz) \
+        / (vx * vx + vy * vy + vz * vz)
+
+
+@njit_cached(error_model="numpy")
+def select_occluders(eye, has_view, forward, right, up, half_x, half_y, kind, active,
+                     s_volume, s_centroid, s_neg_radius, f_neg_area, f_normal, f_centroid,
+                     f_neg_radius, face_start, e_neg_area, e_normal, e_centroid,
+                     e_neg_radius):
+    """The frame's active set: the ``active`` best of the primary occluders and the extra
+    polygons, best first, as (primary (a,) int64, extra (b,) int64).
+
+    ``kind`` 0: the solids by eq. 4, Vol / |V|^3; 1: the solids by their best face
+    (``face_start`` (s + 1,)); 2: the faces by eq. 3; extra polygons by |eq. 3|. An
+    occluder whose bounding sphere lies wholly outside one of the view's four side
+    planes (``has_view``; camera basis and tangents of the half angles) ranks -inf and
+    is never chosen; so are NaN ranks.
+    """
+    vn = np.empty((4, 3))
+    vd = np.empty(4)
+    for j in range(4):
+        h = half_x if j < 2 else half_y
+        side = right if j < 2 else up
+        sgn = -1.0 if j % 2 == 0 else 1.0
+        nx = h * forward[0] + sgn * side[0]
+        ny = h * forward[1] + sgn * side[1]
+        nz = h * forward[2] + sgn * side[2]
+        norm = np.sqrt(nx * nx + ny * ny + nz * nz)
+        vn[j, 0], vn[j, 1], vn[j, 2] = nx / norm, ny / norm, nz / norm
+        vd[j] = -(vn[j, 0] * eye[0] + vn[j, 1] * eye[1] + vn[j, 2] * eye[2])
+    n_first = len(s_volume) if kind < 2 else len(f_neg_area)
+    rank = np.empty(n_first + len(e_neg_area))
+    if kind == 0:
+        for i in range(n_first):
+            dx = s_centroid[i, 0] - eye[0]
+            dy = s_centroid[i, 1] - eye[1]
+            dz = s_centroid[i, 2] - eye[2]
+            dist = np.sqrt(dx * dx + dy * dy + dz * dz)
+            r = s_volume[i] / dist ** 3.0
+            if has_view and not _in_view(vn, vd, s_centroid, i, s_neg_radius):
+                r = -np.inf
+            rank[i] = r
+    elif kind == 1:
+        for i in range(n_first):
+            best = -np.inf
+            for q in range(face_start[i], face_start[i + 1]):
+                r = _planar_score(eye, f_neg_area, f_normal, f_centroid, q)
+                if has_view and not _in_view(vn, vd, f_centroid, q, f_neg_radius):
+                    r = -np.inf
+                if np.isnan(r) or np.isnan(best):
+                    best = np.nan
+                elif r > best:
+                    best = r
+            rank[i] = best
+    else:
+        for i in range(n_first):
+            r = _planar_score(eye, f_neg_area, f_normal, f_centroid, i)
+            if has_view and not _in_view(vn, vd, f_centroid, i, f_neg_radius):
+                r = -np.inf
+            rank[i] = r
+    for i in range(len(e_neg_area)):
+        r = abs(_planar_score(eye, e_neg_area, e_normal, e_centroid, i))
+        if has_view and not _in_view(vn, vd, e_centroid, i, e_neg_radius):
+            r = -np.inf
+        rank[n_first + i] = r
+    order = top_k(rank, active)
+    n_primary = 0
+    for i in range(len(order)):
+        n_primary += order[i] < n_first
+    primary = np.empty(n_primary, dtype=np.int64)
+    extra = np.empty(len(order) - n_primary, dtype=np.int64)
+    a, b = 0, 0
+    for i in range(len(order)):
+        if order[i] < n_first:
+            primary[a] = order[i]
+            a += 1
+        else:
+            extra[b] = order[i] - n_first
+            b += 1
+    return primary, extra
 
 
 @njit_cached(inline="always")

@@ -773,28 +773,6 @@ def rank_planar(areas: npt.ArrayLike, normals: npt.ArrayLike, centers: npt.Array
     return np.abs(f) if two_sided else f
 
 
-def _planar_score(neg_area: np.ndarray, normals: np.ndarray, centers: np.ndarray,
-                  eye: np.ndarray) -> np.ndarray:
-    """:func:`rank_planar` (eq. 3) of validated arrays, ``neg_area`` = -A (s,)."""
-    v = centers - eye
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return neg_area * np.einsum("ij,ij->i", normals, v) / np.einsum("ij,ij->i", v, v)
-
-
-def _best(rank: np.ndarray, k: int) -> np.ndarray:
-    """Indices of the ``k`` largest ranks, best first, ties by index (a stable sort of
-    ``-rank``), without NaN and ``-inf`` ranks; sorts only the candidates."""
-    neg = -rank
-    neg[np.isnan(neg)] = np.inf
-    if len(neg) > k:
-        cut = np.partition(neg, k - 1)[k - 1]  # the k-th smallest
-        cand = np.flatnonzero(neg <= cut)
-        order = cand[np.argsort(neg[cand], kind="stable")[:k]]
-    else:
-        order = np.argsort(neg, kind="stable")
-    return order[neg[order] < np.inf]
-
-
 def _convex_pieces(polygon, index: int) -> list[np.ndarray]:
     """A planar polygon as convex pieces: itself when convex, else its triangles
     (mapbox-earcut); [] when it is not planar or has no area."""
@@ -833,16 +811,6 @@ def _convex_pieces(polygon, index: int) -> list[np.ndarray]:
 
 
 # ----------------------------------------------------------------------------- runtime
-def _view_planes(camera) -> tuple[np.ndarray, np.ndarray]:
-    """Four inward side planes of a perspective camera (unit normals, through the eye)."""
-    f, r, u = camera.basis
-    hx = camera._half
-    hy = camera._half_vertical
-    n = np.array([hx * f - r, hx * f + r, hy * f - u, hy * f + u])
-    n /= np.linalg.norm(n, axis=1)[:, None]
-    return n, -(n @ camera.position)
-
-
 class FrustumCuller:
     """Per-frame shadow-frustum culling with an active set of the best occluders.
 
@@ -956,14 +924,15 @@ class FrustumCuller:
         """Per-frame constants: ranking terms, and the flat arrays of the compiled path
         (:mod:`viscore._frusta_kernel`), which compiles (or loads from its cache) here,
         not in the first frame."""
-        from ._frusta_kernel import boxes_inside_any, frame_planes
+        from ._frusta_kernel import boxes_inside_any, frame_planes, select_occluders
 
         fc, ex, sv = self._faces, self._extra, self._solids
-        self._face_neg_area, self._extra_neg_area = -fc.area, -ex.area
-        self._face_neg_radius = -fc.radius[:, None]
-        self._extra_neg_radius = -ex.radius[:, None]
-        self._solid_neg_radius = -sv.radius[:, None]
         z3, zi = np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+        self._none = zi
+        self._rank_kind = 2 if self.mode == "planar" else 1 if self.rank == "faces" else 0
+        rank = (sv.volume, sv.centroid, -sv.radius, -fc.area, fc.normal, fc.centroid,
+                -fc.radius, self._face_start, -ex.area, ex.normal, ex.centroid, -ex.radius)
+        self._rank_arrays = tuple(np.ascontiguousarray(a) for a in rank)
         solid = (sv.vertices, sv.normals, sv.offset, sv.face_start.astype(np.int64),
                  getattr(sv, "edge_a", zi), getattr(sv, "edge_b", zi),
                  getattr(sv, "edge_face", zi), getattr(sv, "twin_face", zi), sv.centroid,
@@ -977,7 +946,9 @@ class FrustumCuller:
                 np.vstack([fc.centroid, ex.centroid]))
         self._kernel_arrays = tuple(np.ascontiguousarray(a) for a in solid + poly)
         self._frame_planes, self._boxes_inside_any = frame_planes, boxes_inside_any
-        # compile (or load) both kernels now, with the argument types of every frame
+        self._select_occluders = select_occluders
+        # compile (or load) the kernels now, with the argument types of every frame
+        self._select(self._view(np.zeros(3)))
         planes, start = frame_planes(np.zeros(3), zi, zi, *self._kernel_arrays,
                                      self.cap == "front-faces", 0.0, 0.0, 0.0)
         boxes_inside_any(planes, start, z3, z3, np.zeros(0, dtype=bool))
@@ -1020,63 +991,32 @@ class FrustumCuller:
         return cls(solids, polygons=polygons, mode=mode, active=active, cap=cap, rank=rank)
 
     # ------------------------------------------------------------------ per frame
-    def _eye_and_view(self, camera_or_eye):
+    def _view(self, camera_or_eye) -> tuple:
+        """The eye (3,) and the view of the frame (a camera's basis and the tangents of
+        its half angles), as :func:`viscore._frusta_kernel.select_occluders` takes them."""
         from .cameras import PerspectiveCamera
 
         if isinstance(camera_or_eye, PerspectiveCamera):
-            return camera_or_eye.position, _view_planes(camera_or_eye)
-        return as_vector(camera_or_eye, "eye"), None
+            f, r, u = camera_or_eye.basis
+            return (np.ascontiguousarray(camera_or_eye.position), True, f, r, u,
+                    camera_or_eye._half, camera_or_eye._half_vertical)
+        z = np.zeros(3)
+        return np.ascontiguousarray(as_vector(camera_or_eye, "eye")), False, z, z, z, 0.0, 0.0
 
-    @staticmethod
-    def _in_view(view, centers: np.ndarray, neg_radii: np.ndarray) -> np.ndarray | bool:
-        """(s,) bool: the spheres (``neg_radii`` (s, 1): minus the radii) may meet the view;
-        True without a view."""
-        if view is None:
-            return True
-        vn, vd = view
-        return ((centers @ vn.T + vd) >= neg_radii).all(axis=1)
-
-    def _select(self, eye, view) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Chosen solids, solid faces (planar mode) and extra polygons, best first.
-
-        The ranks are :func:`rank_solids` and :func:`rank_planar` evaluated with
-        the same expressions, without re-validating the occluders every frame.
-        """
-        fc, ex = self._faces, self._extra
-        if self.mode == "planar" or self.rank == "faces":
-            face_rank = _planar_score(self._face_neg_area, fc.normal, fc.centroid, eye)
-            face_rank = np.where(self._in_view(view, fc.centroid, self._face_neg_radius),
-                                 face_rank, -np.inf)
+    def _select(self, view: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Chosen solids, solid faces (planar mode) and extra polygons, best first:
+        the ``active`` best ranks among the occluders whose bounding sphere may meet
+        the view (ranks of :func:`rank_solids` and :func:`rank_planar`)."""
+        first, extra = self._select_occluders(*view, self._rank_kind, self.active,
+                                              *self._rank_arrays)
         if self.mode == "planar":
-            first = face_rank
-        elif self.rank == "faces":
-            starts = self._face_start[:-1]
-            first = np.maximum.reduceat(face_rank, starts) if len(face_rank) else face_rank
-        else:
-            sv = self._solids
-            with np.errstate(divide="ignore"):
-                first = sv.volume / np.linalg.norm(sv.centroid - eye, axis=1) ** 3  # eq. 4
-            first = np.where(self._in_view(view, sv.centroid, self._solid_neg_radius), first,
-                             -np.inf)
-        if ex.count:
-            extra_rank = np.abs(_planar_score(self._extra_neg_area, ex.normal, ex.centroid,
-                                              eye))
-            extra_rank = np.where(self._in_view(view, ex.centroid, self._extra_neg_radius),
-                                  extra_rank, -np.inf)
-            rank = np.concatenate([first, extra_rank])
-        else:
-            rank = first
-        order = _best(rank, self.active)
-        n = len(first)
-        none = np.zeros(0, dtype=np.int64)
-        chosen, extra = order[order < n], order[order >= n] - n
-        if self.mode == "planar":
-            return none, chosen, extra
-        return chosen, none, extra
+            return self._none, first, extra
+        return first, self._none, extra
 
     def _frame(self, camera_or_eye) -> tuple[np.ndarray, list[tuple[_Planes, str]]]:
-        eye, view = self._eye_and_view(camera_or_eye)
-        sel_solids, sel_faces, sel_extra = self._select(eye, view)
+        view = self._view(camera_or_eye)
+        eye = view[0]
+        sel_solids, sel_faces, sel_extra = self._select(view)
         scale = _frame_scale(eye, self._center, self._diagonal)
         if len(sel_solids):
             inside = self._solids.eye_inside(eye, sel_solids)
@@ -1126,8 +1066,9 @@ class FrustumCuller:
             On bad boxes or eye.
         """
         lo, hi = _fast_boxes(lower, upper)
-        eye, view = self._eye_and_view(camera_or_eye)
-        sel_solids, sel_faces, sel_extra = self._select(eye, view)
+        view = self._view(camera_or_eye)
+        eye = view[0]
+        sel_solids, sel_faces, sel_extra = self._select(view)
         if len(sel_extra):
             sel_faces = np.concatenate([sel_faces, sel_extra + self._faces.count])
         scale = _frame_scale(eye, self._center, self._diagonal)
