@@ -60,7 +60,7 @@ def top_k(rank, k):
     return idx[:count]
 
 
-@njit_cached(inline="always")
+@njit_cached()
 def _in_view(vn, vd, c, i, neg_radius):
     """Sphere (centre c[i], radius -neg_radius[i]) not wholly outside one view plane."""
     for j in range(4):
@@ -70,7 +70,7 @@ def _in_view(vn, vd, c, i, neg_radius):
     return True
 
 
-@njit_cached(inline="always")
+@njit_cached()
 def _planar_score(eye, neg_area, normal, centroid, i):
     """-A N.V / |V|^2 (eq. 3), V from the eye to the centroid (NaN or inf on it)."""
     vx, vy, vz = centroid[i, 0] - eye[0], centroid[i, 1] - eye[1], centroid[i, 2] - eye[2]
@@ -156,7 +156,7 @@ def select_occluders(eye, has_view, forward, right, up, half_x, half_y, kind, ac
     return primary, extra
 
 
-@njit_cached(inline="always")
+@njit_cached()
 def _side(ex, ey, ez, ax, ay, az, bx, by, bz, ix, iy, iz, tol):
     """Unit plane through the eye and edge (a, b), inward towards (ix, iy, iz); ok flag
     (``frusta._oriented_side_planes`` for one edge)."""
@@ -177,7 +177,7 @@ def _side(ex, ey, ez, ax, ay, az, bx, by, bz, ix, iy, iz, tol):
     return ok, nx, ny, nz, d
 
 
-@njit_cached(inline="always")
+@njit_cached()
 def _polygon(eye, q, p_points, p_start, p_next, p_normal, p_offset, p_centroid, margin,
              tol_side, tol_height, planes, row):
     """Write the planar frustum of polygon ``q`` from ``row`` on; the next free row (``row``

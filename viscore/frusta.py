@@ -28,17 +28,21 @@ is the intersection of its planes: the side planes first, then the near
 cap(s) (one row for 'eq2' and for polygons, one per front triangle for
 'front-faces').
 
-Per frame, :meth:`FrustumCuller.cull` ranks the occluders with numpy and
-builds the selected frusta and tests the boxes in compiled loops
-(``viscore._frusta_kernel``, numba; compiled or loaded from numba's cache when
-the culler is made): a box is tested against one frustum's planes until the
-first it is not wholly inside. This is the same computation as
-:meth:`FrustumCuller.frusta` followed by :func:`boxes_in_frusta` (the numpy
-reference, which the tests compare it with), term by term; where numpy hands
-a dot product to BLAS the last bit may round otherwise, some 1e-16 of the
-frame's length scale, while every plane is shifted inward by the margin of
-:data:`MARGIN_RELATIVE` (1e-9) of it. A box either computation culls
-therefore lies inside the exact frustum: both are conservative.
+Per frame, :meth:`FrustumCuller.cull` runs compiled loops
+(``viscore._frusta_kernel``, numba; compiled, or loaded from numba's cache, when
+the culler is made): one pass ranks the occluders and keeps the ``active``
+best, one builds their frusta, and one tests the boxes, each against a
+frustum's planes until the first it is not wholly inside. This is the same
+computation as :meth:`FrustumCuller.frusta` followed by
+:func:`boxes_in_frusta` (the numpy reference, which the tests compare it
+with), term by term in the same order. Where numpy hands a dot product to
+BLAS, the last bit may round otherwise: the two differ by rounding of the size
+each already has (some 1e-16 of the frame's length scale for a box near the
+occluders), which the inward shift of every plane by the margin
+(:data:`MARGIN_RELATIVE`, 1e-9 of that scale) absorbs: a box culled by either
+lies inside the exact, unshifted frustum. The ranking is computed the same
+way; a rounding difference there could only swap two occluders of equal rank
+in the active set, which changes no frustum's guarantee.
 
 References
 ----------
