@@ -11,7 +11,8 @@ is walked by a camera at eye height; each frame is timed for
   report 0.99-2.63 ms in 2006);
 - the conservative depth buffer (:mod:`viscore.depth_buffer`) at 320 x 180
   for a 1280 x 720 screen ([2]_ sec. 5-7; target < 5 ms): building the
-  buffer (its corner rays) and testing the occludees, separately;
+  buffer (rays at tile corners, refined along silhouettes) and testing the
+  occludees, separately, and the rays it casts per frame;
 - references: a bare numpy pass over the occludee boxes (projecting their
   8 corners, what any screen-space test does at least), and one bare
   ``EmbreeScene.run`` over the buffer's corner rays (float32 prepared).
@@ -170,7 +171,9 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
         Also ``culled_share`` (mean share of the occludees culled, per
         runtime), ``culled_share_in_view`` (the same among the occludees that
         meet the view frustum: the depth buffer never culls outside it,
-        frusta may), ``frames_solid_below_planar`` (frames on which each solid
+        frusta may), ``depth_buffer_rays`` (``median`` and ``max`` rays the
+        buffer casts per frame, beside its ``corners``, (W + 1)(H + 1), one ray
+        per pixel corner), ``frames_solid_below_planar`` (frames on which each solid
         variant culls fewer boxes than 'planar'), the settings, ``solids``,
         ``targets_ms`` ({'frusta': 2, 'depth_buffer': 5}), ``workers`` (1) and
         ``load_average`` (the machine's 1-minute load when the run ended).
@@ -201,6 +204,8 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
     corners = np.stack([np.where(np.array(m, bool), upper, lower)
                         for m in np.ndindex(2, 2, 2)], axis=1).reshape(-1, 3)
 
+    rays: list[int] = []
+
     def record(key, w, c):
         wall[key].append(w)
         cpu[key].append(c)
@@ -217,6 +222,7 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
         record("depth_buffer_test", wt, ct)
         record("depth_buffer", wb + wt, cb + ct)
         culled["depth_buffer"].append(out)
+        rays.append(buf.rays)
         w, c, _ = _timed(lambda cam=cam: cam.project(corners))
         record("reference_numpy_boxes", w, c)
         o32, d32 = _corner_rays(cam, width, height, offset)
@@ -234,6 +240,8 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
         "frames_solid_below_planar": {
             k: int(sum(c.sum() < p for c, p in zip(culled[k], planar, strict=True)))
             for k in ("frusta_solid", "frusta_solid_exact")},
+        "depth_buffer_rays": {"median": float(np.median(rays)), "max": int(np.max(rays)),
+                              "corners": (width + 1) * (height + 1)},
         "frames": frames, "occludees": len(lower), "active": active,
         "buffer": [width, height], "screen": [1280, 720], "solids": len(solids),
         "blocks": blocks,
@@ -287,6 +295,9 @@ def main() -> None:  # pragma: no cover - manual run: python -m viscore.cli.benc
     print("culled share:", {k: round(v, 3) for k, v in res["culled_share"].items()})
     print("culled share in view:", {k: round(v, 3)
                                     for k, v in res["culled_share_in_view"].items()})
+    rays = res["depth_buffer_rays"]
+    print(f"depth buffer rays per frame: median {rays['median']:.0f}, max {rays['max']} "
+          f"(pixel corners: {rays['corners']})")
     print("frames where solid culls fewer than planar:", res["frames_solid_below_planar"])
     print("load average:", res["load_average"])
 

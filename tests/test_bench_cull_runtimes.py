@@ -15,6 +15,9 @@ def test_bench_cull_runtimes_small_run():
         assert 0.0 <= share <= 1.0
     assert res["frames_solid_below_planar"]["frusta_solid_exact"] == 0
     assert res["workers"] == 1 and res["buffer"] == [64, 36]
+    rays = res["depth_buffer_rays"]
+    assert rays["corners"] == 65 * 37
+    assert 0 < rays["median"] <= rays["max"] <= 65 * 49  # tiles of 16 pad 36 rows to 48
 
 
 def test_bench_city_shapes():

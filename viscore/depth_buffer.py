@@ -10,37 +10,69 @@ than the occluders anywhere in the pixel; so an object seen through a gap
 narrower than a pixel is never culled (a point-sampled culler's false culls,
 reported against Godot's ray-cast occlusion culler, godot issue 53288).
 
+Convex pieces
+-------------
+Occluder triangles are labelled by *convex piece*: the surface of a convex
+solid (the ``solids`` and ``boxes`` parts of an occluder), or a convex planar
+facet (coplanar adjacent triangles whose union is convex), or the triangle
+alone. When the eye is inside (or on) a solid, the solid's triangles fall back
+to their planar facets for that frame. Every piece ``K`` is a convex set that
+does not contain the eye ``e``; each piece has an exact *entry distance*
+along a ray that meets it, computed in float64 from its planes (no ray cast):
+the distance to the facet's plane, or for a solid the largest distance to
+the planes of its faces that face the eye (the slab method for convex
+polyhedra [3]_).
+
+The lemma
+---------
+Let the rays along directions ``d1..d4`` (the corners of a screen rectangle:
+a pixel, or a tile of pixels) meet the same convex piece ``K`` at entry
+distances ``t1..t4``, and ``T = max ti``. Then every ray through the
+rectangle meets ``K``, at an entry distance at most ``T``. Proof: ``K_T``, the
+part of ``K`` within distance ``T`` of the eye, is convex and holds the four
+entry points; the directions of the rays from ``e`` that meet a convex set
+form a convex cone; it holds ``d1..d4``, hence their conical hull, which is
+every direction through the rectangle (a rectangle on the image plane is the
+convex hull of its corners). So each of those rays meets ``K_T``: it enters
+``K`` within distance ``T``, and its first occluder is no farther.
+
 How a pixel gets a depth
 ------------------------
-One ray through each pixel *corner* ((W+1) x (H+1) rays per frame, shared by
-neighbouring pixels; only those inside the screen rectangle of some occluder
-piece's bounding box are cast, the others miss). Occluder triangles are
-labelled by *convex piece*: the surface of a convex solid (the ``solids``
-and ``boxes`` parts of an occluder), or a convex planar facet (coplanar
-adjacent triangles whose union is convex), or the triangle alone. A pixel
-holds the largest of its four corner distances when the four corner rays
-first hit the same convex piece, else nothing (``inf``). Why that is safe:
+Hierarchically, by area subdivision (Warnock [4]_, and the pyramid of
+hierarchical occlusion maps [2]_, built top-down here): rays are cast at the
+corners of coarse tiles of ``16 x 16`` buffer pixels, and a tile is split in
+four, down to single pixels, only where its corners disagree:
 
-- *Planar convex piece P* (a triangle, or a convex facet): the four hit
-  points lie in P; the pixel's pyramid of rays meets P's plane in the convex
-  quadrilateral of those four points (a central projection maps the pixel's
-  convex footprint to a convex set with the corner images as vertices), which
-  lies in P by convexity. So every ray of the pixel hits P, at a distance no
-  larger than the largest corner distance (the distance from the eye is a
-  convex function, largest at a vertex of the quadrilateral).
-- *Convex solid K seen from outside*: the four corner directions lie in K's
-  projection, which is convex, so the whole pixel does: every ray of the pixel
-  hits K. In any plane through the eye the visible part of K's outline lies in
-  the triangle of the eye and any two of its points, so along a pixel edge the
-  entry distance is bounded by the larger corner distance, and across the
-  pixel by the largest of the four. When the eye is inside (or on) a solid, the
-  solid's triangles fall back to their planar facets for that frame (from
-  inside, a corner ray can see an edge farther than the corners).
+- a tile whose four corner rays first hit the same convex piece ``K`` is
+  *covered by K* (the lemma): every pixel in it gets the largest of the entry
+  distances into ``K`` along its own four corners (computed exactly; the
+  pixel corners inside the tile are not cast, their rays lie in the tile and
+  meet ``K``; by the lemma on the pixel, every ray of the pixel meets an
+  occluder no farther). When the four corners hit one planar facet ``F`` (a
+  face of a solid, or a facet), the lemma is applied to ``F`` itself, a
+  convex piece too: ``F``'s plane gives the distances;
+- a tile whose corners hit different pieces, or some hit and some miss, is
+  split; at pixel size it is left without depth (``inf``);
+- a tile whose four corners all miss is split only if a piece's screen
+  rectangle (the projection of its bounding box) overlaps it and is narrower
+  than the tile yet at least one pixel wide and high (a thin pole seen between
+  the corners; a piece narrower than a pixel cannot cover one).
 
-Other occluders in front only make the true depth nearer: the stored depth
-bounds the occluders' distance from above everywhere in the pixel. Depths are
-Euclidean distances from the eye along the ray, widened by
-:data:`DEPTH_MARGIN_RELATIVE` for Embree's float32 arithmetic.
+The splitting rule decides only how many pixels get a depth, never whether a
+depth is safe: a depth comes from the lemma alone. Compared with one ray per
+pixel corner, a pixel inside a covered tile may hold a farther depth (the
+tile's piece, not a nearer piece in front of it that touches none of the
+tile's corners), and a thin piece may be missed between tile corners
+(diagonal slivers; corners of pieces poking into a tile): a little less
+culling, for far fewer rays; and a pixel gets a depth where its
+own corner rays first hit different pieces in front of ``K``.
+``_full_corner_depth`` keeps the one-ray-per-corner buffer (a pixel holds a
+depth only when its four corner rays first hit one piece) as the reference of
+the tests.
+
+Which piece a corner ray first hits is Embree's float32 verdict (as in any
+ray-cast buffer); depths are float64 entry distances, Euclidean from the eye,
+widened by :data:`DEPTH_MARGIN_RELATIVE`.
 
 Occludee test ([1]_ sec. 6)
 ---------------------------
@@ -50,8 +82,18 @@ to the eye. The box is culled iff every one of those pixels holds a depth
 nearer than that distance: then every ray from the eye through the box meets
 an occluder before the box. Boxes with a corner on or behind the eye's plane,
 boxes containing the eye, and boxes wholly off the screen are never culled
-(view-frustum culling is the caller's). One range-maximum query per box (a
-sparse table along rows), no loop over boxes or pixels.
+(view-frustum culling is the caller's). The rectangle is widened by
+``1e-9`` pixel against the rounding of the projection.
+
+Cost
+----
+Rays go to the corners of the coarse tiles and along the silhouettes of the
+pieces: on the benchmark city (``viscore.cli.bench_cull_runtimes``, 320 x 180)
+about 3,200 rays per frame instead of the 58,000 pixel corners, with the same
+pixels covered and the same boxes culled. The loops over tiles, pixels and
+occludee boxes are compiled (numba, :mod:`viscore._depth_kernel`; an occludee's
+pixels are read until one is not nearer); Embree is called directly, once per
+tile size, with the rays built in float32.
 
 References
 ----------
@@ -64,11 +106,16 @@ References
    quarter-size buffer)
 .. [2] Zhang, H., Manocha, D., Hudson, T., Hoff, K. "Visibility Culling using
    Hierarchical Occlusion Maps". SIGGRAPH 1997. :DOI:`10.1145/258734.258781`
+.. [3] Haines, E. "Fast Ray-Convex Polyhedron Intersection". In Arvo, J. (ed.),
+   Graphics Gems II, Academic Press, 1991, pp. 247-250.
+.. [4] Warnock, J. E. "A Hidden Surface Algorithm for Computer Generated
+   Halftone Pictures". Technical report TR 4-15, Computer Science Department,
+   University of Utah, 1969.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -87,19 +134,34 @@ __all__ = ["OccluderScene", "ConservativeDepthBuffer", "DEFAULT_REDUCTION",
 DEFAULT_REDUCTION = 4
 
 #: Stored depths are widened by this fraction of (occluder scene diagonal +
-#: distance from the eye to its centre): Embree traces in float32 (about 1e-6
-#: relative), so a depth is never reported nearer than the occluder really is.
+#: distance from the eye to its centre): facets are planar within a tolerance,
+#: and Embree traces in float32 (about 1e-6 relative), so a depth is never
+#: reported nearer than the occluder really is.
 DEPTH_MARGIN_RELATIVE = 1e-5
 
 #: Tolerance for coplanarity (fraction of the mesh's diagonal) and for convex unions
 #: of facets (relative area).
 _FACET_TOLERANCE = 1e-9
 
-#: Peak bytes per corner ray of one frame (origins, directions, float32 copies,
-#: hits, labels).
+#: Side of the coarsest tiles, in buffer pixels (a power of two).
+_TILE = 16
+
+#: Widening of an occludee's screen rectangle, in buffer pixels: its corners are
+#: projected in float64 (about 1e-15 relative), so a rectangle edge is never drawn
+#: inside the box's true projection.
+_RECT_SLACK = 1e-9
+
+#: Peak bytes per corner of one frame (labels, the depth grid, the rays cast).
 _BYTES_PER_RAY = 160
 
+#: Below this estimate (bytes) a frame is not checked against the available memory
+#: (reading it costs more than a small frame).
+_CHECKED_BYTES = 1 << 26
+
 _UNIT_BOX = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+
+#: The eight corners of a box as 0/1 multipliers of its extents, (8, 3).
+_CORNERS = np.array(list(np.ndindex(2, 2, 2)), dtype=np.float64)
 
 
 def _merged(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -144,6 +206,8 @@ def _facet_labels(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
             label[group] = group.min()
     _, dense = np.unique(label, return_inverse=True)
     return dense.astype(np.int64)
+
+
 
 
 class OccluderScene:
@@ -242,56 +306,79 @@ class OccluderScene:
         has = raw_solid >= 0
         _, dense = np.unique(raw_solid[has], return_inverse=True)
         self._solid = np.full(len(f), -1, np.int64)
-        self._solid[has] = dense
+        self._solid[has] = dense.reshape(-1)
         self._n_solids = int(dense.max()) + 1 if has.any() else 0
+        self._n_facets = int(self._facet.max()) + 1
         tri = v[f]
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         norm = np.linalg.norm(n, axis=1)
         n = n / np.where(norm > 0, norm, 1.0)[:, None]
-        self._normal = n
-        self._offset = np.einsum("ij,ij->i", n, tri[:, 0])
+        offsets = np.einsum("ij,ij->i", n, tri[:, 0])
+        # each facet's plane: that of its largest triangle (a solid's are outward-facing)
+        order = np.lexsort((-norm, self._facet))
+        first = order[np.r_[True, self._facet[order][1:] != self._facet[order][:-1]]]
+        #: (facets, 4) unit normal and offset of each facet's plane: n.x = offset
+        self._facet_plane = np.concatenate([n[first], offsets[first][:, None]], axis=1)
+        # each solid's face planes, padded: (solids, P, 4) and which are real (solids, P)
+        pairs = np.unique(np.stack([self._solid[has], self._facet[has]], axis=1), axis=0)
+        per = np.bincount(pairs[:, 0], minlength=self._n_solids) if len(pairs) else \
+            np.zeros(0, np.int64)
+        width = int(per.max()) if len(per) else 0
+        slot = np.arange(len(pairs)) - np.repeat(np.cumsum(per) - per, per)
+        self._solid_plane = np.zeros((self._n_solids, width, 4))
+        self._solid_plane_ok = np.zeros((self._n_solids, width), dtype=bool)
+        self._solid_plane[pairs[:, 0], slot] = self._facet_plane[pairs[:, 1]]
+        self._solid_plane_ok[pairs[:, 0], slot] = True
         self.pieces = len(np.unique(self._facet[~has])) + self._n_solids
         self._center = 0.5 * (self.scene.bounds[0] + self.scene.bounds[1])
-        #: (k, 2, 3) bounding box of each added piece: rays outside their screen
-        #: rectangles are not cast
+        #: (k, 2, 3) bounding box of each added piece: its screen rectangle
         self._bounds = np.stack(bounds)
         self._grids: dict = {}
 
-    def _corner_directions(self, w: int, h: int, hx: float, hy: float) -> np.ndarray:
-        """((h+1)(w+1), 3) unit directions through the buffer's pixel corners, in camera
-        coordinates (right, up, forward); cached per buffer size and field of view."""
-        key = (w, h, hx, hy)
+    def _grid(self, w: int, h: int, hx: float, hy: float, cols: int, rows: int,
+              tile: int) -> tuple:
+        """Camera-plane coordinates of a buffer's corner columns (cols + 1,) and rows
+        (rows + 1,) (``cols >= w``, ``rows >= h``: beyond the screen in the padding), and
+        the top-left pixel rows and columns of the tiles of side ``tile``; cached per
+        buffer size and field of view."""
+        key = (w, h, hx, hy, cols, rows, tile)
         if key not in self._grids:
             if len(self._grids) > 8:
                 self._grids.clear()
-            xs = (np.arange(w + 1) / w - 0.5) * (2 * hx)
-            ys = (0.5 - np.arange(h + 1) / h) * (2 * hy)
-            d = np.empty((h + 1, w + 1, 3))
-            d[..., 0] = xs[None, :]
-            d[..., 1] = ys[:, None]
-            d[..., 2] = 1.0
-            d = d.reshape(-1, 3)
-            d /= np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
-            d.flags.writeable = False
-            self._grids[key] = d
+            xs = (np.arange(cols + 1) / w - 0.5) * (2 * hx)
+            ys = (0.5 - np.arange(rows + 1) / h) * (2 * hy)
+            ti, tj = (g.reshape(-1) * tile for g in np.meshgrid(
+                np.arange(rows // tile), np.arange(cols // tile), indexing="ij"))
+            for a in (xs, ys, ti, tj):
+                a.flags.writeable = False
+            self._grids[key] = (xs, ys, ti, tj)
         return self._grids[key]
+
+    def _front_planes(self, eye: np.ndarray) -> np.ndarray:
+        """(solids, P) bool: the face planes of each solid with the eye strictly outside
+        (a solid with none holds the eye: its triangles fall back to their facets)."""
+        if self._n_solids == 0:
+            return np.zeros((0, 0), dtype=bool)
+        height = self._solid_plane[..., :3] @ eye - self._solid_plane[..., 3]
+        tol = 1e-12 * (self.scene.diagonal + float(np.linalg.norm(eye - self._center)))
+        return self._solid_plane_ok & (height > tol)
+
+    def _piece_of(self, tri: np.ndarray, outside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Facet and convex-piece labels (-1 on a miss) of hit triangles ``tri`` (-1: miss);
+        a solid seen from ``outside`` is labelled :attr:`_n_facets` + its index."""
+        hit = tri >= 0
+        t = np.maximum(tri, 0)
+        fac = np.where(hit, self._facet[t], -1)
+        sid = self._solid[t]
+        out = hit & (sid >= 0)
+        out[out] = outside[sid[out]]
+        return fac, np.where(out, self._n_facets + sid, fac)
 
     def labels(self, eye: np.ndarray) -> np.ndarray:
         """(f,) int64 convex-piece label of each triangle for this eye: the solid's label
         when the eye is strictly outside the solid, the planar facet's label otherwise."""
-        label = self._facet.copy()
-        if self._n_solids == 0:
-            return label
-        has = self._solid >= 0
-        height = self._normal[has] @ eye - self._offset[has]
-        tol = 1e-12 * (self.scene.diagonal + float(np.linalg.norm(eye - self._center)))
-        outside = np.zeros(self._n_solids, dtype=bool)
-        np.logical_or.at(outside, self._solid[has], height > tol)
-        use = np.zeros(len(label), dtype=bool)
-        use[has] = outside[self._solid[has]]
-        base = int(self._facet.max()) + 1
-        label[use] = base + self._solid[use]
-        return label
+        outside = self._front_planes(np.asarray(eye, dtype=np.float64)).any(axis=1)
+        return self._piece_of(np.arange(len(self._facet)), outside)[1]
 
 
 def _is_pair(item) -> bool:
@@ -303,33 +390,84 @@ def _is_pair(item) -> bool:
         and a.shape[-1:] == (3,) and b.shape[-1:] == (3,) and np.issubdtype(b.dtype, np.integer)
 
 
-def _corners_to_cast(bounds: np.ndarray, eye: np.ndarray, basis, hx: float, hy: float,
-                     w: int, h: int) -> np.ndarray:
-    """(h + 1, w + 1) bool: corner rays that may hit an occluder piece.
 
-    A ray can hit a piece only inside the screen rectangle of the piece's
-    bounding box (the hull of its 8 projected corners), widened by one corner
-    each side; a box reaching the eye's plane or behind it needs every ray.
+def _frame(camera: PerspectiveCamera, width, height) -> tuple:
+    """Checked buffer size and the frame's geometry: w, h, eye, (f, r, u), hx, hy."""
+    if not isinstance(camera, PerspectiveCamera):
+        raise InputError(f"camera: expected a PerspectiveCamera, got "
+                         f"{type(camera).__name__}")
+    rows, cols = camera.shape
+    w = max(1, cols // DEFAULT_REDUCTION) if width is None else as_positive_int(
+        width, "width", maximum=16384)
+    h = max(1, rows // DEFAULT_REDUCTION) if height is None else as_positive_int(
+        height, "height", maximum=16384)
+    hx = float(np.tan(np.radians(camera.fov) / 2))
+    return w, h, camera.position, camera.basis, hx, hx * rows / cols
+
+
+def _screen_boxes(lo: np.ndarray, hi: np.ndarray, eye: np.ndarray, basis, hx: float,
+                  hy: float, w: int, h: int) -> tuple[np.ndarray, np.ndarray]:
+    """Buffer-pixel bounds of boxes' projected corners, and which lie wholly in front.
+
+    Returns ``(n, 4)`` float ``row_min, row_max, col_min, col_max`` (pixel
+    units, row 0 at the top; meaningless where not in front) and ``(n,)``
+    bool: every corner strictly in front of the eye's plane.
     """
     f, r, u = basis
-    corners = np.stack([np.where(np.array(m, bool), bounds[:, 1], bounds[:, 0])
-                        for m in np.ndindex(2, 2, 2)], axis=1) - eye
-    z = corners @ f
-    if (z <= 0).any(axis=1).any():
-        return np.ones((h + 1, w + 1), dtype=bool)
-    col = ((corners @ r) / z / (2 * hx) + 0.5) * w
-    row = (0.5 - (corners @ u) / z / (2 * hy)) * h
-    c0 = np.clip(np.floor(col.min(axis=1)) - 1, 0, w + 1).astype(np.int64)
-    c1 = np.clip(np.ceil(col.max(axis=1)) + 2, 0, w + 1).astype(np.int64)  # exclusive
-    r0 = np.clip(np.floor(row.min(axis=1)) - 1, 0, h + 1).astype(np.int64)
-    r1 = np.clip(np.ceil(row.max(axis=1)) + 2, 0, h + 1).astype(np.int64)
-    ok = (c1 > c0) & (r1 > r0)
-    diff = np.zeros((h + 2, w + 2), dtype=np.int64)
-    np.add.at(diff, (r0[ok], c0[ok]), 1)
-    np.add.at(diff, (r0[ok], c1[ok]), -1)
-    np.add.at(diff, (r1[ok], c0[ok]), -1)
-    np.add.at(diff, (r1[ok], c1[ok]), 1)
-    return (diff.cumsum(axis=0).cumsum(axis=1) > 0)[:h + 1, :w + 1]
+    base = lo - eye
+    ext = hi - lo
+    # camera coordinates (right, up, forward) of the 8 corners: (n, 3) @ (3, 8) each
+    x, y, z = (base @ a[:, None] + ext @ (_CORNERS * a).T for a in (r, u, f))
+    front = (z > 0).all(axis=1)
+    zs = np.where(z > 0, z, 1.0)
+    x /= zs
+    y /= zs
+    return np.stack([(0.5 - y.max(axis=1) * (0.5 / hy)) * h,
+                     (0.5 - y.min(axis=1) * (0.5 / hy)) * h,
+                     (x.min(axis=1) * (0.5 / hx) + 0.5) * w,
+                     (x.max(axis=1) * (0.5 / hx) + 0.5) * w], axis=1), front
+
+
+#: Rays per call under which Embree is called directly, on this thread (above,
+#: :meth:`Scene.first_hit` and its thread pool).
+_DIRECT_RAYS = 1 << 15
+
+
+def _first_triangles(scene: Scene, eye: np.ndarray, d32: np.ndarray) -> np.ndarray:
+    """(n,) triangle first hit by each ray from the eye along unit float32 ``d32`` (-1: miss).
+
+    Small batches go to Embree directly, as :meth:`Scene.first_hit` would send
+    them (same centred, power-of-two-scaled float32 frame): its per-call input
+    checks cost more than a few thousand rays, and these rays are built here.
+    """
+    if len(d32) > _DIRECT_RAYS:
+        return scene.first_hit(eye[None], d32.astype(np.float64))[1]
+    o32 = np.empty((len(d32), 3), dtype=np.float32)
+    o32[:] = (eye - scene._offset) / scene._scale
+    return scene._embree.run(o32, d32, output=1)["primID"]
+
+
+def _full_corner_depth(occ: OccluderScene, camera: PerspectiveCamera, width: int,
+                       height: int) -> np.ndarray:
+    """(H, W) the one-ray-per-pixel-corner buffer (the reference of the tests): a pixel
+    holds the largest entry distance of its four corner rays when they first hit the same
+    convex piece."""
+    w, h, eye, basis, hx, hy = _frame(camera, width, height)
+    f, r, u = basis
+    xs = (np.arange(w + 1) / w - 0.5) * (2 * hx)
+    ys = (0.5 - np.arange(h + 1) / h) * (2 * hy)
+    d = f + xs[None, :, None] * r + ys[:, None, None] * u
+    d = (d / np.linalg.norm(d, axis=2)[..., None]).reshape(-1, 3)
+    t, tri = occ.scene.first_hit(eye[None], d)
+    label = occ._piece_of(tri, occ._front_planes(eye).any(axis=1))[1].reshape(h + 1, w + 1)
+    t = t.reshape(h + 1, w + 1)
+    lab = label[:-1, :-1]
+    same = ((lab >= 0) & (lab == label[:-1, 1:]) & (lab == label[1:, :-1])
+            & (lab == label[1:, 1:]))
+    far = np.maximum(np.maximum(t[:-1, :-1], t[:-1, 1:]), np.maximum(t[1:, :-1], t[1:, 1:]))
+    margin = DEPTH_MARGIN_RELATIVE * (occ.scene.diagonal
+                                      + float(np.linalg.norm(eye - occ._center)))
+    return np.where(same, far + margin, np.inf)
 
 
 @dataclass(frozen=True, eq=False)
@@ -343,31 +481,27 @@ class ConservativeDepthBuffer:
     depth : (H, W) float64
         Per buffer pixel, an upper bound on the distance (world units, from
         the eye) at which every ray through the pixel meets an occluder;
-        ``inf`` where the occluders do not provably cover the whole pixel.
+        ``inf`` where the occluders are not proven to cover the whole pixel.
         Row 0 is the top edge (towards the camera's up), column 0 the left.
     camera : PerspectiveCamera
         The screen camera; the buffer spans its field of view.
     hits : int
-        Corner rays that hit an occluder.
+        Rays cast for this frame that hit an occluder.
+    rays : int
+        Rays cast for this frame (tile and pixel corners; at most
+        ``(W + 1) * (H + 1)`` plus those of tiles straddling the buffer's
+        right and bottom edges).
     """
 
     depth: np.ndarray
     camera: PerspectiveCamera
     hits: int
-    _levels: list = field(repr=False)
+    rays: int = 0
 
     @property
     def shape(self) -> tuple[int, int]:
         """(H, W) buffer pixels."""
         return self.depth.shape
-
-    def _level(self, k: int) -> np.ndarray:
-        """Sparse-table level k (max over 2^k consecutive columns), built on demand."""
-        while len(self._levels) <= k:
-            prev = self._levels[-1]
-            half = 1 << (len(self._levels) - 1)
-            self._levels.append(np.maximum(prev[:, :prev.shape[1] - half], prev[:, half:]))
-        return self._levels[k]
 
     @property
     def covered(self) -> np.ndarray:
@@ -377,7 +511,7 @@ class ConservativeDepthBuffer:
     @classmethod
     def from_occluders(cls, occluders, camera: PerspectiveCamera, *, width: int | None = None,
                        height: int | None = None) -> ConservativeDepthBuffer:
-        """Cast the corner rays of a W x H buffer and keep the provably covered pixels.
+        """Cast tile corner rays of a W x H buffer, split where needed, keep covered pixels.
 
         Parameters
         ----------
@@ -406,42 +540,54 @@ class ConservativeDepthBuffer:
         >>> wall = trimesh.creation.box(extents=(10, 1, 10))
         >>> cam = PerspectiveCamera((0, -5, 0), (0, 1, 0), fov=60, resolution=64, height=36)
         >>> buf = ConservativeDepthBuffer.from_occluders(wall, cam)
-        >>> buf.shape, bool(buf.covered.all())
-        ((9, 16), True)
+        >>> buf.shape, bool(buf.covered.all()), buf.rays   # one 16 x 16 tile: 4 rays
+        ((9, 16), True, 4)
         """
-        if not isinstance(camera, PerspectiveCamera):
-            raise InputError(f"camera: expected a PerspectiveCamera, got "
-                             f"{type(camera).__name__}")
-        rows, cols = camera.shape
-        w = max(1, cols // DEFAULT_REDUCTION) if width is None else as_positive_int(
-            width, "width", maximum=16384)
-        h = max(1, rows // DEFAULT_REDUCTION) if height is None else as_positive_int(
-            height, "height", maximum=16384)
-        check_memory((w + 1) * (h + 1) * _BYTES_PER_RAY, f"depth buffer {w} x {h}")
+        from ._depth_kernel import settle_tiles, store_hits, thin_rectangles, tile_corners
+
+        w, h, eye, basis, hx, hy = _frame(camera, width, height)
+        tile = min(_TILE, 1 << int(np.ceil(np.log2(max(w, h)))))
+        cols, rows = -(-w // tile) * tile, -(-h // tile) * tile  # padded to whole tiles
+        nbytes = (cols + 1) * (rows + 1) * _BYTES_PER_RAY
+        if nbytes > _CHECKED_BYTES:
+            check_memory(nbytes, f"depth buffer {w} x {h}")
         occ = occluders if isinstance(occluders, OccluderScene) else OccluderScene(occluders)
-        eye = camera.position
-        f, r, u = camera.basis
-        hx = float(np.tan(np.radians(camera.fov) / 2))
-        hy = hx * rows / cols
-        # unit corner directions in camera coordinates (right, up, forward), rotated
-        d = occ._corner_directions(w, h, hx, hy) @ np.stack([r, u, f])
-        cast = _corners_to_cast(occ._bounds, eye, (f, r, u), hx, hy, w, h).reshape(-1)
-        t = np.full(len(d), np.inf)
-        tri = np.full(len(d), -1, dtype=np.int64)
-        if cast.any():
-            t[cast], tri[cast] = occ.scene.first_hit(eye[None], d[cast])
-        label = np.where(tri >= 0, occ.labels(eye)[np.maximum(tri, 0)], -1)
-        label = label.reshape(h + 1, w + 1)
-        t = t.reshape(h + 1, w + 1)
-        lab = label[:-1, :-1]
-        same = ((lab >= 0) & (lab == label[:-1, 1:]) & (lab == label[1:, :-1])
-                & (lab == label[1:, 1:]))
-        far = np.maximum(np.maximum(t[:-1, :-1], t[:-1, 1:]), np.maximum(t[1:, :-1], t[1:, 1:]))
-        margin = DEPTH_MARGIN_RELATIVE * (occ.scene.diagonal
-                                          + float(np.linalg.norm(eye - occ._center)))
-        depth = np.where(same, far + margin, np.inf)
-        return cls(depth=depth, camera=camera, hits=int((tri >= 0).sum()),
-                   _levels=[depth])
+        f, r, u = basis
+        eye = np.asarray(eye, dtype=np.float64)
+        size = occ.scene.diagonal + float(np.linalg.norm(eye - occ._center))
+        tol, margin = 1e-12 * size, DEPTH_MARGIN_RELATIVE * size
+        xs, ys, ti, tj = occ._grid(w, h, hx, hy, cols, rows, tile)
+        stride = cols + 1
+        facet = np.full((rows + 1) * stride, -2, dtype=np.int64)  # -2: not cast, -1: miss
+        piece = np.empty_like(facet)
+        outside = np.full(occ._n_solids, -1, dtype=np.int8)
+        depth = np.full((h, w), np.inf)
+        corner = np.empty((tile + 1, tile + 1))
+        coef = np.empty((max(1, occ._solid_plane.shape[1]), 3))
+        thin = np.empty((len(occ._bounds), 5))
+        thin = thin[:thin_rectangles(occ._bounds[:, 0], occ._bounds[:, 1], eye, r, u, f, hx, hy,
+                                     w, h, thin)]
+        rays = hits = 0
+        s = tile
+        while len(ti):  # a loop over the log2(tile) + 1 tile sizes
+            need = np.empty(4 * len(ti), dtype=np.int64)
+            d32 = np.empty((4 * len(ti), 3), dtype=np.float32)
+            n = tile_corners(ti, tj, s, stride, facet, xs, ys, r, u, f, need, d32)
+            if n:
+                tri = _first_triangles(occ.scene, eye, d32[:n])
+                hits += store_hits(need[:n], tri, occ._facet, occ._solid, occ._n_facets,
+                                   occ._solid_plane, occ._solid_plane_ok, eye, tol, outside,
+                                   facet, piece)
+                rays += n
+            child_i = np.empty(4 * len(ti), dtype=np.int64)
+            child_j = np.empty(4 * len(ti), dtype=np.int64)
+            n, _ = settle_tiles(ti, tj, s, stride, facet, piece, occ._n_facets,
+                                occ._facet_plane, occ._solid_plane, occ._solid_plane_ok, eye,
+                                r, u, f, tol, xs, ys, margin, thin, depth,
+                                corner, coef, child_i, child_j)
+            ti, tj = child_i[:n], child_j[:n]
+            s //= 2
+        return cls(depth=depth, camera=camera, hits=hits, rays=rays)
 
     def screen_rectangles(self, lower: npt.ArrayLike, upper: npt.ArrayLike
                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -466,29 +612,20 @@ class ConservativeDepthBuffer:
         lo, hi = _as_boxes(lower, upper)
         cam = self.camera
         eye = cam.position
-        f, r, u = cam.basis
         h, w = self.depth.shape
         rows, cols = cam.shape
         hx = float(np.tan(np.radians(cam.fov) / 2))
         hy = hx * rows / cols
-        corners = np.stack([np.where(np.array(m, bool), hi, lo)
-                            for m in np.ndindex(2, 2, 2)], axis=1)
-        p = corners - eye
-        z = p @ f
-        front = (z > 0).all(axis=1)
-        zs = np.where(z > 0, z, 1.0)
-        col = ((p @ r) / zs / (2 * hx) + 0.5) * w
-        row = (0.5 - (p @ u) / zs / (2 * hy)) * h
+        bounds, front = _screen_boxes(lo, hi, eye, cam.basis, hx, hy, w, h)
         with np.errstate(invalid="ignore"):
-            c0 = np.floor(col.min(axis=1))
-            c1 = np.floor(col.max(axis=1))
-            r0 = np.floor(row.min(axis=1))
-            r1 = np.floor(row.max(axis=1))
+            r0, r1, c0, c1 = np.floor(bounds + [-_RECT_SLACK, _RECT_SLACK, -_RECT_SLACK,
+                                                 _RECT_SLACK]).T
         on = front & (c1 >= 0) & (c0 <= w - 1) & (r1 >= 0) & (r0 <= h - 1)
         rect = np.stack([np.clip(r0, 0, h - 1), np.clip(r1, 0, h - 1),
                          np.clip(c0, 0, w - 1), np.clip(c1, 0, w - 1)], axis=1)
         rect = np.where(on[:, None], rect, 0).astype(np.int64)
-        nearest = np.linalg.norm(np.clip(eye, lo, hi) - eye, axis=1)
+        gap = np.maximum(lo - eye, 0) + np.maximum(eye - hi, 0)
+        nearest = np.sqrt(np.einsum("ij,ij->i", gap, gap))
         return rect, nearest, on & (nearest > 0)
 
     def occluded(self, lower: npt.ArrayLike, upper: npt.ArrayLike) -> np.ndarray:
@@ -518,24 +655,14 @@ class ConservativeDepthBuffer:
         >>> buf.occluded([[-1, 3, -1], [-1, -3, -1]], [[1, 4, 1], [1, -2, 1]]).tolist()
         [True, False]
         """
-        rect, nearest, ok = self.screen_rectangles(lower, upper)
-        out = np.zeros(len(rect), dtype=bool)
-        idx = np.flatnonzero(ok)
-        if len(idx) == 0:
-            return out
-        r0, r1, c0, c1 = rect[idx].T
-        width = c1 - c0 + 1
-        level = np.floor(np.log2(width)).astype(np.int64)
-        best = np.empty(len(idx))
-        for k in np.unique(level):  # at most log2(W) + 1 levels
-            sel = np.flatnonzero(level == k)
-            table = self._level(int(k))
-            heights = r1[sel] - r0[sel] + 1
-            starts = np.concatenate([[0], np.cumsum(heights)[:-1]])
-            row = np.repeat(r0[sel] - starts, heights) + np.arange(heights.sum())
-            left = np.repeat(c0[sel], heights)
-            right = np.repeat(c1[sel] - (1 << int(k)) + 1, heights)
-            m = np.maximum(table[row, left], table[row, right])
-            best[sel] = np.maximum.reduceat(m, starts)
-        out[idx] = best < nearest[idx]
+        from ._depth_kernel import occluded_boxes
+
+        lo, hi = _as_boxes(lower, upper)
+        cam = self.camera
+        f, r, u = cam.basis
+        rows, cols = cam.shape
+        hx = float(np.tan(np.radians(cam.fov) / 2))
+        out = np.zeros(len(lo), dtype=bool)
+        occluded_boxes(lo, hi, np.asarray(cam.position, dtype=np.float64), r, u, f, hx,
+                       hx * rows / cols, _RECT_SLACK, self.depth, out)
         return out

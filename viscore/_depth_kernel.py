@@ -1,0 +1,291 @@
+"""numba kernels of the conservative depth buffer (:mod:`viscore.depth_buffer`).
+
+One frame is built level by level, from coarse tiles to pixels; each level is
+three kernels around one Embree call: :func:`tile_corners` lists the tile
+corners not cast yet, :func:`store_hits` labels the rays cast by the facet and
+the convex piece they first hit, and :func:`settle_tiles` fills the pixels of
+every tile whose four corners hit one piece and lists the children of the
+tiles to split. :func:`occluded_boxes` is the occludee test: per box, its
+screen rectangle and nearest distance, then its pixels until one is not
+nearer. The rules and their proofs are in :mod:`viscore.depth_buffer`;
+:meth:`viscore.depth_buffer.ConservativeDepthBuffer.screen_rectangles` is the
+numpy twin of the rectangles (tested equal).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import njit_cached
+
+
+@njit_cached()
+def tile_corners(ti, tj, s, stride, facet, xs, ys, r, u, f, need, d32):
+    """List the corners of the tiles (top-left pixel row ``ti``, column ``tj``, side
+    ``s``) not cast yet (``facet == -2``), each once, marking them pending (-3): their flat
+    indices in ``need`` and their unit ray directions (world, float32) in ``d32``;
+    returns how many."""
+    n = 0
+    for k in range(ti.shape[0]):
+        for a in range(2):
+            i = ti[k] + a * s
+            for b in range(2):
+                j = tj[k] + b * s
+                c = i * stride + j
+                if facet[c] != -2:
+                    continue
+                facet[c] = -3
+                need[n] = c
+                x = xs[j]
+                y = ys[i]
+                dx = x * r[0] + y * u[0] + f[0]
+                dy = x * r[1] + y * u[1] + f[1]
+                dz = x * r[2] + y * u[2] + f[2]
+                norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+                d32[n, 0] = dx / norm
+                d32[n, 1] = dy / norm
+                d32[n, 2] = dz / norm
+                n += 1
+    return n
+
+
+@njit_cached()
+def _outside(k, solid_plane, solid_ok, eye, tol, outside):
+    """Whether the eye is strictly outside solid ``k`` (above one of its face planes by
+    more than ``tol``); cached in ``outside`` (int8, -1: not known yet)."""
+    if outside[k] < 0:
+        outside[k] = 0
+        for p in range(solid_plane.shape[1]):
+            pl = solid_plane[k, p]
+            if solid_ok[k, p] and pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2] - pl[3] > tol:
+                outside[k] = 1
+                break
+    return outside[k] == 1
+
+
+@njit_cached()
+def store_hits(need, tri, tri_facet, tri_solid, n_facets, solid_plane, solid_ok, eye, tol,
+               outside, facet, piece):
+    """Label corners ``need`` by the triangle ``tri`` their ray first hit (-1: miss):
+    ``facet`` its planar facet, ``piece`` its convex piece (the solid, numbered from
+    ``n_facets``, when the eye is outside it (:func:`_outside`); else the facet); -1 on
+    a miss. Returns the number of hits."""
+    hits = 0
+    for k in range(need.shape[0]):
+        c = need[k]
+        t = tri[k]
+        if t < 0:
+            facet[c] = -1
+            piece[c] = -1
+            continue
+        hits += 1
+        fa = tri_facet[t]
+        sd = tri_solid[t]
+        facet[c] = fa
+        if sd >= 0 and _outside(sd, solid_plane, solid_ok, eye, tol, outside):
+            piece[c] = n_facets + sd
+        else:
+            piece[c] = fa
+    return hits
+
+
+@njit_cached()
+def _coefficient(pl, eye, r, u, f, coef, p):
+    """Row ``p`` of ``coef``: plane ``pl`` (n.x = offset) as (a, b, c) with the plane at
+    parameter 1 / (a x + b y + c) along the direction x r + y u + f from the eye."""
+    num = pl[3] - (pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2])
+    coef[p, 0] = (pl[0] * r[0] + pl[1] * r[1] + pl[2] * r[2]) / num
+    coef[p, 1] = (pl[0] * u[0] + pl[1] * u[1] + pl[2] * u[2]) / num
+    coef[p, 2] = (pl[0] * f[0] + pl[1] * f[1] + pl[2] * f[2]) / num
+
+
+@njit_cached()
+def _fill(depth, i0, j0, s, coef, planes, xs, ys, margin, corner):
+    """Pixels of one covered tile (those inside ``depth``): per pixel the largest entry
+    distance of its four corner rays into the piece of ``planes`` rows of ``coef``
+    (along the direction (x, y, 1): its length over the smallest a x + b y + c, for a
+    solid over its planes facing the eye), plus ``margin``; ``inf`` where a corner ray
+    does not enter."""
+    h, w = depth.shape
+    for a in range(s + 1):
+        y = ys[i0 + a]
+        for b in range(s + 1):
+            x = xs[j0 + b]
+            g = np.inf
+            for p in range(planes):
+                v = coef[p, 0] * x + coef[p, 1] * y + coef[p, 2]
+                if v < g:
+                    g = v
+            corner[a, b] = math.sqrt(x * x + y * y + 1.0) / g if g > 0 else np.inf
+    for a in range(min(s, h - i0)):
+        for b in range(min(s, w - j0)):
+            t = max(max(corner[a, b], corner[a, b + 1]),
+                    max(corner[a + 1, b], corner[a + 1, b + 1]))
+            depth[i0 + a, j0 + b] = t + margin
+
+
+@njit_cached()
+def settle_tiles(ti, tj, s, stride, facet, piece, n_facets, facet_plane, solid_plane,
+                 solid_ok, eye, r, u, f, tol, xs, ys, margin, thin, depth, corner, coef,
+                 child_i, child_j):
+    """Settle the tiles of side ``s`` whose corners are labelled.
+
+    A tile whose four corners hit one planar facet, or one convex solid, is
+    filled (:func:`_fill`: the facet's plane, or the solid's planes facing the
+    eye); otherwise, when ``s > 1``, it is split if some corner hits, or if
+    none does and a rectangle of ``thin`` (k, 5: row_min, row_max, col_min,
+    col_max, smaller side; pixels) narrower than ``s`` overlaps it. Children
+    (top-left pixel inside ``depth``) are written to ``child_i``, ``child_j``.
+    Returns (children, tiles filled).
+    """
+    h, w = depth.shape
+    n = 0
+    tiles = 0
+    half = s // 2
+    for k in range(ti.shape[0]):
+        i0 = ti[k]
+        j0 = tj[k]
+        c00 = i0 * stride + j0
+        c01 = c00 + s
+        c10 = c00 + s * stride
+        c11 = c10 + s
+        f0 = facet[c00]
+        p0 = piece[c00]
+        if f0 >= 0 and facet[c01] == f0 and facet[c10] == f0 and facet[c11] == f0:
+            pl = facet_plane[f0]
+            if abs(pl[3] - (pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2])) > tol:
+                _coefficient(pl, eye, r, u, f, coef, 0)
+                _fill(depth, i0, j0, s, coef, 1, xs, ys, margin, corner)
+                tiles += 1
+            continue
+        if p0 >= 0 and piece[c01] == p0 and piece[c10] == p0 and piece[c11] == p0:
+            sd = p0 - n_facets
+            planes = 0
+            for p in range(solid_plane.shape[1]):
+                pl = solid_plane[sd, p]
+                if solid_ok[sd, p] and pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2] \
+                        - pl[3] > tol:
+                    _coefficient(pl, eye, r, u, f, coef, planes)
+                    planes += 1
+            if planes:
+                _fill(depth, i0, j0, s, coef, planes, xs, ys, margin, corner)
+                tiles += 1
+            continue
+        if s == 1:
+            continue
+        split = p0 >= 0 or piece[c01] >= 0 or piece[c10] >= 0 or piece[c11] >= 0
+        if not split:
+            for q in range(thin.shape[0]):
+                if thin[q, 4] < s and thin[q, 0] <= i0 + s and thin[q, 1] >= i0 \
+                        and thin[q, 2] <= j0 + s and thin[q, 3] >= j0:
+                    split = True
+                    break
+        if split:
+            for a in range(2):
+                for b in range(2):
+                    ci = i0 + a * half
+                    cj = j0 + b * half
+                    if ci < h and cj < w:
+                        child_i[n] = ci
+                        child_j[n] = cj
+                        n += 1
+    return n, tiles
+
+
+@njit_cached()
+def thin_rectangles(lo, hi, eye, r, u, f, hx, hy, w, h, rect):
+    """Write into ``rect`` (k, 5: row_min, row_max, col_min, col_max, smaller side;
+    buffer pixels) the screen rectangles of the boxes wholly in front of the eye's plane
+    that meet the ``h`` x ``w`` screen and are at least a pixel wide and high (a box
+    narrower cannot cover a pixel); returns k."""
+    k = 0
+    for q in range(lo.shape[0]):
+        cmin = np.inf
+        cmax = -np.inf
+        rmin = np.inf
+        rmax = -np.inf
+        ok = True
+        for m in range(8):
+            px = (hi[q, 0] if m & 4 else lo[q, 0]) - eye[0]
+            py = (hi[q, 1] if m & 2 else lo[q, 1]) - eye[1]
+            pz = (hi[q, 2] if m & 1 else lo[q, 2]) - eye[2]
+            z = px * f[0] + py * f[1] + pz * f[2]
+            if not z > 0:
+                ok = False
+                break
+            col = ((px * r[0] + py * r[1] + pz * r[2]) / z * (0.5 / hx) + 0.5) * w
+            row = (0.5 - (px * u[0] + py * u[1] + pz * u[2]) / z * (0.5 / hy)) * h
+            cmin = min(cmin, col)
+            cmax = max(cmax, col)
+            rmin = min(rmin, row)
+            rmax = max(rmax, row)
+        size = min(rmax - rmin, cmax - cmin)
+        if ok and size >= 1.0 and rmax >= 0 and rmin <= h and cmax >= 0 and cmin <= w:
+            rect[k, 0] = rmin
+            rect[k, 1] = rmax
+            rect[k, 2] = cmin
+            rect[k, 3] = cmax
+            rect[k, 4] = size
+            k += 1
+    return k
+
+
+@njit_cached()
+def occluded_boxes(lo, hi, eye, r, u, f, hx, hy, slack, depth, out):
+    """Set ``out[k]`` for the boxes hidden in the buffer: every corner strictly in front of
+    the eye's plane, the eye outside, the screen rectangle (widened by ``slack``
+    pixels) meeting the screen, and every pixel it touches nearer than the
+    box's nearest point."""
+    h, w = depth.shape
+    for k in range(lo.shape[0]):
+        d2 = 0.0
+        for a in range(3):
+            g = max(max(lo[k, a] - eye[a], eye[a] - hi[k, a]), 0.0)
+            d2 += g * g
+        near = math.sqrt(d2)
+        if not near > 0:
+            continue
+        cmin = np.inf
+        cmax = -np.inf
+        rmin = np.inf
+        rmax = -np.inf
+        ok = True
+        for m in range(8):
+            px = (hi[k, 0] if m & 4 else lo[k, 0]) - eye[0]
+            py = (hi[k, 1] if m & 2 else lo[k, 1]) - eye[1]
+            pz = (hi[k, 2] if m & 1 else lo[k, 2]) - eye[2]
+            z = px * f[0] + py * f[1] + pz * f[2]
+            if not z > 0:
+                ok = False
+                break
+            x = (px * r[0] + py * r[1] + pz * r[2]) / z
+            y = (px * u[0] + py * u[1] + pz * u[2]) / z
+            col = (x * (0.5 / hx) + 0.5) * w
+            row = (0.5 - y * (0.5 / hy)) * h
+            cmin = min(cmin, col)
+            cmax = max(cmax, col)
+            rmin = min(rmin, row)
+            rmax = max(rmax, row)
+        if not ok:
+            continue
+        c0 = math.floor(cmin - slack)
+        c1 = math.floor(cmax + slack)
+        r0 = math.floor(rmin - slack)
+        r1 = math.floor(rmax + slack)
+        if c1 < 0 or c0 > w - 1 or r1 < 0 or r0 > h - 1:
+            continue
+        c0 = max(c0, 0)
+        r0 = max(r0, 0)
+        c1 = min(c1, w - 1)
+        r1 = min(r1, h - 1)
+        hidden = True
+        for i in range(r0, r1 + 1):
+            for j in range(c0, c1 + 1):
+                if not depth[i, j] < near:
+                    hidden = False
+                    break
+            if not hidden:
+                break
+        out[k] = hidden
