@@ -281,6 +281,26 @@ def test_thin_pole_between_tile_corners_is_found(offset):
                          np.random.default_rng(0))
 
 
+@pytest.mark.parametrize("size", [(1, 1), (3, 50), (17, 1), (33, 17), (80, 45)])
+def test_hierarchical_buffer_any_size_and_scene_path(size, monkeypatch, rng):
+    """Sizes that are not multiples of the tile (padding) and large batches sent through
+    Scene.first_hit: the same depths; never nearer than the one-ray-per-corner buffer."""
+    import viscore.depth_buffer as db
+
+    occ = OccluderScene([(b.vertices, b.faces) for b in _city(rng, 20)])
+    cam = PerspectiveCamera((0, -15, 0.5), (0.1, 1, 0.05), fov=70, resolution=160, height=90)
+    w, h = size
+    direct = ConservativeDepthBuffer.from_occluders(occ, cam, width=w, height=h)
+    monkeypatch.setattr(db, "_DIRECT_RAYS", 2)
+    pooled = ConservativeDepthBuffer.from_occluders(occ, cam, width=w, height=h)
+    np.testing.assert_array_equal(direct.depth, pooled.depth)
+    assert direct.shape == (h, w) and direct.rays == pooled.rays > 0
+    full = _full_corner_depth(occ, cam, w, h)
+    both = direct.covered & np.isfinite(full)
+    assert (direct.depth[both] >= full[both] * (1 - 1e-6)).all()
+    assert direct.covered.sum() >= 0.97 * np.isfinite(full).sum()
+
+
 def test_occluded_kernel_matches_screen_rectangles(rng):
     """The compiled occludee test equals the numpy rectangles and a plain maximum."""
     solids = [(b.vertices, b.faces) for b in _city(rng, 12)]
