@@ -301,6 +301,43 @@ def test_hierarchical_buffer_any_size_and_scene_path(size, monkeypatch, rng):
     assert direct.covered.sum() >= 0.97 * np.isfinite(full).sum()
 
 
+def _first_hit64(vertices, faces, eye, d):
+    """Exact (float64) first-hit distance of rays from ``eye`` (Moeller-Trumbore)."""
+    t = np.full(len(d), np.inf)
+    for a, b, c in vertices[faces]:
+        e1, e2 = b - a, c - a
+        p = np.cross(d, e2)
+        det = p @ e1
+        s = eye - a
+        q = np.cross(s, e1)
+        uu, vv, tt = (p @ s) / det, (d @ q) / det, (q @ e2) / det
+        ok = (uu >= 0) & (vv >= 0) & (uu + vv <= 1) & (tt > 0)
+        t = np.where(ok, np.minimum(t, tt), t)
+    return t
+
+
+def test_facet_planar_within_tolerance_depth_never_nearer(monkeypatch):
+    """A quad bent by 1e-8 (one facet: planar within the tolerance) seen at a grazing
+    angle: with no depth margin at all, every ray through a covered pixel meets it no
+    farther than the depth (the facet's plane is pushed by its slack; without the push
+    rays through the lower triangle go ~2e-7 farther)."""
+    import viscore.depth_buffer as db
+
+    monkeypatch.setattr(db, "DEPTH_MARGIN_RELATIVE", 0.0)
+    v = np.array([[0, 0, 0], [10, 0, 0], [10, 10, 1e-8], [0, 10, 0]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3]])
+    occ = OccluderScene(trimesh.Trimesh(v, f, process=False))
+    assert occ.pieces == 1 and occ._facet_plane[0, 4] > 5e-9
+    eye = np.array([5.0, -20.0, 1.0])
+    cam = PerspectiveCamera(eye, (0, 1, -0.045), fov=12, resolution=64, height=64)
+    buf = ConservativeDepthBuffer.from_occluders(occ, cam, width=64, height=64)
+    pixels = np.argwhere(buf.covered)
+    assert len(pixels) > 100
+    d = _pixel_rays(cam, buf.shape, pixels, np.random.default_rng(0), 30)
+    t = _first_hit64(v, f, eye, d).reshape(len(pixels), -1)
+    assert np.isfinite(t).all() and (t <= buf.depth[buf.covered][:, None]).all()
+
+
 def test_occluded_kernel_matches_screen_rectangles(rng):
     """The compiled occludee test equals the numpy rectangles and a plain maximum."""
     solids = [(b.vertices, b.faces) for b in _city(rng, 12)]

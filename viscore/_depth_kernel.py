@@ -93,9 +93,12 @@ def store_hits(need, tri, tri_facet, tri_solid, n_facets, solid_plane, solid_ok,
 
 @njit_cached()
 def _coefficient(pl, eye, r, u, f, coef, p):
-    """Row ``p`` of ``coef``: plane ``pl`` (n.x = offset) as (a, b, c) with the plane at
-    parameter 1 / (a x + b y + c) along the direction x r + y u + f from the eye."""
+    """Row ``p`` of ``coef``: plane ``pl`` (n.x = offset, slack) pushed ``slack`` away
+    from the eye, as (a, b, c) with the plane at parameter 1 / (a x + b y + c) along the
+    direction x r + y u + f from the eye. A ray that meets a facet lying within ``slack``
+    of its plane meets it no farther than the pushed plane."""
     num = pl[3] - (pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2])
+    num = num + pl[4] if num > 0 else num - pl[4]
     coef[p, 0] = (pl[0] * r[0] + pl[1] * r[1] + pl[2] * r[2]) / num
     coef[p, 1] = (pl[0] * u[0] + pl[1] * u[1] + pl[2] * u[2]) / num
     coef[p, 2] = (pl[0] * f[0] + pl[1] * f[1] + pl[2] * f[2]) / num

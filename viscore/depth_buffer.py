@@ -21,7 +21,9 @@ does not contain the eye ``e``; each piece has an exact *entry distance*
 along a ray that meets it, computed in float64 from its planes (no ray cast):
 the distance to the facet's plane, or for a solid the largest distance to
 the planes of its faces that face the eye (the slab method for convex
-polyhedra [3]_).
+polyhedra [3]_). Facets are planar within a tolerance: each plane is pushed
+away from the eye by the largest distance of the facet's vertices from it,
+so the distance computed is never less than the facet's along the ray.
 
 The lemma
 ---------
@@ -134,9 +136,8 @@ __all__ = ["OccluderScene", "ConservativeDepthBuffer", "DEFAULT_REDUCTION",
 DEFAULT_REDUCTION = 4
 
 #: Stored depths are widened by this fraction of (occluder scene diagonal +
-#: distance from the eye to its centre): facets are planar within a tolerance,
-#: and Embree traces in float32 (about 1e-6 relative), so a depth is never
-#: reported nearer than the occluder really is.
+#: distance from the eye to its centre), far beyond the float64 rounding of the
+#: entry distances: a depth is never reported nearer than the occluder really is.
 DEPTH_MARGIN_RELATIVE = 1e-5
 
 #: Tolerance for coplanarity (fraction of the mesh's diagonal) and for convex unions
@@ -317,15 +318,22 @@ class OccluderScene:
         # each facet's plane: that of its largest triangle (a solid's are outward-facing)
         order = np.lexsort((-norm, self._facet))
         first = order[np.r_[True, self._facet[order][1:] != self._facet[order][:-1]]]
-        #: (facets, 4) unit normal and offset of each facet's plane: n.x = offset
-        self._facet_plane = np.concatenate([n[first], offsets[first][:, None]], axis=1)
-        # each solid's face planes, padded: (solids, P, 4) and which are real (solids, P)
+        # how far the facet's vertices lie off that plane (facets are planar within a
+        # tolerance): distances are taken to the plane pushed that far from the eye
+        off = np.abs(np.einsum("ijk,ik->ij", tri, n[first][self._facet])
+                     - offsets[first][self._facet, None]).max(axis=1)
+        slack = np.zeros(len(first))
+        np.maximum.at(slack, self._facet, off)
+        #: (facets, 5) unit normal, offset (n.x = offset) and slack of each facet's plane
+        self._facet_plane = np.concatenate([n[first], offsets[first][:, None],
+                                            slack[:, None]], axis=1)
+        # each solid's face planes, padded: (solids, P, 5) and which are real (solids, P)
         pairs = np.unique(np.stack([self._solid[has], self._facet[has]], axis=1), axis=0)
         per = np.bincount(pairs[:, 0], minlength=self._n_solids) if len(pairs) else \
             np.zeros(0, np.int64)
         width = int(per.max()) if len(per) else 0
         slot = np.arange(len(pairs)) - np.repeat(np.cumsum(per) - per, per)
-        self._solid_plane = np.zeros((self._n_solids, width, 4))
+        self._solid_plane = np.zeros((self._n_solids, width, 5))
         self._solid_plane_ok = np.zeros((self._n_solids, width), dtype=bool)
         self._solid_plane[pairs[:, 0], slot] = self._facet_plane[pairs[:, 1]]
         self._solid_plane_ok[pairs[:, 0], slot] = True
