@@ -374,6 +374,10 @@ def select_greedy(bitmaps: np.ndarray, pixel: float, *, alpha: float, measure: s
     return np.asarray(chosen, dtype=np.int64), np.asarray(totals, dtype=np.float64)
 
 
+#: The measured budget-cut rules start at this multiple of the budget (area before).
+MEASURE_FROM = 1.25
+
+
 def _next_stage(chain: SimplificationChain, s: int) -> int:
     """First stage after ``s`` with fewer triangles; ``chain.stages`` means removed."""
     later = np.flatnonzero(chain.counts[s + 1:] < chain.counts[s])
@@ -381,8 +385,8 @@ def _next_stage(chain: SimplificationChain, s: int) -> int:
 
 
 def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
-                     reduce: str = "area", bitmaps_of=None, pixel: float = 1.0
-                     ) -> tuple[np.ndarray, int]:
+                     reduce: str = "area", bitmaps_of=None, pixel: float = 1.0,
+                     measure_from: float = MEASURE_FROM) -> tuple[np.ndarray, int]:
     """Walk down the chains one triangle at a time until the cut fits the budget (sec. 4.5).
 
     Parameters
@@ -399,6 +403,12 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
         of largest occlusion measure (``'om'``, slower). ``bitmaps_of(i, s)``
         gives candidate i's stage-s bitmaps ``(N, R, R)`` (not needed for
         ``'area'``).
+    measure_from : float, optional
+        The ``'projected-area'`` and ``'om'`` rules take over once the cut
+        has at most ``measure_from`` times the budget triangles; above that,
+        steps follow the area rule (they remove ears of almost no area, where
+        the rules agree, and each measured step costs a projection per
+        candidate). Default :data:`MEASURE_FROM`.
 
     Returns
     -------
@@ -412,16 +422,18 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
     if budget is None:
         return stage, tri
     counts_img = None
-    if reduce != "area" and k:
-        counts_img = sum(bitmaps_of(i, 0).astype(np.int32) for i in range(k))
     while tri > budget:
+        by_area = reduce == "area" or tri > measure_from * budget
+        if not by_area and counts_img is None:
+            counts_img = sum(bitmaps_of(i, int(stage[i])).astype(np.int32) for i in range(k)
+                             if stage[i] < chains[i].stages)
         best, best_val, best_next = -1, -np.inf, -1
         for i, ch in enumerate(chains):
             s = int(stage[i])
             if s >= ch.stages:
                 continue
             nxt = _next_stage(ch, s)
-            if reduce == "area":
+            if by_area:
                 after = ch.areas[nxt] if nxt < ch.stages else 0.0
                 val = -(ch.areas[s] - after)
             elif reduce == "projected-area":  # pixels only this polygon covers, lost

@@ -63,6 +63,7 @@ from viscore._validate import as_positive, as_positive_int, as_seed, check_memor
 
 from . import _section_slices
 from ._section_loops import slice_polygons
+from ._section_optimal import refine_chain
 from ._section_select import (
     MEASURE_DIRECTIONS,
     MEASURE_RESOLUTION,
@@ -119,6 +120,7 @@ DEFAULT_SCREEN = 1920
 
 _MEASURES = ("om", "area")
 _REDUCTIONS = ("area", "projected-area", "om")
+_CHAINS = ("optimal", "greedy")
 
 
 def screen_space_voxel_size(pixel_error: float, distance: float, *, fov: float = DEFAULT_FOV,
@@ -203,8 +205,8 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
                              voxels: int | None = None, voxel_size: float | None = None,
                              direction_bins: int = DEFAULT_DIRECTION_BINS,
                              depth_bins: int = DEFAULT_DEPTH_BINS, alpha: float = DEFAULT_ALPHA,
-                             measure: str = "om", reduce: str = "area",
-                             rdp_tolerance: float = RDP_TOLERANCE,
+                             measure: str = "om", reduce: str = "om",
+                             rdp_tolerance: float = RDP_TOLERANCE, chain: str = "optimal",
                              conservative: bool = False, pixel_error: float | None = None,
                              distance: float | None = None, fov: float = DEFAULT_FOV,
                              screen: int = DEFAULT_SCREEN, lod_distances=None,
@@ -238,14 +240,22 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         projected area of the soup (the paper's surface-area comparison,
         Fig. 11).
     reduce : {'area', 'projected-area', 'om'}, optional
-        Budget cut: keep at each step the cut of largest surface area, the
-        sum of its polygons' areas (the paper's rule; default);
-        ``'projected-area'``: of largest projected area over the measure
-        directions (sec. 3.1's A(I_{d,0}); overlaps count once); ``'om'``:
-        of largest occlusion measure (slower).
+        Budget cut, one triangle at a time: keep at each step the cut of
+        largest total occlusion measure (``'om'``, default; the steps
+        while the cut has over 1.25 times the budget follow the area rule,
+        as they remove ears of almost no area), or of largest surface area,
+        the sum of its polygons' areas (``'area'``: the paper's rule), or of
+        largest projected area over the measure directions
+        (``'projected-area'``: sec. 3.1's A(I_{d,0}); overlaps count once).
     rdp_tolerance : float, optional
         Ramer-Douglas-Peucker tolerance of the edge loops, voxels, > 0
         (default :data:`RDP_TOLERANCE`; see Notes).
+    chain : {'optimal', 'greedy'}, optional
+        Simplification chains (sec. 4.4): ``'greedy'``, the paper's greedy
+        smallest-ear collapse throughout; ``'optimal'`` (default), the same
+        but its stages of at most 12 triangles replaced by the largest
+        polygon on the candidate's vertices inside the candidate
+        (:mod:`._section_optimal`; same constraint, not myopic).
     conservative : bool, optional
         Slice only through voxels wholly inside the mesh by the generalized
         winding number [2]_, eroded by one more voxel, and skip RDP (the
@@ -333,6 +343,8 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     if measure not in _MEASURES:
         raise InputError(f"measure: expected 'om' or 'area', got {measure!r}")
     rdp_tolerance = as_positive(rdp_tolerance, "rdp_tolerance")
+    if chain not in _CHAINS:
+        raise InputError(f"chain: expected 'optimal' or 'greedy', got {chain!r}")
     if reduce not in _REDUCTIONS:
         raise InputError(f"reduce: expected one of {', '.join(_REDUCTIONS)}, got {reduce!r}")
     for name, flag in (("conservative", conservative), ("hierarchy", hierarchy)):
@@ -371,7 +383,7 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     params = {"budget": budget, "seed": seed, "voxels": voxels, "voxel_size": voxel_size,
               "direction_bins": direction_bins, "depth_bins": depth_bins, "alpha": alpha,
               "measure": measure, "reduce": reduce, "rdp_tolerance": rdp_tolerance,
-              "conservative": bool(conservative),
+              "chain": chain, "conservative": bool(conservative),
               "pixel_error": pixel_error, "distance": distance, "fov": fov, "screen": screen,
               "lod_distances": None if distances is None else list(distances),
               "hierarchy": bool(hierarchy), "dilate": int(dilate)}
@@ -381,7 +393,8 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
 
     options = dict(budget=budget, direction_bins=direction_bins, depth_bins=depth_bins,
                    alpha=alpha, measure=measure, reduce=reduce,
-                   rdp_tolerance=rdp_tolerance, conservative=bool(conservative), dilate=int(dilate))
+                   rdp_tolerance=rdp_tolerance, chain=chain, conservative=bool(conservative),
+                   dilate=int(dilate))
     if distances is None:
         if pixel_error is not None:
             size = _resolution(mesh, None, screen_space_voxel_size(
@@ -413,7 +426,7 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
 
 
 def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, depth_bins,
-                  alpha, measure, reduce, rdp_tolerance, conservative, dilate):
+                  alpha, measure, reduce, rdp_tolerance, chain, conservative, dilate):
     """One level of detail: (mesh, polygons, info)."""
     timing = {}
     t0 = time.perf_counter()
@@ -458,6 +471,11 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
     chosen, totals = select_greedy(bitmaps, mpixel, alpha=alpha, measure=measure,
                                    max_polygons=budget)
     timing["greedy"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    if chain == "optimal" and budget is not None:  # only the chosen polygons are cut down
+        for i in chosen:
+            chains[i] = refine_chain(chains[i], cands[i][1].polygon)
+    timing["chains"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     cache: dict = {}
 

@@ -343,13 +343,18 @@ REGISTRY: dict[str, GeneratorSpec] = {
                 GeneratorOption("measure", str, "om",
                                 "selection measure: occlusion measure or projected area",
                                 choices=("om", "area")),
-                GeneratorOption("reduce", str, "area",
-                                "budget cut keeps the cut of largest surface area (the paper), "
-                                "projected area or occlusion measure",
+                GeneratorOption("reduce", str, "om",
+                                "budget cut keeps the cut of largest occlusion measure, "
+                                "surface area (the paper) or projected area",
                                 choices=("area", "projected-area", "om")),
                 GeneratorOption("rdp_tolerance", float, PLANAR_RDP_TOLERANCE,
                                 "Ramer-Douglas-Peucker tolerance of the edge loops, voxels",
                                 low=0, low_open=True),
+                GeneratorOption("chain", str, "optimal",
+                                "simplification chains: the paper's greedy smallest-ear "
+                                "collapse, or with its stages of at most 12 triangles the "
+                                "largest inscribed polygons",
+                                choices=("optimal", "greedy")),
                 GeneratorOption("conservative", bool, False,
                                 "slice only through voxels wholly inside the mesh, so that no "
                                 "ray sees the occluder before a closed mesh"),
