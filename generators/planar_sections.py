@@ -210,7 +210,8 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
                              conservative: bool = False, pixel_error: float | None = None,
                              distance: float | None = None, fov: float = DEFAULT_FOV,
                              screen: int = DEFAULT_SCREEN, lod_distances=None,
-                             hierarchy: bool = False, dilate: int = 0) -> Occluder:
+                             hierarchy: bool = False, dilate: int = 0,
+                             close: int = 0) -> Occluder:
     """Occluder of double-sided planar polygons (Silvennoinen et al. 2014, sec. 4).
 
     Parameters
@@ -283,6 +284,14 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     dilate : int, optional
         Dilation steps of the voxel solid (sec. 5's gluing step), >= 0.
         Default 0.
+    close : int, optional
+        Close openings of the surface up to about ``2 close`` voxels wide
+        before the flood fill (a morphological closing,
+        :func:`._section_slices.closed_solid`; beyond the paper), 0 to 8,
+        default 0. For scans with holes and buildings with open doors and
+        windows: the Stanford bunny scan (open bottom) has no interior at
+        64^3 and gives R 0.001; ``close=3`` gives R 0.83 at P 0.9997 (orbit
+        protocol, 128 views, 53 triangles). Not with ``conservative``.
 
     Returns
     -------
@@ -353,6 +362,11 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     if isinstance(dilate, bool) or not isinstance(dilate, numbers.Integral) or not (
             0 <= dilate <= 8):
         raise InputError(f"dilate: expected an integer from 0 to 8, got {dilate!r}")
+    if isinstance(close, bool) or not isinstance(close, numbers.Integral) or not (
+            0 <= close <= 8):
+        raise InputError(f"close: expected an integer from 0 to 8, got {close!r}")
+    if close and conservative:
+        raise InputError("close: not with conservative (closing adds voxels outside the mesh)")
     fov = _as_fov(fov)
     screen = as_positive_int(screen, "screen")
     if voxels is not None:
@@ -386,7 +400,8 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
               "chain": chain, "conservative": bool(conservative),
               "pixel_error": pixel_error, "distance": distance, "fov": fov, "screen": screen,
               "lod_distances": None if distances is None else list(distances),
-              "hierarchy": bool(hierarchy), "dilate": int(dilate)}
+              "hierarchy": bool(hierarchy), "dilate": int(dilate),
+              "close": int(close)}
     if hierarchy:  # sec. 5: a BVH over the objects, this generator at every node
         return build(mesh, **{k: v for k, v in params.items() if k != "hierarchy"})
     mesh = validate_mesh(mesh)
@@ -394,7 +409,7 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     options = dict(budget=budget, direction_bins=direction_bins, depth_bins=depth_bins,
                    alpha=alpha, measure=measure, reduce=reduce,
                    rdp_tolerance=rdp_tolerance, chain=chain, conservative=bool(conservative),
-                   dilate=int(dilate))
+                   dilate=int(dilate), close=int(close))
     if distances is None:
         if pixel_error is not None:
             size = _resolution(mesh, None, screen_space_voxel_size(
@@ -426,11 +441,12 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
 
 
 def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, depth_bins,
-                  alpha, measure, reduce, rdp_tolerance, chain, conservative, dilate):
+                  alpha, measure, reduce, rdp_tolerance, chain, conservative, dilate,
+                  close):
     """One level of detail: (mesh, polygons, info)."""
     timing = {}
     t0 = time.perf_counter()
-    sec = section_solid(mesh, conservative=conservative, dilate=dilate, **size)
+    sec = section_solid(mesh, conservative=conservative, dilate=dilate, close=close, **size)
     pitch = sec.grid.pitch
     extent = float(np.max(mesh.extents))
     info = {"voxel_size": pitch, "voxels": int(math.ceil(extent / pitch - 1e-9)),
@@ -441,6 +457,10 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
     if conservative and not sec.closed_oriented:
         _log.warning("planar-sections: the mesh is not closed and consistently oriented; "
                      "--conservative cannot guarantee anything (run 'viscore validate')")
+    if not conservative and not close and sec.solid_voxels < 1.1 * sec.surface_voxels:
+        _log.warning("planar-sections: the voxel solid has (almost) no interior: the mesh is "
+                     "open at %d voxels, so the slices are thin shells; close its openings "
+                     "with --close 3 (or more voxels)", info["voxels"])
     timing["voxels"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()

@@ -378,6 +378,10 @@ REGISTRY: dict[str, GeneratorSpec] = {
                 GeneratorOption("dilate", int, 0,
                                 "dilation steps of the voxel solid (sec. 5's gluing step)", low=0,
                                 high=8),
+                GeneratorOption("close", int, 0,
+                                "close openings up to about 2 x this many voxels wide before the "
+                                "flood fill (scans with holes, buildings with open windows)",
+                                low=0, high=8),
             ),
             min_budget=1),
         GeneratorSpec(

@@ -283,3 +283,59 @@ def test_ablation_functions_return_data_and_write_png(tmp_path):
     row = ab["meshes"]["fat-torus"]
     assert len(row["om"]["per_view_recall"]) == len(row["area"]["per_view_recall"]) == 4
     assert (tmp_path / "fig11.png").stat().st_size > 0
+
+
+def _hollow_box_with_hole(hole: float) -> trimesh.Trimesh:
+    """A closed hollow box (outer 2, wall 0.2) whose front wall has a square hole."""
+    outer = trimesh.creation.box(extents=(2, 2, 2))
+    inner = trimesh.creation.box(extents=(1.6, 1.6, 1.6))
+    inner.invert()
+    punch = trimesh.creation.box(extents=(hole, 1.0, hole))
+    punch.apply_translation((0, -1.0, 0))
+    shell = trimesh.util.concatenate([outer, inner])
+    v, f = trimesh.remesh.subdivide_to_size(shell.vertices, shell.faces, max_edge=0.05)
+    shell = trimesh.Trimesh(v, f)
+    # cut the hole: drop the faces of the front wall inside the punch's footprint and
+    # stitch nothing back (an open surface is what scans and game meshes give)
+    keep = ~(punch.contains(shell.triangles_center))
+    shell.update_faces(keep)
+    return shell
+
+
+def test_closed_solid_fills_behind_small_openings_only():
+    from viscore.generators._section_slices import closed_solid
+
+    shell = np.zeros((16, 16, 16), bool)
+    shell[2:14, 2:14, 2:14] = True
+    shell[3:13, 3:13, 3:13] = False
+    small, wide = shell.copy(), shell.copy()
+    small[7:9, 7:9, 2] = False  # a 2-voxel opening
+    wide[4:12, 4:12, 2] = False  # an 8-voxel opening
+    for surface in (small, wide):
+        # the plain flood fill (sec. 4.1) sees no interior behind any opening
+        from scipy import ndimage
+
+        assert not ndimage.binary_fill_holes(surface)[8, 8, 8]
+    closed = closed_solid(small, 1)
+    assert closed[3:13, 3:13, 4:13].all()  # the inside is solid
+    assert not closed_solid(wide, 1)[8, 8, 8]  # 8 voxels > 2 x 1: stays open
+    assert closed_solid(wide, 4)[8, 8, 8]
+    # never outside the box's bounds: a closing does not grow the solid outward
+    for c in (closed, closed_solid(wide, 4)):
+        assert not c[:2].any() and not c[14:].any() and not c[:, :2].any()
+
+
+def test_close_option_gives_an_open_shell_an_interior(caplog):
+    box = _hollow_box_with_hole(0.5)  # the hole is 0.5 / (2 / 24) = 6 voxels wide
+    assert not box.is_watertight
+    with caplog.at_level("WARNING"):
+        plain = generate_planar_sections(box, budget=8, voxels=24, **FAST)
+    assert "no interior" in caplog.text
+    closed = generate_planar_sections(box, budget=8, voxels=24, close=4, **FAST)
+    assert closed.params["close"] == 4
+    assert closed.info["solid_voxels"] > 2 * plain.info["solid_voxels"]
+    assert 0 < closed.triangles <= 8
+    with pytest.raises(InputError, match="close"):
+        generate_planar_sections(box, close=2, conservative=True)
+    with pytest.raises(InputError, match="close"):
+        generate_planar_sections(box, close=9)
