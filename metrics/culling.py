@@ -972,9 +972,10 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     that is the limit of the ground truth, and a false cull of such an object
     is not counted. View frustum culling is then applied, identically for every
     runtime (:func:`view_frustum_mask`), and each runtime gets the surviving
-    boxes; its ``cull`` call is timed (``time.perf_counter``) as its overhead.
-    A culled object that is visible is a false cull. Deterministic given the
-    runtimes; the overheads vary from run to run.
+    boxes; its ``cull`` call is timed (``time.perf_counter``) as its overhead
+    (on the first frame after one untimed call, so that compiling a runtime's
+    kernels is not counted). A culled object that is visible is a false cull.
+    Deterministic given the runtimes; the overheads vary from run to run.
     """
     if not runtimes:
         raise InputError("runtimes: expected at least one runtime")
@@ -1010,6 +1011,8 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
         visible_n[f], visible_t[f] = int(visible.sum()), int(tris[visible].sum())
         lo, hi = lower[idx], upper[idx]
         for name in names:
+            if f == 0:  # warm-up, untimed: compiling the kernels is not a frame's overhead
+                runtimes[name].cull(camera, lo, hi)
             start = time.perf_counter()
             mask = np.asarray(runtimes[name].cull(camera, lo, hi), dtype=bool)
             elapsed = time.perf_counter() - start
