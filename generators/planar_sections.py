@@ -11,28 +11,36 @@ instead of a GPU, one module per step:
 - 4.4 progressive simplification chain per polygon (smallest ear first,
   nested stages, each triangulated): :mod:`._section_simplify`;
 - 4.5 greedy alpha-complete selection maximizing the total occlusion
-  measure of the polygon soup (sec. 3), then the budget cut by surface
-  area: :mod:`._section_select`.
+  measure of the polygon soup (sec. 3), then the budget cut one triangle at
+  a time: :mod:`._section_select`.
+
+Where the defaults depart from the paper (each with a switch back): the
+chains' stages of at most 12 triangles are the largest polygons on the
+candidate's vertices inside the candidate, found exactly
+(:mod:`._section_optimal`; ``chain='greedy'`` is the paper's chain), and
+the budget cut keeps the cut of largest occlusion measure rather than of
+largest surface area (``reduce='area'`` is the paper's rule). On the bunny
+(53 triangles, 64^3, 256 views) the paper's chain and cut give R 0.783, the
+defaults R 0.837 with 8 direction bins, at P 0.9997 either way.
 
 Beyond the paper: a conservative variant (slices only through voxels wholly
 inside the mesh, eroded once more), a screen-space error knob that sets the
 voxel size from the error a viewer would see (the paper's premise, sec. 4:
-"a voxel resolution appropriate for the allowed Euclidean error"), and one
+"a voxel resolution appropriate for the allowed Euclidean error"), one
 occluder per viewing distance (levels of detail, sec. 4's "multiple
-simplified versions").
+simplified versions"), and closing of openings before the flood fill
+(``close``) for scans with holes and buildings with open windows.
 
-Measured (orbit protocol; ``viscore.cli.bench_planar``). The RDP tolerance
-is the paper's, one voxel (:data:`RDP_TOLERANCE`); a larger one trades
-precision for recall at small budgets (64 views; bunny at 53 triangles,
-the others at 64): bunny R 0.773 / 0.823 / 0.868 at 1 / 1.5 / 2 voxels (P
-0.9998 / 0.9997 / 0.9993), cow P 0.9985 / 0.9966 / 0.9905, building-house R
-0.866 / 0.871 / 0.891, fat torus R 0.869 / 0.826 / 0.778. The voxel size
-does the same (Fig. 9; bunny, 53 triangles, 256 views): P / R 0.961 / 0.970
-at 16 voxels, 0.997 / 0.886 at 32, 0.9998 / 0.776 at 64, 1.0 / 0.713 at 128.
-At 256 views the bunny (53 triangles, 64^3) gives P 0.9998 R 0.783 with
-the defaults and P 0.9994 R 0.864 with 16 direction bins and a 2-voxel
-tolerance (the paper: P 0.999, R 0.835), which costs the fat torus R 0.868
--> 0.778 and the cow P 0.9987 -> 0.9902.
+Measured (orbit protocol, 256 views; ``viscore bench generate
+planar-sections``): the bunny at 53 triangles and 64^3, P 0.9998 R 0.844 in
+4 s (Table 1: P 0.999, R 0.835); at 64 triangles the fat torus R 0.902,
+teapot 0.944, fandisk 0.907, building-house 0.865 (P >= 0.999). The RDP
+tolerance is the paper's, one voxel (:data:`RDP_TOLERANCE`); a larger one
+trades precision for recall (with the paper's chain and cut, 64 views:
+bunny R 0.773 / 0.823 / 0.868 at 1 / 1.5 / 2 voxels, cow P 0.9985 / 0.9966
+/ 0.9905, fat torus R 0.869 / 0.826 / 0.778). The voxel size does the same
+(Fig. 9; bunny, paper's chain and cut, 256 views): P / R 0.961 / 0.970 at
+16 voxels, 0.997 / 0.886 at 32, 0.9998 / 0.776 at 64, 1.0 / 0.713 at 128.
 An open sheet (the terrain) or walls with openings wider than a voxel have no
 interior to slice: their slices are strips one or two voxels wide.
 
@@ -89,14 +97,14 @@ DEFAULT_VOXELS = 64
 MAX_VOXELS = 1024
 
 #: Direction bins over the hemisphere of plane normals and depth bins per direction
-#: (sec. 4.2). Sweep on the bunny (53 triangles, 64^3, orbit protocol at 256 views,
-#: ``viscore.cli.bench_planar.bins_sweep``), recall / seconds on the shared machine:
-#: 8 x 2: 0.763, 8 x 4: 0.783 / 7 s, 8 x 8: 0.771 / 12 s, 16 x 2: 0.741 / 5 s,
-#: 16 x 4: 0.776 / 10 s, 16 x 8: 0.733 / 18 s, 32 x 2: 0.749 / 20 s, 32 x 4: 0.750 /
-#: 24 s, 32 x 8: 0.759 / 39 s (precision 0.9998-0.9999 throughout). More bins give
-#: more candidates but no better recall (the greedy search's choice varies by a few
-#: per cent with the candidate set); 8 x 4 is the best and among the fastest.
-DEFAULT_DIRECTION_BINS = 8
+#: (sec. 4.2). Sweep with the default chains and budget cut
+#: (:func:`viscore.cli.bench_planar.bins_sweep` per mesh, ``views=128``), orbit protocol,
+#: mean recall over the bunny (53 triangles), fat torus, cow, bone, spot, fandisk,
+#: rocker arm and Suzanne (64 triangles), 64^3: 8 x 2: 0.826, 8 x 4: 0.844, 8 x 6: 0.843,
+#: 12 x 4: 0.834, 16 x 2: 0.832, 16 x 4: 0.856, 16 x 6: 0.830, 24 x 4: 0.849, 24 x 6:
+#: 0.839 (2.6-4.7 s each). Single meshes swing by +-0.03 between neighbouring settings
+#: (the greedy search's discrete choices), so the choice rests on the mean: 16 x 4.
+DEFAULT_DIRECTION_BINS = 16
 DEFAULT_DEPTH_BINS = 4
 
 #: Ramer-Douglas-Peucker tolerance, voxels (sec. 4.3: "match the voxel resolution").
@@ -230,7 +238,7 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     voxel_size : float, optional
         Voxel side, world units (direct control, as ``voxels``).
     direction_bins, depth_bins : int, optional
-        Bins of plane normals over the hemisphere (1 to 256, default 8) and
+        Bins of plane normals over the hemisphere (1 to 256, default 16) and
         of depths per direction (1 to 64, default 4); one candidate slice
         per bin (sec. 4.2).
     alpha : float, optional
@@ -458,9 +466,10 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
         _log.warning("planar-sections: the mesh is not closed and consistently oriented; "
                      "--conservative cannot guarantee anything (run 'viscore validate')")
     if not conservative and not close and sec.solid_voxels < 1.1 * sec.surface_voxels:
-        _log.warning("planar-sections: the voxel solid has (almost) no interior: the mesh is "
-                     "open at %d voxels, so the slices are thin shells; close its openings "
-                     "with --close 3 (or more voxels)", info["voxels"])
+        _log.warning("planar-sections: the voxel solid has (almost) no interior at %d voxels "
+                     "(an open sheet, or a surface with openings), so the slices are thin "
+                     "strips; for an object with holes, close them with --close 3 (or more "
+                     "voxels)", info["voxels"])
     timing["voxels"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
