@@ -198,6 +198,31 @@ def settle_tiles(ti, tj, s, stride, facet, piece, n_facets, facet_plane, solid_p
 
 
 @njit_cached()
+def _box_screen(lo, hi, q, eye, r, u, f, hx, hy, w, h):  # pragma: no cover
+    """(ok, row_min, row_max, col_min, col_max): the screen rectangle (buffer pixels,
+    not clipped) of box q's 8 corners; ok is False when a corner is not strictly in
+    front of the eye's plane (the rectangle is then meaningless)."""
+    cmin = np.inf
+    cmax = -np.inf
+    rmin = np.inf
+    rmax = -np.inf
+    for m in range(8):
+        px = (hi[q, 0] if m & 4 else lo[q, 0]) - eye[0]
+        py = (hi[q, 1] if m & 2 else lo[q, 1]) - eye[1]
+        pz = (hi[q, 2] if m & 1 else lo[q, 2]) - eye[2]
+        z = px * f[0] + py * f[1] + pz * f[2]
+        if not z > 0:
+            return False, rmin, rmax, cmin, cmax
+        col = ((px * r[0] + py * r[1] + pz * r[2]) / z * (0.5 / hx) + 0.5) * w
+        row = (0.5 - (px * u[0] + py * u[1] + pz * u[2]) / z * (0.5 / hy)) * h
+        cmin = min(cmin, col)
+        cmax = max(cmax, col)
+        rmin = min(rmin, row)
+        rmax = max(rmax, row)
+    return True, rmin, rmax, cmin, cmax
+
+
+@njit_cached()
 def thin_rectangles(lo, hi, eye, r, u, f, hx, hy, w, h, rect):
     """Write into ``rect`` (k, 5: row_min, row_max, col_min, col_max, smaller side;
     buffer pixels) the screen rectangles of the boxes wholly in front of the eye's plane
@@ -205,25 +230,7 @@ def thin_rectangles(lo, hi, eye, r, u, f, hx, hy, w, h, rect):
     narrower cannot cover a pixel); returns k."""
     k = 0
     for q in range(lo.shape[0]):
-        cmin = np.inf
-        cmax = -np.inf
-        rmin = np.inf
-        rmax = -np.inf
-        ok = True
-        for m in range(8):
-            px = (hi[q, 0] if m & 4 else lo[q, 0]) - eye[0]
-            py = (hi[q, 1] if m & 2 else lo[q, 1]) - eye[1]
-            pz = (hi[q, 2] if m & 1 else lo[q, 2]) - eye[2]
-            z = px * f[0] + py * f[1] + pz * f[2]
-            if not z > 0:
-                ok = False
-                break
-            col = ((px * r[0] + py * r[1] + pz * r[2]) / z * (0.5 / hx) + 0.5) * w
-            row = (0.5 - (px * u[0] + py * u[1] + pz * u[2]) / z * (0.5 / hy)) * h
-            cmin = min(cmin, col)
-            cmax = max(cmax, col)
-            rmin = min(rmin, row)
-            rmax = max(rmax, row)
+        ok, rmin, rmax, cmin, cmax = _box_screen(lo, hi, q, eye, r, u, f, hx, hy, w, h)
         size = min(rmax - rmin, cmax - cmin)
         if ok and size >= 1.0 and rmax >= 0 and rmin <= h and cmax >= 0 and cmin <= w:
             rect[k, 0] = rmin
@@ -250,27 +257,7 @@ def occluded_boxes(lo, hi, eye, r, u, f, hx, hy, slack, depth, out):
         near = math.sqrt(d2)
         if not near > 0:
             continue
-        cmin = np.inf
-        cmax = -np.inf
-        rmin = np.inf
-        rmax = -np.inf
-        ok = True
-        for m in range(8):
-            px = (hi[k, 0] if m & 4 else lo[k, 0]) - eye[0]
-            py = (hi[k, 1] if m & 2 else lo[k, 1]) - eye[1]
-            pz = (hi[k, 2] if m & 1 else lo[k, 2]) - eye[2]
-            z = px * f[0] + py * f[1] + pz * f[2]
-            if not z > 0:
-                ok = False
-                break
-            x = (px * r[0] + py * r[1] + pz * r[2]) / z
-            y = (px * u[0] + py * u[1] + pz * u[2]) / z
-            col = (x * (0.5 / hx) + 0.5) * w
-            row = (0.5 - y * (0.5 / hy)) * h
-            cmin = min(cmin, col)
-            cmax = max(cmax, col)
-            rmin = min(rmin, row)
-            rmax = max(rmax, row)
+        ok, rmin, rmax, cmin, cmax = _box_screen(lo, hi, k, eye, r, u, f, hx, hy, w, h)
         if not ok:
             continue
         c0 = math.floor(cmin - slack)
