@@ -40,7 +40,7 @@ import logging
 from dataclasses import asdict
 from pathlib import Path
 
-from viscore.generators import REGISTRY
+from viscore.generators import REGISTRY, get_generator, parse_method
 
 from viscore import InputError, cpu_cores, load_mesh, provenance
 from viscore._validate import as_positive_int, as_seed, check_memory
@@ -82,7 +82,9 @@ def add_parser(sub, common) -> None:
                    help="mesh files or built-in scenes (default: "
                         + ", ".join(DEFAULT_SCENES) + "; 'viscore data list' names them all)")
     c.add_argument("--methods", default=",".join(REGISTRY),
-                   help=f"comma-separated (default: all of {', '.join(REGISTRY)})")
+                   help=f"comma-separated (default: all of {', '.join(REGISTRY)}); a method "
+                        "with options fixed, NAME:option=value[:option=value...], runs as a "
+                        "method of its own (planar-sections:chain=greedy:reduce=area)")
     c.add_argument("--budget", default="64,256",
                    help="triangle budget(s), comma-separated (default 64,256)")
     c.add_argument("--protocol", choices=["orbit", "volume"], default="orbit")
@@ -116,19 +118,19 @@ def add_parser(sub, common) -> None:
 
 
 def _methods(text: str, flag: str = "--methods") -> list[str]:
-    methods = list(dict.fromkeys(m.strip() for m in str(text).split(",") if m.strip()))
-    unknown = [m for m in methods if m not in REGISTRY]
-    if unknown or not methods:
-        raise InputError(f"{flag}: unknown {', '.join(unknown) or '(none given)'} "
+    """Canonical method labels: registered names, or variants ``name:option=value:...``
+    (:func:`viscore.generators.parse_method`), each once."""
+    names = [m.strip() for m in str(text).split(",") if m.strip()]
+    if not names:
+        raise InputError(f"{flag}: expected comma-separated methods, got {text!r} "
                          f"(registered: {', '.join(REGISTRY)})")
-    return methods
+    return list(dict.fromkeys(parse_method(m, flag).label for m in names))
 
 
 def _versus(text: str | None, methods: list[str]) -> str | None:
     if text is None:
         return "qem" if "qem" in methods else None
-    if text not in REGISTRY:
-        raise InputError(f"--versus: unknown method {text!r} (registered: {', '.join(REGISTRY)})")
+    text = parse_method(text, "--versus").label
     if text not in methods:
         raise InputError(f"--versus: {text} is not among the methods run "
                          f"({', '.join(methods)}); add it to --methods")
@@ -144,7 +146,7 @@ def _budgets(text: str, methods: list[str]) -> tuple[int, ...]:
     """
     budgets = tuple(sorted(set(parse_list(text, int, "--budget"))))
     for method in methods:
-        spec = REGISTRY[method]
+        spec = get_generator(method)
         if not spec.budgeted:
             continue
         for budget in budgets:
@@ -194,7 +196,7 @@ def run_compare(args) -> int:
     workers = getattr(args, "workers", None)
     workers = None if workers is None else as_positive_int(workers, "--workers")
     culling_frames = as_positive_int(args.culling_frames, "--culling-frames", maximum=10_000)
-    culling_methods = ([m for m in methods if not REGISTRY[m].heavy]
+    culling_methods = ([m for m in methods if not get_generator(m).heavy]
                        if args.culling_methods is None
                        else _methods(args.culling_methods, "--culling-methods"))
     out = check_study_dir(args.out)

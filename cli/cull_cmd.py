@@ -31,7 +31,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from viscore.generators import REGISTRY
+from viscore.generators import REGISTRY, parse_method
 from viscore.generators.scene_occluders import (
     culling_runtimes,
     frusta_method,
@@ -131,11 +131,7 @@ def _names(text: str | None, option: str) -> list[str] | None:
 
 def _methods(text: str | None, option: str = "--methods") -> list[str]:
     methods = _names(_default_methods() if text is None else text, option)
-    unknown = [m for m in methods if m not in REGISTRY]
-    if unknown:
-        raise InputError(f"{option}: unknown {', '.join(unknown)} "
-                         f"(registered: {', '.join(REGISTRY)})")
-    return methods
+    return list(dict.fromkeys(parse_method(m, option).label for m in methods))
 
 
 def _out_dir(text: str) -> Path:

@@ -132,7 +132,8 @@ class Job:
     @property
     def occluder_file(self) -> str:
         safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in Path(self.mesh).stem)
-        return f"{safe}__{self.method}__{self.budget or 'any'}__{self.key[:8]}.ply"
+        method = "".join(c if c.isalnum() or c in "-_" else "_" for c in self.method)
+        return f"{safe}__{method}__{self.budget or 'any'}__{self.key[:8]}.ply"
 
 
 def view_settings(settings: StudySettings) -> dict:

@@ -24,11 +24,20 @@ from .planar_hierarchy import (
     index_hierarchy,
 )
 from .planar_sections import generate_planar_sections
-from .registry import REGISTRY, GeneratorOption, GeneratorSpec, generate, get_generator
+from .registry import (
+    REGISTRY,
+    GeneratorOption,
+    GeneratorSpec,
+    MethodVariant,
+    generate,
+    get_generator,
+    parse_method,
+)
 from .solid_frusta import generate_solid_frusta
 
 __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOption",
-           "generate", "get_generator", "generate_aabb_skins", "boxes_mesh", "generate_qem",
+           "generate", "get_generator", "parse_method", "MethodVariant", "generate_aabb_skins",
+           "boxes_mesh", "generate_qem",
            "generate_bbox", "generate_original", "generate_godot", "generate_planar_sections",
            "generate_solid_frusta", "build_hierarchy", "cut_hierarchy", "index_hierarchy",
            "HierarchyIndex", "generate_planar_hierarchy", "hierarchy_to_json",

@@ -59,7 +59,7 @@ from .planar_sections import generate_planar_sections
 from .solid_frusta import generate_solid_frusta
 
 __all__ = ["GeneratorOption", "GeneratorSpec", "REGISTRY", "get_generator", "generate",
-           "COMMON_OPTIONS"]
+           "COMMON_OPTIONS", "MethodVariant", "parse_method"]
 
 _log = logging.getLogger(__name__)
 
@@ -465,12 +465,102 @@ REGISTRY: dict[str, GeneratorSpec] = {
 
 
 def get_generator(name: str) -> GeneratorSpec:
-    """The registered generator called ``name``, or :class:`InputError` listing them."""
+    """The registered generator called ``name`` (or the one a method variant
+    ``name:option=value...`` runs), or :class:`InputError` listing them."""
+    base = name.split(":", 1)[0].strip() if isinstance(name, str) else name
     try:
-        return REGISTRY[name]
-    except KeyError:
+        return REGISTRY[base]
+    except (KeyError, TypeError):
         raise InputError(f"method: unknown generator {name!r} "
                          f"(registered: {', '.join(REGISTRY)})") from None
+
+
+@dataclass(frozen=True)
+class MethodVariant:
+    """A registered generator with some options fixed: ``name:option=value:...``.
+
+    Attributes
+    ----------
+    spec : GeneratorSpec
+        The generator.
+    options : dict
+        The fixed options, checked and converted to their declared types.
+    label : str
+        The canonical text (options sorted, values as the CLI spells them):
+        what studies store as the method, so that equal variants share results.
+    """
+
+    spec: GeneratorSpec
+    options: dict
+    label: str
+
+
+def _option_text(value: object) -> str:
+    if value is None:
+        return "none"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def parse_method(text: str, where: str = "method") -> MethodVariant:
+    """A method name, or a variant with options: ``planar-sections:chain=greedy:reduce=area``.
+
+    Parameters
+    ----------
+    text : str
+        A registered name, optionally followed by ``:option=value`` items
+        (options by their keyword or flag name, ``close`` or ``rdp-tolerance``;
+        values as on the command line).
+    where : str, optional
+        What the error messages name (``--methods``).
+
+    Returns
+    -------
+    MethodVariant
+
+    Raises
+    ------
+    InputError
+        Unknown generator or option, a malformed item, a repeated option, an
+        option a study sets for every method (budget, seed), or a bad value.
+
+    Examples
+    --------
+    >>> parse_method("planar-sections:reduce=area:chain=greedy").label
+    'planar-sections:chain=greedy:reduce=area'
+    >>> parse_method("aabb-skins").options
+    {}
+    """
+    if not isinstance(text, str) or not text.strip():
+        raise InputError(f"{where}: expected a method name, got {text!r}")
+    head, *items = [part.strip() for part in text.strip().split(":")]
+    if head not in REGISTRY:
+        raise InputError(f"{where}: unknown method {head!r} (registered: {', '.join(REGISTRY)})")
+    spec = REGISTRY[head]
+    options: dict = {}
+    for item in items:
+        key, eq, value = item.partition("=")
+        key = key.strip().replace("-", "_")
+        if not eq or not key:
+            raise InputError(f"{where}: {text!r}: expected {head}:option=value, got {item!r}")
+        if key in COMMON_OPTIONS:
+            raise InputError(f"{where}: {text!r}: {key} is set for every method of a study, "
+                             "not per method")
+        try:
+            opt = spec.option(key)
+        except KeyError:
+            takes = ", ".join(o.name.replace("_", "-") for o in spec.options) or "no options"
+            raise InputError(f"{where}: {head} has no option {key.replace('_', '-')!r} "
+                             f"(takes: {takes})") from None
+        if key in options:
+            raise InputError(f"{where}: {text!r}: {key.replace('_', '-')} given twice")
+        options[key] = opt.parse(value.strip(), f"{where}: {head}:{key.replace('_', '-')}")
+    label = ":".join([head] + [f"{k.replace('_', '-')}={_option_text(options[k])}"
+                               for k in sorted(options)])
+    return MethodVariant(spec=spec, options=options, label=label)
 
 
 def generate(name: str, mesh, **params) -> Occluder:
@@ -479,7 +569,8 @@ def generate(name: str, mesh, **params) -> Occluder:
     Parameters
     ----------
     name : str
-        A key of :data:`REGISTRY`.
+        A key of :data:`REGISTRY`, or a method variant
+        (``planar-sections:chain=greedy``, :func:`parse_method`).
     mesh : trimesh.Trimesh
         The input mesh.
     **params
@@ -506,7 +597,13 @@ def generate(name: str, mesh, **params) -> Occluder:
     >>> generate("bbox", trimesh.creation.icosphere(), budget=5).info["over_budget"]
     True
     """
-    spec = get_generator(name)
+    variant = parse_method(name) if isinstance(name, str) and ":" in name else None
+    spec = variant.spec if variant else get_generator(name)
+    if variant:
+        twice = sorted(set(variant.options) & set(params))
+        if twice:
+            raise InputError(f"{name}: {', '.join(twice)} given in the method and again")
+        params = {**variant.options, **params}
     params = spec.check_params(params)
     occ = spec.function(mesh, **params)
     budget = params.get("budget")

@@ -47,7 +47,7 @@ from viscore._validate import as_positive, as_positive_int, as_seed
 from viscore.scene_graph import SceneObjects
 
 from .occluder import Occluder
-from .registry import REGISTRY, generate, get_generator
+from .registry import REGISTRY, generate, get_generator, parse_method
 
 __all__ = ["occluder_objects", "scene_occluders", "scene_hierarchy", "transform_occluder",
            "culling_runtimes", "frusta_method", "SIZE_FACTOR"]
@@ -276,7 +276,7 @@ def _guaranteed(occluder: Occluder, method: str) -> bool:
     said = occluder.info.get("conservative_guaranteed")
     if said is not None:
         return bool(said)
-    if not REGISTRY[method].conservative:
+    if not get_generator(method).conservative:
         return False
     mesh = occluder.mesh
     return bool(len(mesh.faces)) and mesh.is_watertight and mesh.is_winding_consistent
@@ -392,7 +392,8 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
     methods = list(dict.fromkeys(methods))
     for m in methods:
         get_generator(m)
-    source = frusta_method() if frusta_source is None else get_generator(frusta_source).name
+    source = (frusta_method() if frusta_source is None
+              else parse_method(frusta_source, "frusta_source").label)
     cache: dict[str, dict[int, Occluder]] = {}
 
     indices = np.asarray(indices, dtype=np.int64)

@@ -210,7 +210,7 @@ def test_compare_refuses_unknown_culling_methods_before_work(tmp_path, capsys):
     out = tmp_path / "study"
     assert main(["compare", "fat-torus", "--methods", "bbox", *TINY[:-1],
                  "--culling-methods", "bbox,magic", "--out", str(out)]) == 2
-    assert "--culling-methods: unknown magic" in capsys.readouterr().err
+    assert "--culling-methods: unknown method 'magic'" in capsys.readouterr().err
     assert not out.exists()
 
 

@@ -113,7 +113,7 @@ def test_cull_bad_scene_exit_2(run, tmp_path, capsys, monkeypatch, make, args, m
      "--buffer-scale"),
     ('[{"position": [0, 1, 0], "forward": [0, 0, 1]}]', ["--out", "a/b/c"], "does not exist"),
     ('[{"position": [0, 1, 0], "forward": [0, 0, 1]}]', ["--frusta-method", "nope"],
-     "--frusta-method: unknown nope"),
+     "--frusta-method: unknown method 'nope'"),
     # these crashed (exit 3) or ran: an integer beyond float64, JSON nested too deeply,
     # booleans and a nested list as a vector
     ('[{"position": [1' + "0" * 400 + ', 0, 0], "forward": [0, 0, 1]}]', [],
