@@ -26,14 +26,24 @@ areas (shoelace prefix sums make each pocket O(1)), and minimizing the sum
 of pockets over k chords is a shortest path with k steps around the loop:
 O(n^2 k) per start vertex, O(n^3 k) in all. Chords are tested once
 (``shapely.covers`` on the candidate polygon, holes included, exact on the
-integer pixel coordinates of the loops). A candidate with holes is one loop
-through bridges (:mod:`._section_loops`): there a chord inside the candidate
-can still skip a hole or reach around one, so each pocket is checked itself
-(shapely: counter-clockwise, of its shoelace area once repaired, covered by
-the candidate). n is at most :data:`POOL`: the search chooses among the
+integer pixel coordinates of the loops). Every edge of a polygon inside the
+candidate is such a chord, so this search relaxes the problem: where its
+best polygon passes the final check, it is the optimum. A candidate with
+holes is one loop through bridges (:mod:`._section_loops`): there a chord
+inside the candidate can still skip a hole or reach around one, so where
+the relaxed search fails the check, it is run again with each pocket checked
+itself (shapely, all pockets at once: counter-clockwise, of its shoelace area
+once repaired, covered by the candidate; a pocket of zero shoelace area must
+bound no area at all, as one winding once around a part of the candidate and
+once the other way around a hole of the same area does not). That second
+search can miss the optimum (a pocket through a bridge that crosses its own
+chord is refused though its polygon is feasible) but never returns an
+infeasible polygon. n is at most :data:`POOL`: the search chooses among the
 vertices of the greedy chain's stage with at most that many vertices (all
-the candidate's when it has fewer). Each polygon found is checked again
-(the same test) and triangulated by ``mapbox_earcut``; one that fails a check is not used.
+the candidate's when it has fewer; none, the chain staying greedy, when the
+chain stopped above it). Each polygon found is checked again (the same test),
+triangulated by ``mapbox_earcut``, and its triangles must tile it inside the
+candidate without overlap; one that fails a check is not used.
 
 References
 ----------
@@ -113,29 +123,53 @@ def _pocket_rules(xy: np.ndarray, region: Polygon, ok: np.ndarray) -> np.ndarray
 
     On a simple loop every chord inside the candidate has such a pocket; on a loop
     through bridges a chord may instead skip a hole (the pocket's loop then winds
-    around it negatively) or reach around one (the pocket then covers it).
+    around it negatively) or reach around one (the pocket then covers it). A pocket of
+    zero shoelace area passes only when it bounds no area at all: a loop through a
+    bridge can wind once around a part of the candidate and once, the other way, around
+    a hole of the same area. All pockets are tested at once (vectorised shapely).
     """
     n = len(xy)
     out = np.zeros((n, n), dtype=bool)
-    for i, j in zip(*np.nonzero(ok), strict=True):
-        if (j - i) % n == 1:
-            out[i, j] = True
-            continue
-        loop = xy[np.arange(i, i + (j - i) % n + 1) % n]
-        out[i, j] = _weakly_simple_inside(loop, region, allow_zero=True)
+    ii, jj = np.nonzero(ok)
+    steps = (jj - ii) % n
+    out[ii[steps == 1], jj[steps == 1]] = True
+    sel = steps > 1
+    ii, jj, steps = ii[sel], jj[sel], steps[sel]
+    if len(ii) == 0:
+        return out
+    x, y = xy[:, 0], xy[:, 1]
+    cross = np.concatenate([[0.0], np.cumsum(x * np.roll(y, -1) - np.roll(x, -1) * y)])
+    arc = np.where(jj > ii, cross[jj] - cross[ii], cross[n] - cross[ii] + cross[jj])
+    shoelace = 0.5 * (arc + x[jj] * y[ii] - x[ii] * y[jj])  # exact: integer coordinates
+    # each pocket's loop i, i+1, ..., j, closed explicitly (i again)
+    lengths = steps + 2
+    ring_id = np.repeat(np.arange(len(ii)), lengths)
+    first = np.repeat(np.cumsum(lengths) - lengths, lengths)
+    offset = np.arange(len(ring_id)) - first
+    vertex = np.where(offset == np.repeat(lengths - 1, lengths), 0, offset)
+    vertex = (np.repeat(ii, lengths) + vertex) % n
+    rings = shapely.linearrings(xy[vertex], indices=ring_id)
+    fixed = shapely.buffer(shapely.polygons(rings), 0)
+    area = shapely.area(fixed)
+    good = np.zeros(len(ii), dtype=bool)
+    zero = shoelace == 0
+    good[zero] = area[zero] <= 1e-9
+    pos = np.flatnonzero(shoelace > 0)
+    close = np.abs(area[pos] - shoelace[pos]) <= 1e-9 * np.maximum(1.0, shoelace[pos])
+    pos = pos[close]
+    shapely.prepare(region)
+    good[pos] = shapely.covers(region, fixed[pos])
+    out[ii[good], jj[good]] = True
     return out
 
 
-def _weakly_simple_inside(loop: np.ndarray, region: Polygon, *, allow_zero: bool = False
-                          ) -> bool:
+def _weakly_simple_inside(loop: np.ndarray, region: Polygon) -> bool:
     """The loop bounds a region inside ``region`` once, counter-clockwise: its repaired
-    polygon (zero-width bridges resolved by ``buffer(0)``) has the loop's shoelace area
-    and is covered (a loop of zero area passes when ``allow_zero``)."""
+    polygon (zero-width bridges resolved by ``buffer(0)``) has the loop's shoelace area,
+    which is positive, and is covered."""
     shoelace = 0.5 * float(np.sum(loop[:, 0] * np.roll(loop[:, 1], -1)
                                   - np.roll(loop[:, 0], -1) * loop[:, 1]))
-    if shoelace == 0:
-        return allow_zero
-    if shoelace < 0:
+    if shoelace <= 0:
         return False
     fixed = Polygon(loop).buffer(0)
     return abs(fixed.area - shoelace) <= 1e-9 * max(1.0, shoelace) and region.covers(fixed)
@@ -177,8 +211,34 @@ def best_inscribed(ring: np.ndarray, region: Polygon, kmax: int
     ok = np.zeros((n, n), dtype=bool)
     ok[i, j] = shapely.covers(region, segments)
     ok[j, i] = ok[i, j]
-    if len(np.unique(xy, axis=0)) < n:  # a loop through bridges or touching itself
-        ok = _pocket_rules(xy, region, ok)
+    out: dict[int, tuple[float, np.ndarray]] = {}
+    # every edge of a feasible polygon is a chord inside the candidate: the search over
+    # those chords alone relaxes the problem, so its best polygon, where it passes the
+    # check, is optimal. Where it fails (a loop through bridges, or a candidate with
+    # holes: chords that skip a hole or reach around one), search again with each
+    # pocket checked itself.
+    rounds = [ok]
+    if (not isinstance(region, Polygon) or len(region.interiors)
+            or len(np.unique(xy, axis=0)) < n):
+        rounds.append(None)
+    for rules in rounds:
+        if rules is None:
+            rules = _pocket_rules(xy, region, ok)
+        best, masks = _search(xy, rules, kmax)
+        for c in range(3, min(kmax + 2, n) + 1):
+            if c - 2 in out or not np.isfinite(best[c]):
+                continue
+            idx = np.flatnonzero(masks[c])
+            if _weakly_simple_inside(xy[idx], region):
+                out[c - 2] = (0.5 * float(best[c]), idx)
+        if len(out) == min(kmax, n - 2):
+            break
+    return dict(sorted(out.items()))
+
+
+def _search(xy: np.ndarray, ok: np.ndarray, kmax: int) -> tuple[np.ndarray, np.ndarray]:
+    """Best twice-areas and vertex masks per vertex count over all start vertices."""
+    n = len(xy)
     best = np.full(kmax + 3, -np.inf)
     masks = np.zeros((kmax + 3, n), dtype=bool)
     for start in range(n):
@@ -188,14 +248,7 @@ def best_inscribed(ring: np.ndarray, region: Polygon, kmax: int
         better = b > best
         best[better] = b[better]
         masks[better] = m[better][:, np.argsort(order[:n])]
-    out = {}
-    for c in range(3, min(kmax + 2, n) + 1):
-        if not np.isfinite(best[c]):
-            continue
-        idx = np.flatnonzero(masks[c])
-        if _weakly_simple_inside(xy[idx], region):
-            out[c - 2] = (0.5 * float(best[c]), idx)
-    return out
+    return best, masks
 
 
 def _triangulate(xy: np.ndarray, idx: np.ndarray) -> np.ndarray | None:
@@ -213,6 +266,16 @@ def _triangulate(xy: np.ndarray, idx: np.ndarray) -> np.ndarray | None:
     if (twice < 0).any() or abs(float(twice.sum()) - area2) > 1e-9 * max(1.0, abs(area2)):
         return None
     return tri[twice > 0]
+
+
+def _tiles_inside(corners: np.ndarray, area: float, region: Polygon) -> bool:
+    """The triangles ``(t, 3, 2)`` lie in ``region`` and tile ``area`` without overlap (the
+    last guard of the containment promise, independent of how ``buffer(0)`` repairs loops)."""
+    tris = shapely.polygons(corners)
+    union = shapely.union_all(tris)
+    tol = 1e-9 * max(1.0, area)
+    return (abs(float(shapely.area(tris).sum()) - area) <= tol
+            and abs(union.area - area) <= tol and region.covers(union))
 
 
 @dataclass(frozen=True, eq=False)
@@ -298,12 +361,13 @@ def refine_chain(chain: SimplificationChain, region: Polygon, *,
     options = [(int(chain.counts[s]), float(chain.areas[s]), stage_vertices[s],
                 chain.stage_triangles(s)) for s in range(chain.stages)]
     small = [s for s in range(chain.stages) if len(stage_vertices[s]) <= pool]
-    base = stage_vertices[small[0]] if small else stage_vertices[-1]
+    # no stage within the pool (a chain that stopped early): no search, the greedy chain
+    base = stage_vertices[small[0]] if small else stage_vertices[0][:0]
     found = best_inscribed(xy[base], region, max_triangles)
     for k, (area, idx) in found.items():
         vertices = base[idx]
         tri = _triangulate(xy, vertices)
-        if tri is not None and 0 < len(tri) <= k:
+        if tri is not None and 0 < len(tri) <= k and _tiles_inside(xy[tri], area, region):
             options.append((len(tri), area, vertices, tri))
     # per count the largest area; then drop stages no larger than one with fewer triangles
     by_count: dict[int, tuple] = {}
