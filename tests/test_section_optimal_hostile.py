@@ -324,7 +324,7 @@ def test_builtin_slices_stay_inside_many(name, conservative):
 # ------------------------------------------------------------------ conservative, end to end
 @pytest.mark.slow
 @pytest.mark.parametrize("name, budget", [("fat-torus", 16), ("fat-torus", 64), ("bunny", 24),
-                                          ("box-with-hole", 16)])
+                                          ("cow", 16)])
 def test_conservative_no_ray_sees_the_occluder_first(name, budget):
     from viscore.generators.planar_sections import generate_planar_sections
     from viscore.metrics import check_conservative
