@@ -43,7 +43,11 @@ vertices of the greedy chain's stage with at most that many vertices (all
 the candidate's when it has fewer; none, the chain staying greedy, when the
 chain stopped above it). Each polygon found is checked again (the same test),
 triangulated by ``mapbox_earcut``, and its triangles must tile it inside the
-candidate without overlap; one that fails a check is not used.
+candidate without overlap; one that fails a check is not used. Greedy
+stages holding a triangle the candidate does not cover (from a loop through
+bridges that is not weakly simple: holes touching each other at a vertex, a
+hole left out of the loop) are dropped too, so that every stage of the
+refined chain lies in the candidate.
 
 References
 ----------
@@ -318,6 +322,21 @@ class StageChain:
         return self.triangles[s]
 
 
+def _first_inside(chain: SimplificationChain, region: Polygon) -> int:
+    """First greedy stage whose triangles all lie in ``region``: stage ``s`` has the
+    triangles ``chain.triangles[s:]``, so a stage holds every uncovered triangle of a
+    later index."""
+    tri = chain.triangles
+    if len(tri) == 0:
+        return 0
+    p = chain.ring[tri]
+    twice = ((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
+             - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0]))
+    shapely.prepare(region)
+    bad = np.flatnonzero((twice > 0) & ~shapely.covers(region, shapely.polygons(p)))
+    return int(bad[-1]) + 1 if len(bad) else 0
+
+
 def refine_chain(chain: SimplificationChain, region: Polygon, *,
                  max_triangles: int = MAX_TRIANGLES, pool: int = POOL) -> StageChain:
     """The chain with its stages of at most ``max_triangles`` triangles made largest.
@@ -340,7 +359,10 @@ def refine_chain(chain: SimplificationChain, region: Polygon, *,
     StageChain
         Per triangle count, the larger of the greedy stage and the searched
         polygon; stages dominated by a later one (no more area for more
-        triangles) are dropped.
+        triangles) are dropped, and so are greedy stages with a triangle the
+        candidate does not cover (a loop through bridges that is not weakly
+        simple, upstream), so that the first stage may not be the full
+        polygon; a single stage of no triangle when none is left.
 
     Examples
     --------
@@ -359,7 +381,8 @@ def refine_chain(chain: SimplificationChain, region: Polygon, *,
         if s < len(chain.removed):
             keep[chain.removed[s]] = False
     options = [(int(chain.counts[s]), float(chain.areas[s]), stage_vertices[s],
-                chain.stage_triangles(s)) for s in range(chain.stages)]
+                chain.stage_triangles(s)) for s in range(_first_inside(chain, region),
+                                                         chain.stages)]
     small = [s for s in range(chain.stages) if len(stage_vertices[s]) <= pool]
     # no stage within the pool (a chain that stopped early): no search, the greedy chain
     base = stage_vertices[small[0]] if small else stage_vertices[0][:0]
@@ -381,10 +404,10 @@ def refine_chain(chain: SimplificationChain, region: Polygon, *,
             kept.append(opt)
             floor = opt[1]
     kept.reverse()
-    if not kept:  # a chain without a triangle of positive area
-        return StageChain(ring=xy, vertices=(stage_vertices[0],), triangles=(
-            chain.stage_triangles(0),), counts=chain.counts[:1].copy(),
-            areas=chain.areas[:1].copy())
+    if not kept:  # no stage with a triangle of positive area inside the candidate
+        return StageChain(ring=xy, vertices=(stage_vertices[0][:0],), triangles=(
+            np.zeros((0, 3), dtype=np.int64),), counts=np.zeros(1, dtype=np.int64),
+            areas=np.zeros(1))
     return StageChain(ring=xy, vertices=tuple(o[2] for o in kept),
                       triangles=tuple(o[3] for o in kept),
                       counts=np.array([o[0] for o in kept], dtype=np.int64),
