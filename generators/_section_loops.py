@@ -37,6 +37,7 @@ References
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,6 +46,8 @@ from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
 __all__ = ["CandidatePolygon", "pixel_region", "slice_polygons", "bridge_holes"]
+
+_log = logging.getLogger(__name__)
 
 #: Connected parts smaller than this many pixels are dropped (they cannot
 #: occlude a beam wider than a voxel).
@@ -152,13 +155,44 @@ def _segments_meet(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarra
     return (proper & boxes).any(axis=1)
 
 
+def _find_bridge(poly: Polygon, hole: np.ndarray, hv: np.ndarray, ring: np.ndarray,
+                 usable: np.ndarray, b0: np.ndarray, b1: np.ndarray, *, touching: bool = False):
+    """((hole vertex, loop vertex), (end, end) or None) of the shortest bridge from one of
+    the hole's vertices ``hv`` to one of the loop's ``usable`` vertices whose inside lies in
+    the polygon's interior and meets no earlier bridge; with ``touching``, first a hole
+    vertex at the position of a loop vertex (a bridge of length zero). (None, None) when
+    there is none."""
+    if len(usable) == 0 or len(hv) == 0:
+        return None, None
+    d2 = ((hole[hv, None, :] - ring[None, usable, :]) ** 2).sum(axis=2).ravel()
+    if touching and (d2 == 0).any():
+        hi, vi = np.divmod(int(np.argmax(d2 == 0)), len(usable))
+        return (int(hv[hi]), int(usable[vi])), None
+    order = np.argsort(d2, kind="stable")
+    order = order[d2[order] > 0]
+    for first in range(0, len(order), _BRIDGE_BATCH):
+        flat = order[first:first + _BRIDGE_BATCH]
+        hi, vi = np.divmod(flat, len(usable))
+        a, b = hole[hv[hi]], ring[usable[vi]]
+        # the segment without its end points must lie in the interior
+        lo, up = a + _BRIDGE_TRIM * (b - a), b - _BRIDGE_TRIM * (b - a)
+        ok = shapely.contains_properly(poly, shapely.linestrings(np.stack([lo, up], axis=1)))
+        ok &= ~_segments_meet(lo, up, b0, b1)
+        if ok.any():
+            k = int(np.argmax(ok))
+            return (int(hv[hi[k]]), int(usable[vi[k]])), (a[k], b[k])
+    return None, None
+
+
 def bridge_holes(polygon: Polygon) -> np.ndarray:
     """One weakly simple counter-clockwise loop: the outer loop with every hole bridged in.
 
     Holes are taken in order of their leftmost vertex; each joins the loop
     built so far by the shortest segment between one of its vertices and a
     vertex of that loop (used once so far) whose inside lies in the
-    polygon's interior (touching no loop) and meets no earlier bridge.
+    polygon's interior (touching no loop) and meets no earlier bridge. A hole
+    whose every vertex touches another loop (pixel corners) joins at a
+    touching point instead, or from any vertex.
 
     Returns
     -------
@@ -181,29 +215,20 @@ def bridge_holes(polygon: Polygon) -> np.ndarray:
     b0 = np.zeros((0, 2))
     b1 = np.zeros((0, 2))
     for hole, hs in zip(holes, hole_single, strict=True):
-        usable = np.flatnonzero(single)
-        hv = np.flatnonzero(hs)
-        if len(usable) == 0 or len(hv) == 0:
+        chosen, seg = _find_bridge(poly, hole, np.flatnonzero(hs), ring, np.flatnonzero(single),
+                                   b0, b1)
+        if chosen is None:
+            # every vertex of the hole (or of the loop) is where loops touch: bridge at a
+            # touching point (a hole vertex at a loop vertex: a bridge of length zero), or
+            # from any vertex; a hole left out would be covered by the loop
+            chosen, seg = _find_bridge(poly, hole, np.arange(len(hole)), ring,
+                                       np.arange(len(ring)), b0, b1, touching=True)
+        if chosen is None:  # pragma: no cover - not seen; the chains' checks drop what leaks
+            _log.warning("bridge_holes: a hole could not be bridged; the loop covers it")
             continue
-        d2 = ((hole[hv, None, :] - ring[None, usable, :]) ** 2).sum(axis=2).ravel()
-        order = np.argsort(d2, kind="stable")
-        chosen = None
-        for first in range(0, len(order), _BRIDGE_BATCH):
-            flat = order[first:first + _BRIDGE_BATCH]
-            hi, vi = np.divmod(flat, len(usable))
-            a, b = hole[hv[hi]], ring[usable[vi]]
-            # the segment without its end points must lie in the interior
-            lo, up = a + _BRIDGE_TRIM * (b - a), b - _BRIDGE_TRIM * (b - a)
-            ok = shapely.contains_properly(poly, shapely.linestrings(np.stack([lo, up], axis=1)))
-            ok &= ~_segments_meet(lo, up, b0, b1)
-            if ok.any():
-                k = int(np.argmax(ok))
-                chosen = (int(hv[hi[k]]), int(usable[vi[k]]))
-                b0 = np.concatenate([b0, a[k:k + 1]])
-                b1 = np.concatenate([b1, b[k:k + 1]])
-                break
-        if chosen is None:  # cannot happen for a valid polygon; keep the hole out
-            continue
+        if seg is not None:
+            b0 = np.concatenate([b0, seg[0][None]])
+            b1 = np.concatenate([b1, seg[1][None]])
         hi, vi = chosen
         walk = np.concatenate([hole[hi:], hole[:hi], hole[hi:hi + 1]])
         walk_single = np.concatenate([hs[hi:], hs[:hi], [False]])

@@ -338,7 +338,8 @@ def _first_inside(chain: SimplificationChain, region: Polygon) -> int:
 
 
 def refine_chain(chain: SimplificationChain, region: Polygon, *,
-                 max_triangles: int = MAX_TRIANGLES, pool: int = POOL) -> StageChain:
+                 max_triangles: int = MAX_TRIANGLES, pool: int = POOL,
+                 search: bool = True) -> StageChain:
     """The chain with its stages of at most ``max_triangles`` triangles made largest.
 
     Parameters
@@ -353,6 +354,9 @@ def refine_chain(chain: SimplificationChain, region: Polygon, *,
         :data:`MAX_TRIANGLES`).
     pool : int, optional
         Vertices searched among (default :data:`POOL`).
+    search : bool, optional
+        Search the largest inscribed stages (default True); False keeps the
+        greedy stages, only dropping those that leave the candidate.
 
     Returns
     -------
@@ -385,7 +389,7 @@ def refine_chain(chain: SimplificationChain, region: Polygon, *,
                                                          chain.stages)]
     small = [s for s in range(chain.stages) if len(stage_vertices[s]) <= pool]
     # no stage within the pool (a chain that stopped early): no search, the greedy chain
-    base = stage_vertices[small[0]] if small else stage_vertices[0][:0]
+    base = stage_vertices[small[0]] if small and search else stage_vertices[0][:0]
     found = best_inscribed(xy[base], region, max_triangles)
     for k, (area, idx) in found.items():
         vertices = base[idx]

@@ -501,15 +501,15 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
                                    max_polygons=budget)
     timing["greedy"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    if chain == "optimal" and budget is not None:  # only the chosen polygons are cut down
-        for i in chosen:
-            chains[i] = refine_chain(chains[i], cands[i][1].polygon)
+    for i in chosen:  # stages inside the candidate; the largest ones for chain='optimal'
+        chains[i] = refine_chain(chains[i], cands[i][1].polygon,
+                                 search=chain == "optimal" and budget is not None)
     timing["chains"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     cache: dict = {}
 
     def bitmaps_of(i: int, s: int) -> np.ndarray:
-        if s == 0:
+        if s == 0 and np.array_equal(chains[chosen[i]].stage_ring(0), cands[chosen[i]][1].ring):
             return bitmaps[chosen[i]]
         if (i, s) not in cache:
             sl, _ = cands[chosen[i]]
