@@ -66,7 +66,7 @@ from shapely.geometry import Polygon
 
 from viscore._jit import njit_cached
 
-from ._section_simplify import SimplificationChain
+from ._section_simplify import SimplificationChain, _twice_areas
 
 __all__ = ["StageChain", "refine_chain", "best_inscribed", "MAX_TRIANGLES", "POOL"]
 
@@ -167,12 +167,17 @@ def _pocket_rules(xy: np.ndarray, region: Polygon, ok: np.ndarray) -> np.ndarray
     return out
 
 
+def _twice_loop_area(loop: np.ndarray) -> float:
+    """Twice the signed (shoelace) area of a closed loop ``(n, 2)``."""
+    return float(np.sum(loop[:, 0] * np.roll(loop[:, 1], -1)
+                        - np.roll(loop[:, 0], -1) * loop[:, 1]))
+
+
 def _weakly_simple_inside(loop: np.ndarray, region: Polygon) -> bool:
     """The loop bounds a region inside ``region`` once, counter-clockwise: its repaired
     polygon (zero-width bridges resolved by ``buffer(0)``) has the loop's shoelace area,
     which is positive, and is covered."""
-    shoelace = 0.5 * float(np.sum(loop[:, 0] * np.roll(loop[:, 1], -1)
-                                  - np.roll(loop[:, 0], -1) * loop[:, 1]))
+    shoelace = 0.5 * _twice_loop_area(loop)
     if shoelace <= 0:
         return False
     fixed = Polygon(loop).buffer(0)
@@ -263,10 +268,8 @@ def _triangulate(xy: np.ndarray, idx: np.ndarray) -> np.ndarray | None:
     t = np.asarray(mapbox_earcut.triangulate_float64(
         xy[idx], np.array([len(idx)], dtype=np.uint32)), dtype=np.int64).reshape(-1, 3)
     tri = idx[t]
-    a, b, c = xy[tri[:, 0]], xy[tri[:, 1]], xy[tri[:, 2]]
-    twice = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    p = xy[idx]
-    area2 = float(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]))
+    twice = _twice_areas(xy, tri)
+    area2 = _twice_loop_area(xy[idx])
     if (twice < 0).any() or abs(float(twice.sum()) - area2) > 1e-9 * max(1.0, abs(area2)):
         return None
     return tri[twice > 0]
@@ -329,11 +332,10 @@ def _first_inside(chain: SimplificationChain, region: Polygon) -> int:
     tri = chain.triangles
     if len(tri) == 0:
         return 0
-    p = chain.ring[tri]
-    twice = ((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
-             - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0]))
+    twice = _twice_areas(chain.ring, tri)
     shapely.prepare(region)
-    bad = np.flatnonzero((twice > 0) & ~shapely.covers(region, shapely.polygons(p)))
+    bad = np.flatnonzero((twice > 0)
+                         & ~shapely.covers(region, shapely.polygons(chain.ring[tri])))
     return int(bad[-1]) + 1 if len(bad) else 0
 
 
