@@ -38,6 +38,7 @@ import time
 
 import numpy as np
 import trimesh
+from viscore.metrics.culling import view_frustum_mask
 
 from viscore import PerspectiveCamera
 from viscore._validate import as_positive_int, as_seed
@@ -231,7 +232,7 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
     out = {k: {"median_ms": float(np.median(wall[k])), "best_ms": float(np.min(wall[k])),
                "median_cpu_ms": float(np.median(cpu[k]))} for k in KEYS}
     planar = [c.sum() for c in culled["frusta_planar"]]
-    views = [_in_view(cam, lower, upper) for cam in cams]
+    views = [view_frustum_mask(cam, lower, upper) for cam in cams]
     out.update({
         "culled_share": {k: float(np.mean([c.mean() for c in v])) for k, v in culled.items()},
         "culled_share_in_view": {
@@ -250,20 +251,6 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
     return out
 
 
-def _in_view(cam: PerspectiveCamera, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """(n,) bool: boxes not wholly outside one of the view's four side planes or behind
-    the eye (a box that may be seen; the others are the view-frustum culler's)."""
-    f, r, u = cam.basis
-    rows, cols = cam.shape
-    hx = float(np.tan(np.radians(cam.fov) / 2))
-    hy = hx * rows / cols
-    normals = np.array([hx * f - r, hx * f + r, hy * f - u, hy * f + u, f])
-    c = 0.5 * (lower + upper) - cam.position
-    h = 0.5 * (upper - lower)
-    best = c @ normals.T + h @ np.abs(normals).T  # the corner furthest inside each plane
-    return (best > 0).all(axis=1)
-
-
 def _load_average() -> float | None:
     try:
         return float(os.getloadavg()[0])
@@ -274,9 +261,7 @@ def _load_average() -> float | None:
 def _corner_rays(cam: PerspectiveCamera, width: int, height: int, offset: np.ndarray):
     """The buffer's corner rays, float32, origins relative to the bare scene's ``offset``."""
     f, r, u = cam.basis
-    rows, cols = cam.shape
-    hx = float(np.tan(np.radians(cam.fov) / 2))
-    hy = hx * rows / cols
+    hx, hy = cam._half, cam._half_vertical
     xs = (np.arange(width + 1) / width - 0.5) * (2 * hx)
     ys = (0.5 - np.arange(height + 1) / height) * (2 * hy)
     d = (f + xs[None, :, None] * r + ys[:, None, None] * u).reshape(-1, 3)

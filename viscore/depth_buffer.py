@@ -409,8 +409,7 @@ def _frame(camera: PerspectiveCamera, width, height) -> tuple:
         width, "width", maximum=16384)
     h = max(1, rows // DEFAULT_REDUCTION) if height is None else as_positive_int(
         height, "height", maximum=16384)
-    hx = float(np.tan(np.radians(camera.fov) / 2))
-    return w, h, camera.position, camera.basis, hx, hx * rows / cols
+    return w, h, camera.position, camera.basis, camera._half, camera._half_vertical
 
 
 def _screen_boxes(lo: np.ndarray, hi: np.ndarray, eye: np.ndarray, basis, hx: float,
@@ -621,10 +620,8 @@ class ConservativeDepthBuffer:
         cam = self.camera
         eye = cam.position
         h, w = self.depth.shape
-        rows, cols = cam.shape
-        hx = float(np.tan(np.radians(cam.fov) / 2))
-        hy = hx * rows / cols
-        bounds, front = _screen_boxes(lo, hi, eye, cam.basis, hx, hy, w, h)
+        bounds, front = _screen_boxes(lo, hi, eye, cam.basis, cam._half, cam._half_vertical,
+                                      w, h)
         with np.errstate(invalid="ignore"):
             r0, r1, c0, c1 = np.floor(bounds + [-_RECT_SLACK, _RECT_SLACK, -_RECT_SLACK,
                                                  _RECT_SLACK]).T
@@ -668,9 +665,7 @@ class ConservativeDepthBuffer:
         lo, hi = _as_boxes(lower, upper)
         cam = self.camera
         f, r, u = cam.basis
-        rows, cols = cam.shape
-        hx = float(np.tan(np.radians(cam.fov) / 2))
         out = np.zeros(len(lo), dtype=bool)
-        occluded_boxes(lo, hi, np.asarray(cam.position, dtype=np.float64), r, u, f, hx,
-                       hx * rows / cols, _RECT_SLACK, self.depth, out)
+        occluded_boxes(lo, hi, np.asarray(cam.position, dtype=np.float64), r, u, f, cam._half,
+                       cam._half_vertical, _RECT_SLACK, self.depth, out)
         return out
