@@ -507,9 +507,11 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
     timing["chains"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     cache: dict = {}
+    # a refined chain's first stage is the candidate itself unless it left the candidate
+    whole = [np.array_equal(chains[c].stage_ring(0), cands[c][1].ring) for c in chosen]
 
     def bitmaps_of(i: int, s: int) -> np.ndarray:
-        if s == 0 and np.array_equal(chains[chosen[i]].stage_ring(0), cands[chosen[i]][1].ring):
+        if s == 0 and whole[i]:
             return bitmaps[chosen[i]]
         if (i, s) not in cache:
             sl, _ = cands[chosen[i]]
