@@ -395,13 +395,17 @@ def test_frustum_culler_cull_matches_reference_city(seed):
     assert total > 100
 
 
+#: Three upright 6 x 8 wall polygons across the street at y = 30 (planar occluders).
+_WALLS = [np.array([[x, 30, 0], [x + 6, 30, 0], [x + 6, 30, 8], [x, 30, 8]], float)
+          for x in (-20, 0, 20)]
+
+
 @pytest.mark.parametrize("seed", [5, 6])
 def test_frustum_culler_cull_matches_reference_hulls_polygons_inside(seed):
     """Convex hulls, extra polygons, and eyes inside solids (their faces' frusta)."""
     rng = np.random.default_rng(seed)
     solids = _scene_solids(rng, n=15)
-    polygons = [np.array([[x, 30, 0], [x + 6, 30, 0], [x + 6, 30, 8], [x, 30, 8]], float)
-                for x in (-20, 0, 20)]
+    polygons = _WALLS
     centre = rng.uniform([-40, -10, -2], [40, 80, 15], (800, 3))
     lo = centre - rng.uniform(0.05, 1.5, (800, 3))
     hi = centre + rng.uniform(0.05, 1.5, (800, 3))
@@ -499,8 +503,7 @@ def test_frustum_culler_selection_matches_reference(seed):
     """The compiled ranking picks the active set numpy's ranks and sort pick."""
     rng = np.random.default_rng(seed)
     solids = _scene_solids(rng, n=30)
-    polygons = [np.array([[x, 30, 0], [x + 6, 30, 0], [x + 6, 30, 8], [x, 30, 8]], float)
-                for x in (-20, 0, 20)]
+    polygons = _WALLS
     for kw in ({}, {"mode": "planar"}, {"rank": "faces"}, {"active": 3}):
         culler = FrustumCuller(solids, polygons=polygons, **kw)
         for _ in range(6):
