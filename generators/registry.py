@@ -382,6 +382,12 @@ REGISTRY: dict[str, GeneratorSpec] = {
                                 "close openings up to about 2 x this many voxels wide before the "
                                 "flood fill (scans with holes, buildings with open windows)",
                                 low=0, high=8),
+                GeneratorOption("min_precision", float, None,
+                                "precision floor: refine the voxels (x sqrt 2, twice at most) "
+                                "while the occluder's precision on 32 orbit views is under it; "
+                                "0 turns it off", low=0, high=1, nullable=True,
+                                default_text="0.995 unless --voxels, --voxel-size, "
+                                "--pixel-error, --conservative or --lod-distances"),
             ),
             min_budget=1),
         GeneratorSpec(

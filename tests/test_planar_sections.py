@@ -22,7 +22,7 @@ from viscore.generators.planar_sections import (
     generate_planar_sections,
     screen_space_voxel_size,
 )
-from viscore.metrics import check_conservative, directional_occlusion_measure
+from viscore.metrics import ReferenceViews, check_conservative, directional_occlusion_measure
 
 from viscore import InputError, Scene, load_mesh, voxel_boundary_mesh
 
@@ -238,6 +238,9 @@ def test_lod_distances_one_occluder_per_distance_nearest_first():
     ({"direction_bins": 0}, "direction_bins"),
     ({"rdp_tolerance": 0}, "rdp_tolerance"),
     ({"conservative": "yes"}, "conservative"),
+    ({"min_precision": 1.5}, "min_precision"),
+    ({"min_precision": float("nan")}, "min_precision"),
+    ({"min_precision": 0.9, "pixel_error": 1.0, "lod_distances": "1,2"}, "min_precision"),
 ])
 def test_generate_planar_sections_invalid_input(kwargs, match):
     with pytest.raises(InputError, match=match):
@@ -254,6 +257,34 @@ def test_generate_planar_sections_hierarchy_delegates_to_sec5():
         return
     occ = generate_planar_sections(boxes, hierarchy=True, budget=8, voxels=8, **FAST)
     assert occ.parts["hierarchy"]["children"] and occ.triangles <= 8
+
+
+def test_precision_floor_refines_a_thin_disc_and_keeps_the_most_precise():
+    """A disc 0.03 thick over-occludes by up to a voxel around its rim; finer voxels less."""
+    disc = trimesh.creation.cylinder(radius=1.0, height=0.03, sections=32)
+    coarse = generate_planar_sections(disc, budget=12, voxels=16, min_precision=0)
+    assert "precision_floor" not in coarse.info and coarse.params["min_precision"] == 0
+    floored = generate_planar_sections(disc, budget=12, voxels=16, min_precision=0.9999)
+    pf = floored.info["precision_floor"]
+    steps = pf["steps"]
+    # 0.9999 is out of reach at these sizes: three resolutions, sqrt(2) apart
+    assert [s["voxels"] for s in steps] == [16, 23, 33] and not pf["met"]
+    best = max(steps, key=lambda s: s["precision"])
+    assert floored.info["voxels"] == best["voxels"] and floored.triangles == best["triangles"]
+    # independent views (another seed, more views) agree that it over-occludes less
+    views = ReferenceViews(disc, protocol="orbit", views=64, seed=0)
+    assert views.score(floored.mesh).precision > views.score(coarse.mesh).precision + 0.005
+
+
+def test_precision_floor_is_the_default_only_with_the_default_size():
+    box = trimesh.creation.box(extents=(2.0, 1.0, 1.0))
+    default = generate_planar_sections(box, budget=8, **FAST)
+    pf = default.info["precision_floor"]
+    assert pf["floor"] == 0.995 and default.params["min_precision"] == 0.995
+    assert pf["met"] and len(pf["steps"]) == 1 and default.info["voxels"] == 64
+    for kwargs in ({"voxels": 64}, {"conservative": True}):
+        occ = generate_planar_sections(box, budget=8, **FAST, **kwargs)
+        assert "precision_floor" not in occ.info and occ.params["min_precision"] is None
 
 
 # ---------------------------------------------------------------- slow evidence
