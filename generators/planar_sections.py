@@ -530,16 +530,16 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
         try:
             size = _resolution(mesh, finer, None, f"voxels={finer}")
         except InputError as exc:
-            _log.warning("planar-sections: precision %.4f under the floor %.3f at %d voxels; "
+            _log.warning("planar-sections: precision %.4f under the floor %g at %d voxels; "
                          "not refined further: %s", p, floor, n, exc)
             break
-        _log.info("planar-sections: precision %.4f under the floor %.3f at %d voxels "
+        _log.info("planar-sections: precision %.4f under the floor %g at %d voxels "
                   "(%d check views); refining to %d voxels", p, floor, n, FLOOR_VIEWS, finer)
     met = steps[-1]["precision"] >= floor
     best = len(steps) - 1 if met else int(np.argmax([s["precision"] for s in steps]))
     if not met:
         _log.warning("planar-sections: precision %.4f (%d check views) stays under the floor "
-                     "%.3f up to %d voxels (extent %.4g); kept %d voxels", max(
+                     "%g up to %d voxels (extent %.4g); kept %d voxels", max(
                          s["precision"] for s in steps), FLOOR_VIEWS, floor,
                      steps[-1]["voxels"], extent, steps[best]["voxels"])
     out_mesh, polygons, info = results[best]

@@ -262,9 +262,10 @@ def test_generate_planar_sections_hierarchy_delegates_to_sec5():
 def test_precision_floor_refines_a_thin_disc_and_keeps_the_most_precise():
     """A disc 0.03 thick over-occludes by up to a voxel around its rim; finer voxels less."""
     disc = trimesh.creation.cylinder(radius=1.0, height=0.03, sections=32)
-    coarse = generate_planar_sections(disc, budget=12, voxels=16, min_precision=0)
+    coarse = generate_planar_sections(disc, budget=12, voxels=16, min_precision=0, **FAST)
     assert "precision_floor" not in coarse.info and coarse.params["min_precision"] == 0
-    floored = generate_planar_sections(disc, budget=12, voxels=16, min_precision=0.9999)
+    floored = generate_planar_sections(disc, budget=12, voxels=16, min_precision=0.9999,
+                                       **FAST)
     pf = floored.info["precision_floor"]
     steps = pf["steps"]
     # 0.9999 is out of reach at these sizes: three resolutions, sqrt(2) apart
