@@ -117,8 +117,9 @@ def bench_generate_planar_sections(models: str | os.PathLike | None = None, *,
     Parameters
     ----------
     models : str or path-like or None, optional
-        Folder of extra meshes (``NAME.obj``, see
-        :func:`viscore.cli.benchmarks.models_folder`), scored like the scenes.
+        Folder of extra meshes (see :func:`viscore.cli.benchmarks.models_folder`):
+        the benchmark meshes (``NAME.obj``), then every other OBJ or GLB file in
+        it or its subfolders, scored like the scenes.
     views : int, optional
         Orbit views (default 256).
     seed : int, optional
@@ -155,9 +156,11 @@ def bench_generate_planar_sections(models: str | os.PathLike | None = None, *,
     names = list(PROCEDURAL_SCENES() if scenes is None else scenes)
     meshes = [(n, load_mesh(n)) for n in names]
     folder = models_folder(models)
-    if folder is not None:
-        meshes += [(n, load_mesh(str(folder / f"{n}.obj"))) for n in MODEL_NAMES
-                   if (folder / f"{n}.obj").is_file()]
+    if folder is not None:  # the benchmark meshes first, then every other OBJ or GLB
+        files = [folder / f"{n}.obj" for n in MODEL_NAMES if (folder / f"{n}.obj").is_file()]
+        files += sorted(f for f in folder.rglob("*") if f.suffix.lower() in (".obj", ".glb")
+                        and f not in files)
+        meshes += [(f.stem, load_mesh(str(f))) for f in files]
     rows = []
     for name, mesh in meshes:
         ref = _views(mesh, views, seed)

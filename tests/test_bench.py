@@ -152,3 +152,23 @@ def test_bench_generate_and_cull_refuse_bad_options_before_work(argv, message, c
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
+
+
+def test_godot_within_finds_a_bake_at_or_under_the_count():
+    import numpy as np
+    import trimesh
+    from viscore.cli.bench_planar import godot_within
+
+    sphere = trimesh.creation.icosphere(subdivisions=3)  # 1,280 triangles, closed
+    small, large = godot_within(sphere, 100), godot_within(sphere, 1000)
+    assert 12 <= small.triangles <= 100 < large.triangles <= 1000
+    # a flat open grid: 76 locked border vertices keep at least 74 triangles
+    n = 20
+    xy = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), -1).reshape(-1, 2)
+    idx = np.arange(n * n).reshape(n, n)
+    a, b = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel()
+    c, d = idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    grid = trimesh.Trimesh(np.c_[xy, np.zeros(len(xy))],
+                           np.r_[np.c_[a, b, c], np.c_[a, c, d]], process=False)
+    assert godot_within(grid, 40) is None
+    assert godot_within(grid, 10_000).triangles <= 10_000
