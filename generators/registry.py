@@ -384,8 +384,8 @@ REGISTRY: dict[str, GeneratorSpec] = {
                                 low=0, high=8),
                 GeneratorOption("min_precision", float, None,
                                 "precision floor: refine the voxels (x sqrt 2, twice at most) "
-                                "while the occluder's precision on 32 orbit views is under it; "
-                                "0 turns it off", low=0, high=1, nullable=True,
+                                "while the occluder's precision less one SE on 64 orbit views is "
+                                "under it; 0 turns it off", low=0, high=1, nullable=True,
                                 default_text="0.995 unless --voxels, --voxel-size, "
                                 "--pixel-error, --conservative or --lod-distances"),
             ),

@@ -277,6 +277,16 @@ def test_precision_floor_refines_a_thin_disc_and_keeps_the_most_precise():
     assert views.score(floored.mesh).precision > views.score(coarse.mesh).precision + 0.005
 
 
+def test_ratio_se_of_the_precision_floor():
+    from viscore.generators.planar_sections import _ratio_se
+
+    den = np.array([10.0, 20.0, 30.0, 40.0])
+    assert _ratio_se(0.9 * den, den) == 0.0  # every view at the pooled ratio
+    assert _ratio_se(den[:1], den[:1]) == 0.0  # one view: no spread to estimate
+    # two views with ratios 1 and 0 and equal weights: pooled 0.5, residuals +-5
+    assert _ratio_se(np.array([10.0, 0.0]), np.array([10.0, 10.0])) == pytest.approx(0.5)
+
+
 def test_precision_floor_is_the_default_only_with_the_default_size():
     box = trimesh.creation.box(extents=(2.0, 1.0, 1.0))
     default = generate_planar_sections(box, budget=8, **FAST)
