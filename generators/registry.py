@@ -378,10 +378,13 @@ REGISTRY: dict[str, GeneratorSpec] = {
                 GeneratorOption("dilate", int, 0,
                                 "dilation steps of the voxel solid (sec. 5's gluing step)", low=0,
                                 high=8),
-                GeneratorOption("close", int, 0,
+                GeneratorOption("close", int, None,
                                 "close openings up to about 2 x this many voxels wide before the "
                                 "flood fill (scans with holes, buildings with open windows)",
-                                low=0, high=8),
+                                low=0, high=8, nullable=True,
+                                default_text="0, or with the precision floor on and a voxel "
+                                "solid without interior the best of 0, 2, 3, 4 on the check "
+                                "views"),
                 GeneratorOption("min_precision", float, None,
                                 "precision floor: refine the voxels (x sqrt 2, twice at most) "
                                 "while the occluder's precision less one SE on 64 orbit views is "
