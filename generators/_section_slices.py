@@ -78,6 +78,9 @@ class SectionSolid:
     closed_oriented : bool
         The mesh is closed and consistently oriented (winding numbers exact).
     surface_voxels, solid_voxels : int
+    interior_voxels : int
+        Solid voxels whose six face neighbours are solid too (a one-voxel
+        erosion): few for open sheets and thin-walled shells.
     """
 
     solid: np.ndarray
@@ -85,6 +88,7 @@ class SectionSolid:
     closed_oriented: bool
     surface_voxels: int
     solid_voxels: int
+    interior_voxels: int = 0
 
 
 @dataclass(frozen=True)
@@ -156,7 +160,8 @@ def section_solid(mesh: trimesh.Trimesh, *, resolution: int | None = None,
         solid = ndimage.binary_dilation(solid, iterations=int(dilate))
     return SectionSolid(solid=np.ascontiguousarray(solid), grid=vox.grid,
                         closed_oriented=bool(closed), surface_voxels=int(vox.surface.sum()),
-                        solid_voxels=int(solid.sum()))
+                        solid_voxels=int(solid.sum()),
+                        interior_voxels=int(ndimage.binary_erosion(solid).sum()))
 
 
 def closed_solid(surface: np.ndarray, steps: int) -> np.ndarray:
