@@ -198,8 +198,13 @@ def _run_generate_planar(args) -> int:
                  "planar sections ('-': its locked borders never get that small)")
     if "hairball_16" in r:
         h = r["hairball_16"]
-        lines.append(f"hairball at 16 triangles: {h['triangles']} triangles, "
-                     f"precision {h['precision']:.4f}, recall {h['recall']:.4f}")
+        g = h.get("godot_within")
+        lines.append(f"hairball at 16 triangles (the mesh hides {h['quads_hidden']:.0%} of "
+                     f"the quads): {h['triangles']} triangles, precision "
+                     f"{h['precision']:.4f}, recall {h['recall']:.4f}; qem "
+                     f"{h['qem']['triangles']} triangles R {h['qem']['recall']:.4f}; godot "
+                     + ("cannot get to 16 triangles" if g is None else
+                        f"{g['triangles']} triangles R {g['recall']:.4f}"))
     if ablation is not None:
         r["measure_ablation"] = measure_ablation(seed=args.seed,
                                                  path=ablation / "planar_measure.png")

@@ -20,7 +20,8 @@ _PROCEDURAL = {
     "box-with-hole": ("box_with_hole.ply", "closed hollow box whose front wall has a small hole"),
     "sponge": ("sponge.ply", "Menger sponge, level 2: closed, many through-holes"),
     "terrain": ("terrain.ply", "height field over a square, open (a sheet with hills)"),
-    "hairball": ("hairball.ply", "120 thin random tubes through a sphere; many components"),
+    "hairball": ("hairball.ply", "550 curly strands (thin closed tubes) in a ball: opaque "
+                 "core, fuzzy rim (the paper's HAIRBALL); 40.7k triangles"),
     "city-block": ("city_block.ply", "5 x 5 block of towers and walls, loose parts, open bottoms"),
 }
 
