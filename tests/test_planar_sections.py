@@ -259,7 +259,15 @@ def test_generate_planar_sections_hierarchy_delegates_to_sec5():
     assert occ.parts["hierarchy"]["children"] and occ.triangles <= 8
 
 
-def test_precision_floor_refines_a_thin_disc_and_keeps_the_most_precise():
+@pytest.fixture()
+def few_check_views(monkeypatch):
+    """16 check views instead of 64: these tests are of the floor's logic, not its figures."""
+    from viscore.generators import planar_sections
+
+    monkeypatch.setattr(planar_sections, "FLOOR_VIEWS", 16)
+
+
+def test_precision_floor_refines_a_thin_disc_and_keeps_the_most_precise(few_check_views):
     """A disc 0.03 thick over-occludes by up to a voxel around its rim; finer voxels less."""
     disc = trimesh.creation.cylinder(radius=1.0, height=0.03, sections=32)
     coarse = generate_planar_sections(disc, budget=12, voxels=16, min_precision=0, **FAST)
@@ -298,16 +306,16 @@ def test_precision_floor_is_the_default_only_with_the_default_size():
         assert "precision_floor" not in occ.info and occ.params["min_precision"] is None
 
 
-def test_default_close_closes_the_sponge_tunnels_when_it_pays():
+def test_default_close_closes_the_sponge_tunnels_when_it_pays(few_check_views):
     sponge = load_mesh("sponge")  # level-2 Menger sponge: 27 voxels put 3 on each cell
     plain = generate_planar_sections(sponge, budget=16, voxels=27, close=0, min_precision=0,
                                      **FAST)
     assert plain.info["close"] == 0 and "precision_floor" not in plain.info
-    auto = generate_planar_sections(sponge, budget=16, voxels=27, min_precision=0.995, **FAST)
+    auto = generate_planar_sections(sponge, budget=16, voxels=27, min_precision=0.99, **FAST)
     pf = auto.info["precision_floor"]
     tried = {c["close"]: c for c in pf["closings"]}
     assert sorted(tried) == [0, 2, 3, 4] and pf["close_gain"] >= 0.1
-    passing = [c for c in tried.values() if c["precision"] - c["precision_se"] >= 0.995]
+    passing = [c for c in tried.values() if c["precision"] - c["precision_se"] >= 0.99]
     assert auto.info["close"] == max(passing, key=lambda c: c["recall"])["close"] > 0
     # on views of another seed the closed sponge hides far more, and stays precise
     views = ReferenceViews(sponge, protocol="orbit", views=32, seed=0)
