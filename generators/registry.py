@@ -383,12 +383,13 @@ REGISTRY: dict[str, GeneratorSpec] = {
                                 "flood fill (scans with holes, buildings with open windows)",
                                 low=0, high=8, nullable=True,
                                 default_text="0, or with the precision floor on and a voxel "
-                                "solid without interior the best of 0, 2, 3, 4 on the check "
-                                "views"),
+                                "solid without interior (or that closing grows by 10%+) the "
+                                "best of 0, 2, 3, 4 on the check views"),
                 GeneratorOption("min_precision", float, None,
                                 "precision floor: refine the voxels (x sqrt 2, twice at most) "
-                                "while the occluder's precision less one SE on 64 orbit views is "
-                                "under it; 0 turns it off", low=0, high=1, nullable=True,
+                                "while the 95% lower bound of the occluder's precision on 64 "
+                                "orbit views is under it (coarser while it holds, with the "
+                                "default size); 0 turns it off", low=0, high=1, nullable=True,
                                 default_text="0.995 unless --voxels, --voxel-size, "
                                 "--pixel-error, --conservative or --lod-distances"),
             ),

@@ -300,7 +300,12 @@ def test_precision_floor_is_the_default_only_with_the_default_size():
     default = generate_planar_sections(box, budget=8, **FAST)
     pf = default.info["precision_floor"]
     assert pf["floor"] == 0.995 and default.params["min_precision"] == 0.995
-    assert pf["met"] and len(pf["steps"]) == 1 and default.info["voxels"] == 64
+    # a box meets the floor at 64 voxels, so coarser ones are tried while it holds,
+    # and the largest check recall among those that pass is kept
+    sizes = [t["voxels"] for t in pf["steps"]]
+    assert pf["met"] and sizes[:2] == [64, 45] and len(sizes) <= 3
+    ok = [t for t in pf["steps"] if t["precision"] - 1.645 * t["precision_se"] >= 0.995]
+    assert default.info["voxels"] == max(ok, key=lambda t: t["recall"])["voxels"]
     for kwargs in ({"voxels": 64}, {"conservative": True}):
         occ = generate_planar_sections(box, budget=8, **FAST, **kwargs)
         assert "precision_floor" not in occ.info and occ.params["min_precision"] is None
@@ -315,7 +320,7 @@ def test_default_close_closes_the_sponge_tunnels_when_it_pays(few_check_views):
     pf = auto.info["precision_floor"]
     tried = {c["close"]: c for c in pf["closings"]}
     assert sorted(tried) == [0, 2, 3, 4] and pf["close_gain"] >= 0.1
-    passing = [c for c in tried.values() if c["precision"] - c["precision_se"] >= 0.99]
+    passing = [c for c in tried.values() if c["precision"] - 1.645 * c["precision_se"] >= 0.99]
     assert auto.info["close"] == max(passing, key=lambda c: c["recall"])["close"] > 0
     # on views of another seed the closed sponge hides far more, and stays precise
     views = ReferenceViews(sponge, protocol="orbit", views=32, seed=0)
