@@ -15,7 +15,12 @@ intervals and models for each figure.
   :func:`hierarchical_beta_model`, :func:`uncertainty_report`,
   :func:`convergence_ablation`; figures in :mod:`viscore.metrics.plots`.
 
-Helpers shared between the modules (frames, boxes, tallies) are imported from
+- Where the protocols look from (:mod:`viscore.metrics.frames`):
+  :func:`orbit_frame`, :func:`evaluation_box`, :func:`volume_positions`.
+- Culling: :func:`simulate_culling` along a :func:`camera_path` with the
+  runtimes of :mod:`viscore.metrics.culling_runtimes`.
+
+Other helpers shared between the modules (boxes, tallies) are imported from
 their modules, not from here.
 
 References
@@ -32,22 +37,20 @@ from .ablation import AblationResult, convergence_ablation
 from .assessment import OccluderAssessment, assess_occluder
 from .bayes import BetaModelSummary, hierarchical_beta_model
 from .bootstrap import bootstrap_ratio
+from .camera_paths import PathCamera, camera_path, camera_path_json, read_camera_path
 from .conservativeness import (
     ConservativenessReport,
     assert_conservative,
     check_conservative,
     clopper_pearson_upper,
 )
-from .culling import (
-    CullingResult,
+from .culling import CullingResult, RuntimeFrames, simulate_culling
+from .culling_runtimes import (
     Runtime,
-    camera_path,
-    culling_plot,
     depth_buffer_runtime,
     frusta_runtime,
     no_culling,
-    read_camera_path,
-    simulate_culling,
+    view_frustum_mask,
 )
 from .erosion import (
     OcclusionMeasure,
@@ -55,9 +58,10 @@ from .erosion import (
     erosion_curve,
     occlusion_measure,
 )
+from .frames import evaluation_box, orbit_frame, volume_positions
 from .orbit import orbit_precision_recall
 from .paired import PairedDifference, paired_difference
-from .plots import ablation_plot, distribution_plot
+from .plots import ablation_plot, culling_plot, distribution_plot
 from .precision_recall import PrecisionRecall
 from .quads import QuadCounts, classify_quads, classify_quads_depth, sample_quads
 from .reference_views import PROTOCOLS, ReferenceViews
@@ -70,6 +74,8 @@ __all__ = [
     "evaluate", "PROTOCOLS", "ReferenceViews", "PrecisionRecall", "orbit_precision_recall",
     "volume_precision_recall", "QuadCounts", "classify_quads", "classify_quads_depth",
     "sample_quads",
+    # where the protocols look from
+    "orbit_frame", "evaluation_box", "volume_positions",
     # one occluder, assessed
     "assess_occluder", "OccluderAssessment",
     # occlusion measure
@@ -81,8 +87,9 @@ __all__ = [
     "bootstrap_ratio", "paired_difference", "PairedDifference", "hierarchical_beta_model",
     "BetaModelSummary", "uncertainty_report", "convergence_ablation", "AblationResult",
     # culling simulation
-    "simulate_culling", "CullingResult", "Runtime", "no_culling", "frusta_runtime",
-    "depth_buffer_runtime", "camera_path", "read_camera_path", "culling_plot",
+    "simulate_culling", "CullingResult", "RuntimeFrames", "Runtime", "no_culling",
+    "frusta_runtime", "depth_buffer_runtime", "view_frustum_mask", "camera_path",
+    "read_camera_path", "camera_path_json", "PathCamera", "culling_plot",
     # figures
     "ablation_plot", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",
 ]

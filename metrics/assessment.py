@@ -33,8 +33,10 @@ import trimesh
 from viscore import InputError, stream_seed
 from viscore._validate import as_fraction, as_positive_int
 
+from ._views import scene_of
 from .conservativeness import check_conservative
 from .erosion import occlusion_measure
+from .frames import evaluation_box, orbit_frame
 from .precision_recall import (
     PER_VIEW_ARRAYS,
     PrecisionRecall,
@@ -179,6 +181,10 @@ def assess_occluder(reference: ReferenceViews | trimesh.Trimesh, occluder, *,
 
     Notes
     -----
+    One Embree scene per mesh: the occluder's :class:`~viscore.Scene` is built
+    once and cast by all three steps, and the check casts the views' own scene
+    of the original (:attr:`ReferenceViews.scene`) in their orbit frame.
+
     Deterministic: the views' seed also seeds the measure's directions and the
     conservativeness rays, each through its own stream
     (``viscore.stream_seed(seed, 'occlusion-measure')``, ``'conservativeness'``)
@@ -219,17 +225,27 @@ def assess_occluder(reference: ReferenceViews | trimesh.Trimesh, occluder, *,
         raise InputError(f"occluder: expected a trimesh.Trimesh, an Occluder or None, got "
                          f"{type(mesh).__name__}")
     target = mesh if mesh is not None and len(mesh.faces) else None
-    pr = views.score(target)
+    # one Embree scene per mesh: the occluder's is built here for the three steps, the
+    # original's is the views' own
+    scene = scene_of(target, "occluder")
+    pr = views.score(scene)
     start = time.perf_counter()
     if target is not None:
-        om = occlusion_measure(target, directions=directions, resolution=measure_resolution,
-                               seed=stream_seed(seed, "occlusion-measure"))
+        om = occlusion_measure(scene, directions=directions, resolution=measure_resolution,
+                               seed=stream_seed(seed, "occlusion-measure"),
+                               frame=orbit_frame(target))  # the occluder mesh's own window
         measure, measure_se = om.occlusion_measure, om.occlusion_measure_se
     else:
         measure, measure_se = 0.0, 0.0
     seconds_measure = time.perf_counter() - start
-    cons = check_conservative(views.mesh, target, rays=rays, confidence=confidence,
-                              domain=domain, seed=stream_seed(seed, "conservativeness"))
+    if domain == "orbit":  # the original's orbit frame: the views' when they are orbit views
+        frame = ((views.center, views.extent) if views.protocol == "orbit"
+                 else orbit_frame(views.mesh))
+    else:
+        frame = evaluation_box(views.mesh)[:2]
+    cons = check_conservative(views.scene, scene, rays=rays, confidence=confidence,
+                              domain=domain, seed=stream_seed(seed, "conservativeness"),
+                              frame=frame)
     return OccluderAssessment(
         method=occluder.method if generated else None,
         params=dict(occluder.params) if generated else {},

@@ -37,12 +37,18 @@ import trimesh
 from scipy import stats
 
 from viscore import InputError, Scene, directions_uniform, points_inside
-from viscore._validate import as_fraction, as_positive_int, as_seed, check_memory
+from viscore._validate import (
+    as_fraction,
+    as_positive,
+    as_positive_int,
+    as_seed,
+    as_vector,
+    check_memory,
+)
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 
 from ._views import scene_of
-from .orbit import orbit_frame
-from .volume import evaluation_box
+from .frames import evaluation_box, orbit_frame
 
 __all__ = ["ConservativenessReport", "check_conservative", "assert_conservative",
            "clopper_pearson_upper"]
@@ -159,16 +165,20 @@ def _domain_rays(domain: str, frame, scene: Scene, n: int, rng: np.random.Genera
     return origins, directions_uniform(n, seed=int(rng.integers(2**31)))
 
 
-def check_conservative(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None, *,
-                       rays: int = 100_000, confidence: float = 0.95, domain: str = "orbit",
-                       seed: int = 0, eps: float | None = None) -> ConservativenessReport:
+def check_conservative(mesh: trimesh.Trimesh | Scene, occluder: trimesh.Trimesh | Scene | None,
+                       *, rays: int = 100_000, confidence: float = 0.95, domain: str = "orbit",
+                       seed: int = 0, eps: float | None = None, frame: tuple | None = None
+                       ) -> ConservativenessReport:
     """Cast random rays and count those that hit the occluder before the original.
 
     Parameters
     ----------
-    mesh, occluder : trimesh.Trimesh
+    mesh, occluder : trimesh.Trimesh or Scene
         Original and occluder (None or empty: never violates). Either may be
-        flat (a planar section, a single triangle or quad) or open.
+        flat (a planar section, a single triangle or quad) or open. A
+        :class:`~viscore.Scene` already built for one (for example
+        :attr:`ReferenceViews.scene <viscore.metrics.ReferenceViews.scene>`) is
+        cast as it is, without building another Embree scene.
     rays : int, optional
         Default 100,000.
     confidence : float, optional
@@ -183,6 +193,13 @@ def check_conservative(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None, 
         A non-negative integer. Default 0.
     eps : float, optional
         Tolerance in world units, >= 0; default 1e-5 x bounding-box diagonal.
+    frame : tuple, optional
+        The domain's frame of the original, when it is known already: the
+        orbit frame ``(center, extent)`` of :func:`viscore.metrics.orbit_frame`
+        (``ReferenceViews.center, .extent`` of orbit views), or the volume box
+        ``(lo, hi)`` of :func:`viscore.metrics.evaluation_box`. Default:
+        computed from ``mesh`` (from a Scene's vertices and bounds when
+        ``mesh`` is one).
 
     Returns
     -------
@@ -224,12 +241,22 @@ def check_conservative(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None, 
                 np.isfinite(eps) and eps >= 0):
             raise InputError(f"eps: expected a finite number >= 0, got {eps!r}")
         eps = float(eps)
+    if frame is not None:
+        try:
+            first, second = frame
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"frame: expected (center, extent) or (lo, hi), got {frame!r:.80}"
+                             ) from exc
+        frame = ((as_vector(first, "frame center"), as_positive(second, "frame extent"))
+                 if domain == "orbit" else (as_vector(first, "frame lo"),
+                                            as_vector(second, "frame hi")))
     check_memory(min(rays, _RAYS_PER_BATCH) * _BYTES_PER_RAY, f"rays={rays}")
     start = time.perf_counter()
     original = scene_of(mesh, "mesh")
     other = scene_of(occluder, "occluder")
     eps = CONSERVATIVE_EPS_RELATIVE * original.diagonal if eps is None else eps
-    frame = orbit_frame(mesh) if domain == "orbit" else evaluation_box(mesh)[:2]
+    if frame is None:
+        frame = orbit_frame(mesh) if domain == "orbit" else evaluation_box(mesh)[:2]
     rng = np.random.default_rng(seed)
     violations = 0
     worst: list[tuple] = []  # (-gap, ray index, description), best first

@@ -60,7 +60,7 @@ from viscore._validate import (
 )
 
 from ._views import scene_of
-from .orbit import orbit_frame
+from .frames import orbit_frame
 
 __all__ = ["OcclusionMeasure", "directional_occlusion_measure", "occlusion_measure",
            "erosion_curve", "BOUNDARY_STEPS"]
@@ -432,7 +432,7 @@ class OcclusionMeasure:
     seconds: float
 
 
-def occlusion_measure(mesh: trimesh.Trimesh, *, directions: int | npt.ArrayLike = 64,
+def occlusion_measure(mesh: trimesh.Trimesh | Scene, *, directions: int | npt.ArrayLike = 64,
                       resolution: int = 256, seed: int = 0,
                       frame: tuple[npt.ArrayLike, float] | None = None,
                       boundary_steps: int = BOUNDARY_STEPS) -> OcclusionMeasure:
@@ -440,9 +440,10 @@ def occlusion_measure(mesh: trimesh.Trimesh, *, directions: int | npt.ArrayLike 
 
     Parameters
     ----------
-    mesh : trimesh.Trimesh
+    mesh : trimesh.Trimesh or Scene
         Object O: any triangle soup, flat meshes (planar occluders, a single
-        triangle) included.
+        triangle) included; or a :class:`~viscore.Scene` already built for it,
+        cast as it is (no second Embree scene).
     directions : int or (N, 3) float, optional
         N uniform random directions (default 64), or the directions
         themselves (normalised here): then ``per_view`` holds M(d) for each
@@ -453,7 +454,8 @@ def occlusion_measure(mesh: trimesh.Trimesh, *, directions: int | npt.ArrayLike 
         Seeds the random directions; a non-negative integer. Default 0.
     frame : (center, extent), optional
         Image window; default the orbit frame of ``mesh`` (its smallest
-        enclosing sphere x 1.01), which holds every projection.
+        enclosing sphere x 1.01, of a Scene's vertices for a Scene), which
+        holds every projection.
     boundary_steps : int, optional
         Bisection rays per boundary crossing (0: mid-points between pixel
         centres). Default :data:`BOUNDARY_STEPS` (5).

@@ -15,34 +15,16 @@ References
 
 from __future__ import annotations
 
-import numpy as np
 import trimesh
 
 from viscore._validate import as_positive_int
-from viscore.enclosing_ball import minimum_enclosing_ball
 
+# kept for old import paths: the orbit frame lives in .frames, below ReferenceViews
+from .frames import EXTENT_FACTOR, orbit_frame
 from .precision_recall import PrecisionRecall
+from .reference_views import ReferenceViews, score_once
 
-__all__ = ["orbit_precision_recall", "orbit_frame"]
-
-#: Extent of the orthographic window as a multiple of the enclosing sphere's
-#: diameter (the orbit protocol's margin).
-EXTENT_FACTOR = 1.01
-
-
-def orbit_frame(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
-    """Centre and window extent of the orbit protocol for an original mesh.
-
-    Returns
-    -------
-    center : (3,) float64
-        Centre of the smallest enclosing sphere of the vertices (flat and
-        collinear meshes included, see :func:`viscore.enclosing_ball.minimum_enclosing_ball`).
-    extent : float
-        Its diameter x 1.01, world units.
-    """
-    center, radius = minimum_enclosing_ball(mesh.vertices)
-    return center, float(2 * radius * EXTENT_FACTOR)
+__all__ = ["orbit_precision_recall", "orbit_frame", "EXTENT_FACTOR"]
 
 
 def orbit_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None, *,
@@ -106,8 +88,6 @@ def orbit_precision_recall(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | No
     >>> float(r.precision), float(r.recall)
     (1.0, 1.0)
     """
-    from .reference_views import ReferenceViews, score_once
-
     views = as_positive_int(views, "views")
     return score_once(ReferenceViews(mesh, views=views, quads=quads, resolution=resolution,
                                      seed=seed, depth_aware=depth_aware,

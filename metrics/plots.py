@@ -1,8 +1,9 @@
 """Every figure of the toolkit, drawn on :class:`matplotlib.figure.Figure`.
 
 One place for the plots of ``viscore uncertainty`` (per-view distributions,
-convergence ablation) and ``viscore compare`` (recall per view, recall and
-precision against the budget, silhouettes). No function here touches
+convergence ablation), ``viscore compare`` (recall per view, recall and
+precision against the budget, silhouettes) and ``viscore cull`` (triangles
+rendered per frame, :func:`culling_plot`). No function here touches
 ``matplotlib.pyplot`` or calls ``matplotlib.use``: each builds its own
 :class:`~matplotlib.figure.Figure`, renders it with the Agg canvas
 (:class:`~matplotlib.backends.backend_agg.FigureCanvasAgg`) and writes the
@@ -42,7 +43,7 @@ if TYPE_CHECKING:  # pragma: no cover - hints only
     from .precision_recall import PrecisionRecall
 
 __all__ = ["distribution_plot", "ablation_plot", "recall_plot", "budget_plot",
-           "silhouette_plot", "SILHOUETTE_VIEWS"]
+           "silhouette_plot", "culling_plot", "SILHOUETTE_VIEWS"]
 
 #: Dots per inch of every figure: a figure of w x h inches is 100 w x 100 h pixels.
 DPI = 100
@@ -359,3 +360,46 @@ def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
                  fontsize=8)
     fig.tight_layout()
     _save(fig, path)
+
+
+def culling_plot(result, path: str | os.PathLike, *, title: str | None = None) -> None:
+    """Triangles rendered per frame for every runtime (Papaioannou et al. 2006, Figs. 5-6).
+
+    One line per runtime, and the ground truth (triangles of the visible
+    objects, what an exact culler renders) dashed.
+
+    Parameters
+    ----------
+    result : CullingResult
+        Of :func:`viscore.metrics.culling.simulate_culling` (not imported
+        here: the simulation's module re-exports this function).
+    path : str or path-like
+        Figure file (``.png``, ``.pdf`` or ``.svg``), 1100 x 420 pixels,
+        written atomically.
+    title : str, optional
+        Figure title.
+
+    Raises
+    ------
+    InputError
+        If the suffix of ``path`` is not a figure format, or the result has
+        no frames.
+    """
+    _format_of(path)
+    if not len(result.cameras):
+        raise InputError("result: no frames to plot")
+    fig = _figure(11, 4.2)
+    ax = fig.subplots()
+    x = np.arange(len(result.cameras))
+    for k, (name, rf) in enumerate(result.runtimes.items()):
+        ax.plot(x, rf.triangles_rendered, "-", color=f"C{k}", lw=1.2, label=name)
+    ax.plot(x, result.visible_triangles, "k--", lw=1.0, label="visible (ray-cast truth)")
+    ax.set_xlabel("frame along the camera path")
+    ax.set_ylabel("triangles rendered")
+    ax.set_ylim(bottom=0)
+    ax.set_xlim(0, max(1, len(x) - 1))
+    if title:
+        ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    fig.tight_layout()
+    _save(fig, Path(path))

@@ -32,15 +32,27 @@ from dataclasses import replace
 import numpy as np
 import trimesh
 
-from viscore import InputError, OrthoCamera, cube_cameras, directions_uniform, stream_seed
+from viscore import (
+    InputError,
+    OrthoCamera,
+    Scene,
+    cube_cameras,
+    directions_uniform,
+    stream_seed,
+)
 from viscore._validate import as_positive_int, as_seed, check_memory, memory_limit
 
 from ._views import cast_depths, cast_hits, ortho_box_rays, scene_of
 from .bootstrap import bootstrap_ratio
-from .orbit import orbit_frame
+from .frames import (
+    evaluation_box,
+    frusta_see_box,
+    orbit_frame,
+    volume_positions,
+    volume_positions_bytes,
+)
 from .precision_recall import PrecisionRecall, pooled_parts, pooled_ratio, ratio
 from .quads import ImageQuads, image_quads, level_table_bytes, occluder_counts
-from .volume import evaluation_box, frusta_see_box, volume_positions, volume_positions_bytes
 
 __all__ = ["ReferenceViews", "PROTOCOLS"]
 
@@ -362,13 +374,15 @@ class ReferenceViews:
                 timing["seconds_quads"] = timing.get("seconds_quads", 0.0) + (
                     time.perf_counter() - t0)
 
-    def score(self, occluder: trimesh.Trimesh | None) -> PrecisionRecall:
+    def score(self, occluder: trimesh.Trimesh | Scene | None) -> PrecisionRecall:
         """Precision and recall of an occluder against the stored views of the original.
 
         Parameters
         ----------
-        occluder : trimesh.Trimesh or None
-            The occluder; None or an empty mesh covers nothing.
+        occluder : trimesh.Trimesh, Scene or None
+            The occluder; None or an empty mesh covers nothing. A
+            :class:`~viscore.Scene` already built for it is cast as it is (no
+            second Embree scene).
 
         Returns
         -------
@@ -430,6 +444,12 @@ class ReferenceViews:
         timing["frusta_skipped"] = int(sees.size - sees.sum())
 
     # ------------------------------------------------------------------ inspection
+    @property
+    def scene(self) -> Scene:
+        """The original's :class:`~viscore.Scene` (its one Embree scene), to cast it again
+        elsewhere (the conservativeness check of an assessment) without building another."""
+        return self._original
+
     @property
     def images(self) -> np.ndarray:
         """``(k, 2) int64``: (view, view) per orbit image; (position, frustum 0-5) per volume

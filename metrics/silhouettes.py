@@ -24,7 +24,7 @@ from viscore._validate import as_positive_int, check_memory
 
 from ._views import scene_of
 from .erosion import _MAX_RESOLUTION, _RAYS_PER_BATCH, _coverage, _ray_inside
-from .orbit import orbit_frame
+from .frames import orbit_frame
 
 __all__ = ["silhouette_image", "SILHOUETTE_COLOURS"]
 

@@ -131,3 +131,49 @@ def test_assess_occluder_empty_occluder_measures_zero(views):
     a = assess_occluder(views, trimesh.Trimesh(), directions=2, rays=500)
     assert a.triangles == 0 and a.occlusion_measure == 0.0 and a.recall == 0.0
     assert a.violations == 0
+
+
+def test_assess_occluder_builds_one_scene_per_mesh(monkeypatch, torus, views):
+    """The occluder's Scene is built once for the three steps; the original's never again."""
+    from viscore.scene import Scene
+
+    built = []
+    init = Scene.__init__
+
+    def counting(self, mesh, **kw):
+        init(self, mesh, **kw)
+        built.append(mesh)
+
+    monkeypatch.setattr(Scene, "__init__", counting)
+    occ = _inner(torus)
+    for domain in ("orbit", "volume"):
+        built.clear()
+        assess_occluder(views, occ, directions=2, rays=500, domain=domain)
+        assert len(built) == 1 and built[0] is not torus, domain
+    built.clear()
+    assess_occluder(views, None, directions=2, rays=500)
+    assert built == []
+
+
+def test_steps_take_prebuilt_scenes(torus, views):
+    """Scenes (and the views' frame) in place of meshes give the same figures."""
+    from viscore import Scene
+
+    occ = _inner(torus)
+    scene = Scene(occ)
+    assert views.scene.diagonal == Scene(torus).diagonal
+    a, b = views.score(scene), views.score(occ)
+    assert (a.precision, a.recall, a.precision_ci) == (b.precision, b.recall, b.precision_ci)
+    np.testing.assert_array_equal(a.per_view["nt"], b.per_view["nt"])
+    seed = stream_seed(2, "conservativeness")
+    for domain, frame in (("orbit", (views.center, views.extent)), ("volume", None)):
+        x = check_conservative(views.scene, scene, rays=2000, seed=seed, domain=domain,
+                               frame=frame)
+        y = check_conservative(torus, occ, rays=2000, seed=seed, domain=domain)
+        assert (x.violations, x.worst, x.eps) == (y.violations, y.worst, y.eps), domain
+    m = occlusion_measure(scene, directions=3, resolution=32, seed=1)
+    n = occlusion_measure(occ, directions=3, resolution=32, seed=1)
+    assert (m.occlusion_measure, m.occlusion_measure_se) == (
+        n.occlusion_measure, n.occlusion_measure_se)
+    with pytest.raises(InputError, match="frame"):
+        check_conservative(torus, occ, rays=10, frame=(1, 2, 3))

@@ -10,7 +10,7 @@ from ._validate import InputError
 from .builtin_scenes import scene_descriptions, scene_group, scene_names, scene_path
 from .cameras import OrthoCamera, PerspectiveCamera, camera_basis, cube_cameras
 from .depth_buffer import ConservativeDepthBuffer, OccluderScene
-from .frusta import Frustum, FrustumCuller, polygon_frustum, solid_frustum
+from .frustum_culler import FrustumCuller
 from .images import coverage_image, depth_image
 from .mesh_io import load_mesh, validate_mesh
 from .run_provenance import provenance
@@ -24,6 +24,7 @@ from .samplers import (
 )
 from .scene import AllHits, Scene, cpu_cores, get_workers, set_workers
 from .scene_graph import SceneObjects, load_scene_objects
+from .shadow_frusta import Frustum, polygon_frustum, solid_frustum
 from .voxels import (
     VoxelGrid,
     Voxelization,

@@ -1,0 +1,553 @@
+"""Camera paths of the culling simulation: generated walks through a scene, and JSON files.
+
+:func:`camera_path` generates a deterministic walk through a scene's free
+space (streets at eye height, close-ups of walls, elevated passes, far
+views), the kind of pre-recorded viewpoint path along which Papaioannou et
+al. 2006 [1]_ (sec. 4, Figures 5-6) count the primitives rendered per frame;
+:func:`read_camera_path` reads one from JSON and :func:`camera_path_json`
+writes one; :func:`check_camera_path` refuses cameras too far to see the
+scene. The simulation that walks them is :mod:`viscore.metrics.culling`.
+
+References
+----------
+.. [1] Papaioannou, G., Gaitatzes, A., Christopoulos, D. "Efficient Occlusion
+   Culling using Solid Occluders". WSCG 2006 (Plzen), UNION Agency,
+   ISBN 80-86943-03-8 (sec. 4, Tables 1-2, Figures 5-6).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import stat
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from viscore import InputError, PerspectiveCamera
+from viscore._validate import as_positive, as_positive_int, as_seed, as_vector
+
+if TYPE_CHECKING:  # pragma: no cover - hints only
+    from viscore.scene_graph import SceneObjects
+
+__all__ = ["PathCamera", "camera_path", "read_camera_path", "camera_path_json",
+           "check_camera_path", "DEFAULT_FOV", "EYE_HEIGHT"]
+
+#: Horizontal field of view of generated and JSON cameras without ``fov``, degrees.
+DEFAULT_FOV = 90.0
+
+#: Eye height above the ground of the street-level frames, world units (metres
+#: in the built-in cities).
+EYE_HEIGHT = 1.7
+
+
+#: Free-space map of :func:`camera_path`: cells along the longest horizontal side.
+_GRID_CELLS = 512
+
+#: Half-window, in cells of the free-space map, over which the walking direction
+#: of the street-level cameras is smoothed.
+_TANGENT_CELLS = 12.0
+
+#: Horizontal clearance, in cells of the free-space map, kept between the
+#: street-level cameras and anything that reaches eye height.
+_MIN_CLEARANCE_CELLS = 1.0
+
+#: Street-level free space: a cell is free when nothing in it rises above this
+#: fraction of the eye height over the ground (a parked car's roof, 1.4-1.5 m,
+#: stays below a 1.7 m eye; a van does not).
+_HEAD_ROOM = 0.9
+
+#: Largest camera path file read, bytes (about a million cameras).
+_MAX_PATH_BYTES = 256 << 20
+
+# --------------------------------------------------------------------------- cameras
+@dataclass(frozen=True, eq=False)
+class PathCamera:
+    """One camera of a path.
+
+    Attributes
+    ----------
+    position : (3,) float64
+        Eye point, world units.
+    forward : (3,) float64
+        Unit viewing direction.
+    up : (3,) float64
+        Approximate up vector (the scene's up axis by default).
+    fov : float
+        Horizontal field of view, degrees in (0, 180).
+    """
+
+    position: np.ndarray
+    forward: np.ndarray
+    up: np.ndarray
+    fov: float = DEFAULT_FOV
+
+    def camera(self, width: int, height: int) -> PerspectiveCamera:
+        """The :class:`~viscore.PerspectiveCamera` of this pose, ``width`` x ``height`` pixels."""
+        return PerspectiveCamera(self.position, self.forward, up=self.up, fov=self.fov,
+                                 resolution=width, height=height)
+
+    def to_json(self) -> dict:
+        """``{"position", "forward", "up", "fov"}``, the format :func:`read_camera_path` reads."""
+        return {"position": [float(x) for x in self.position],
+                "forward": [float(x) for x in self.forward],
+                "up": [float(x) for x in self.up], "fov": float(self.fov)}
+
+
+def _pose(position, forward, up, fov: float, where: str) -> PathCamera:
+    from viscore import camera_basis
+
+    p = as_vector(position, f"{where}.position")
+    f = as_vector(forward, f"{where}.forward")
+    u = as_vector(up, f"{where}.up")
+    try:
+        f, _, _ = camera_basis(f, u)
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
+    fov = as_positive(fov, f"{where}.fov")
+    if fov >= 180:
+        raise InputError(f"{where}.fov: expected degrees in (0, 180), got {fov:g}")
+    for arr in (p, f, u):
+        arr.flags.writeable = False
+    return PathCamera(position=p, forward=f, up=u, fov=fov)
+
+
+def read_camera_path(path: str | os.PathLike, *, up: npt.ArrayLike = (0.0, 1.0, 0.0)
+                     ) -> list[PathCamera]:
+    """Read a camera path from a JSON file.
+
+    Format: a JSON list of cameras, each an object with ``position`` (3
+    numbers, world units), ``forward`` (3 numbers, the viewing direction),
+    optionally ``up`` (3 numbers; default ``up``) and ``fov`` (horizontal
+    field of view in degrees, in (0, 180); default 90). For example::
+
+        [{"position": [0, 1.7, -50], "forward": [0, 0, 1]},
+         {"position": [0, 30, -80], "forward": [0, -0.4, 1], "up": [0, 1, 0], "fov": 70}]
+
+    Parameters
+    ----------
+    path : str or path-like
+        The JSON file.
+    up : (3,) float, optional
+        Up vector of the cameras without one (default +Y, glTF's up).
+
+    Returns
+    -------
+    list of PathCamera
+
+    Raises
+    ------
+    InputError
+        One line naming the file: missing or unreadable, not JSON, not a
+        non-empty list of camera objects, or a camera with a missing, non-finite
+        or degenerate field (zero forward, up parallel to forward, fov out of
+        range), naming the camera's index.
+    """
+    label = str(path)
+    try:
+        st = os.stat(path)
+        if stat.S_ISDIR(st.st_mode):
+            raise InputError(f"{label}: is a directory, expected a camera path JSON file")
+        if not stat.S_ISREG(st.st_mode):  # a FIFO or device would block or never end
+            raise InputError(f"{label}: not a regular file, expected a camera path JSON file")
+        if st.st_size > _MAX_PATH_BYTES:
+            raise InputError(f"{label}: {st.st_size:,} bytes, more than a camera path file "
+                             f"may hold ({_MAX_PATH_BYTES:,})")
+        with open(path, "rb") as fh:
+            data = fh.read(_MAX_PATH_BYTES + 1)
+    except FileNotFoundError:
+        raise InputError(f"{label}: no such file") from None
+    except OSError as exc:
+        raise InputError(f"{label}: cannot read ({exc.strerror or exc})") from None
+    try:
+        doc = json.loads(data.decode("utf-8-sig"))
+    except RecursionError:
+        raise InputError(f"{label}: not a valid camera path file (JSON nested too deeply)"
+                         ) from None
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise InputError(f"{label}: not a valid JSON file ({' '.join(str(exc).split())[:120]})"
+                         ) from None
+    if not isinstance(doc, list) or not doc:
+        raise InputError(f"{label}: expected a non-empty JSON list of cameras "
+                         "({\"position\": [x, y, z], \"forward\": [x, y, z], \"up\"?, \"fov\"?})")
+    cameras = []
+    for i, cam in enumerate(doc):
+        where = f"{label}: camera {i}"
+        if not isinstance(cam, dict):
+            raise InputError(f"{where}: expected an object with position and forward")
+        missing = [k for k in ("position", "forward") if k not in cam]
+        if missing:
+            raise InputError(f"{where}: missing {', '.join(missing)}")
+        unknown = sorted(set(cam) - {"position", "forward", "up", "fov"})
+        if unknown:
+            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} "
+                             "(expected position, forward, up, fov)")
+        fov = cam.get("fov", DEFAULT_FOV)
+        if isinstance(fov, bool) or not isinstance(fov, (int, float)):
+            raise InputError(f"{where}.fov: expected a number of degrees, got {fov!r:.40}")
+        vectors = {k: _three_numbers(cam[k], f"{where}.{k}")
+                   for k in ("position", "forward", "up") if k in cam}
+        cameras.append(_pose(vectors["position"], vectors["forward"], vectors.get("up", up),
+                             _finite(fov, f"{where}.fov"), where))
+    return cameras
+
+
+def _finite(value, where: str) -> float:
+    """A JSON number as a float; an integer beyond float64 is refused, never an OverflowError."""
+    try:
+        return float(value)
+    except OverflowError:
+        raise InputError(f"{where}: {str(value)[:20]}... is beyond float64's range") from None
+
+
+def _three_numbers(value, where: str) -> list[float]:
+    """A JSON list of exactly three numbers (not booleans, not nested lists) as floats."""
+    if (not isinstance(value, list) or len(value) != 3
+            or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in value)):
+        raise InputError(f"{where}: expected a list of 3 numbers, got {json.dumps(value)[:60]}")
+    return [_finite(x, where) for x in value]
+
+
+#: Farthest camera accepted, in scene diagonals from the scene's centre (float32
+#: ray casting loses the scene long before Embree refuses, near 1e38 diagonals).
+_MAX_CAMERA_DIAGONALS = 1e6
+
+
+def check_camera_path(objects: SceneObjects, cameras: Sequence[PathCamera]) -> None:
+    """Refuse, before any work, cameras too far from the scene to see it.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+    cameras : sequence of PathCamera
+
+    Raises
+    ------
+    InputError
+        No camera, or one farther than a million scene diagonals from the
+        scene's centre, naming its index.
+    """
+    if not len(cameras):
+        raise InputError("path: expected at least one camera")
+    lo, hi = objects.bounds
+    diagonal = float(np.linalg.norm(hi - lo))
+    with np.errstate(over="ignore"):  # a camera at 1e300: inf, refused below
+        far = np.array([np.linalg.norm(c.position - (lo + hi) / 2) for c in cameras])
+    bad = np.flatnonzero(~(far <= _MAX_CAMERA_DIAGONALS * diagonal))
+    if len(bad):
+        raise InputError(f"path: camera {int(bad[0])} is {far[bad[0]]:.3g} from the scene's "
+                         f"centre, more than {_MAX_CAMERA_DIAGONALS:.0e} x its diagonal "
+                         f"({diagonal:.3g}): it cannot see the scene")
+
+
+def camera_path_json(cameras: Sequence[PathCamera]) -> str:
+    """The JSON text of a camera path (the format :func:`read_camera_path` reads)."""
+    return json.dumps([c.to_json() for c in cameras], indent=1)
+
+
+# --------------------------------------------------------------------------- path generation
+def _horizontal_basis(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors spanning the plane perpendicular to ``up`` (right-handed with it)."""
+    axis = np.zeros(3)
+    axis[int(np.argmin(np.abs(up)))] = 1.0
+    e1 = np.cross(up, axis)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(e1, up)
+    return e1, e2
+
+
+def _height_map(objects: SceneObjects, up: np.ndarray):
+    """Top heights of the scene seen from above on a horizontal grid, and the ground level.
+
+    Returns the grid frame (basis, origin, cell size, shape), the height along
+    ``up`` of the first hit of one ray cast down through each cell centre (the
+    scene's lowest point where the ray misses), and the ground level: the 5th
+    percentile of those heights.
+    """
+    e1, e2 = _horizontal_basis(up)
+    corners = np.array([[x, y, z] for x in objects.bounds[:, 0] for y in objects.bounds[:, 1]
+                        for z in objects.bounds[:, 2]])
+    h = corners @ up
+    a, b = corners @ e1, corners @ e2
+    cell = max(a.max() - a.min(), b.max() - b.min()) / _GRID_CELLS
+    na = max(2, int(np.ceil((a.max() - a.min()) / cell)))
+    nb = max(2, int(np.ceil((b.max() - b.min()) / cell)))
+    ga = a.min() + (np.arange(na) + 0.5) * cell
+    gb = b.min() + (np.arange(nb) + 0.5) * cell
+    top = h.max() + 0.01 * (h.max() - h.min() + cell)
+    aa, bb = np.meshgrid(ga, gb, indexing="ij")
+    origins = aa.reshape(-1, 1) * e1 + bb.reshape(-1, 1) * e2 + top * up
+    scene, _ = objects.combined
+    dist, _ = scene.first_hit(origins, np.broadcast_to(-up, origins.shape))
+    # a miss is the scene's lowest level: nothing stands there (a scene without a
+    # ground plane has its ground where its objects stand, not on their tops)
+    height = np.where(np.isfinite(dist), top - dist, h.min()).reshape(na, nb)
+    ground = float(np.percentile(height, 5))
+    return (e1, e2, a.min(), b.min(), cell, (na, nb)), height, ground
+
+
+def _edge_marks(objects: SceneObjects, up: np.ndarray, frame, level: float) -> np.ndarray:
+    """Cells of the map holding a point of an edge higher than ``level`` along ``up``.
+
+    One ray per cell centre misses things thinner than a cell (a pole, a
+    fence, a thin wall between two centres); every triangle edge of the
+    objects that reach above ``level`` is sampled at a quarter of a cell and
+    the cells of its samples above ``level`` are marked. Returns the
+    ``(na, nb)`` bool mask.
+    """
+    e1, e2, a0, b0, cell, shape = frame
+    marks = np.zeros(shape, dtype=bool)
+    corners = np.stack([objects.lower, objects.upper], axis=1)  # (n, 2, 3)
+    reach = (np.where(up >= 0, corners[:, 1], corners[:, 0]) @ up)
+    tall = np.flatnonzero(reach > level)
+    step = cell / 4
+    budget = 4_000_000  # samples per batch
+    for mesh_id in np.unique(objects.mesh_ids[tall]):
+        mesh = objects.meshes[mesh_id]
+        edges = np.asarray(mesh.edges_unique, dtype=np.int64)
+        v = np.asarray(mesh.vertices, dtype=np.float64)
+        inst = tall[objects.mesh_ids[tall] == mesh_id]
+        per = max(1, budget // max(1, 4 * len(edges)))
+        for k in range(0, len(inst), per):
+            mats = objects.transforms[inst[k:k + per]]
+            w = (np.einsum("kij,nj->kni", mats[:, :3, :3], v) + mats[:, None, :3, 3])
+            p0 = w[:, edges[:, 0]].reshape(-1, 3)
+            p1 = w[:, edges[:, 1]].reshape(-1, 3)
+            high = np.maximum(p0 @ up, p1 @ up) > level
+            p0, p1 = p0[high], p1[high]
+            d = p1 - p0
+            flat = d - np.outer(d @ up, up)
+            count = np.ceil(np.linalg.norm(flat, axis=1) / step).astype(np.int64) + 1
+            for lo in range(0, len(count), max(1, budget // 8)):
+                c = count[lo:lo + budget // 8]
+                which = np.repeat(np.arange(len(c)), c)
+                first = np.concatenate([[0], np.cumsum(c)[:-1]])
+                t = (np.arange(len(which)) - first[which]) / np.maximum(c[which] - 1, 1)
+                pts = p0[lo:][which] + t[:, None] * d[lo:][which]
+                pts = pts[pts @ up > level]
+                ia = np.clip(((pts @ e1 - a0) / cell).astype(np.int64), 0, shape[0] - 1)
+                ib = np.clip(((pts @ e2 - b0) / cell).astype(np.int64), 0, shape[1] - 1)
+                marks[ia, ib] = True
+    return marks
+
+
+def _free_space(objects: SceneObjects, up: np.ndarray, frame, height: np.ndarray,
+                ground: float, eye_height: float):
+    """Free cells of the map at street level, and their clearance in cells.
+
+    A cell is free when nothing in its column rises above ``_HEAD_ROOM`` x
+    ``eye_height`` over the ground: neither the top surface found by the
+    cell's centre ray nor any edge sample (:func:`_edge_marks`). The
+    clearance of a free cell is its distance in cells to the nearest blocked
+    one (beyond the grid counts as blocked).
+    """
+    from scipy import ndimage
+
+    level = ground + _HEAD_ROOM * eye_height
+    blocked = (height > level) | _edge_marks(objects, up, frame, level)
+    # beyond the grid counts as blocked: the scene's rim is no wide open place
+    clearance = ndimage.distance_transform_edt(np.pad(~blocked, 1))[1:-1, 1:-1]
+    return ~blocked, clearance
+
+
+def _route(free: np.ndarray, clearance: np.ndarray, tall: np.ndarray,
+           rng: np.random.Generator, waypoints: int) -> np.ndarray:
+    """A walk through the free cells visiting ``waypoints`` open places among tall things.
+
+    Returns (m, 2) cell coordinates along the walk.
+    """
+    from scipy import ndimage
+    from skimage.graph import route_through_array
+
+    ok = free & (clearance >= _MIN_CLEARANCE_CELLS + 1)
+    if not ok.any():
+        ok = free
+    labels, count = ndimage.label(ok)
+    if count == 0:
+        return np.zeros((0, 2))
+    sizes = np.bincount(labels.ravel())[1:]
+    main = labels == (int(np.argmax(sizes)) + 1)  # the largest connected free region
+    # waypoints: open (clearance capped at its median, so that one wide square
+    # does not take them all) and among the tall things (no closer to the scene's
+    # rim than the median free cell is to something tall)
+    to_tall = ndimage.distance_transform_edt(~tall) if tall.any() else np.zeros(tall.shape)
+    among = main & (to_tall <= np.median(to_tall[main]))
+    cells = np.argwhere(among if among.any() else main)
+    open_ = clearance[tuple(cells.T)]
+    weight = np.minimum(open_, np.median(open_)) ** 2
+    picks = rng.choice(len(cells), size=min(waypoints, len(cells)), replace=False,
+                       p=weight / weight.sum())
+    points = cells[picks]
+    # visit them in a greedy nearest-neighbour tour from the first
+    order = [0]
+    left = set(range(1, len(points)))
+    while left:
+        last = points[order[-1]]
+        nxt = min(left, key=lambda k: float(np.sum((points[k] - last) ** 2)))
+        order.append(nxt)
+        left.remove(nxt)
+    points = points[order]
+    # least cost: short, off the walls, and among the tall things (not round the rim)
+    med = max(float(np.median(to_tall[main])), 1.0)
+    cost = 1.0 + 2.0 / (clearance + 0.5) + np.maximum(0.0, to_tall - med) / med
+    cost = np.where(main, cost, -1.0)  # negative: impassable
+    path = [points[:1]]
+    for p, q in zip(points[:-1], points[1:], strict=True):
+        route, _ = route_through_array(cost, tuple(p), tuple(q), fully_connected=True,
+                                       geometric=True)
+        path.append(np.asarray(route)[1:])
+    return np.concatenate(path).astype(np.float64)
+
+
+def _resample(polyline: np.ndarray, count: int, start: float = 0.0, stop: float = 1.0
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` points evenly spaced along a polyline between two arc-length fractions,
+    and the unit tangents there (smoothed over a few cells)."""
+    seg = np.linalg.norm(np.diff(polyline, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    total = s[-1]
+    if count <= 0:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    if total == 0:
+        return np.repeat(polyline[:1], count, 0), np.tile([1.0, 0.0], (count, 1))
+    t = np.linspace(start, stop, count, endpoint=count == 1) * total
+    pts = np.stack([np.interp(t, s, polyline[:, k]) for k in (0, 1)], axis=1)
+    w = _TANGENT_CELLS
+    ahead = np.stack([np.interp(np.minimum(t + w, total), s, polyline[:, k]) for k in (0, 1)], 1)
+    behind = np.stack([np.interp(np.maximum(t - w, 0), s, polyline[:, k]) for k in (0, 1)], 1)
+    tangent = ahead - behind
+    norm = np.linalg.norm(tangent, axis=1)
+    tangent = np.where(norm[:, None] > 0, tangent / np.maximum(norm, 1e-12)[:, None], [1.0, 0.0])
+    return pts, tangent
+
+
+def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
+                eye_height: float = EYE_HEIGHT, fov: float = DEFAULT_FOV,
+                up: npt.ArrayLike | None = None) -> list[PathCamera]:
+    """A deterministic camera path through a scene's free space.
+
+    The walk the culling simulation follows: street level at eye height
+    (looking ahead, and every fourth frame turned to the nearest wall for a
+    close-up, where solid occluders beat planar ones: Papaioannou et al. 2006,
+    Fig. 5, locations A-C), then an elevated pass over the same streets
+    looking down, then views from far outside the scene towards its centre.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+        The scene (:func:`viscore.scene_graph.load_scene_objects`).
+    frames : int, optional
+        Number of cameras, >= 1 (default 120). About 70% street level (a
+        quarter of them close-ups), 20% elevated, 10% far away.
+    seed : int, optional
+        Seed of the waypoint choice (default 0): same scene and seed, same path.
+    eye_height : float, optional
+        Street-level eye height above the ground, world units (default 1.7),
+        lowered to half the height of the scene's tallest point above the
+        ground (or to 5% of its width, if that is more) when the scene is
+        lower than that: a model in other units than metres.
+    fov : float, optional
+        Horizontal field of view of every camera, degrees (default 90).
+    up : (3,) float, optional
+        The scene's up axis. Default ``objects.up`` (+Y for glTF).
+
+    Returns
+    -------
+    list of PathCamera
+
+    Raises
+    ------
+    InputError
+        On a bad option.
+
+    Notes
+    -----
+    Free space is found by casting one vertical ray down per cell of a
+    256-cell grid over the scene's footprint: a cell is free when nothing in
+    it rises above 90% of the eye height over the ground (the 5th
+    percentile of the first-hit heights, a miss counting as the scene's
+    lowest point). Things thinner than a cell (poles, fences) can fall
+    between the rays, so every edge of the objects that rise above that
+    level is also sampled every quarter of a cell and the cells of its high
+    samples are blocked: street-level cameras, which stay in free cells, are
+    never inside an object. Waypoints are free cells drawn with probability
+    proportional to their squared clearance (wide streets and squares) in
+    the largest connected free region, visited in a nearest-neighbour tour,
+    joined by least-cost routes that keep to the middle of the free space
+    (:func:`skimage.graph.route_through_array`).
+    """
+    frames = as_positive_int(frames, "frames", maximum=100_000)
+    seed = as_seed(seed)
+    eye_height = as_positive(eye_height, "eye_height")
+    fov = as_positive(fov, "fov")
+    if fov >= 180:
+        raise InputError(f"fov: expected degrees in (0, 180), got {fov:g}")
+    up = np.asarray(objects.up if up is None else as_vector(up, "up"), dtype=np.float64)
+    if np.linalg.norm(up) == 0:
+        raise InputError("up: zero-length vector")
+    up = up / np.linalg.norm(up)
+    rng = np.random.default_rng(seed)
+    frame, height, ground = _height_map(objects, up)
+    e1, e2, a0, b0, cell, shape = frame
+    top = float(height.max())
+    # a scene lower than an eye (a model in other units than metres, or smaller
+    # than a person): the eye goes down to half its height above the ground (a
+    # twentieth of its width if that is more: a flat scene), so that the street
+    # frames look at it rather than over it
+    eye_height = min(eye_height, max(0.5 * (top - ground), 0.05 * cell * max(shape)))
+    free, clearance = _free_space(objects, up, frame, height, ground, eye_height)
+    n_far = frames // 10
+    n_high = frames // 5
+    n_street = frames - n_far - n_high
+    # tall: three eye heights up (a building, not a car), at most half the
+    # tallest point (a scene whose eye went down with its size)
+    tall = height > ground + max(min(3 * eye_height, 0.5 * (top - ground)),
+                                 0.15 * (top - ground))
+    route = _route(free, clearance, tall, rng, waypoints=max(3, min(12, frames // 8 + 2)))
+
+    def world(cells: np.ndarray, level: np.ndarray | float) -> np.ndarray:
+        a = a0 + (cells[:, 0] + 0.5) * cell
+        b = b0 + (cells[:, 1] + 0.5) * cell
+        return a[:, None] * e1 + b[:, None] * e2 + np.reshape(level, (-1, 1)) * up
+
+    def horizontal(d2: np.ndarray) -> np.ndarray:
+        return d2[:, :1] * e1 + d2[:, 1:] * e2
+
+    cams: list[PathCamera] = []
+    if len(route) >= 2:
+        pts, tangent = _resample(route, n_street)
+        forward = horizontal(tangent)
+        # close-ups: every fourth street frame faces the nearest tall thing (a wall)
+        from scipy import ndimage
+
+        _, (ia, ib) = ndimage.distance_transform_edt(~tall, return_indices=True)
+        for k in range(2, n_street, 4):
+            i, j = np.clip(np.round(pts[k]).astype(int), 0, np.array(shape) - 1)
+            to_wall = np.array([ia[i, j] - pts[k, 0], ib[i, j] - pts[k, 1]])
+            if np.linalg.norm(to_wall) > 0:
+                forward[k] = horizontal((to_wall / np.linalg.norm(to_wall))[None])[0]
+        positions = world(pts, ground + eye_height)
+        cams += [_pose(p, f, up, fov, "camera") for p, f in zip(positions, forward, strict=True)]
+        # elevated pass: back along the route, rising, looking ahead and down
+        pts, tangent = _resample(route, n_high, 1.0, 0.0)
+        rise = np.linspace(0.25, 0.9, max(1, n_high)) * max(top - ground, 4 * eye_height)
+        positions = world(pts, ground + eye_height + rise)
+        down = np.tan(np.radians(25.0))
+        forward = horizontal(tangent) - down * up
+        cams += [_pose(p, f, up, fov, "camera") for p, f in zip(positions, forward, strict=True)]
+    else:  # no free route: the street and elevated frames circle the scene instead
+        n_far += n_street + n_high
+    # far away: around the scene, outside its footprint, looking at its centre
+    centre2 = np.array([(shape[0] - 1) / 2, (shape[1] - 1) / 2])
+    radius = 0.75 * np.hypot(*shape)
+    phase = rng.uniform(0, 2 * np.pi)
+    angles = phase + 2 * np.pi * np.arange(n_far) / max(1, n_far)
+    ring = centre2 + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    lift = ground + 0.3 * radius * cell + eye_height
+    positions = world(ring, np.full(n_far, lift))
+    targets = world(np.repeat(centre2[None], n_far, 0), np.full(n_far, ground))
+    cams += [_pose(p, t - p, up, fov, "camera") for p, t in zip(positions, targets, strict=True)]
+    return cams
