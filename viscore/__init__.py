@@ -13,6 +13,7 @@ from .depth_buffer import ConservativeDepthBuffer, OccluderScene
 from .frustum_culler import FrustumCuller
 from .images import coverage_image, depth_image
 from .mesh_io import load_mesh, validate_mesh
+from .occluder_files import OccluderInstance, load_occluder, occonly_glb_bytes, tres_text, tscn_text
 from .run_provenance import provenance
 from .samplers import (
     directions_fibonacci,
@@ -41,7 +42,8 @@ from .winding import points_inside, winding_numbers
 
 __all__ = [
     "points_inside", "winding_numbers",
-    "InputError", "load_mesh", "validate_mesh",
+    "InputError", "load_mesh", "validate_mesh", "load_occluder", "OccluderInstance", "tscn_text",
+    "tres_text", "occonly_glb_bytes",
     "Scene", "AllHits", "set_workers", "get_workers", "OrthoCamera", "PerspectiveCamera",
     "cube_cameras", "camera_basis", "coverage_image", "depth_image", "directions_uniform",
     "directions_fibonacci", "grid_positions", "rays_between", "stream_seed", "provenance",
