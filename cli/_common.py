@@ -1,19 +1,22 @@
-"""Output helpers shared by the subcommands: JSON or text, atomic files, errors."""
+"""Output helpers shared by the subcommands: JSON or text, atomic files, errors.
+
+Files are written by the core's shared helpers (:func:`viscore._atomic.write_atomic`,
+:func:`viscore._atomic.file_mode`) and meshes by :func:`viscore.mesh_io.save_mesh`.
+"""
 
 from __future__ import annotations
 
-import io
 import json
 import os
 from pathlib import Path
 
-import numpy as np
 from viscore.metrics.precision_recall import jsonable
 
-from viscore._atomic import check_output_path, write_atomic
-from viscore.mesh_io import ply_bytes
+from viscore._atomic import check_output_path, file_mode, write_atomic
+from viscore.mesh_io import SAVE_FORMATS, mesh_format, save_mesh
 
-__all__ = ["dumps", "emit", "check_output_path", "write_atomic", "check_mesh_path"]
+__all__ = ["dumps", "emit", "check_output_path", "write_atomic", "file_mode", "check_mesh_path",
+           "write_mesh", "parse_list", "check_output_folder"]
 
 
 def dumps(document: dict) -> str:
@@ -26,8 +29,8 @@ def emit(document: dict, as_json: bool, text: str) -> None:
     print(dumps(document) if as_json else text)
 
 
-#: Mesh formats the CLI writes.
-MESH_FORMATS = {"ply", "obj", "stl", "glb", "off"}
+#: Mesh formats the CLI writes (:data:`viscore.mesh_io.SAVE_FORMATS`).
+MESH_FORMATS = SAVE_FORMATS
 
 
 def check_mesh_path(path: str | os.PathLike) -> str:
@@ -36,75 +39,21 @@ def check_mesh_path(path: str | os.PathLike) -> str:
     Raises
     ------
     InputError
-        For an unknown suffix, or a path :func:`check_output_path` refuses
-        (missing folder, a directory).
+        For an unknown suffix (:func:`viscore.mesh_io.mesh_format`), or a path
+        :func:`check_output_path` refuses (missing folder, a directory).
     """
-    from viscore import InputError
-
-    suffix = Path(path).suffix.lower().lstrip(".")
-    if suffix not in MESH_FORMATS:
-        raise InputError(f"{path}: unknown mesh format '.{suffix}'; use "
-                         + ", ".join(f".{f}" for f in sorted(MESH_FORMATS)))
+    suffix = mesh_format(path)
     check_output_path(path)
     return suffix
 
 
-def _text_rows(prefix: str, rows: np.ndarray, fmt: str) -> str:
-    """Rows of numbers as text lines, each ``prefix`` + the row formatted by ``fmt``."""
-    buf = io.StringIO()
-    np.savetxt(buf, rows, fmt=fmt, delimiter=" ", newline="\n", comments="")
-    text = buf.getvalue()
-    if not prefix:
-        return text
-    return "".join(prefix + line + "\n" for line in text.splitlines())
-
-
-def _mesh_bytes(mesh, fmt: str, path) -> bytes:
-    """File content of a mesh; float64 coordinates wherever the format allows.
-
-    OBJ and OFF are written as text with 17 significant digits and PLY with
-    ``double`` vertex properties, so they hold any mesh viscore accepts
-    exactly (trimesh writes 8 fixed decimals or float32). STL and GLB store
-    float32 by their specifications: a mesh float32 cannot hold (coordinates
-    beyond its range, or an extent below its resolution at the mesh's
-    position) is refused rather than written corrupted.
-    """
-    from viscore import InputError
-
-    vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    faces = np.asarray(mesh.faces, dtype=np.int64)
-    if fmt == "obj":
-        text = _text_rows("v ", vertices, "%.17g") + _text_rows("f ", faces + 1, "%d")
-        return text.encode()
-    if fmt == "off":
-        text = (f"OFF\n{len(vertices)} {len(faces)} 0\n" + _text_rows("", vertices, "%.17g")
-                + _text_rows("3 ", faces, "%d"))
-        return text.encode()
-    if fmt == "ply":
-        return ply_bytes(mesh)
-    if len(vertices):
-        with np.errstate(over="ignore"):
-            v32 = vertices.astype(np.float32).astype(np.float64)
-        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-        extent = float(np.max(hi - lo))
-        if not np.isfinite(v32).all() or np.abs(v32 - vertices).max() > 2.0**-20 * extent:
-            raise InputError(
-                f"{path}: .{fmt} stores float32 coordinates, which cannot hold this mesh "
-                f"(extent {extent:.3g}, coordinates up to {np.abs(vertices).max():.3g}); "
-                "write .obj, .off or .ply (float64)")
-    import trimesh
-
-    data = trimesh.exchange.export.export_mesh(mesh, None, file_type=fmt)
-    return data if isinstance(data, bytes) else data.encode()
-
-
 def write_mesh(path: str | os.PathLike, mesh) -> None:
-    """Export a mesh atomically in the format its suffix names.
+    """Export a mesh atomically in the format its suffix names (:func:`viscore.mesh_io.save_mesh`).
 
     OBJ, OFF and PLY keep float64 coordinates; STL and GLB (float32 by their
     specifications) refuse a mesh float32 cannot hold, with one line.
     """
-    write_atomic(path, _mesh_bytes(mesh, check_mesh_path(path), path))
+    save_mesh(mesh, path, format=check_mesh_path(path))
 
 
 def parse_list(text: str, kind: type, option: str) -> tuple:

@@ -5,12 +5,12 @@ created or touched: the methods and ``--versus`` against the registry, each
 budget against each budgeted method's registry entry
 (:meth:`viscore.generators.GeneratorSpec.check_params`, ``min_budget``), the
 sizes (views, quads, pixels, rays) and
-``--jobs`` (at most :data:`viscore.cli.study.JOBS_PER_CORE` per core) against
-the memory they imply (:func:`viscore.cli.study.study_memory`,
+``--jobs`` (at most :data:`viscore.cli.study.runner.JOBS_PER_CORE` per core) against
+the memory they imply (:func:`viscore.cli.study.runner.study_memory`,
 :func:`viscore._validate.check_memory`), the seed by the one seed rule, the
 meshes by loading them, ``--out``, and ``--scheduler`` by connecting to the
 cluster. Then the study folder is opened for
-this process alone (:class:`viscore.cli.study.StudyFolder`): a second
+this process alone (:class:`viscore.cli.study.store.StudyFolder`): a second
 ``compare`` on the same folder is refused with one line, and a damaged store
 is refused with one line naming it.
 
@@ -46,20 +46,10 @@ from viscore import InputError, cpu_cores, load_mesh, provenance
 from viscore._validate import as_positive_int, as_seed, check_memory
 
 from ._common import dumps, emit, parse_list, write_atomic
-from .report import CULLING_COLUMNS
-from .study import (
-    JOBS_PER_CORE,
-    StudyFolder,
-    StudySettings,
-    check_study_dir,
-    paired_markdown,
-    paired_rows,
-    run_study,
-    study_memory,
-    table_csv,
-    table_markdown,
-    write_occluder_glbs,
-)
+from .study.report import CULLING_COLUMNS, write_occluder_glbs, write_report
+from .study.runner import JOBS_PER_CORE, StudySettings, run_study, study_memory
+from .study.store import StudyFolder, check_study_dir
+from .study.tables import paired_markdown, paired_rows, table_csv, table_markdown
 
 _log = logging.getLogger(__name__)
 
@@ -212,7 +202,8 @@ def run_compare(args) -> int:
     # 2. the study, in a folder this process alone writes (the cluster reached first)
     with _connect(args.scheduler) as client, StudyFolder(out) as study:
         rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
-                         scheduler=client, progress=not (args.quiet or args.json))
+                         scheduler=client, progress=not (args.quiet or args.json),
+                         originals=originals)
         paired = paired_rows(rows, versus) if versus else []
         culling = (_culling(culling_methods, out, frames=culling_frames, seed=seed,
                             quiet=args.quiet or args.json)
@@ -235,8 +226,6 @@ def run_compare(args) -> int:
         write_atomic(out / "results.md", md.encode())
         images = _plots(rows, out, meshes, seed)
         write_occluder_glbs(rows, out, originals)
-        from .report import write_report
-
         write_report(out, rows, paired_rows=paired, settings=asdict(settings),
                      provenance=doc["provenance"], images=images, culling_rows=culling)
     emit(doc, args.json, md + f"\nintervals: 95% bootstrap over views; wrote {out}/results."
@@ -269,7 +258,7 @@ def _culling(methods: list[str], out: Path, *, frames: int, seed: int,
     Computed once per (methods, frames, seed, viscore version): running the
     study again reuses the file, as the study store reuses finished jobs.
     """
-    from .bench_cull import culling_column
+    from .bench.cull import culling_column
 
     key = {"methods": methods, "frames": frames, "seed": seed,
            "version": provenance().get("viscore")}

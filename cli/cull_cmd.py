@@ -2,8 +2,8 @@
 
 Parse, call the library, format: the scene's objects
 (:func:`viscore.scene_graph.load_scene_objects`), the objects that get
-occluders (:func:`viscore.generators.scene_occluders.occluder_objects`), the
-runtimes (:func:`viscore.generators.scene_occluders.culling_runtimes`: ``none``,
+occluders (:func:`viscore.generators.occluder_objects`), the
+runtimes (:func:`viscore.generators.culling_runtimes`: ``none``,
 ``planar-frusta``, ``solid-frusta``, ``depth-buffer:<method>``), the camera
 path (:func:`viscore.metrics.culling.camera_path` or ``--path``) and the
 simulation against the ray-cast ground truth
@@ -31,11 +31,12 @@ import os
 import tempfile
 from pathlib import Path
 
-from viscore.generators import REGISTRY, parse_method
-from viscore.generators.scene_occluders import (
+from viscore.generators import (
+    REGISTRY,
     culling_runtimes,
     frusta_method,
     occluder_objects,
+    parse_method,
 )
 from viscore.metrics.culling import (
     DEFAULT_HEIGHT,
@@ -53,7 +54,7 @@ from viscore import InputError, provenance
 from viscore._validate import as_positive, as_positive_int, as_seed
 from viscore.scene_graph import load_scene_objects
 
-from ._common import check_output_folder, dumps, emit
+from ._common import check_output_folder, dumps, emit, file_mode
 
 #: Frames of a generated camera path when ``--frames`` is not given.
 DEFAULT_FRAMES = 100
@@ -148,11 +149,9 @@ def _write_all(out: Path, files: dict) -> None:
     document last). On any failure or interruption the temporary files go and,
     if this call made ``out``, the moved files and ``out`` too.
     """
-    from viscore._atomic import _umask
-
     created = not os.path.lexists(out)
     out.mkdir(exist_ok=True)
-    mode = 0o666 & ~_umask()
+    mode = file_mode()
     temps: dict[str, Path] = {}
     moved: list[Path] = []
     try:

@@ -27,7 +27,6 @@ from viscore import InputError, set_workers
 from viscore._validate import as_seed
 
 from . import (
-    bench_cmd,
     compare_cmd,
     cull_cmd,
     data_cmd,
@@ -35,6 +34,7 @@ from . import (
     metrics_cmd,
     uncertainty_cmd,
 )
+from .bench import command as bench_cmd
 
 #: Subcommand modules; each has ``add_parser(subparsers, common)`` and sets ``run``.
 _COMMANDS = [compare_cmd, generate_cmd, metrics_cmd, uncertainty_cmd, data_cmd, cull_cmd,

@@ -6,6 +6,7 @@ the estimate and the limit (:func:`viscore._validate.check_memory`), then the
 meshes are loaded. The estimates below were measured as peak RSS growth with
 ``/usr/bin/time -f %M`` on fat-torus, 2 cores (the library adds its own
 checks for what depends on the mesh, such as the volume protocol's positions).
+The figures and the estimates live in :mod:`viscore.metrics.estimates`.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import logging
 from dataclasses import asdict
 
 from viscore.metrics import check_conservative, evaluate, occlusion_measure
+from viscore.metrics.estimates import conservativeness_bytes, evaluation_bytes, measure_bytes
 
 from viscore import InputError, load_mesh, provenance
 from viscore._validate import as_fraction, as_positive, as_positive_int, as_seed, check_memory
@@ -22,28 +24,6 @@ from ._common import emit
 
 _log = logging.getLogger("viscore.cli")
 
-#: Peak bytes per pixel of one measure image (rays, hits, coverage, distance
-#: transform): ``measure --directions 2 --res 256`` vs ``--res 1024``, ~83 B.
-_MEASURE_BYTES_PER_PIXEL = 128
-#: Bytes per view kept for the result (per-view lists, directions, and their
-#: JSON text): ~0.5 KB.
-_BYTES_PER_VIEW = 1024
-#: Peak bytes per pixel and view of an orbit batch (two depth images of up to
-#: 8 views cast together): ``evaluate --views 8 --res 256`` vs ``--res 1024``, ~122 B.
-_ORBIT_BYTES_PER_PIXEL = 160
-#: Rays per Embree batch of the orbit protocol and of ``validate``: images of
-#: R x R pixels are cast ``max(1, 2**18 // R**2)`` at a time, and validate's
-#: rays 2**18 at a time (``viscore.metrics.reference_views``,
-#: ``viscore.metrics.conservativeness``), so memory does not grow with views
-#: or rays beyond one batch.
-_RAYS_PER_BATCH = 1 << 18
-#: Extra bytes per pixel with ``--depth-aware`` (32 levels of int32 tables and
-#: a bool mask per level).
-_DEPTH_AWARE_BYTES_PER_PIXEL = 32 * 5
-#: Peak bytes per quad of one view: ``--quads 1000`` vs ``--quads 1000000``, ~75 B.
-_BYTES_PER_QUAD = 128
-#: Peak bytes per ray of ``validate``: ``--rays 100000`` vs ``--rays 2000000``, ~106 B.
-_BYTES_PER_RAY = 160
 #: Pixels per side accepted (the metrics' own limit).
 _MAX_RESOLUTION = 8192
 
@@ -100,8 +80,7 @@ def run_measure(args) -> int:
     seed = as_seed(args.seed, "--seed")
     directions = as_positive_int(args.directions, "--directions")
     res = _resolution(args.res)
-    check_memory(res * res * _MEASURE_BYTES_PER_PIXEL + directions * _BYTES_PER_VIEW,
-                 f"--directions {directions} --res {res}")
+    check_memory(measure_bytes(directions, res), f"--directions {directions} --res {res}")
     mesh = load_mesh(args.mesh)
     r = occlusion_measure(mesh, directions=directions, resolution=res, seed=seed)
     doc = {"mesh": args.mesh, **asdict(r), "provenance": provenance()}
@@ -121,21 +100,20 @@ def run_evaluate(args) -> int:
     quads = 32_000 if args.protocol == "orbit" else 5_000
     if args.quads is not None:
         quads = params["quads"] = as_positive_int(args.quads, "--quads")
-    per_pixel = _ORBIT_BYTES_PER_PIXEL + (_DEPTH_AWARE_BYTES_PER_PIXEL if args.depth_aware else 0)
     if args.protocol == "orbit":
         if args.spacing is not None or args.no_merge:
             raise InputError("--spacing and --no-merge apply to --protocol volume only")
         views = params["views"] = as_positive_int(args.views, "--views")
-        batch = min(views, max(1, _RAYS_PER_BATCH // (res * res)))
-        estimate = (batch * res * res * per_pixel
-                    + quads * _BYTES_PER_QUAD + views * _BYTES_PER_VIEW)
+        estimate = evaluation_bytes("orbit", views=views, quads=quads, resolution=res,
+                                    depth_aware=args.depth_aware)
         check_memory(estimate, f"--views {views} --res {res} --quads {quads}")
     else:
         if args.spacing is not None:
             params["spacing"] = as_positive(args.spacing, "--spacing")
         params["merge_views"] = not args.no_merge
         # one frustum image at a time at least; the positions are counted by the library
-        check_memory(6 * res * res * per_pixel + quads * _BYTES_PER_QUAD,
+        check_memory(evaluation_bytes("volume", quads=quads, resolution=res,
+                                      depth_aware=args.depth_aware),
                      f"--res {res} --quads {quads}")
     mesh, occ = load_mesh(args.mesh), load_mesh(args.occluder)
     r = evaluate(mesh, occ, protocol=args.protocol, **params)
@@ -157,7 +135,7 @@ def run_validate(args) -> int:
     if confidence >= 1:
         raise InputError("--confidence: expected a number in (0, 1), got 1.0")
     max_rate = as_fraction(args.max_rate, "--max-rate")
-    check_memory(min(rays, _RAYS_PER_BATCH) * _BYTES_PER_RAY, f"--rays {rays}")
+    check_memory(conservativeness_bytes(rays), f"--rays {rays}")
     mesh, occ = load_mesh(args.mesh), load_mesh(args.occluder)
     r = check_conservative(mesh, occ, rays=rays, confidence=confidence,
                            domain=args.domain, seed=seed)

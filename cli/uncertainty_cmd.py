@@ -37,7 +37,7 @@ from viscore.metrics import (
 from viscore import InputError, load_mesh, provenance, stream_seed
 from viscore._validate import as_fraction, as_positive_int, as_seed
 
-from ._common import check_output_folder, dumps, emit, parse_list
+from ._common import check_output_folder, dumps, emit, file_mode, parse_list
 
 #: Factors of the convergence ablation.
 ABLATION_FACTORS = ("quads", "views", "spacing")
@@ -179,7 +179,7 @@ def _write_outputs(out: Path, files: dict) -> None:
     """
     created = not out.exists()
     out.mkdir(exist_ok=True)
-    mode = _file_mode()
+    mode = file_mode()
     temps: dict[str, Path] = {}
     name = None
     try:
@@ -207,13 +207,6 @@ def _write_outputs(out: Path, files: dict) -> None:
         if isinstance(exc, OSError) and name is not None:
             raise OSError(exc.errno, exc.strerror or str(exc), str(out / name)) from exc
         raise
-
-
-def _file_mode() -> int:
-    """Mode of a new file under the current umask (mkstemp's files are 0600)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
 
 
 def _iv(pair, digits: int = 4) -> str:

@@ -8,13 +8,9 @@ import json
 import math
 
 import pytest
-from viscore.cli.benchmarks import (
-    MODELS_ENV,
-    bench_generate_aabb_skins,
-    bench_rays,
-    bench_voxels,
-    models_folder,
-)
+from viscore.cli.bench.aabb_skins import bench_generate_aabb_skins
+from viscore.cli.bench.core import bench_rays, bench_voxels
+from viscore.cli.bench.models import MODELS_ENV, models_folder
 from viscore.cli.main import main
 
 from viscore import InputError
@@ -157,7 +153,7 @@ def test_bench_generate_and_cull_refuse_bad_options_before_work(argv, message, c
 def test_godot_within_finds_a_bake_at_or_under_the_count():
     import numpy as np
     import trimesh
-    from viscore.cli.bench_planar import godot_within
+    from viscore.cli.bench.planar import godot_within
 
     sphere = trimesh.creation.icosphere(subdivisions=3)  # 1,280 triangles, closed
     small, large = godot_within(sphere, 100), godot_within(sphere, 1000)

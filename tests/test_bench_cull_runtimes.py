@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from viscore.cli.bench_cull_runtimes import KEYS, bench_city, bench_cull_runtimes
+from viscore.cli.bench.cull_runtimes import KEYS, bench_city, bench_cull_runtimes
 
 from viscore import InputError
 

@@ -126,7 +126,7 @@ def test_compare_budgets_run_budgeted_methods_once_per_budget(tmp_path, capsys):
 
 def test_dask_cluster_gives_identical_rows(tmp_path, monkeypatch):
     from distributed import Client, LocalCluster
-    from viscore.cli.study import StudySettings, run_study
+    from viscore.cli.study.runner import StudySettings, run_study
     from viscore.metrics import ReferenceViews
 
     settings = StudySettings(views=4, quads=300, resolution=24, directions=2, rays=1000,
@@ -148,7 +148,7 @@ def test_dask_cluster_gives_identical_rows(tmp_path, monkeypatch):
 
 
 def test_interrupted_study_keeps_finished_rows_and_resumes(tmp_path):
-    from viscore.cli.study import StudySettings, run_study
+    from viscore.cli.study.runner import StudySettings, run_study
 
     settings = StudySettings(views=4, quads=300, resolution=24, directions=2, rays=1000,
                              budgets=(48,))
@@ -222,3 +222,35 @@ def test_an_unwritable_out_is_refused_before_any_work(command, capsys):
     # permission bits say "writable" to root on /proc: only a probe finds out
     assert main([*command, "--out", "/proc/self/viscore-study"]) == 2
     assert "cannot write in '/proc/self'" in capsys.readouterr().err
+
+
+def test_views_reach_workers_once_through_a_file_and_the_folder_goes(tmp_path):
+    import pickle
+
+    from viscore.cli.study import runner
+    from viscore.cli.study.runner import StudySettings, run_study, views_from_file
+
+    from viscore import load_mesh
+
+    settings = StudySettings(views=4, quads=300, resolution=24, directions=2, rays=1000,
+                             budgets=(48,))
+    stale = tmp_path / "s" / ".views-killed.tmp"  # a killed run's views folder
+    stale.mkdir(parents=True)
+    (stale / "0.pickle").write_bytes(b"x")
+    loaded = run_study(["fat-torus"], ["bbox", "qem"], settings, tmp_path / "s", jobs=2,
+                       progress=False)
+    assert not stale.exists() and not list((tmp_path / "s").glob(".views-*"))
+    given = run_study(["fat-torus"], ["bbox", "qem"], settings, tmp_path / "t", jobs=2,
+                      progress=False, originals={"fat-torus": load_mesh("fat-torus")})
+    strip = lambda rows: [{k: v for k, v in r.items() if not k.startswith("seconds")}  # noqa: E731
+                          for r in rows]
+    assert strip(loaded) == strip(given)
+    # a worker reads each views file once and keeps one mesh's views
+    views = runner.build_views("fat-torus", settings)
+    path = tmp_path / "v.pickle"
+    path.write_bytes(pickle.dumps(views))
+    first = views_from_file(str(path))
+    path.write_bytes(b"not read again")
+    assert views_from_file(str(path)) is first
+    assert list(runner._WORKER_VIEWS) == [str(path)]
+    runner._WORKER_VIEWS.clear()

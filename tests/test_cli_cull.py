@@ -140,7 +140,7 @@ def test_cull_bad_path_and_options_exit_2(run, street, tmp_path, capsys, monkeyp
 
 
 def test_bench_cull_and_culling_column_on_a_small_scene(street):
-    from viscore.cli.bench_cull import bench_cull, bench_cull_text, culling_column
+    from viscore.cli.bench.cull import bench_cull, bench_cull_text, culling_column
 
     scene, _ = street
     r = bench_cull(scene=str(scene), frames=3, repeats=1, method="aabb-skins")

@@ -16,7 +16,7 @@ import time
 
 import pytest
 from viscore.cli.main import main
-from viscore.cli.study import TIMING_FIELDS
+from viscore.cli.study.runner import TIMING_FIELDS
 
 #: Tiny evaluation settings: a job takes a fraction of a second.
 TINY = ["--views", "4", "--quads", "300", "--res", "32", "--rays", "1000", "--no-culling"]
@@ -211,7 +211,7 @@ def test_bit_identical_json_across_runs_and_thread_counts(tmp_path, capsys):
     """Same command and seed: the same results.json but for wall times and provenance.
 
     Excluded: the rows' ``seconds``, ``seconds_evaluate``, ``seconds_measure`` and
-    ``seconds_validate`` (:data:`viscore.cli.study.TIMING_FIELDS`) and the document's
+    ``seconds_validate`` (:data:`viscore.cli.study.runner.TIMING_FIELDS`) and the document's
     ``provenance`` (it records the thread count).
     """
     argv = ["compare", "fat-torus", "--methods", "aabb-skins,qem,bbox", "--budget", "48",

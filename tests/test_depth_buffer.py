@@ -239,7 +239,7 @@ def test_hierarchical_buffer_conservative_against_dense_rays(seed):
 def test_hierarchical_buffer_matches_full_corner_reference(rng):
     """Against one ray per pixel corner: depths never nearer where both hold one (float32
     noise aside), nearly the same pixels covered and boxes culled, for far fewer rays."""
-    from viscore.cli.bench_cull_runtimes import _path, bench_city
+    from viscore.cli.bench.cull_runtimes import _path, bench_city
 
     solids, lo, hi = bench_city(occludees=600, blocks=5, seed=2)
     occ = OccluderScene(solids)

@@ -373,7 +373,7 @@ def _reference_cull(culler, camera_or_eye, lo, hi):
 def test_frustum_culler_cull_matches_reference_city(seed):
     """The compiled per-frame path culls exactly the boxes the frusta of frusta() hold,
     for every mode, on a street-grid city walked at eye height."""
-    from viscore.cli.bench_cull_runtimes import bench_city
+    from viscore.cli.bench.cull_runtimes import bench_city
 
     solids, lo, hi = bench_city(occludees=600, blocks=5, seed=seed)
     rng = np.random.default_rng(seed)

@@ -336,3 +336,73 @@ def test_validate_mesh_few_slivers_dropped():
     f = np.vstack([sphere.faces, [[n, n + 1, 0]]])
     out = validate_mesh(trimesh.Trimesh(v, f, process=False))
     assert len(out.faces) == 1280 and out.metadata["dropped_degenerate_faces"] == 1
+
+
+# ---------------------------------------------------------------- save_mesh
+
+
+def _odd_mesh():
+    """A mesh whose coordinates need all of float64 (not multiples of a power of two)."""
+    rng = np.random.default_rng(3)
+    return trimesh.Trimesh(rng.random((40, 3)) * 7.3 + 0.1, rng.integers(0, 40, (30, 3)),
+                           process=False)
+
+
+@pytest.mark.parametrize("fmt", ["ply", "obj", "off", "stl", "glb"])
+def test_save_mesh_round_trip(tmp_path, fmt):
+    from viscore.mesh_io import save_mesh
+
+    box = trimesh.creation.box(extents=(1.0, 2.0, 0.5))
+    path = tmp_path / f"box.{fmt}"
+    save_mesh(box, path)
+    back = load_mesh(path)
+    assert len(back.faces) == len(box.faces)
+    # the same triangles, as sets of corner coordinates (STL and GLB may reindex)
+    got = np.sort(np.sort(back.vertices[back.faces].reshape(-1, 9), axis=1), axis=0)
+    want = np.sort(np.sort(box.vertices[box.faces].reshape(-1, 9), axis=1), axis=0)
+    assert np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("fmt", ["ply", "obj", "off"])
+def test_save_mesh_float64_formats_keep_every_bit(tmp_path, fmt):
+    from viscore.mesh_io import save_mesh
+
+    mesh = _odd_mesh()
+    path = tmp_path / f"odd.{fmt}"
+    save_mesh(mesh, path)
+    back = trimesh.load(path, force="mesh", process=False)
+    assert back.vertices.dtype == np.float64
+    # every corner of every triangle exactly (a reader may drop unused vertices)
+    assert np.array_equal(back.vertices[back.faces], mesh.vertices[mesh.faces])
+
+
+def test_save_mesh_file_object_same_bytes_as_path(tmp_path):
+    import io
+
+    from viscore.mesh_io import mesh_bytes, save_mesh
+
+    mesh = _odd_mesh()
+    for fmt in ("ply", "obj", "off", "stl", "glb"):
+        buf = io.BytesIO()
+        save_mesh(mesh, buf, format=fmt)
+        save_mesh(mesh, tmp_path / f"m.{fmt}")
+        assert buf.getvalue() == (tmp_path / f"m.{fmt}").read_bytes() == mesh_bytes(mesh, fmt)
+
+
+def test_save_mesh_invalid_input(tmp_path):
+    import io
+
+    from viscore.mesh_io import save_mesh
+
+    box = trimesh.creation.box()
+    with pytest.raises(InputError, match="unknown mesh format '.xyz'"):
+        save_mesh(box, tmp_path / "box.xyz")
+    with pytest.raises(InputError, match="format: needed"):
+        save_mesh(box, io.BytesIO())
+    with pytest.raises(InputError, match="does not exist"):
+        save_mesh(box, tmp_path / "missing" / "box.ply")
+    far = box.copy()
+    far.vertices[:] = far.vertices * 1e-4 + 1e6  # tiny extent far from the origin
+    with pytest.raises(InputError, match="float32"):
+        save_mesh(far, tmp_path / "far.stl")
+    assert not (tmp_path / "far.stl").exists()

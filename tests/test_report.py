@@ -1,4 +1,4 @@
-"""viscore.cli.report: a self-contained report.html and the occluder .glb."""
+"""viscore.cli.study.report: a self-contained report.html and the occluder .glb."""
 
 import base64
 import io
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import trimesh
 from PIL import Image
-from viscore.cli.report import write_occluder_glb, write_report
+from viscore.cli.study.report import write_occluder_glb, write_report
 
 from viscore import InputError
 

@@ -2,6 +2,12 @@
 
 Shared by the command line (tables, meshes, reports) and the figure module of
 :mod:`viscore.metrics` (plots written beside a study).
+
+The core's shared set (STYLE rule 3: private to the package, imported by
+``viscore.metrics``, ``viscore.generators`` and ``viscore.cli`` alike):
+:func:`write_atomic`, :func:`check_output_path` and :func:`file_mode` (the
+mode a new file gets, for writers that make their own temporary files, such
+as the command line's all-or-none output folders).
 """
 
 from __future__ import annotations
@@ -11,7 +17,7 @@ import stat
 import tempfile
 from pathlib import Path
 
-__all__ = ["write_atomic", "check_output_path"]
+__all__ = ["write_atomic", "check_output_path", "file_mode"]
 
 
 def _umask() -> int:
@@ -26,6 +32,20 @@ def _umask() -> int:
     mask = os.umask(0o022)  # pragma: no cover - not Linux: read by setting and restoring
     os.umask(mask)
     return mask
+
+
+def file_mode() -> int:
+    """Mode of a new file under the process umask: what ``open(path, "w")`` gives.
+
+    ``tempfile.mkstemp`` makes its files ``0o600``; a writer that moves such a
+    file into place sets this mode on it first.
+
+    Examples
+    --------
+    >>> 0 <= file_mode() <= 0o666
+    True
+    """
+    return 0o666 & ~_umask()
 
 
 def check_output_path(path: str | os.PathLike) -> Path:
@@ -100,7 +120,7 @@ def write_atomic(path: str | os.PathLike, data: bytes, *, parents: bool = False)
     try:
         mode = stat.S_IMODE(os.stat(path).st_mode)
     except OSError:
-        mode = 0o666 & ~_umask()
+        mode = file_mode()
     tmp = None
     try:
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")

@@ -159,7 +159,7 @@ def select_occluders(eye, has_view, forward, right, up, half_x, half_y, kind, ac
 @njit_cached()
 def _side(ex, ey, ez, ax, ay, az, bx, by, bz, ix, iy, iz, tol):
     """Unit plane through the eye and edge (a, b), inward towards (ix, iy, iz); ok flag
-    (``frusta._oriented_side_planes`` for one edge)."""
+    (``shadow_frusta._oriented_side_planes`` for one edge)."""
     ux, uy, uz = ax - ex, ay - ey, az - ez
     vx, vy, vz = bx - ex, by - ey, bz - ez
     nx = uy * vz - uz * vy

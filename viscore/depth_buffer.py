@@ -90,7 +90,7 @@ boxes containing the eye, and boxes wholly off the screen are never culled
 Cost
 ----
 Rays go to the corners of the coarse tiles and along the silhouettes of the
-pieces: on the benchmark city (``viscore.cli.bench_cull_runtimes``, 320 x 180)
+pieces: on the benchmark city (``viscore.cli.bench.cull_runtimes``, 320 x 180)
 about 3,200 rays per frame instead of the 58,000 pixel corners, with the same
 pixels covered and the same boxes culled. The loops over tiles, pixels and
 occludee boxes are compiled (numba, :mod:`viscore._depth_kernel`; an occludee's
@@ -125,8 +125,8 @@ import trimesh
 
 from ._validate import InputError, as_positive_int, check_memory
 from .cameras import PerspectiveCamera
-from .frusta import _as_boxes
 from .scene import Scene
+from .shadow_frusta import _as_boxes
 
 __all__ = ["OccluderScene", "ConservativeDepthBuffer", "DEFAULT_REDUCTION",
            "DEPTH_MARGIN_RELATIVE"]
@@ -247,7 +247,7 @@ class OccluderScene:
     """
 
     def __init__(self, occluders, *, workers: int | None = None) -> None:
-        from .frusta import _plane_groups, _solid_arrays
+        from .shadow_frusta import _plane_groups, _solid_arrays
 
         items = occluders if isinstance(occluders, list | tuple) and not _is_pair(occluders) \
             else [occluders]

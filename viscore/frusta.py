@@ -8,14 +8,11 @@ Kept for old import paths: the frusta and their box tests are in
 
 from .frustum_culler import ACTIVE_OCCLUDERS, FrustumCuller
 
-# kept for old import paths; the private helpers are those viscore.depth_buffer imports
-from .shadow_frusta import (  # noqa: F401
+# kept for old import paths
+from .shadow_frusta import (
     MARGIN_RELATIVE,
     SHAPE_TOLERANCE,
     Frustum,
-    _as_boxes,
-    _plane_groups,
-    _solid_arrays,
     boxes_in_frusta,
     boxes_in_frustum,
     polygon_frustum,

@@ -17,6 +17,11 @@ these formats, so a comment in any 8-bit encoding never stops a load. OFF is
 parsed here (trimesh 5.2 fails on n-gons); quads and n-gons are triangulated
 as fans. ZIP archives are inspected before extraction: the sizes in the
 archive directory are checked against the memory limit first.
+
+Writing: :func:`save_mesh` (and :func:`mesh_bytes`) write every format the
+command line writes, PLY with float64 vertices, OBJ and OFF with 17
+significant digits, STL and GLB (float32 by their specifications) refused
+for a mesh float32 cannot hold.
 """
 
 from __future__ import annotations
@@ -621,3 +626,134 @@ def ply_bytes(mesh: trimesh.Trimesh) -> bytes:
     packed["n"] = 3
     packed["f"] = faces
     return header + vertices.tobytes() + packed.tobytes()
+
+
+#: Mesh formats :func:`save_mesh` writes (file suffixes, lower case, no dot).
+SAVE_FORMATS = frozenset({"ply", "obj", "stl", "glb", "off"})
+
+
+def mesh_format(path: str | os.PathLike) -> str:
+    """The format :func:`save_mesh` writes for ``path``: its suffix, checked.
+
+    Raises
+    ------
+    InputError
+        For a suffix that is not one of :data:`SAVE_FORMATS`.
+
+    Examples
+    --------
+    >>> mesh_format("occluder.OBJ")
+    'obj'
+    """
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in SAVE_FORMATS:
+        raise InputError(f"{path}: unknown mesh format '.{suffix}'; use "
+                         + ", ".join(f".{f}" for f in sorted(SAVE_FORMATS)))
+    return suffix
+
+
+def _text_rows(prefix: str, rows: np.ndarray, fmt: str) -> str:
+    """Rows of numbers as text lines, each ``prefix`` + the row formatted by ``fmt``."""
+    buf = io.StringIO()
+    np.savetxt(buf, rows, fmt=fmt, delimiter=" ", newline="\n", comments="")
+    text = buf.getvalue()
+    if not prefix:
+        return text
+    return "".join(prefix + line + "\n" for line in text.splitlines())
+
+
+def mesh_bytes(mesh: trimesh.Trimesh, format: str, *, name: str | os.PathLike | None = None
+               ) -> bytes:
+    """File content of a triangle mesh; float64 coordinates wherever the format allows.
+
+    OBJ and OFF are written as text with 17 significant digits and PLY with
+    ``double`` vertex properties (:func:`ply_bytes`), so they hold any mesh
+    viscore accepts exactly (trimesh writes 8 fixed decimals or float32). STL
+    and GLB store float32 by their specifications (written by trimesh): a mesh
+    float32 cannot hold (coordinates beyond its range, or an extent below its
+    resolution at the mesh's position) is refused rather than written corrupted.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    format : {'ply', 'obj', 'off', 'stl', 'glb'}
+    name : str or path-like, optional
+        Named in the error message (the output file). Default ``'mesh'``.
+
+    Raises
+    ------
+    InputError
+        For an unknown format, or STL/GLB of a mesh float32 cannot hold.
+
+    Examples
+    --------
+    >>> mesh_bytes(trimesh.creation.box(), "off").splitlines()[:2]
+    [b'OFF', b'8 12 0']
+    """
+    fmt = str(format).lower()
+    if fmt not in SAVE_FORMATS:
+        raise InputError(f"format: expected one of {', '.join(sorted(SAVE_FORMATS))}, "
+                         f"got {format!r}")
+    name = "mesh" if name is None else name
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    if fmt == "obj":
+        text = _text_rows("v ", vertices, "%.17g") + _text_rows("f ", faces + 1, "%d")
+        return text.encode()
+    if fmt == "off":
+        text = (f"OFF\n{len(vertices)} {len(faces)} 0\n" + _text_rows("", vertices, "%.17g")
+                + _text_rows("3 ", faces, "%d"))
+        return text.encode()
+    if fmt == "ply":
+        return ply_bytes(mesh)
+    if len(vertices):
+        with np.errstate(over="ignore"):
+            v32 = vertices.astype(np.float32).astype(np.float64)
+        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        extent = float(np.max(hi - lo))
+        if not np.isfinite(v32).all() or np.abs(v32 - vertices).max() > 2.0**-20 * extent:
+            raise InputError(
+                f"{name}: .{fmt} stores float32 coordinates, which cannot hold this mesh "
+                f"(extent {extent:.3g}, coordinates up to {np.abs(vertices).max():.3g}); "
+                "write .obj, .off or .ply (float64)")
+    data = trimesh.exchange.export.export_mesh(mesh, None, file_type=fmt)
+    return data if isinstance(data, bytes) else data.encode()
+
+
+def save_mesh(mesh: trimesh.Trimesh, path_or_file, *, format: str | None = None) -> None:
+    """Write a triangle mesh as PLY (float64), OBJ, OFF, STL or GLB.
+
+    A path is written atomically (:func:`viscore._atomic.write_atomic`: the
+    old file or the new one, never half; its folder must exist); an open
+    binary file gets the bytes of :func:`mesh_bytes`.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    path_or_file : str, path-like or binary file object
+    format : str, optional
+        One of :data:`SAVE_FORMATS`. Default: the path's suffix (required for
+        a file object).
+
+    Raises
+    ------
+    InputError
+        Unknown format, a folder that does not exist, or STL/GLB of a mesh
+        float32 cannot hold (see :func:`mesh_bytes`).
+
+    Examples
+    --------
+    >>> buf = io.BytesIO()
+    >>> save_mesh(trimesh.creation.box(), buf, format="obj")
+    >>> buf.getvalue().count(b"\\nf ")
+    12
+    """
+    from ._atomic import write_atomic
+
+    if hasattr(path_or_file, "write"):
+        if format is None:
+            raise InputError("format: needed when writing to a file object")
+        path_or_file.write(mesh_bytes(mesh, format))
+        return
+    fmt = mesh_format(path_or_file) if format is None else format
+    write_atomic(path_or_file, mesh_bytes(mesh, fmt, name=path_or_file))

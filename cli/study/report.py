@@ -4,7 +4,8 @@
 stylesheet or image outside the file: the plots are inline ``data:`` URIs),
 so it opens offline and can be mailed or archived as one file.
 :func:`write_occluder_glb` writes a glTF 2.0 binary holding the original
-(grey, translucent) and the occluder (coloured, opaque), for any glTF viewer.
+(grey, translucent) and the occluder (coloured, opaque), for any glTF viewer;
+:func:`write_occluder_glbs` writes one beside every kept occluder of a study.
 
 References
 ----------
@@ -39,13 +40,14 @@ import numpy as np
 
 from viscore import InputError
 
-from ._common import write_atomic
+from .._common import write_atomic
+from .store import OCCLUDER_DIR
 
-__all__ = ["write_report", "write_occluder_glb", "REPORT_COLUMNS", "PAIRED_COLUMNS",
-           "ORIGINAL_RGBA", "OCCLUDER_RGBA"]
+__all__ = ["write_report", "write_occluder_glb", "write_occluder_glbs", "CULLING_COLUMNS",
+           "REPORT_COLUMNS", "PAIRED_COLUMNS", "ORIGINAL_RGBA", "OCCLUDER_RGBA"]
 
 #: Columns of the results table: (row key, header). A ``*_ci`` key shows as an
-#: interval; the columns follow ``viscore.cli.study.TABLE_COLUMNS``.
+#: interval; the columns follow ``viscore.cli.study.tables.TABLE_COLUMNS``.
 REPORT_COLUMNS = (
     ("mesh", "mesh"), ("method", "method"), ("budget", "budget"), ("triangles", "triangles"),
     ("precision", "precision"), ("precision_ci", "precision 95% interval"),
@@ -397,3 +399,25 @@ def write_occluder_glb(original, occluder, path: str | os.PathLike) -> Path:
         scene.add_geometry(copy, geom_name=name, node_name=name)
     write_atomic(path, scene.export(file_type="glb"))
     return path
+
+
+def write_occluder_glbs(rows: list[dict], study_dir: Path, originals: dict) -> list[Path]:
+    """A ``.glb`` beside each kept occluder file (original grey, occluder coloured).
+
+    Written where missing (a resumed study gets those of its earlier rows);
+    ``originals`` maps each row's mesh name to its loaded mesh.
+    """
+    import trimesh
+
+    written = []
+    for r in rows:
+        if not r.get("triangles") or not r.get("occluder_file"):
+            continue
+        ply = Path(study_dir) / OCCLUDER_DIR / r["occluder_file"]
+        glb = ply.with_suffix(".glb")
+        if ply.is_file() and not glb.is_file():
+            occ = trimesh.load(ply, force="mesh", process=False)
+            write_occluder_glb(originals[r["mesh"]], occ, glb)
+        if glb.is_file():
+            written.append(glb)
+    return written

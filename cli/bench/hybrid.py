@@ -33,7 +33,10 @@ import numpy as np
 
 from viscore import InputError, load_mesh
 
-__all__ = ["bench_generate_hybrid", "PAPER_FIGURES"]
+from ._plot import figure, save
+
+__all__ = ["bench_generate_hybrid", "hybrid_ablation", "PAPER_FIGURES", "HYBRID_ABLATION",
+           "HYBRID_ABLATION_MESHES"]
 
 _log = logging.getLogger(__name__)
 
@@ -82,7 +85,7 @@ def bench_generate_hybrid(models: str | os.PathLike | None = None, *,
     names : tuple of str, optional
         Only these rows (mesh names as in the result). Default: all.
     **options
-        Passed to :func:`viscore.generators.hybrid.generate_hybrid`.
+        Passed to :func:`viscore.generators.generate_hybrid`.
 
     Returns
     -------
@@ -99,9 +102,7 @@ def bench_generate_hybrid(models: str | os.PathLike | None = None, *,
     InputError
         If ``models`` is not a folder or holds no building.
     """
-    from viscore.generators.baselines import generate_qem
-    from viscore.generators.godot import generate_godot
-    from viscore.generators.hybrid import generate_hybrid
+    from viscore.generators import generate_godot, generate_hybrid, generate_qem
     from viscore.metrics import ReferenceViews
 
     sources = _sources(models)
@@ -148,3 +149,50 @@ def bench_generate_hybrid(models: str | os.PathLike | None = None, *,
             "settings": {"spacing_fraction": spacing, "resolution": resolution, "quads": quads,
                          "seed": seed, "jitter": True, "views": settings,
                          "options": dict(options)}}
+
+
+#: The configurations of Wu et al. 2022 Fig. 11 run by ``bench generate hybrid --ablation``:
+#: (label, generate_hybrid options).
+HYBRID_ABLATION = (
+    ("a voxel", {"candidates": "voxel", "enforce": False, "mgos": False}),
+    ("b voxel + enforcement", {"candidates": "voxel", "enforce": True, "mgos": False}),
+    ("c patch", {"candidates": "patch", "mgos": False}),
+    ("d combined", {"candidates": "combined", "mgos": False}),
+    ("e patch + MGOS", {"candidates": "patch", "mgos": True}),
+    ("f combined + MGOS", {"candidates": "combined", "mgos": True}),
+)
+
+#: Buildings of the hybrid ablation.
+HYBRID_ABLATION_MESHES = ("building-house", "building-tower", "building-church",
+                          "building-cottage")
+
+
+def hybrid_ablation(folder, seed: int) -> tuple[list[dict], list[str]]:
+    """Fig. 11 of Wu et al. 2022: means over :data:`HYBRID_ABLATION_MESHES` per configuration.
+
+    Writes ``folder/hybrid_ablation.png``; returns the rows and the lines to print.
+    """
+    rows = []
+    for label, options in HYBRID_ABLATION:
+        r = bench_generate_hybrid(None, seed=seed, baselines=False,
+                                  names=HYBRID_ABLATION_MESHES, **options)
+        rows.append({"config": label, "options": options, **{
+            k: float(np.mean([row[k] for row in r["rows"]]))
+            for k in ("faces", "precision", "recall", "seconds")}})
+    fig = figure(6.0, 3.2)
+    ax = fig.add_subplot(1, 1, 1)
+    x = np.arange(len(rows))
+    ax.bar(x - 0.2, [r["recall"] for r in rows], 0.4, label="recall")
+    ax.bar(x + 0.2, [r["precision"] for r in rows], 0.4, label="precision")
+    ax.set_xticks(x, [r["config"].split()[0] for r in rows])
+    ax.set_ylim(0, 1.05)
+    ax.set_title("hybrid ablation (Wu et al. Fig. 11), means over 4 buildings", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path = Path(folder) / "hybrid_ablation.png"
+    save(fig, path)
+    lines = [f"{'configuration':<24} {'faces':>6} {'P':>7} {'R':>7} {'seconds':>7}"]
+    lines += [f"{r['config']:<24} {r['faces']:>6.0f} {r['precision']:>7.4f} "
+              f"{r['recall']:>7.4f} {r['seconds']:>7.1f}" for r in rows]
+    lines.append(f"wrote {path}")
+    return rows, lines

@@ -1,25 +1,21 @@
-"""``viscore bench rays|voxels|evaluate|generate|cull``: figures, never assertions."""
+"""``viscore bench rays|voxels|evaluate|generate|cull``: figures, never assertions.
+
+The parser and the formatting of the bench command; each benchmark lives in
+its own module of :mod:`viscore.cli.bench`.
+"""
 
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from viscore import InputError, provenance
 from viscore._validate import as_positive_int
 
-from ._common import emit, parse_list
-from .benchmarks import (
-    BUILTIN_FALLBACK,
-    MODELS_ENV,
-    bench_evaluate,
-    bench_generate_aabb_skins,
-    bench_rays,
-    bench_voxels,
-    models_folder,
-)
+from .._common import emit, parse_list
+from .aabb_skins import bench_generate_aabb_skins
+from .core import bench_evaluate, bench_rays, bench_voxels
+from .models import BUILTIN_FALLBACK, MODELS_ENV, models_folder
 
 
 def add_parser(sub, common) -> None:
@@ -148,7 +144,7 @@ def run_generate(args) -> int:
 
 
 def run_cull(args) -> int:
-    from .bench_cull import bench_cull, bench_cull_text
+    from .cull import bench_cull, bench_cull_text
 
     frames = as_positive_int(args.frames, "--frames", maximum=100_000)
     repeats = as_positive_int(args.repeats, "--repeats", maximum=100)
@@ -168,7 +164,7 @@ def _ablation_folder(text: str | None) -> Path | None:
 
 
 def _run_generate_planar(args) -> int:
-    from .bench_planar import (
+    from .planar import (
         bench_generate_planar_sections,
         measure_ablation,
         resolution_ablation,
@@ -222,56 +218,8 @@ def _run_generate_planar(args) -> int:
     return 0
 
 
-#: The configurations of Wu et al. 2022 Fig. 11 run by ``bench generate hybrid --ablation``:
-#: (label, generate_hybrid options).
-HYBRID_ABLATION = (
-    ("a voxel", {"candidates": "voxel", "enforce": False, "mgos": False}),
-    ("b voxel + enforcement", {"candidates": "voxel", "enforce": True, "mgos": False}),
-    ("c patch", {"candidates": "patch", "mgos": False}),
-    ("d combined", {"candidates": "combined", "mgos": False}),
-    ("e patch + MGOS", {"candidates": "patch", "mgos": True}),
-    ("f combined + MGOS", {"candidates": "combined", "mgos": True}),
-)
-
-#: Buildings of the hybrid ablation.
-HYBRID_ABLATION_MESHES = ("building-house", "building-tower", "building-church",
-                          "building-cottage")
-
-
-def _hybrid_ablation(folder, seed: int) -> tuple[list[dict], list[str]]:
-    """Fig. 11 of Wu et al. 2022: means over :data:`HYBRID_ABLATION_MESHES` per configuration."""
-    from viscore.metrics.plots import _figure, _save
-
-    from .bench_hybrid import bench_generate_hybrid
-
-    rows = []
-    for label, options in HYBRID_ABLATION:
-        r = bench_generate_hybrid(None, seed=seed, baselines=False,
-                                  names=HYBRID_ABLATION_MESHES, **options)
-        rows.append({"config": label, "options": options, **{
-            k: float(np.mean([row[k] for row in r["rows"]]))
-            for k in ("faces", "precision", "recall", "seconds")}})
-    fig = _figure(6.0, 3.2)
-    ax = fig.add_subplot(1, 1, 1)
-    x = np.arange(len(rows))
-    ax.bar(x - 0.2, [r["recall"] for r in rows], 0.4, label="recall")
-    ax.bar(x + 0.2, [r["precision"] for r in rows], 0.4, label="precision")
-    ax.set_xticks(x, [r["config"].split()[0] for r in rows])
-    ax.set_ylim(0, 1.05)
-    ax.set_title("hybrid ablation (Wu et al. Fig. 11), means over 4 buildings", fontsize=9)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    path = Path(folder) / "hybrid_ablation.png"
-    _save(fig, path)
-    lines = [f"{'configuration':<24} {'faces':>6} {'P':>7} {'R':>7} {'seconds':>7}"]
-    lines += [f"{r['config']:<24} {r['faces']:>6.0f} {r['precision']:>7.4f} "
-              f"{r['recall']:>7.4f} {r['seconds']:>7.1f}" for r in rows]
-    lines.append(f"wrote {path}")
-    return rows, lines
-
-
 def _run_generate_hybrid(args) -> int:
-    from .bench_hybrid import bench_generate_hybrid
+    from .hybrid import bench_generate_hybrid, hybrid_ablation
 
     folder = models_folder(args.models)
     ablation = _ablation_folder(args.ablation)
@@ -298,7 +246,7 @@ def _run_generate_hybrid(args) -> int:
                      f"{m['recall']:.4f} (target >= {rec}), {m['seconds']:.1f} s per building "
                      "(target < 60 s)")
     if ablation is not None:
-        r["ablation"], more = _hybrid_ablation(ablation, args.seed + 1)
+        r["ablation"], more = hybrid_ablation(ablation, args.seed + 1)
         lines += more
     emit({**r, "provenance": provenance()}, args.json, "\n".join(lines))
     return 0

@@ -79,11 +79,7 @@ def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed:
         (occludees, active, buffer size, occluder counts, workers = 1) and
         the machine's load average (timings on a busy machine are inflated).
     """
-    from viscore.generators.scene_occluders import (
-        frusta_method,
-        occluder_objects,
-        scene_occluders,
-    )
+    from viscore.generators import frusta_method, occluder_objects, scene_occluders
     from viscore.metrics.culling import camera_path
 
     from viscore import get_workers, set_workers
@@ -175,7 +171,7 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
     InputError
         Unknown method, bad sizes.
     """
-    from viscore.generators.scene_occluders import culling_runtimes, occluder_objects
+    from viscore.generators import culling_runtimes, occluder_objects
     from viscore.metrics.culling import camera_path, simulate_culling
 
     from viscore.scene_graph import load_scene_objects

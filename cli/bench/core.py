@@ -1,4 +1,4 @@
-"""Speed benchmarks behind ``viscore bench rays|voxels|evaluate|generate``.
+"""Speed benchmarks behind ``viscore bench rays|voxels|evaluate``.
 
 Figures are printed, never asserted in tests. Each benchmark measures its own
 reference in the same run (a bare embreex call for rays, the ``bench rays``
@@ -7,17 +7,9 @@ They live in the command-line layer because they need all of the chain
 (core, metrics and a generator's occluder), and only the CLI sits above all
 three.
 
-The extra meshes of ``bench generate`` (spot, fandisk, rocker-arm,
-stanford-bunny, teapot, as ``NAME.obj``) come from a folder given with
-``--models DIR`` or the ``VISCORE_MODELS`` environment variable; see
-:func:`models_folder`. Without either, the benchmark uses the built-in scenes.
-
 References
 ----------
-.. [1] Naaji, K. "Automatic Occluder Generation". A Graphics Diary (blog),
-   15 Nov 2019; and its ``melt`` library (box filling), whose figures are
-   :data:`PEER_FIGURES`.
-.. [2] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
    Simplification using Planar Sections". Computer Graphics Forum 33(1),
    2014, pp. 235-245. :DOI:`10.1111/cgf.12271` (orbit protocol, sec. 6.1,
    timed by :func:`bench_evaluate`).
@@ -26,15 +18,12 @@ References
 from __future__ import annotations
 
 import logging
-import os
 import time
-from collections.abc import Callable, Mapping
-from pathlib import Path
+from collections.abc import Callable
 
 import numpy as np
 
 from viscore import (
-    InputError,
     Scene,
     directions_uniform,
     get_workers,
@@ -43,32 +32,12 @@ from viscore import (
     voxelize,
 )
 
-__all__ = ["bench_rays", "bench_voxels", "bench_evaluate", "bench_generate_aabb_skins",
-           "models_folder", "MODELS_ENV", "MODEL_NAMES", "BUILTIN_FALLBACK", "PEER_FIGURES",
-           "PEER_SECONDS_128"]
+__all__ = ["bench_rays", "bench_voxels", "bench_evaluate", "best_of", "bare_embree",
+           "MAX_REPEATS"]
 
 _log = logging.getLogger(__name__)
 
-#: Environment variable naming the folder of extra benchmark meshes.
-MODELS_ENV = "VISCORE_MODELS"
-
-#: Meshes looked for (as ``NAME.obj``) in the models folder: the peer's benchmark set.
-MODEL_NAMES = ("spot", "fandisk", "rocker-arm", "stanford-bunny", "teapot")
-
-#: Built-in scenes benchmarked when no models folder is given.
-BUILTIN_FALLBACK = ("bunny", "cow")
-
-#: Figures of the C++ peer (the ``melt`` library [1]_) at voxel size =
-#: diagonal / 64: mesh -> [(boxes, share of volume covered)]. It returns
-#: nothing for the bunny, teapot and rocker-arm.
-PEER_FIGURES = {"spot": [(7, 0.399), (93, 0.707)], "fandisk": [(4, 0.420), (38, 0.726)],
-                "stanford-bunny": [], "teapot": [], "rocker-arm": []}
-
-#: The peer's time at diagonal / 128 to 80% coverage, seconds (0.44-1.2 s).
-PEER_SECONDS_128 = (0.44, 1.2)
-
-
-def _best_of(fn: Callable[[], object], repeats: int) -> float:
+def best_of(fn: Callable[[], object], repeats: int) -> float:
     best = np.inf
     for _ in range(repeats):
         start = time.perf_counter()
@@ -77,7 +46,7 @@ def _best_of(fn: Callable[[], object], repeats: int) -> float:
     return best
 
 
-def _bare_embree(mesh):
+def bare_embree(mesh):
     """A bare embreex scene built the way :class:`Scene` builds its own (robust, centred)."""
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
@@ -92,11 +61,6 @@ def _bare_embree(mesh):
 
 #: Timed repeats a benchmark accepts (best-of-n figures settle well before this).
 MAX_REPEATS = 100
-
-#: Peak bytes per ray of :func:`bench_rays` (three float64 (n, 3) arrays, their
-#: float32 copies and the hit results).
-_BENCH_RAYS_BYTES_PER_RAY = 128
-
 
 def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, repeats: int = 7,
                seed: int = 0) -> dict:
@@ -132,13 +96,15 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, repeats: int = 7,
         If ``rays`` or ``repeats`` is not a positive integer, or the mesh
         cannot be loaded.
     """
+    from viscore.metrics.estimates import ray_bench_bytes
+
     from viscore._validate import as_positive_int, as_seed, check_memory
 
     rays = as_positive_int(rays, "rays")
     repeats = as_positive_int(repeats, "repeats", maximum=MAX_REPEATS)
     seed = as_seed(seed, "seed")
     # origins, targets, directions in float64 and their float32 copies
-    check_memory(float(rays) * _BENCH_RAYS_BYTES_PER_RAY, f"rays={rays}")
+    check_memory(ray_bench_bytes(rays), f"rays={rays}")
     m = load_mesh(mesh)
     rng = np.random.default_rng(seed)
     lo, hi = m.bounds
@@ -147,7 +113,7 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, repeats: int = 7,
     targets = rng.uniform(lo, hi, (rays, 3))
     dirs = targets - origins
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
-    bare, offset = _bare_embree(m)  # built outside the timings, like the scenes below
+    bare, offset = bare_embree(m)  # built outside the timings, like the scenes below
     o32 = np.ascontiguousarray(origins - offset, dtype=np.float32)
     d32 = np.ascontiguousarray(dirs, dtype=np.float32)
     workers = get_workers()
@@ -160,7 +126,7 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, repeats: int = 7,
     best = {k: np.inf for k in calls}
     for _ in range(repeats):
         for key, fn in calls.items():
-            best[key] = min(best[key], _best_of(fn, 1))
+            best[key] = min(best[key], best_of(fn, 1))
     t_bare, t1, ta = best["bare"], best["one"], best["all"]
     return {
         "mesh": mesh, "rays": rays, "repeats": repeats, "workers": workers,
@@ -212,9 +178,9 @@ def bench_voxels(mesh: str = "bunny", *, resolutions: tuple[int, ...] = (64, 128
         def flood(res=res, holder=holder):
             holder["v"] = voxelize(m, resolution=res)
 
-        tf = _best_of(flood, repeats)
+        tf = best_of(flood, repeats)
         v = holder["v"]
-        tp = _best_of(lambda v=v: inside_voxels_parity(scene, v.grid), repeats)
+        tp = best_of(lambda v=v: inside_voxels_parity(scene, v.grid), repeats)
         rows.append({"resolution": res, "faces": len(m.faces),
                      "surface_voxels": int(v.surface.sum()), "solid_voxels": int(v.solid.sum()),
                      "seconds_flood": tf, "seconds_parity": tp})
@@ -311,96 +277,3 @@ def bench_evaluate(*, mesh: str = "bunny", views: int = 256, quads: int = 32000,
             "next_precision": r_next.precision, "next_recall": r_next.recall}
 
 
-def models_folder(option: str | os.PathLike | None,
-                  environ: Mapping[str, str] | None = None) -> Path | None:
-    """The folder of extra benchmark meshes: ``--models``, else ``$VISCORE_MODELS``, else None.
-
-    Parameters
-    ----------
-    option : str or path-like or None
-        The ``--models`` value; takes precedence over the environment.
-    environ : mapping, optional
-        Environment to read :data:`MODELS_ENV` from. Default ``os.environ``.
-        An empty value counts as unset.
-
-    Returns
-    -------
-    folder : Path or None
-        None when neither names a folder (the caller then uses the built-in
-        scenes and says so).
-
-    Raises
-    ------
-    InputError
-        If the folder named is not an existing directory (a folder given
-        explicitly is never silently replaced by other meshes).
-    """
-    environ = os.environ if environ is None else environ
-    if option is not None and str(option) != "":
-        value, where = option, "--models"
-    elif environ.get(MODELS_ENV):
-        value, where = environ[MODELS_ENV], MODELS_ENV
-    else:
-        return None
-    folder = Path(value).expanduser()
-    if not folder.is_dir():
-        raise InputError(f"{where} {value}: no such folder of benchmark meshes")
-    return folder
-
-
-def bench_generate_aabb_skins(models: str | os.PathLike | None = None) -> dict:
-    """AABB skins on the benchmark meshes at diagonal / 64 and / 128, beside the peer.
-
-    For each mesh: at diagonal / 64, the boxes and volume share at the
-    peer's box counts (and at 16 boxes where the peer returned nothing); at
-    diagonal / 128, the boxes and seconds to 80% of the inner volume.
-
-    Parameters
-    ----------
-    models : str or path-like or None, optional
-        Folder holding some of :data:`MODEL_NAMES` as ``NAME.obj``; the
-        built-in bunny is added to them. None (default): only the built-in
-        scenes :data:`BUILTIN_FALLBACK`.
-
-    Returns
-    -------
-    result : dict
-        ``source`` (the folder, or ``'built-in scenes'``) and ``rows`` (one
-        dict per mesh and setting), ``peer_seconds_128``.
-
-    Raises
-    ------
-    InputError
-        If ``models`` is not a folder, or holds none of :data:`MODEL_NAMES`.
-    """
-    from viscore.generators import generate_aabb_skins
-
-    if models is None:
-        sources = {"bunny (pymeshlab)" if n == "bunny" else n: n for n in BUILTIN_FALLBACK}
-        source = "built-in scenes"
-    else:
-        folder = Path(models)
-        if not folder.is_dir():
-            raise InputError(f"models {folder}: no such folder of benchmark meshes")
-        sources = {n: folder / f"{n}.obj" for n in MODEL_NAMES if (folder / f"{n}.obj").is_file()}
-        if not sources:
-            raise InputError(f"models {folder}: holds none of "
-                             + ", ".join(f"{n}.obj" for n in MODEL_NAMES))
-        sources["bunny (pymeshlab)"] = "bunny"
-        source = str(folder)
-    rows = []
-    for name, path in sources.items():
-        mesh = load_mesh(path)
-        diag = float(np.linalg.norm(mesh.extents))
-        counts = [b for b, _ in PEER_FIGURES.get(name, [])] or [16]
-        generate_aabb_skins(mesh, voxel_size=diag / 16, max_boxes=1)  # numba warm-up
-        peers = dict(PEER_FIGURES.get(name, []))
-        settings = [("diag/64", 64, b, 1.0) for b in counts] + [("diag/128", 128, None, 0.8)]
-        for label, div, boxes, fill in settings:
-            occ = generate_aabb_skins(mesh, voxel_size=diag / div, max_boxes=boxes, fill=fill)
-            rows.append({"mesh": name, "voxel_size": label, "max_boxes": boxes,
-                         "boxes": occ.info["boxes"], "triangles": occ.triangles,
-                         "volume_share": occ.info["volume_share"], "fill": occ.info["fill"],
-                         "inside": occ.info["inside"], "seconds": occ.seconds,
-                         "peer_volume_share": peers.get(boxes)})
-    return {"source": source, "peer_seconds_128": PEER_SECONDS_128, "rows": rows}

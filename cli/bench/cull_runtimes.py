@@ -45,7 +45,7 @@ from viscore._validate import as_positive_int, as_seed
 from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
 from viscore.frusta import ACTIVE_OCCLUDERS, FrustumCuller
 
-from .benchmarks import _bare_embree
+from .core import bare_embree
 
 __all__ = ["bench_cull_runtimes", "bench_city", "KEYS"]
 
@@ -197,7 +197,7 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
                "frusta_planar": FrustumCuller(solids, mode="planar", active=active)}
     occ = OccluderScene([(v, f) for v, f in solids], workers=1)
     occ.scene.build()
-    bare, offset = _bare_embree(trimesh.Trimesh(occ.scene.vertices, occ.scene.faces,
+    bare, offset = bare_embree(trimesh.Trimesh(occ.scene.vertices, occ.scene.faces,
                                                 process=False))
     wall: dict[str, list[float]] = {k: [] for k in KEYS}
     cpu: dict[str, list[float]] = {k: [] for k in KEYS}
@@ -271,7 +271,7 @@ def _corner_rays(cam: PerspectiveCamera, width: int, height: int, offset: np.nda
             np.ascontiguousarray(d, dtype=np.float32))
 
 
-def main() -> None:  # pragma: no cover - manual run: python -m viscore.cli.bench_cull_runtimes
+def main() -> None:  # pragma: no cover - manual run: python -m viscore.cli.bench.cull_runtimes
     res = bench_cull_runtimes()
     for key in KEYS:
         r = res[key]

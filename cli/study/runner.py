@@ -1,0 +1,430 @@
+"""Comparison studies: every registered method on every mesh, evaluated and stored.
+
+The orchestration of ``viscore compare`` (the data flow: metrics -> cli for
+tables, plots, studies). The original's views
+(:class:`viscore.metrics.ReferenceViews`) are built once per mesh and settings
+and reach each worker once; each (mesh, method, budget, settings, seed) job
+generates its occluder with :func:`viscore.generators.generate` and assesses
+it with :func:`viscore.metrics.assess_occluder` (precision/recall, occlusion
+measure, conservativeness). Jobs run in a local process pool, or on a
+dask.distributed cluster with ``scheduler``; each job is deterministic given
+its settings, so both give identical rows.
+
+Views once per worker. In the local pool, a worker builds a mesh's views
+(from the mesh the parent loaded, not loaded again) and pickles them once to a
+file in a temporary folder of the study (``DIR/.views-*.tmp/``); each job of
+that mesh carries the file's path, and each worker process loads a file once
+and keeps the views of one mesh (:func:`views_from_file`), so the ~35 MiB of
+views are not pickled into every job. The folder is removed when the jobs end,
+on Ctrl-C and on errors too; one a killed run left behind is removed when the
+study folder is next opened (:class:`viscore.cli.study.store.StudyFolder`).
+On dask the views are one future, which dask moves to each worker once.
+
+Crash safety. The study folder is opened by this process alone
+(:class:`~viscore.cli.study.store.StudyFolder`). Each job's occluder file is
+written atomically under ``occluders/``, then its row is committed to the
+store, as soon as the job finishes. On Ctrl-C the pending jobs are cancelled
+and the worker processes killed at once, after committing every job already
+finished; the workers ignore SIGINT (the parent stops them) and die with their
+parent (``PR_SET_PDEATHSIG``), so no orphan keeps computing.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1),
+   2014, pp. 235-245. :DOI:`10.1111/cgf.12271` (orbit protocol, sec. 6.1;
+   occlusion measure, sec. 3).
+.. [2] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
+   Digital Games". Computer Graphics Forum 41(7), 2022, pp. 205-214.
+   :DOI:`10.1111/cgf.14669` (volume protocol, sec. 3.2).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import pickle
+import shutil
+import signal
+import tempfile
+import threading
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from viscore.metrics.estimates import study_bytes
+
+from viscore import cpu_cores
+from viscore.mesh_io import mesh_bytes
+
+from .._common import dumps, write_atomic
+from .store import StudyFolder
+
+__all__ = ["StudySettings", "Job", "study_jobs", "view_settings", "study_memory", "build_views",
+           "views_from_file", "run_job", "run_study", "TIMING_FIELDS", "JOBS_PER_CORE"]
+
+#: Fields of a row that are wall times (they differ between runs; everything
+#: else in a row is deterministic given the settings).
+TIMING_FIELDS = ("seconds", "seconds_evaluate", "seconds_measure", "seconds_validate")
+
+#: Local jobs allowed per core (``--jobs`` beyond ``JOBS_PER_CORE`` x cores is refused).
+JOBS_PER_CORE = 4
+
+
+@dataclass(frozen=True)
+class StudySettings:
+    """Evaluation settings shared by every job of a study."""
+
+    protocol: str = "orbit"
+    views: int = 128
+    quads: int = 16000
+    resolution: int = 256
+    directions: int = 32
+    rays: int = 100_000
+    budgets: tuple = (64, 256)
+    seed: int = 0
+
+    def key(self, mesh: str, method: str, budget: int | None) -> str:
+        d = {k: v for k, v in asdict(self).items() if k != "budgets"}
+        text = json.dumps({"mesh": mesh, "method": method, "budget": budget, **d},
+                          sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+@dataclass(frozen=True)
+class Job:
+    mesh: str
+    method: str
+    budget: int | None
+    settings: StudySettings = field(repr=False)
+
+    @property
+    def key(self) -> str:
+        return self.settings.key(self.mesh, self.method, self.budget)
+
+    @property
+    def occluder_file(self) -> str:
+        safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in Path(self.mesh).stem)
+        method = "".join(c if c.isalnum() or c in "-_" else "_" for c in self.method)
+        return f"{safe}__{method}__{self.budget or 'any'}__{self.key[:8]}.ply"
+
+
+def view_settings(settings: StudySettings) -> dict:
+    """Keywords of :class:`viscore.metrics.ReferenceViews` for a study's settings."""
+    kw = {"protocol": settings.protocol, "seed": settings.seed, "quads": settings.quads,
+          "resolution": settings.resolution}
+    if settings.protocol == "orbit":
+        kw["views"] = settings.views
+    return kw
+
+
+def study_memory(settings: StudySettings, meshes: dict, jobs: int) -> float:
+    """Estimated peak bytes of a local study, from its settings and meshes alone.
+
+    :func:`viscore.metrics.estimates.study_bytes` for the study's settings:
+    each of ``jobs`` workers holds a process, the reference views of its mesh,
+    one ray-casting batch, the conservativeness rays, a measure image and the
+    mesh, plus one copy of every mesh's views.
+
+    Parameters
+    ----------
+    settings : StudySettings
+    meshes : dict of str -> trimesh.Trimesh
+        The study's meshes, loaded.
+    jobs : int
+        Local worker processes.
+
+    Returns
+    -------
+    float
+        Bytes (a float: it may exceed int64 for absurd settings).
+    """
+    return study_bytes(settings.protocol, views=settings.views, quads=settings.quads,
+                       resolution=settings.resolution, rays=settings.rays, meshes=meshes,
+                       jobs=jobs)
+
+
+def build_views(mesh: str, settings: StudySettings, workers: int | None = None,
+                original=None):
+    """The original's views of one mesh, built once and shared by all its jobs.
+
+    ``original`` is the mesh already loaded (by the parent); default: loaded here.
+    """
+    from viscore.metrics import ReferenceViews
+
+    from viscore import load_mesh, set_workers
+
+    set_workers(workers)
+    return ReferenceViews(load_mesh(mesh) if original is None else original,
+                          **view_settings(settings))
+
+
+#: In a worker process: the views file it read last, and its views (one mesh's at a time).
+_WORKER_VIEWS: dict[str, object] = {}
+
+
+def _write_views(mesh: str, settings: StudySettings, workers: int | None, original,
+                 path: str) -> str:
+    """In a worker: build one mesh's views and pickle them once to ``path``."""
+    data = pickle.dumps(build_views(mesh, settings, workers, original),
+                        protocol=pickle.HIGHEST_PROTOCOL)
+    with open(path, "wb") as fh:
+        fh.write(data)
+    return path
+
+
+def views_from_file(path: str):
+    """The views pickled in ``path``, read once per process (the last file's are kept)."""
+    views = _WORKER_VIEWS.get(path)
+    if views is None:
+        _WORKER_VIEWS.clear()  # one mesh's views per worker, as the memory estimate counts
+        with open(path, "rb") as fh:
+            views = pickle.load(fh)
+        _WORKER_VIEWS[path] = views
+    return views
+
+
+def _run_job_on_file(job: Job, workers: int | None, path: str) -> tuple[dict, bytes]:
+    """In a worker: :func:`run_job` on the views of ``path``."""
+    return run_job(job, workers, views_from_file(path))
+
+
+def run_job(job: Job, workers: int | None = None, views=None) -> tuple[dict, bytes]:
+    """Generate one occluder and assess it; returns the row and the occluder PLY.
+
+    The occluder comes from :func:`viscore.generators.generate` (parameters
+    checked against the registry; ``info["over_budget"]`` set). ``views`` are
+    the mesh's :class:`viscore.metrics.ReferenceViews` for the job's settings
+    (built here when not given).
+    """
+    from viscore.generators import generate
+    from viscore.metrics import assess_occluder
+
+    from viscore import set_workers
+
+    s = job.settings
+    set_workers(workers)
+    views = views if views is not None else build_views(job.mesh, s, workers)
+    params = {"seed": s.seed} | ({"budget": job.budget} if job.budget else {})
+    occ = generate(job.method, views.mesh, **params)
+    assessed = assess_occluder(views, occ, directions=s.directions, rays=s.rays)
+    row = {"key": job.key, "mesh": job.mesh, "budget": job.budget, **assessed.to_json(),
+           "method": job.method, "occluder_file": job.occluder_file, "settings": asdict(s)}
+    # float64 PLY (trimesh writes float32 vertices): the occluder file is the occluder
+    ply = mesh_bytes(occ.mesh, "ply") if occ.triangles else b""
+    return json.loads(dumps(row)), ply
+
+
+def _row_is_current(row: dict) -> bool:
+    """Whether a stored row holds a whole assessment of today's schema (others are redone)."""
+    from dataclasses import fields
+
+    from viscore.metrics import OccluderAssessment
+
+    if not all(f.name in row for f in fields(OccluderAssessment)):
+        return False
+    try:
+        OccluderAssessment.from_json(row)
+    except Exception:  # noqa: BLE001 - a row that does not read back is recomputed
+        return False
+    return True
+
+
+def _by_mesh(pending: list[Job]) -> dict:
+    """Pending jobs grouped by (mesh, settings): one set of reference views each."""
+    groups: dict = {}
+    for job in pending:
+        groups.setdefault((job.mesh, job.settings), []).append(job)
+    return groups
+
+
+def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings) -> list[Job]:
+    """One job per mesh, method and budget (one budget-less job for unbudgeted methods)."""
+    from viscore.generators import get_generator
+
+    jobs = []
+    for mesh in meshes:
+        for method in methods:
+            budgets = settings.budgets if get_generator(method).budgeted else (None,)
+            jobs += [Job(mesh, method, b, settings) for b in budgets]
+    return jobs
+
+
+def _die_with_parent(parent: int) -> None:
+    """In a worker: ignore SIGINT (the parent stops the pool) and die when the parent dies."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(1, signal.SIGKILL, 0, 0, 0) != 0:  # 1 = PR_SET_PDEATHSIG
+            raise OSError(ctypes.get_errno(), "prctl")
+    except (OSError, AttributeError):  # not Linux: watch the parent instead
+        def watch() -> None:
+            import time
+
+            while os.getppid() == parent:
+                time.sleep(0.5)
+            os._exit(1)
+
+        threading.Thread(target=watch, daemon=True).start()
+    if os.getppid() != parent:  # the parent died before the prctl
+        os._exit(1)
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel every pending job and kill this pool's worker processes now."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:  # our own children, by their handles
+        if p.is_alive():
+            p.kill()
+    for p in processes:
+        p.join(timeout=2)
+
+
+def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
+           scratch: str | os.PathLike, originals: dict | None = None) -> None:
+    """Each mesh's views built once in the pool and written once, then its jobs.
+
+    A worker builds a mesh's views (from ``originals[mesh]`` when given, else
+    loading it) and pickles them to a file in a temporary folder made in
+    ``scratch``; each job of that mesh carries the file's path and each worker
+    reads a file once (:func:`views_from_file`). ``commit(job, result)`` is
+    called in this process as each job finishes. On any exception (Ctrl-C
+    included) the jobs that finished are committed, the others cancelled and
+    the workers killed, then the exception goes on; the temporary folder is
+    removed in every case.
+    """
+    groups = _by_mesh(pending)
+    originals = originals or {}
+    folder = tempfile.mkdtemp(prefix=".views-", suffix=".tmp", dir=scratch)
+    try:
+        pool = ProcessPoolExecutor(max_workers=max(1, min(jobs, len(pending))),
+                                   initializer=_die_with_parent, initargs=(os.getpid(),))
+        running: dict = {}
+        try:
+            building = {pool.submit(_write_views, mesh, settings, per_job, originals.get(mesh),
+                                    os.path.join(folder, f"{k}.pickle")): (mesh, settings)
+                        for k, (mesh, settings) in enumerate(groups)}
+            while building or running:
+                done, _ = wait([*building, *running], return_when=FIRST_COMPLETED)
+                for fut in done:
+                    if fut in building:
+                        path = fut.result()
+                        for job in groups[building.pop(fut)]:
+                            running[pool.submit(_run_job_on_file, job, per_job, path)] = job
+                    else:
+                        commit(running[fut], fut.result())
+                        del running[fut]
+        except BaseException:
+            try:
+                for fut, job in list(running.items()):  # keep what finished meanwhile
+                    if fut.done() and not fut.cancelled() and fut.exception() is None:
+                        commit(job, fut.result())
+            finally:
+                _stop_pool(pool)
+            raise
+        pool.shutdown(wait=True)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _dask(pending: list[Job], scheduler, commit: Callable) -> None:
+    """As :func:`_local` on a dask cluster: the views move to the jobs' workers once."""
+    from distributed import Client
+    from distributed import as_completed as dask_completed
+
+    client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
+    futures: dict = {}
+    try:
+        for (mesh, settings), group in _by_mesh(pending).items():
+            views = client.submit(build_views, mesh, settings, None, pure=False)
+            futures |= {client.submit(run_job, j, None, views, pure=False): j for j in group}
+        for fut in dask_completed(list(futures)):
+            commit(futures.pop(fut), fut.result())
+    except BaseException:
+        if futures:
+            client.cancel(list(futures))
+        raise
+    finally:
+        if not isinstance(scheduler, Client):
+            client.close()
+
+
+def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
+              out_dir: str | os.PathLike | StudyFolder, *, jobs: int = 1,
+              workers: int | None = None, scheduler=None, progress: bool = True,
+              on_row: Callable[[dict], None] | None = None,
+              originals: dict | None = None) -> list[dict]:
+    """Run (or resume) every job; returns the rows in mesh, method, budget order.
+
+    Parameters
+    ----------
+    meshes, methods : list of str
+        Mesh files or built-in scenes; registered method names.
+    settings : StudySettings
+    out_dir : path-like or StudyFolder
+        The study folder, opened (and locked) here; or one the caller holds open.
+    jobs : int, optional
+        Local worker processes (default 1; never more than the pending jobs).
+    workers : int, optional
+        Ray-casting threads per job; default the cores divided among the jobs.
+    scheduler : str or distributed.Client, optional
+        Run the jobs on that dask.distributed cluster instead.
+    progress : bool, optional
+        A progress bar on stderr.
+    on_row : callable, optional
+        Called with each new row after it is committed.
+    originals : dict of str -> trimesh.Trimesh, optional
+        The meshes already loaded (by name): the local workers build the views
+        from them instead of loading the files again.
+    """
+    if not isinstance(out_dir, StudyFolder):
+        with StudyFolder(out_dir) as study:
+            return run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
+                             scheduler=scheduler, progress=progress, on_row=on_row,
+                             originals=originals)
+    from tqdm import tqdm
+
+    study = out_dir
+    store = study.store
+    todo = study_jobs(meshes, methods, settings)
+    rows: dict[str, dict] = {}
+    pending = []
+    for job in dict.fromkeys(todo):
+        found = store.get(job.key)
+        if found is not None and _row_is_current(found) and (
+                not found.get("triangles") or (study.occluders / job.occluder_file).is_file()):
+            rows[job.key] = found
+        else:
+            pending.append(job)
+    per_job = workers or max(1, cpu_cores() // max(1, min(jobs, len(pending) or 1)))
+    bar = tqdm(total=len(rows) + len(pending), initial=len(rows), disable=not progress,
+               desc="compare", unit="job")
+
+    def commit(job: Job, result: tuple) -> None:
+        row, ply = result
+        if ply:  # the file first: a stored row always has its occluder
+            write_atomic(study.occluders / job.occluder_file, ply)
+        store.put(job.key, row)
+        rows[job.key] = row
+        bar.set_postfix_str(f"{job.mesh}/{job.method}/{job.budget or '-'}")
+        bar.update(1)
+        if on_row:
+            on_row(row)
+
+    try:
+        if not pending:
+            pass
+        elif scheduler is not None:
+            _dask(pending, scheduler, commit)
+        else:
+            _local(pending, jobs, per_job, commit, scratch=study.path, originals=originals)
+    finally:
+        bar.close()
+    return [rows[j.key] for j in todo]
+
+
