@@ -31,8 +31,4 @@ Subpackages:
   (``report.html`` and the ``.glb`` per occluder).
 - :mod:`.bench`: the benchmarks, one module per benchmark, and the ``bench``
   command's parser.
-
-``bench_planar`` and ``bench_cull_runtimes`` are the former paths of
-:mod:`.bench.planar` and :mod:`.bench.cull_runtimes`, kept for the callers
-that still name them.
 """

@@ -1,4 +1,4 @@
-"""viscore.generators: occluder generators, one module per method, plus baselines.
+"""viscore.generators: occluder generators, one folder per method family, plus baselines.
 
 Every generator is ``function(mesh, *, budget=..., seed=..., **options) -> Occluder``
 and is registered by its CLI name in :data:`REGISTRY`, with its options
@@ -8,11 +8,9 @@ occluder over its budget. ``Occluder.parts`` follows the schema documented in
 :mod:`viscore.generators.occluder` (:func:`check_parts`).
 """
 
-from ._mgos import metric_guided_simplify
 from .aabb_skins import boxes_mesh, generate_aabb_skins
-from .baselines import generate_bbox, generate_original, generate_qem
-from .godot import generate_godot
-from .hybrid import generate_hybrid
+from .baselines import generate_bbox, generate_godot, generate_original, generate_qem
+from .hybrid import generate_hybrid, metric_guided_simplify
 from .occluder import Occluder, check_parts
 from .planar_hierarchy import (
     HierarchyIndex,
@@ -33,6 +31,7 @@ from .registry import (
     get_generator,
     parse_method,
 )
+from .scene_occluders import culling_runtimes, frusta_method, occluder_objects, scene_occluders
 from .solid_frusta import generate_solid_frusta
 
 __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOption",
@@ -41,4 +40,5 @@ __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOpt
            "generate_bbox", "generate_original", "generate_godot", "generate_planar_sections",
            "generate_solid_frusta", "build_hierarchy", "cut_hierarchy", "index_hierarchy",
            "HierarchyIndex", "generate_planar_hierarchy", "hierarchy_to_json",
-           "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify"]
+           "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify",
+           "occluder_objects", "scene_occluders", "culling_runtimes", "frusta_method"]

@@ -36,27 +36,32 @@ from dataclasses import dataclass
 from viscore import InputError
 from viscore._validate import as_positive_int, as_seed
 
-from .aabb_skins import TRIANGLES_PER_BOX, generate_aabb_skins
-from .baselines import generate_bbox, generate_original, generate_qem
-from .godot import generate_godot
-from .hybrid import EPS_A as HYBRID_EPS_A
-from .hybrid import EPS_P as HYBRID_EPS_P
-from .hybrid import EPS_R as HYBRID_EPS_R
-from .hybrid import MAX_VOXELS as HYBRID_MAX_VOXELS
-from .hybrid import PATCH_FACES as HYBRID_PATCH_FACES
-from .hybrid import VOXEL_FACES as HYBRID_VOXEL_FACES
-from .hybrid import VOXELS as HYBRID_VOXELS
+from .aabb_skins import generate_aabb_skins
+from .aabb_skins.generator import BYTES_PER_CELL as AABB_BYTES_PER_CELL
+from .aabb_skins.generator import MAX_VOXELS as AABB_MAX_VOXELS
+from .aabb_skins.generator import TRIANGLES_PER_BOX
+from .baselines import generate_bbox, generate_godot, generate_original, generate_qem
 from .hybrid import generate_hybrid
+from .hybrid.generator import EPS_A as HYBRID_EPS_A
+from .hybrid.generator import EPS_P as HYBRID_EPS_P
+from .hybrid.generator import EPS_R as HYBRID_EPS_R
+from .hybrid.generator import MAX_VOXELS as HYBRID_MAX_VOXELS
+from .hybrid.generator import PATCH_FACES as HYBRID_PATCH_FACES
+from .hybrid.generator import VOXEL_FACES as HYBRID_VOXEL_FACES
+from .hybrid.generator import VOXELS as HYBRID_VOXELS
 from .occluder import Occluder
-from .planar_sections import DEFAULT_ALPHA as PLANAR_ALPHA
-from .planar_sections import DEFAULT_DEPTH_BINS as PLANAR_DEPTH_BINS
-from .planar_sections import DEFAULT_DIRECTION_BINS as PLANAR_DIRECTION_BINS
-from .planar_sections import DEFAULT_FOV as PLANAR_FOV
-from .planar_sections import DEFAULT_SCREEN as PLANAR_SCREEN
-from .planar_sections import MAX_VOXELS as PLANAR_MAX_VOXELS
-from .planar_sections import RDP_TOLERANCE as PLANAR_RDP_TOLERANCE
+from .planar_hierarchy import generate_planar_hierarchy, register_node_occluder
 from .planar_sections import generate_planar_sections
+from .planar_sections.generator import DEFAULT_ALPHA as PLANAR_ALPHA
+from .planar_sections.generator import DEFAULT_DEPTH_BINS as PLANAR_DEPTH_BINS
+from .planar_sections.generator import DEFAULT_DIRECTION_BINS as PLANAR_DIRECTION_BINS
+from .planar_sections.generator import DEFAULT_FOV as PLANAR_FOV
+from .planar_sections.generator import DEFAULT_SCREEN as PLANAR_SCREEN
+from .planar_sections.generator import MAX_VOXELS as PLANAR_MAX_VOXELS
+from .planar_sections.generator import RDP_TOLERANCE as PLANAR_RDP_TOLERANCE
+from .planar_sections.generator import use_hierarchy
 from .solid_frusta import generate_solid_frusta
+from .solid_frusta.generator import use_box_source
 
 __all__ = ["GeneratorOption", "GeneratorSpec", "REGISTRY", "get_generator", "generate",
            "COMMON_OPTIONS", "MethodVariant", "parse_method"]
@@ -626,3 +631,26 @@ def generate(name: str, mesh, **params) -> Occluder:
         _log.warning("%s: %d triangles exceed the budget of %d (%s)",
                      name, occ.triangles, budget, why)
     return dataclasses.replace(occ, info={**occ.info, "over_budget": bool(over)})
+
+
+# --------------------------------------------------------------------------- composition
+# The families never import each other; what one uses of another is handed over here.
+
+def _qem_builder(mesh, *, budget, seed, **options):
+    return generate_qem(mesh, budget=budget, seed=seed, **options)
+
+
+def _aabb_skins_builder(mesh, *, budget, seed, voxel_size, **options):
+    return generate_aabb_skins(mesh, budget=budget, seed=seed, voxel_size=voxel_size,
+                               **options)
+
+
+# the hierarchy's per-node builders (sec. 5: planar sections at every node)
+register_node_occluder("planar-sections", generate_planar_sections)
+register_node_occluder("qem", _qem_builder)
+register_node_occluder("aabb-skins", _aabb_skins_builder)
+# planar-sections --hierarchy: the sec. 5 hierarchy with planar sections at every node
+use_hierarchy(generate_planar_hierarchy)
+# solid-frusta's candidate boxes are aabb-skins' boxes
+use_box_source(generate_aabb_skins, max_voxels=AABB_MAX_VOXELS,
+               bytes_per_cell=AABB_BYTES_PER_CELL["max-volume"])

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 from viscore.generators import generate_aabb_skins
-from viscore.generators.aabb_skins import BYTES_PER_CELL
+from viscore.generators.aabb_skins.generator import BYTES_PER_CELL
 from viscore.metrics import check_conservative
 
 from viscore import InputError, VoxelGrid, load_mesh, voxel_boundary_mesh, winding_numbers
@@ -137,7 +137,7 @@ def test_aabb_skins_invalid_min_volume(bad):
 
 
 def test_aabb_skins_memory_refused_before_any_work(monkeypatch):
-    import viscore.generators.aabb_skins as skins
+    import viscore.generators.aabb_skins.generator as skins
 
     def no_work(*args, **kwargs):
         raise AssertionError("voxelized before the memory check")

@@ -110,7 +110,7 @@ def test_aabb_skins_densest_seed_conservative_and_first_box_not_larger():
 
 
 def test_densest_order_starts_at_centre_of_hollow_cube():
-    from viscore.generators.aabb_skins import _densest_order, _six_direction_distance
+    from viscore.generators.aabb_skins.generator import _densest_order, _six_direction_distance
 
     s = np.zeros((9, 9, 9), bool)
     s[0], s[-1], s[:, 0], s[:, -1], s[:, :, 0], s[:, :, -1] = (True,) * 6

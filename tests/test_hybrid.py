@@ -6,22 +6,22 @@ import numpy as np
 import pytest
 import shapely
 import trimesh
-from viscore.generators._hybrid_enforce import (
+from viscore.generators._polygons import triangulate_polygon
+from viscore.generators.hybrid import generate_hybrid
+from viscore.generators.hybrid._enforce import (
     SignedDistanceGrid,
     enforce_conservative,
     enforcement_energy,
 )
-from viscore.generators._hybrid_holes import SEGMENT_LENGTH, holes_to_fill
-from viscore.generators._hybrid_patches import (
+from viscore.generators.hybrid._holes import SEGMENT_LENGTH, holes_to_fill
+from viscore.generators.hybrid._patches import (
     clean_soup,
     curved_patch_labels,
     patch_candidates,
     planar_patch_labels,
-    triangulate_polygon,
     xatlas_patch_labels,
 )
-from viscore.generators._hybrid_voxel import grid_shape, simplify_isosurface, winding_isosurface
-from viscore.generators.hybrid import generate_hybrid
+from viscore.generators.hybrid._voxel import grid_shape, simplify_isosurface, winding_isosurface
 
 from viscore import InputError, Scene
 

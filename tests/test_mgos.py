@@ -1,9 +1,10 @@
-"""Metric-guided occluder simplification (Wu et al. 2022, sec. 3.3): generators/_mgos.py."""
+"""Metric-guided occluder simplification (Wu et al. 2022, sec. 3.3): hybrid/metric_guided.py."""
 
 import numpy as np
 import pytest
 import trimesh
-from viscore.generators._mgos import _State, metric_guided_simplify
+from viscore.generators.hybrid._face_tallies import _State
+from viscore.generators.hybrid.metric_guided import metric_guided_simplify
 from viscore.metrics.reference_views import ReferenceViews
 
 from viscore import InputError

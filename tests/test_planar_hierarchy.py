@@ -366,7 +366,7 @@ def test_build_hierarchy_small_object_beside_a_large_one_keeps_its_faces():
 
 
 def test_build_hierarchy_default_builder_is_planar_sections():
-    from viscore.generators.planar_hierarchy import _resolve_builder
+    from viscore.generators.planar_hierarchy.tree import _resolve_builder
     from viscore.generators.planar_sections import generate_planar_sections
 
     assert _resolve_builder(None) == (generate_planar_sections, "planar-sections")

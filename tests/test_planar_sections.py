@@ -5,22 +5,22 @@ import pytest
 import shapely
 import trimesh
 from shapely.geometry import Polygon
-from viscore.generators._section_loops import slice_polygons
-from viscore.generators._section_select import (
+from viscore.generators._polygon_chain.simplify import simplification_chain
+from viscore.generators.planar_sections import (
+    generate_planar_sections,
+    screen_space_voxel_size,
+)
+from viscore.generators.planar_sections._loops import slice_polygons
+from viscore.generators.planar_sections._select import (
     project_candidates,
     select_greedy,
     soup_measures,
 )
-from viscore.generators._section_simplify import simplification_chain
-from viscore.generators._section_slices import (
+from viscore.generators.planar_sections._slices import (
     best_slices,
     make_slice,
     section_solid,
     slice_image,
-)
-from viscore.generators.planar_sections import (
-    generate_planar_sections,
-    screen_space_voxel_size,
 )
 from viscore.metrics import ReferenceViews, check_conservative, directional_occlusion_measure
 
@@ -248,7 +248,7 @@ def test_generate_planar_sections_invalid_input(kwargs, match):
 
 
 def test_generate_planar_sections_hierarchy_delegates_to_sec5():
-    from viscore.generators.planar_sections import _hierarchy_builder
+    from viscore.generators.planar_sections.generator import _hierarchy_builder
 
     boxes = [trimesh.creation.box(bounds=[[x, 0, 0], [x + 1, 1, 1]]) for x in (0, 2)]
     if _hierarchy_builder() is None:
@@ -262,7 +262,7 @@ def test_generate_planar_sections_hierarchy_delegates_to_sec5():
 @pytest.fixture()
 def few_check_views(monkeypatch):
     """16 check views instead of 64: these tests are of the floor's logic, not its figures."""
-    from viscore.generators import planar_sections
+    from viscore.generators.planar_sections import floor as planar_sections
 
     monkeypatch.setattr(planar_sections, "FLOOR_VIEWS", 16)
 
@@ -286,7 +286,7 @@ def test_precision_floor_refines_a_thin_disc_and_keeps_the_most_precise(few_chec
 
 
 def test_ratio_se_of_the_precision_floor():
-    from viscore.generators.planar_sections import _ratio_se
+    from viscore.generators.planar_sections.floor import _ratio_se
 
     den = np.array([10.0, 20.0, 30.0, 40.0])
     assert _ratio_se(0.9 * den, den) == 0.0  # every view at the pooled ratio
@@ -344,7 +344,7 @@ def test_conservative_million_rays_on_watertight_builtins(name):
 
 
 def test_ablation_functions_return_data_and_write_png(tmp_path):
-    from viscore.cli.bench_planar import measure_ablation, resolution_ablation
+    from viscore.cli.bench.planar import measure_ablation, resolution_ablation
 
     res = resolution_ablation("fat-torus", voxels=(8, 12), budget=8, views=4,
                               path=tmp_path / "fig9.png")
@@ -375,7 +375,7 @@ def _hollow_box_with_hole(hole: float) -> trimesh.Trimesh:
 
 
 def test_closed_solid_fills_behind_small_openings_only():
-    from viscore.generators._section_slices import closed_solid
+    from viscore.generators.planar_sections._slices import closed_solid
 
     shell = np.zeros((16, 16, 16), bool)
     shell[2:14, 2:14, 2:14] = True

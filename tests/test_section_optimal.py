@@ -1,4 +1,4 @@
-"""Largest inscribed stages of the planar-sections chains (generators/_section_optimal.py)."""
+"""Largest inscribed stages of the planar-sections chains (generators/_polygon_chain/optimal.py)."""
 
 from itertools import combinations
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import shapely
 from shapely.geometry import Point, Polygon
-from viscore.generators._section_loops import slice_polygons
-from viscore.generators._section_optimal import best_inscribed, refine_chain
-from viscore.generators._section_simplify import simplification_chain
+from viscore.generators._polygon_chain.optimal import best_inscribed, refine_chain
+from viscore.generators._polygon_chain.simplify import simplification_chain
+from viscore.generators.planar_sections._loops import slice_polygons
 
 from viscore import InputError
 

@@ -15,10 +15,10 @@ import trimesh
 from scipy import ndimage
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
-from viscore.generators._section_loops import bridge_holes, slice_polygons
-from viscore.generators._section_optimal import _pocket_rules, best_inscribed, refine_chain
-from viscore.generators._section_simplify import simplification_chain
-from viscore.generators._section_slices import best_slices, section_solid, slice_image
+from viscore.generators._polygon_chain.optimal import _pocket_rules, best_inscribed, refine_chain
+from viscore.generators._polygon_chain.simplify import simplification_chain
+from viscore.generators.planar_sections._loops import bridge_holes, slice_polygons
+from viscore.generators.planar_sections._slices import best_slices, section_solid, slice_image
 
 from viscore import load_mesh
 

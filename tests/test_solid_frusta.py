@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 from viscore.generators.aabb_skins import generate_aabb_skins
-from viscore.generators.solid_frusta import (
+from viscore.generators.solid_frusta.generator import (
     _Containment,
     _segments_meet,
     generate_solid_frusta,

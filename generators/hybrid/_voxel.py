@@ -7,7 +7,7 @@ winding number, Barill et al. [3]_, through
 (``l`` the bounding-box diagonal, ``N_v = 64`` in Table 1), its 0.5
 isosurface by marching cubes (scikit-image), and quadric simplification of
 the isosurface (pymeshlab). Step 3, conservative enforcement, is
-:mod:`viscore.generators._hybrid_enforce`.
+:mod:`viscore.generators.hybrid._enforce`.
 
 The grid is padded by one layer of zero-valued samples beyond the bounding
 box, so the isosurface is closed; its triangles are oriented outwards (the
@@ -116,7 +116,7 @@ def simplify_isosurface(iso: trimesh.Trimesh, *, faces: int) -> trimesh.Trimesh:
     """
     import pymeshlab
 
-    from .baselines import quadric_edge_collapse
+    from .._decimate import quadric_edge_collapse
 
     if len(iso.faces) <= faces:
         return iso.copy()

@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._polygons import triangulate_polygon
+
 __all__ = ["holes_to_fill", "sample_polygon", "SEGMENT_LENGTH"]
 
 #: l_s as a fraction of the input's bounding-box diagonal (Wu et al. 2022, sec. 4.2).
@@ -47,8 +49,6 @@ def sample_polygon(polygon, count: int, rng: np.random.Generator) -> np.ndarray:
 
     A polygon of no area gives its representative point ``count`` times.
     """
-    from ._hybrid_patches import triangulate_polygon
-
     verts, tris = triangulate_polygon(polygon) if polygon.area > 0 else (None, [])
     if len(tris) == 0:
         p = polygon.representative_point()

@@ -25,7 +25,7 @@ inside the triangle; not in the conservative variant), and should even that
 find none, the stage reached is triangulated by ``mapbox_earcut`` and the
 chain stops there.
 
-The ear test runs in exact arithmetic: the loops of :mod:`._section_loops`
+The ear test runs in exact arithmetic: the loops of :mod:`viscore.generators.planar_sections._loops`
 have integer pixel-corner coordinates. Loops with bridged holes are weakly
 simple (a bridge is walked twice, loops may touch at a vertex): a vertex at
 the position of a corner of the ear blocks it only when one of its edges

@@ -4,18 +4,18 @@ The method of Wu, He, Pan and Gao [1]_ for buildings made of hundreds of
 loose, intersecting, open parts, where neither voxelization nor mesh
 simplification works alone:
 
-1. patch-based candidates (sec. 3.1.1, :mod:`._hybrid_patches`): planar
+1. patch-based candidates (sec. 3.1.1, :mod:`._patches`): planar
    patches (dihedral angle below 1e-3), curved patches (below ``eps_a``) or
    xatlas charts, quadric simplification of curved patches with boundaries
    kept, Ramer-Douglas-Peucker and constrained re-triangulation of planar
-   ones, hole filling checked by ray segments (:mod:`._hybrid_holes`), and
+   ones, hole filling checked by ray segments (:mod:`._holes`), and
    the reduction by patch area to ``N_P`` faces;
-2. voxel-based candidates (sec. 3.1.2, :mod:`._hybrid_voxel`): generalized
+2. voxel-based candidates (sec. 3.1.2, :mod:`._voxel`): generalized
    winding number on an ``N_v`` grid, its 0.5 isosurface, quadric
    simplification, and conservative enforcement (eqs. 1-3,
-   :mod:`._hybrid_enforce`);
+   :mod:`._enforce`);
 3. combination and metric-guided occluder simplification (sec. 3.3,
-   :func:`viscore.generators._mgos.metric_guided_simplify`).
+   :func:`viscore.generators.hybrid.metric_guided_simplify`).
 
 How the candidates are combined, as we read the paper: the two coarse
 meshes are *not* merged geometrically. Their faces are pooled into one
@@ -32,7 +32,7 @@ The budget. The paper's metric-guided step stops at its thresholds (its
 average, 260 faces, is what ``eps_P = eps_R = 1e-3`` reached on its data).
 Here, when the step would stop above ``budget``, its recall step goes on,
 least recall loss first, until ``budget`` faces are left (``max_faces`` of
-:func:`~viscore.generators._mgos.metric_guided_simplify`; ``info['mgos']``
+:func:`~viscore.generators.hybrid.metric_guided_simplify`; ``info['mgos']``
 records ``removed_budget`` and ``eps_r_final``). Without the metric-guided
 step (``mgos=False``, the ablation of Fig. 11 a-d) the candidate set is
 returned as it is and may exceed the budget.
@@ -69,11 +69,11 @@ from viscore._validate import as_fraction, as_positive_int, as_seed, check_memor
 from viscore.constants import DEGENERATE_AREA_RELATIVE
 from viscore.winding import is_closed_oriented
 
-from ._hybrid_enforce import enforce_conservative
-from ._hybrid_holes import SEGMENT_LENGTH
-from ._hybrid_patches import patch_candidates
-from ._hybrid_voxel import BYTES_PER_SAMPLE, grid_shape, simplify_isosurface, winding_isosurface
-from .occluder import Occluder
+from ..occluder import Occluder
+from ._enforce import enforce_conservative
+from ._holes import SEGMENT_LENGTH
+from ._patches import patch_candidates
+from ._voxel import BYTES_PER_SAMPLE, grid_shape, simplify_isosurface, winding_isosurface
 
 __all__ = ["generate_hybrid", "GROUPINGS", "CANDIDATES"]
 
@@ -357,7 +357,7 @@ def _select(original: trimesh.Trimesh, combined: trimesh.Trimesh, source: np.nda
     """The metric-guided step on the volume protocol, down to ``budget`` faces."""
     from viscore.metrics import ReferenceViews
 
-    from ._mgos import (
+    from .metric_guided import (
         MGOS_QUADS,
         MGOS_RESOLUTION,
         MGOS_SPACING_FRACTION,

@@ -21,7 +21,7 @@ bridging the simplified loops gives the same loops without having to keep
 the bridge's four end vertices out of RDP.
 
 All coordinates are in pixels (column, row), integers: RDP keeps a subset of
-the pixel corners, so the simplification chain (:mod:`._section_simplify`)
+the pixel corners, so the simplification chain (:mod:`viscore.generators._polygon_chain`)
 runs on exact integer geometry.
 
 References

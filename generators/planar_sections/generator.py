@@ -5,19 +5,19 @@ instead of a GPU, one module per step:
 
 - 4.1 voxel solid (:func:`viscore.voxelize`: exact triangle/box overlap,
   flood fill of the outside) and 4.2 interior sampling, maximal-area slice
-  per bin of directions and depths: :mod:`._section_slices`;
+  per bin of directions and depths: :mod:`._slices`;
 - 4.3 edge loops along pixel boundaries, holes bridged, Ramer-Douglas-Peucker
-  with the voxel size as tolerance: :mod:`._section_loops`;
+  with the voxel size as tolerance: :mod:`._loops`;
 - 4.4 progressive simplification chain per polygon (smallest ear first,
-  nested stages, each triangulated): :mod:`._section_simplify`;
+  nested stages, each triangulated): :mod:`viscore.generators._polygon_chain.simplify`;
 - 4.5 greedy alpha-complete selection maximizing the total occlusion
   measure of the polygon soup (sec. 3), then the budget cut one triangle at
-  a time: :mod:`._section_select`.
+  a time: :mod:`._select`.
 
 Where the defaults depart from the paper (each with a switch back): the
 chains' stages of at most 12 triangles are the largest polygons on the
 candidate's vertices inside the candidate, found exactly
-(:mod:`._section_optimal`; ``chain='greedy'`` is the paper's chain), and
+(:mod:`viscore.generators._polygon_chain.optimal`; ``chain='greedy'`` is the paper's chain), and
 the budget cut keeps the cut of largest occlusion measure rather than of
 largest surface area (``reduce='area'`` is the paper's rule). On the bunny
 (53 triangles, 64^3, 256 views) the paper's chain and cut give R 0.783, the
@@ -63,7 +63,6 @@ References
 
 from __future__ import annotations
 
-import importlib.util
 import logging
 import math
 import numbers
@@ -71,31 +70,18 @@ import time
 
 import numpy as np
 import trimesh
-from viscore.metrics.orbit import orbit_frame
 
-from viscore import InputError, validate_mesh, voxel_grid
+from viscore import InputError, validate_mesh
 from viscore._validate import (
     as_fraction,
     as_positive,
     as_positive_int,
     as_seed,
-    check_memory,
 )
 
-from . import _section_slices
-from ._section_loops import slice_polygons
-from ._section_optimal import refine_chain
-from ._section_select import (
-    MEASURE_DIRECTIONS,
-    MEASURE_RESOLUTION,
-    measure_directions,
-    project_candidates,
-    reduce_to_budget,
-    select_greedy,
-)
-from ._section_simplify import simplification_chain
-from ._section_slices import best_slices, section_solid, slice_image
-from .occluder import Occluder
+from ..occluder import Occluder
+from ._single import MAX_VOXELS, _generate_one, _resolution
+from .floor import DEFAULT_MIN_PRECISION, _with_precision_floor
 
 __all__ = ["generate_planar_sections", "screen_space_voxel_size", "DEFAULT_DIRECTION_BINS",
            "DEFAULT_DEPTH_BINS", "DEFAULT_ALPHA", "DEFAULT_VOXELS", "MAX_VOXELS"]
@@ -106,12 +92,9 @@ _log = logging.getLogger(__name__)
 #: nor ``pixel_error`` is given (the paper's comparison setting, sec. 6.3: 64^3).
 DEFAULT_VOXELS = 64
 
-#: Largest voxel count along the longest side (the memory check refuses most grids below).
-MAX_VOXELS = 1024
-
 #: Direction bins over the hemisphere of plane normals and depth bins per direction
 #: (sec. 4.2). Sweep with the default chains and budget cut
-#: (:func:`viscore.cli.bench_planar.bins_sweep` per mesh, ``views=128``), orbit protocol,
+#: (:func:`viscore.cli.bench.planar.bins_sweep` per mesh, ``views=128``), orbit protocol,
 #: mean recall over the bunny (53 triangles), fat torus, cow, bone, spot, fandisk,
 #: rocker arm and Suzanne (64 triangles), 64^3: 8 x 2: 0.826, 8 x 4: 0.844, 8 x 6: 0.843,
 #: 12 x 4: 0.834, 16 x 2: 0.832, 16 x 4: 0.856, 16 x 6: 0.830, 24 x 4: 0.849, 24 x 6:
@@ -126,69 +109,6 @@ RDP_TOLERANCE = 1.0
 #: Alpha-completeness of the greedy search, percent (sec. 4.5).
 DEFAULT_ALPHA = 1.0
 
-#: Candidate polygons kept for the greedy search, largest first (its cost grows
-#: with their number; a tangle such as the hairball gives thousands of small ones).
-MAX_CANDIDATES = 160
-
-#: Bytes per voxel cell of the whole generation: the voxelization's working
-#: memory (:data:`viscore.voxels.VOXELIZE_BYTES_PER_CELL`, 24) and the solid,
-#: its erosion and the winding-number labels of the conservative variant.
-BYTES_PER_CELL = 40
-
-#: Precision floor of the default sizing (``min_precision``): the precision the occluder
-#: must reach on :data:`FLOOR_VIEWS` orbit views of the mesh before the voxels are refined.
-DEFAULT_MIN_PRECISION = 0.995
-
-#: Orbit views of the precision floor's check (the metric's own resolution and quads),
-#: drawn with a seed of their own (:data:`FLOOR_SEED_OFFSET` added to the generator's).
-#: The standard error takes the views as the units: over-occlusion through the openings
-#: of a building comes from a few views, and 32 views read the closed tower at P 0.9963
-#: +- 0.0013 where 128 views of three other seeds read 0.990-0.992.
-FLOOR_VIEWS = 64
-FLOOR_SEED_OFFSET = 7919
-
-#: The check passes when the one-sided 95% lower bound of the precision, ``P - 1.645
-#: SE``, is at or over the floor.
-FLOOR_Z = 1.645
-
-#: A voxel solid has "no interior" when it has fewer than :data:`INTERIOR_SHARE` times
-#: its surface voxels (an open sheet, or a shell with openings wider than a voxel) and
-#: under :data:`ERODED_SHARE` of it survives a one-voxel erosion (at 64^3: bunny 0.86,
-#: airplane 0.49, a dense tangle of strands whose surface voxels fill the ball 0.71; the
-#: open-bottomed buildings 0.03-0.25, terrain 0.03).
-INTERIOR_SHARE = 1.1
-ERODED_SHARE = 0.5
-
-#: Closings tried (beside none) when the voxel solid has no interior and ``close`` is left
-#: to its default with the precision floor on: at 64 triangles and 64^3 (orbit, 64 views,
-#: precision / recall), close 0 / 2 / 3 / 4 gives the apartment 0.9998 / 0.657, 0.9985 /
-#: 0.904, 0.9963 / 0.960, 0.9963 / 0.963; the shop 0.9961 / 0.830, ..., 0.9966 / 0.971 at
-#: 4; the cottage 0.9993 / 0.696 to 0.9990 / 0.850 at 4; but the tower 0.9975 / 0.334 to
-#: 0.9895 / 0.968 at 3 (under the floor), and the warehouse, church and L-shaped house
-#: gain nothing.
-AUTO_CLOSINGS = (2, 3, 4)
-
-#: The closings are also tried when the largest one adds at least this share of voxels to
-#: a solid that has an interior (at 64^3: the sponge's tunnels 0.37, the hollow box with a
-#: hole 2.1, the house 1.4; the bunny 0.016, cow 0.032, fat torus 0.002, rocker arm 0.064,
-#: teapot 0.039, airplane 0.045). The sponge at 64 triangles goes from R 0.076 to 0.91
-#: closed by 3 (P 0.9999): its tunnels hide what lies behind them from most views.
-AUTO_CLOSE_GAIN = 0.1
-
-#: Each refinement of the precision floor multiplies the voxels by this, at most
-#: :data:`FLOOR_MAX_STEPS` times (64 -> 91 -> 128 from the default).
-FLOOR_STEP = math.sqrt(2.0)
-FLOOR_MAX_STEPS = 2
-
-#: With the default voxel size and precision to spare, the voxels are also coarsened by
-#: :data:`FLOOR_STEP` (64 -> 45 -> 32, never under :data:`FLOOR_MIN_VOXELS`) while the
-#: check passes: at a fixed budget, coarser voxels over-occlude more but slice wider
-#: (Fig. 9). At 64 triangles (orbit, 128 views, no closing) 64 / 45 / 32 voxels give the
-#: bunny P 0.9997 / 0.9988 / 0.9956 and R 0.865 / 0.887 / 0.935, the fat torus R 0.902 /
-#: 0.959 / 0.949, the rocker arm R 0.798 / 0.828 (P 0.9963) / 0.923 (P 0.9865).
-FLOOR_COARSER_STEPS = 2
-FLOOR_MIN_VOXELS = 16
-
 #: Field of view (degrees) and screen width (pixels) of the screen-space knob's defaults.
 DEFAULT_FOV = 60.0
 DEFAULT_SCREEN = 1920
@@ -196,12 +116,6 @@ DEFAULT_SCREEN = 1920
 _MEASURES = ("om", "area")
 _REDUCTIONS = ("area", "projected-area", "om")
 _CHAINS = ("optimal", "greedy")
-
-
-def _no_interior(info: dict) -> bool:
-    """Whether the voxel solid described by ``info`` has (almost) no interior."""
-    return (info["solid_voxels"] < INTERIOR_SHARE * info["surface_voxels"]
-            and info["interior_voxels"] < ERODED_SHARE * info["solid_voxels"])
 
 
 def screen_space_voxel_size(pixel_error: float, distance: float, *, fov: float = DEFAULT_FOV,
@@ -255,31 +169,21 @@ def _as_distances(value: object) -> tuple[float, ...]:
     return tuple(sorted(set(items)))
 
 
-def _resolution(mesh: trimesh.Trimesh, voxels, voxel_size, what: str) -> dict:
-    """``{"resolution": n}`` or ``{"pitch": s}`` after the grid and memory checks."""
-    extent = float(np.max(mesh.extents))
-    if voxel_size is not None:
-        n = math.ceil(extent / voxel_size - 1e-9) if np.isfinite(extent / voxel_size) else math.inf
-        if n > MAX_VOXELS:
-            raise InputError(f"{what}: a voxel size of {voxel_size:.4g} needs {n:.4g} voxels "
-                             f"along the longest side ({extent:.4g}); the limit is {MAX_VOXELS}")
-        size = {"pitch": float(voxel_size)}
-    else:
-        size = {"resolution": int(voxels)}
-    grid = voxel_grid(np.asarray(mesh.bounds), **size)
-    cells = float(np.prod(np.array(grid.shape, dtype=np.float64)))
-    check_memory(cells * BYTES_PER_CELL,
-                 f"{what} ({grid.shape[0]} x {grid.shape[1]} x {grid.shape[2]} voxels)")
-    return size
+#: The hierarchy generator (sec. 5) that ``hierarchy=True`` hands the work to, set by
+#: :mod:`viscore.generators.registry` (:func:`use_hierarchy`): the hierarchy is a
+#: family of its own and this module does not import it.
+_HIERARCHY = None
+
+
+def use_hierarchy(build) -> None:
+    """Set the generator ``hierarchy=True`` delegates to (called by the registry)."""
+    global _HIERARCHY
+    _HIERARCHY = build
 
 
 def _hierarchy_builder():
     """:func:`viscore.generators.planar_hierarchy.generate_planar_hierarchy`, or None."""
-    if importlib.util.find_spec("viscore.generators.planar_hierarchy") is None:
-        return None
-    from . import planar_hierarchy
-
-    return getattr(planar_hierarchy, "generate_planar_hierarchy", None)
+    return _HIERARCHY
 
 
 def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, seed: int = 0,
@@ -338,7 +242,7 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         smallest-ear collapse throughout; ``'optimal'`` (default), the same
         but its stages of at most 12 triangles replaced by the largest
         polygon on the candidate's vertices inside the candidate
-        (:mod:`._section_optimal`; same constraint, not myopic).
+        (:mod:`viscore.generators._polygon_chain.optimal`; same constraint, not myopic).
     conservative : bool, optional
         Slice only through voxels wholly inside the mesh by the generalized
         winding number [2]_, eroded by one more voxel, and skip RDP (the
@@ -369,7 +273,7 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     close : int, optional
         Close openings of the surface up to about ``2 close`` voxels wide
         before the flood fill (a morphological closing,
-        :func:`._section_slices.closed_solid`; beyond the paper), 0 to 8. For
+        :func:`._slices.closed_solid`; beyond the paper), 0 to 8. For
         scans with holes and buildings with open doors and windows: the
         Stanford bunny scan (open bottom) has no interior at 64^3 and gives
         R 0.001; ``close=3`` gives R 0.83 at P 0.9997 (orbit protocol, 128
@@ -565,226 +469,3 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
                     seconds=time.perf_counter() - start, parts=parts, info=info)
 
 
-def _ratio_se(num: np.ndarray, den: np.ndarray) -> float:
-    """Standard error of sum(num) / sum(den) with the views as units (the ratio estimator's
-    linearization); 0 with fewer than two views."""
-    k = len(num)
-    if k < 2 or den.sum() <= 0:
-        return 0.0
-    ratio = num.sum() / den.sum()
-    return float(np.sqrt(np.sum((num - ratio * den) ** 2) / (k * (k - 1))) / den.mean())
-
-
-def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed: int,
-                          options: dict, *, auto_close: bool = False, coarsen: bool = False):
-    """:func:`_generate_one`, refined until the occluder's check precision reaches ``floor``.
-
-    The check scores the occluder on :data:`FLOOR_VIEWS` orbit views of the
-    mesh (cast once; :class:`viscore.metrics.ReferenceViews`). With
-    ``auto_close``, a voxel solid without an interior, or one that closing
-    grows by :data:`AUTO_CLOSE_GAIN` or more, is also tried closed by each
-    of :data:`AUTO_CLOSINGS`, and the closing of largest check recall among
-    those that pass the floor is kept (none if none passes). Then, with
-    ``coarsen`` and while the check passes, the voxels are coarsened by
-    :data:`FLOOR_STEP` up to :data:`FLOOR_COARSER_STEPS` times, or, when it
-    fails, refined by it up to :data:`FLOOR_MAX_STEPS` times; of the
-    resolutions that pass, the one of largest check recall is kept. A
-    refinement the memory check refuses ends the search (with a warning).
-    """
-    from viscore.metrics.reference_views import ReferenceViews
-
-    views = ReferenceViews(mesh, protocol="orbit", views=FLOOR_VIEWS,
-                           seed=seed + FLOOR_SEED_OFFSET)
-    extent = float(np.max(mesh.extents))
-
-    def run(size: dict, close: int):
-        t0 = time.perf_counter()
-        result = _generate_one(mesh, size, **{**options, "close": close},
-                               warn_interior=not auto_close)
-        if len(result[0].faces) == 0:  # nothing to over-occlude with
-            p, se, r = 1.0, 0.0, 0.0
-        else:
-            pr = views.score(result[0])
-            p, se, r = float(pr.precision), _ratio_se(*pr.ratio_parts("precision")), float(
-                pr.recall)
-        step = {"voxels": result[2]["voxels"], "close": close,
-                "triangles": len(result[0].faces), "precision": p, "precision_se": se,
-                "recall": r, "seconds": time.perf_counter() - t0}
-        return result, step
-
-    def passes(step: dict) -> bool:
-        return step["precision"] - FLOOR_Z * step["precision_se"] >= floor
-
-    close = options["close"]
-    result, step = run(size, close)
-    steps, results = [step], [result]
-    closings = None
-    gain = None
-    if auto_close:
-        solid = result[2]["solid_voxels"]
-        closed = section_solid(mesh, dilate=options["dilate"], close=max(AUTO_CLOSINGS),
-                               **size).solid_voxels
-        gain = closed / solid - 1.0 if solid else math.inf
-    if gain is not None and (gain >= AUTO_CLOSE_GAIN or _no_interior(result[2])):
-        tried = [(result, step)] + [run(size, k) for k in AUTO_CLOSINGS]
-        ok = [t for t in tried if passes(t[1])]
-        result, step = max(ok, key=lambda t: t[1]["recall"]) if ok else tried[0]
-        close = step["close"]
-        closings = [t[1] for t in tried]
-        _log.info("planar-sections: closing adds %.0f%% to the voxel solid at %d voxels; "
-                  "closings %s give check recall %s at precision %s: close=%d",
-                  100 * gain, step["voxels"], [t["close"] for t in closings],
-                  [round(t["recall"], 3) for t in closings],
-                  [round(t["precision"], 4) for t in closings], close)
-        if close == 0 and _no_interior(result[2]):
-            _log.warning("planar-sections: the voxel solid has (almost) no interior at %d "
-                         "voxels and no closing up to %d passes the precision floor, so the "
-                         "slices are thin strips", step["voxels"], max(AUTO_CLOSINGS))
-        steps, results = [step], [result]
-    if coarsen and passes(steps[-1]):  # spare precision: coarser voxels recall more
-        for _ in range(FLOOR_COARSER_STEPS):
-            n = steps[-1]["voxels"]
-            coarser = int(round(n / FLOOR_STEP))
-            if coarser < FLOOR_MIN_VOXELS:
-                break
-            result, step = run(_resolution(mesh, coarser, None, f"voxels={coarser}"), close)
-            steps.append(step)
-            results.append(result)
-            if not passes(step):
-                break
-    for _ in range(FLOOR_MAX_STEPS):
-        if any(passes(t) for t in steps):
-            break
-        n = steps[-1]["voxels"]
-        finer = max(n + 1, int(round(n * FLOOR_STEP)))
-        try:
-            size = _resolution(mesh, finer, None, f"voxels={finer}")
-        except InputError as exc:
-            _log.warning("planar-sections: precision %.4f under the floor %g at %d voxels; "
-                         "not refined further: %s", steps[-1]["precision"], floor, n, exc)
-            break
-        _log.info("planar-sections: precision %.4f under the floor %g at %d voxels "
-                  "(%d check views); refining to %d voxels", steps[-1]["precision"], floor, n,
-                  FLOOR_VIEWS, finer)
-        result, step = run(size, close)
-        steps.append(step)
-        results.append(result)
-    ok = [i for i, t in enumerate(steps) if passes(t)]
-    met = bool(ok)
-    if met:  # the largest check recall among the resolutions that pass
-        best = max(ok, key=lambda i: steps[i]["recall"])
-    else:
-        best = int(np.argmax([t["precision"] for t in steps]))
-        _log.warning("planar-sections: precision %.4f (%d check views) stays under the floor "
-                     "%g up to %d voxels (extent %.4g); kept %d voxels", max(
-                         t["precision"] for t in steps), FLOOR_VIEWS, floor,
-                     steps[-1]["voxels"], extent, steps[best]["voxels"])
-    out_mesh, polygons, info = results[best]
-    record = {"floor": floor, "views": FLOOR_VIEWS, "seed": seed + FLOOR_SEED_OFFSET,
-              "met": met, "steps": steps}
-    if gain is not None:
-        record["close_gain"] = gain
-    if closings is not None:
-        record["closings"] = closings
-    info = {**info, "close": close, "precision_floor": record}
-    return out_mesh, polygons, info
-
-
-def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, depth_bins,
-                  alpha, measure, reduce, rdp_tolerance, chain, conservative, dilate,
-                  close, warn_interior: bool = True):
-    """One level of detail: (mesh, polygons, info)."""
-    timing = {}
-    t0 = time.perf_counter()
-    sec = section_solid(mesh, conservative=conservative, dilate=dilate, close=close, **size)
-    pitch = sec.grid.pitch
-    extent = float(np.max(mesh.extents))
-    info = {"voxel_size": pitch, "voxels": int(math.ceil(extent / pitch - 1e-9)),
-            "grid": list(sec.grid.shape), "direction_bins": direction_bins,
-            "depth_bins": depth_bins, "solid_voxels": sec.solid_voxels,
-            "surface_voxels": sec.surface_voxels, "interior_voxels": sec.interior_voxels,
-            "closed_oriented": sec.closed_oriented,
-            "conservative_guaranteed": bool(conservative and sec.closed_oriented)}
-    if conservative and not sec.closed_oriented:
-        _log.warning("planar-sections: the mesh is not closed and consistently oriented; "
-                     "--conservative cannot guarantee anything (run 'viscore validate')")
-    if warn_interior and not conservative and not close and _no_interior(info):
-        _log.warning("planar-sections: the voxel solid has (almost) no interior at %d voxels "
-                     "(an open sheet, or a surface with openings), so the slices are thin "
-                     "strips; for an object with holes, close them with --close 3 (or more "
-                     "voxels)", info["voxels"])
-    timing["voxels"] = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
-    slices = best_slices(sec, direction_bins, depth_bins)
-    timing["slices"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    tolerance = None if conservative else rdp_tolerance * _section_slices.PIXELS_PER_VOXEL
-    cands, chains = [], []
-    for s in slices:
-        for poly in slice_polygons(slice_image(sec, s), tolerance=tolerance):
-            cands.append((s, poly))
-            chains.append(simplification_chain(poly.ring, loose=not conservative))
-    if len(cands) > MAX_CANDIDATES:  # the largest polygons; crumbs of tangles cost time only
-        keep = np.argsort([-ch.areas[0] for ch in chains], kind="stable")[:MAX_CANDIDATES]
-        cands = [cands[i] for i in keep]
-        chains = [chains[i] for i in keep]
-    timing["polygons"] = time.perf_counter() - t0
-    info.update(slices=len(slices), candidates=len(cands))
-
-    t0 = time.perf_counter()
-    center, frame = orbit_frame(mesh)
-    dirs = measure_directions(MEASURE_DIRECTIONS)
-    rings = [s.to_world(p.ring) for s, p in cands]
-    bitmaps = project_candidates(rings, dirs, center, frame, MEASURE_RESOLUTION)
-    mpixel = frame / MEASURE_RESOLUTION
-    timing["projections"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    chosen, totals = select_greedy(bitmaps, mpixel, alpha=alpha, measure=measure,
-                                   max_polygons=budget)
-    timing["greedy"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    for i in chosen:  # stages inside the candidate; the largest ones for chain='optimal'
-        chains[i] = refine_chain(chains[i], cands[i][1].polygon,
-                                 search=chain == "optimal" and budget is not None)
-    timing["chains"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    cache: dict = {}
-    # a refined chain's first stage is the candidate itself unless it left the candidate
-    whole = [np.array_equal(chains[c].stage_ring(0), cands[c][1].ring) for c in chosen]
-
-    def bitmaps_of(i: int, s: int) -> np.ndarray:
-        if s == 0 and whole[i]:
-            return bitmaps[chosen[i]]
-        if (i, s) not in cache:
-            sl, _ = cands[chosen[i]]
-            ring = sl.to_world(chains[chosen[i]].stage_ring(s))
-            cache[(i, s)] = project_candidates([ring], dirs, center, frame,
-                                               MEASURE_RESOLUTION)[0]
-        return cache[(i, s)]
-
-    stages, _ = reduce_to_budget([chains[i] for i in chosen], budget, reduce=reduce,
-                                 bitmaps_of=bitmaps_of, pixel=mpixel)
-    timing["budget_cut"] = time.perf_counter() - t0
-    vertices, faces, polygons = [], [], []
-    offset = 0
-    for i, s in zip(chosen, stages, strict=True):
-        if s < 0:
-            continue
-        sl, _ = cands[i]
-        ch = chains[i]
-        tri = ch.stage_triangles(int(s))
-        if len(tri) == 0:
-            continue
-        used, inv = np.unique(tri, return_inverse=True)
-        vertices.append(sl.to_world(ch.ring[used]))
-        faces.append(inv.reshape(-1, 3) + offset)
-        offset += len(used)
-        polygons.append(sl.to_world(ch.stage_ring(int(s))))
-    if faces:
-        out = trimesh.Trimesh(np.concatenate(vertices), np.concatenate(faces), process=False)
-    else:
-        out = trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), process=False)
-    info.update(greedy_polygons=len(chosen), polygons=len(polygons),
-                measure_totals=totals.tolist(), seconds_steps=timing)
-    return out, polygons, info

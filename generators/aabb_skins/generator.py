@@ -62,8 +62,9 @@ from viscore._validate import as_fraction, as_positive, as_positive_int, check_m
 from viscore.voxels import inside_voxels_winding
 from viscore.winding import is_closed_oriented
 
-from ._box_growth import grow_boxes, grow_boxes_from_seeds
-from .occluder import Occluder
+from .._boxes import boxes_mesh
+from ..occluder import Occluder
+from ._growth import grow_boxes, grow_boxes_from_seeds
 
 __all__ = ["generate_aabb_skins", "boxes_mesh"]
 
@@ -123,24 +124,6 @@ def _densest_order(enclosed: np.ndarray, surface: np.ndarray) -> np.ndarray:
     order[:, 1] = flat // nz % ny
     order[:, 2] = flat % nz
     return order
-
-
-def boxes_mesh(boxes: np.ndarray) -> trimesh.Trimesh:
-    """One closed 12-triangle box per ``(2, 3)`` lower/upper corner pair, concatenated.
-
-    Examples
-    --------
-    >>> len(boxes_mesh(np.array([[[0, 0, 0], [1, 1, 1]]], float)).faces)
-    12
-    """
-    if len(boxes) == 0:
-        return trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), process=False)
-    unit = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
-    uv, uf = np.asarray(unit.vertices), np.asarray(unit.faces)
-    lo, size = boxes[:, 0], boxes[:, 1] - boxes[:, 0]
-    vertices = (lo[:, None, :] + uv[None] * size[:, None, :]).reshape(-1, 3)
-    faces = (uf[None] + (np.arange(len(boxes)) * len(uv))[:, None, None]).reshape(-1, 3)
-    return trimesh.Trimesh(vertices, faces, process=False)
 
 
 def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,

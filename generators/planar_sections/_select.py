@@ -54,7 +54,7 @@ from viscore import camera_basis, directions_fibonacci
 from viscore._jit import njit_cached
 from viscore._validate import check_memory
 
-from ._section_simplify import SimplificationChain
+from .._polygon_chain import SimplificationChain
 
 __all__ = ["Selection", "measure_directions", "project_candidates", "soup_measures",
            "select_greedy", "reduce_to_budget", "MEASURE_DIRECTIONS", "MEASURE_RESOLUTION"]

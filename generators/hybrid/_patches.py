@@ -20,7 +20,7 @@ soup (loose parts, duplicated and intersecting faces, open boundaries):
    Ramer-Douglas-Peucker (scikit-image) and re-triangulated by a constrained
    ear-clipping triangulation with holes (mapbox-earcut);
 4. hole filling: a hole of a planar patch is filled when the segment test of
-   :mod:`viscore.generators._hybrid_holes` says the input is solid there
+   :mod:`viscore.generators.hybrid._holes` says the input is solid there
    (a removed decoration), and kept open otherwise (doors, windows);
 5. reduction: patches sorted by area, largest first, added until the face
    count first exceeds ``N_P`` (600 in Table 1). Planar patches far down that
@@ -53,6 +53,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import trimesh
+
+from .._polygons import triangulate_polygon
+from ._holes import holes_to_fill
 
 _log = logging.getLogger(__name__)
 
@@ -352,32 +355,10 @@ def _polygons_of(geometry) -> list:
     return []
 
 
-def triangulate_polygon(polygon) -> tuple[np.ndarray, np.ndarray]:
-    """Constrained triangulation of a shapely polygon with holes (mapbox-earcut).
-
-    Returns
-    -------
-    vertices : (v, 2) float64
-        The ring vertices, exterior first.
-    triangles : (t, 3) int64
-        Indices into ``vertices``; every ring edge is a triangle edge.
-    """
-    import mapbox_earcut
-
-    rings = [np.asarray(polygon.exterior.coords)[:-1]]
-    rings += [np.asarray(r.coords)[:-1] for r in polygon.interiors]
-    verts = np.concatenate(rings).astype(np.float64)
-    ends = np.cumsum([len(r) for r in rings]).astype(np.uint32)
-    tris = np.asarray(mapbox_earcut.triangulate_float64(verts, ends), dtype=np.int64)
-    return verts, tris.reshape(-1, 3)
-
-
 def _planar_patch(vertices, faces, scene, tree, *, diagonal: float, rdp: float,
                   segment_length: float, fill_holes: bool, rng) -> list[Patch]:
     """Union, RDP, hole test and re-triangulation of one planar patch; one Patch per piece."""
     import shapely
-
-    from ._hybrid_holes import holes_to_fill
 
     frame = _plane_frame(vertices, faces)
     origin, u, v = frame[0], frame[1], frame[2]
@@ -417,7 +398,7 @@ def _curved_patches(vertices, faces, labels, groups) -> list[Patch]:
     """Quadric simplification of every curved group at once, boundaries kept (pymeshlab)."""
     import pymeshlab
 
-    from .baselines import quadric_edge_collapse
+    from .._decimate import quadric_edge_collapse
 
     if len(groups) == 0:
         return []

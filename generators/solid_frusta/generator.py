@@ -3,7 +3,8 @@
 Papaioannou et al. [1]_ cull with convex solid occluders (boxes, cylinders)
 that were modelled by hand (sec. 2: "solid occluders are manually defined").
 This generator makes them: the candidates are the axis-aligned boxes of the
-aabb-skins generator ([2]_, sec. 4, :func:`generate_aabb_skins`) and convex
+aabb-skins generator ([2]_, sec. 4,
+:func:`viscore.generators.aabb_skins.generate_aabb_skins`) and convex
 pieces, the convex hulls of clusters of inner voxels (k-means on the inner
 voxel centres, each hull grown to the voxels' cubes), each shrunk towards its
 deepest voxel until it lies inside the mesh. A greedy pass then keeps the
@@ -55,12 +56,31 @@ from viscore import InputError, Scene, points_inside, voxelize
 from viscore._validate import as_positive_int, as_seed, check_memory
 from viscore.voxels import inside_voxels_winding
 
-from .aabb_skins import BYTES_PER_CELL, MAX_VOXELS, boxes_mesh, generate_aabb_skins
-from .occluder import Occluder
+from .._boxes import boxes_mesh
+from ..occluder import Occluder
 
 __all__ = ["generate_solid_frusta", "PIECES"]
 
 _log = logging.getLogger(__name__)
+
+#: The box source, aabb-skins (:func:`viscore.generators.aabb_skins.generate_aabb_skins`):
+#: its generator, largest ``voxels`` and peak bytes per voxel cell (``seed_voxel``
+#: 'max-volume'); set by :mod:`viscore.generators.registry` (:func:`use_box_source`):
+#: aabb-skins is a family of its own and this module does not import it.
+_BOX_SOURCE: dict = {}
+
+
+def use_box_source(generate, *, max_voxels: int, bytes_per_cell: float) -> None:
+    """Set the generator of the candidate boxes (called by the registry)."""
+    _BOX_SOURCE.update(generate=generate, max_voxels=max_voxels, bytes_per_cell=bytes_per_cell)
+
+
+def _box_source() -> dict:
+    if not _BOX_SOURCE:
+        raise LookupError("solid-frusta: no box source registered (it is registered when "
+                          "viscore.generators is imported)")
+    return _BOX_SOURCE
+
 
 #: Sources of convex pieces beside the aabb-skins boxes.
 PIECES = ("voxel-hulls", "boxes-only")
@@ -275,7 +295,8 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
     ----------
     mesh : trimesh.Trimesh
         Any triangle soup; the solids are guaranteed conservative when it is
-        closed and consistently oriented (as for :func:`generate_aabb_skins`).
+        closed and consistently oriented (as for
+        :func:`viscore.generators.aabb_skins.generate_aabb_skins`).
     budget : int, optional
         Triangle budget: solids are added while their triangles fit (a box
         has 12). Default: no cap.
@@ -344,7 +365,8 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
         raise InputError("mesh: expected a non-empty trimesh.Trimesh")
     if pieces not in PIECES:
         raise InputError(f"pieces: expected one of {', '.join(PIECES)}, got {pieces!r}")
-    voxels = as_positive_int(voxels, "voxels", maximum=MAX_VOXELS)
+    source = _box_source()
+    voxels = as_positive_int(voxels, "voxels", maximum=source["max_voxels"])
     solids = as_positive_int(solids, "solids", maximum=4096)
     shrink_steps = as_positive_int(shrink_steps, "shrink_steps", maximum=52)
     seed = as_seed(seed)
@@ -356,11 +378,11 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
 
     grid = voxel_grid(np.asarray(mesh.bounds), resolution=voxels)
     cells = float(np.prod(np.array(grid.shape, dtype=np.float64)))
-    check_memory(cells * BYTES_PER_CELL["max-volume"] * 2,
+    check_memory(cells * source["bytes_per_cell"] * 2,
                  f"solid-frusta: voxels={voxels} ({grid.shape[0]} x {grid.shape[1]} x "
                  f"{grid.shape[2]} voxels)")
 
-    skins = generate_aabb_skins(mesh, voxels=voxels, max_boxes=solids, fill=1.0)
+    skins = source["generate"](mesh, voxels=voxels, max_boxes=solids, fill=1.0)
     boxes = np.asarray(skins.parts["boxes"], dtype=np.float64)
     closed = bool(skins.info["closed_oriented"])
     vox = voxelize(mesh, resolution=voxels)

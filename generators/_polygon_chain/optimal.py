@@ -2,7 +2,7 @@
 
 Silvennoinen et al. 2014 [1]_, sec. 4.4, builds each candidate's chain by
 greedy vertex collapse, the smallest ear first
-(:mod:`._section_simplify`). Greedy collapse is myopic: on the bunny at 64^3
+(:mod:`.simplify`). Greedy collapse is myopic: on the bunny at 64^3
 its stages of 3 to 8 triangles keep 55-85 % of the candidate's area, while
 the best polygon on the same vertices keeps 65-90 %, and at a 53-triangle
 budget the occluder's polygons end at 3 to 8 triangles each. This module
@@ -29,7 +29,7 @@ O(n^2 k) per start vertex, O(n^3 k) in all. Chords are tested once
 integer pixel coordinates of the loops). Every edge of a polygon inside the
 candidate is such a chord, so this search relaxes the problem: where its
 best polygon passes the final check, it is the optimum. A candidate with
-holes is one loop through bridges (:mod:`._section_loops`): there a chord
+holes is one loop through bridges (:mod:`viscore.generators.planar_sections._loops`): there a chord
 inside the candidate can still skip a hole or reach around one, so where
 the relaxed search fails the check, it is run again with each pocket checked
 itself (shapely, all pockets at once: counter-clockwise, of its shoelace area
@@ -66,7 +66,7 @@ from shapely.geometry import Polygon
 
 from viscore._jit import njit_cached
 
-from ._section_simplify import SimplificationChain, _twice_areas
+from .simplify import SimplificationChain, _twice_areas
 
 __all__ = ["StageChain", "refine_chain", "best_inscribed", "MAX_TRIANGLES", "POOL"]
 
@@ -289,7 +289,7 @@ def _tiles_inside(corners: np.ndarray, area: float, region: Polygon) -> bool:
 class StageChain:
     """Stages of one polygon by triangle count, not necessarily nested.
 
-    Same interface as :class:`._section_simplify.SimplificationChain`: ``ring``,
+    Same interface as :class:`.simplify.SimplificationChain`: ``ring``,
     ``counts`` (strictly decreasing), ``areas`` (decreasing), ``stages``,
     :meth:`stage_ring`, :meth:`stage_triangles`.
 
@@ -372,7 +372,7 @@ def refine_chain(chain: SimplificationChain, region: Polygon, *,
 
     Examples
     --------
-    >>> from viscore.generators._section_simplify import simplification_chain
+    >>> from viscore.generators._polygon_chain import simplification_chain
     >>> ring = np.array([[0, 0], [4, 0], [4, 1], [5, 2], [4, 3], [4, 4], [0, 4]], float)
     >>> ch = refine_chain(simplification_chain(ring), Polygon(ring))
     >>> ch.counts.tolist()[-2:], ch.areas.tolist()[-2:]

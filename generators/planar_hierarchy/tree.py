@@ -1,0 +1,496 @@
+"""Hierarchical occluders and their runtime tree cut (Silvennoinen et al. 2014, sec. 5).
+
+A scene is a set of objects: the connected components of one mesh, or the
+meshes of a list (the files given). A bounding volume hierarchy is built over
+the objects, and every node gets its own occluder, built from the geometry of
+all the objects below it by a per-node builder (planar sections [1]_ by
+default). At runtime :func:`cut_hierarchy` picks, for a camera, the nodes
+whose error is below a pixel threshold on screen: coarse nodes far away,
+leaves near the camera.
+
+The pieces the paper leaves open, and the choices made here:
+
+- **Objects.** Connected components are taken over vertices merged at equal
+  positions (a soup read from STL would otherwise give one object per
+  triangle). Tiny components are not merged by a size rule: the BVH stops
+  at ``max_leaves`` leaves, so a 10,000-part soup gives at most that many
+  leaves, each the parts that lie together in space (the median splits
+  keep them compact).
+- **BVH.** Top-down median split: a node's objects are sorted by the centre
+  of their bounding boxes along the longest axis of those centres and cut
+  into two halves of equal count. The node with the largest bounding-box
+  diagonal is split first, until every leaf holds at most ``leaf_objects``
+  objects or there are ``max_leaves`` leaves. (A median split rather than
+  SAH: SAH minimises ray-traversal cost, which is not what an occluder tree
+  is for; median splits give balanced trees of compact nodes, about
+  ``log2(leaves)`` levels deep.)
+- **Voxel size per node.** Sec. 5 applies "our algorithm independently for
+  each node" at the resolution the allowed error sets (sec. 4.1); it does
+  not tie a node's voxel size to its children's. Each node is voxelized with
+  ``voxels`` voxels along the longest side of its geometry's bounding box,
+  so voxel size grows with the node's extent; it is then raised to at least
+  its children's largest, so that the voxel size (and the error) never
+  decreases from a child to its parent.
+- **Dilation.** At inner nodes the voxel solid of sec. 4.1 (after the
+  outside flood fill) gets one dilation step: every OUTSIDE voxel with an
+  INSIDE 6-neighbour becomes INSIDE, so that objects less than two voxels
+  apart are glued into one solid ("This has the effect of gluing neighbors
+  together", sec. 5) and the solid grows by one voxel (the error stays
+  bounded). Leaves are single objects (nothing to glue) and are not dilated.
+  A builder that takes a ``dilation`` (or ``dilate``) keyword voxelizes
+  the node itself, as planar sections does;
+  any other builder is given the closed voxel mesh of the dilated solid
+  (:func:`dilated_voxel_mesh`), which it voxelizes again: at the same voxel
+  size, that grid is offset by half a voxel and adds half a voxel of error.
+- **Error.** A node records ``voxel_size`` and ``error`` (world units): how
+  far its solid may reach beyond its geometry, ``voxel_size * (1 +
+  dilation)``, plus half a voxel when the builder re-voxelized a voxel mesh.
+  ``bounds`` is the box around the geometry's bounding box grown by
+  ``error`` on every side (which holds the voxel solid), the node's
+  occluder (planar sections may reach past the solid by a pixel footprint
+  and the RDP tolerance) and its children's bounds; so bounds nest, and the
+  cut measures distances to everything the node draws.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1),
+   2014, pp. 235-245. :DOI:`10.1111/cgf.12271` (voxelization, sec. 4.1;
+   hierarchical occluders, the dilation step and the runtime tree cut,
+   sec. 5)
+"""
+
+from __future__ import annotations
+
+import heapq
+import inspect
+import logging
+import numbers
+import time
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import trimesh
+
+from viscore import InputError
+from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
+from viscore.voxels import (
+    VOXELIZE_BYTES_PER_CELL,
+    outside_voxels,
+    surface_voxels,
+    voxel_boundary_mesh,
+    voxel_grid,
+)
+
+from ..occluder import Occluder
+
+__all__ = ["build_hierarchy", "dilated_voxel_mesh", "NODE_OCCLUDERS", "register_node_occluder",
+           "DEFAULT_MAX_LEAVES", "DEFAULT_VOXELS", "INNER_DILATION", "MAX_DILATION", "MAX_VOXELS"]
+
+_log = logging.getLogger(__name__)
+
+#: Dilation steps at inner nodes: "a single dilation step" (sec. 5).
+INNER_DILATION = 1
+
+#: Voxels along a node's longest side when none are given (as planar sections).
+DEFAULT_VOXELS = 64
+
+#: Most dilation steps accepted (each adds a voxel of error).
+MAX_DILATION = 8
+
+#: Largest ``voxels`` per node (as for the other voxel methods).
+MAX_VOXELS = 2048
+
+#: Default cap on the number of leaves (each leaf and inner node gets its own
+#: occluder: ``2 * max_leaves - 1`` builds at most).
+DEFAULT_MAX_LEAVES = 32
+
+
+#: Named per-node builders. ``planar-sections`` is the paper's; ``qem`` (quadric
+#: decimation of the node's voxel mesh at inner nodes, of its geometry at the
+#: leaves) and ``aabb-skins`` (boxes inside the node's voxel solid) are
+#: stand-ins for comparison and tests.
+NODE_OCCLUDERS = ("planar-sections", "qem", "aabb-skins")
+
+#: The builders of :data:`NODE_OCCLUDERS` by name, registered by
+#: :mod:`viscore.generators.registry` (:func:`register_node_occluder`): they are
+#: other families' generators, which this family does not import.
+_NODE_BUILDERS: dict[str, Callable] = {}
+
+
+def register_node_occluder(name: str, builder: Callable) -> None:
+    """Register the per-node builder of one of :data:`NODE_OCCLUDERS` (the registry does)."""
+    if name not in NODE_OCCLUDERS:
+        raise ValueError(f"node occluder {name!r} is not one of {', '.join(NODE_OCCLUDERS)}")
+    _NODE_BUILDERS[name] = builder
+
+
+def _resolve_builder(node_occluder) -> tuple[Callable, str]:
+    if node_occluder is None:
+        node_occluder = "planar-sections"
+    if callable(node_occluder):
+        return node_occluder, getattr(node_occluder, "__name__", "callable")
+    if node_occluder in NODE_OCCLUDERS:
+        if node_occluder not in _NODE_BUILDERS:
+            raise LookupError(f"node_occluder {node_occluder!r}: not registered (it is "
+                              "registered when viscore.generators is imported)")
+        return _NODE_BUILDERS[node_occluder], node_occluder
+    raise InputError(f"node_occluder: expected one of {', '.join(NODE_OCCLUDERS)} or a "
+                     f"callable, got {node_occluder!r}")
+
+
+def _keywords(fn: Callable) -> set:
+    """Keyword names ``fn`` declares (a ``**kwargs`` catch-all is not a declaration)."""
+    try:
+        params = inspect.signature(fn).parameters.values()
+    except (TypeError, ValueError):
+        return set()
+    return {p.name for p in params if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)}
+
+
+# --------------------------------------------------------------------------- objects and BVH
+
+def _scene_objects(mesh_or_meshes) -> tuple[trimesh.Trimesh, list[np.ndarray]]:
+    """One mesh of the whole scene and each object's face indices into it."""
+    from viscore import validate_mesh
+
+    if isinstance(mesh_or_meshes, trimesh.Trimesh):
+        mesh = validate_mesh(mesh_or_meshes, name=str(mesh_or_meshes.metadata.get("name", "mesh")))
+        # components over vertices merged at equal positions (soups repeat vertices per face)
+        _, inverse = np.unique(np.asarray(mesh.vertices), axis=0, return_inverse=True)
+        merged = inverse.reshape(-1)[np.asarray(mesh.faces)]
+        labels = trimesh.graph.connected_component_labels(
+            trimesh.graph.face_adjacency(merged), node_count=len(merged))
+        order = np.argsort(labels, kind="stable")
+        cuts = np.flatnonzero(np.diff(labels[order])) + 1
+        return mesh, np.split(order, cuts)
+    if isinstance(mesh_or_meshes, (str, bytes)) or not isinstance(mesh_or_meshes, Sequence):
+        raise InputError("mesh: expected a trimesh.Trimesh or a list of them, got "
+                         f"{type(mesh_or_meshes).__name__}")
+    if len(mesh_or_meshes) == 0:
+        raise InputError("mesh: expected at least one mesh, got an empty list")
+    meshes = []
+    for i, m in enumerate(mesh_or_meshes):
+        if not isinstance(m, trimesh.Trimesh):
+            raise InputError(f"mesh[{i}]: expected a trimesh.Trimesh, got {type(m).__name__}")
+        meshes.append(validate_mesh(m, name=str(m.metadata.get("name", f"mesh[{i}]"))))
+    counts = np.cumsum([0] + [len(m.faces) for m in meshes])
+    vcounts = np.cumsum([0] + [len(m.vertices) for m in meshes])
+    vertices = np.concatenate([np.asarray(m.vertices, dtype=np.float64) for m in meshes])
+    faces = np.concatenate([np.asarray(m.faces, dtype=np.int64) + off
+                            for m, off in zip(meshes, vcounts[:-1], strict=True)])
+    # each part is validated at its own scale; validating the whole again could drop a small
+    # object's faces as degenerate at the scene's scale
+    scene = trimesh.Trimesh(vertices, faces, process=False)
+    return scene, [np.arange(a, b) for a, b in zip(counts[:-1], counts[1:], strict=True)]
+
+
+def _split_tree(centres: np.ndarray, lo: np.ndarray, hi: np.ndarray, *, leaf_objects: int,
+                max_leaves: int) -> dict:
+    """Median-split BVH over objects; splits the node of largest diagonal first."""
+    def node(objs):
+        diag = float(np.linalg.norm(hi[objs].max(axis=0) - lo[objs].min(axis=0)))
+        return {"objects": objs, "children": [], "_diag": diag}
+
+    root = node(np.arange(len(centres)))
+    heap = [(-root["_diag"], 0, root)]
+    tick, leaves = 1, 1
+    while heap and leaves < max_leaves:
+        _, _, n = heapq.heappop(heap)
+        objs = n["objects"]
+        if len(objs) <= leaf_objects:
+            continue
+        c = centres[objs]
+        axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+        # stable sort on (axis, then the others) so that ties split deterministically
+        order = np.lexsort((c[:, (axis + 2) % 3], c[:, (axis + 1) % 3], c[:, axis]))
+        half = len(objs) // 2
+        for part in (objs[order[:half]], objs[order[half:]]):
+            child = node(np.sort(part))
+            n["children"].append(child)
+            heapq.heappush(heap, (-child["_diag"], tick, child))
+            tick += 1
+        leaves += 1
+    return root
+
+
+def dilated_voxel_mesh(mesh: trimesh.Trimesh, *, voxel_size: float, dilation: int = 1
+                       ) -> trimesh.Trimesh:
+    """Closed voxel mesh of a mesh's solid after ``dilation`` dilation steps.
+
+    Voxelization of Silvennoinen et al. 2014 [1]_, sec. 4.1 (surface voxels by
+    exact triangle/box overlap, the rest of the solid by an outside flood
+    fill), then the dilation step of sec. 5: each step marks every OUTSIDE
+    voxel with a 6-neighbour INSIDE voxel as INSIDE. Objects whose solids
+    are at most ``2 * dilation`` empty voxels apart are glued (any gap under
+    ``2 * dilation * voxel_size`` is), and the solid grows by exactly
+    ``dilation`` voxels.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        Any triangle soup.
+    voxel_size : float
+        Voxel side, world units.
+    dilation : int, optional
+        Dilation steps, >= 0 (default 1, the paper's single step).
+
+    Returns
+    -------
+    trimesh.Trimesh
+        Closed, 2-manifold, oriented outwards
+        (:func:`viscore.voxels.voxel_boundary_mesh`); its faces lie on voxel
+        boundaries, at most ``voxel_size * (1 + dilation)`` from ``mesh``
+        along each axis beyond its bounding box.
+
+    Raises
+    ------
+    InputError
+        If the grid is too large for the memory limit (checked before any work).
+
+    References
+    ----------
+    .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+       Simplification using Planar Sections". Computer Graphics Forum 33(1),
+       2014, pp. 235-245. :DOI:`10.1111/cgf.12271`
+
+    Examples
+    --------
+    >>> a = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+    >>> b = trimesh.creation.box(bounds=[[1.15, 0, 0], [2.15, 1, 1]])
+    >>> pair = trimesh.util.concatenate([a, b])
+    >>> len(dilated_voxel_mesh(pair, voxel_size=0.1, dilation=0).split())  # a gap
+    2
+    >>> len(dilated_voxel_mesh(pair, voxel_size=0.1, dilation=1).split())  # glued
+    1
+    """
+    from scipy import ndimage
+
+    pitch = as_positive(voxel_size, "voxel_size")
+    dilation = int(dilation)
+    bounds = np.asarray(mesh.bounds, dtype=np.float64)
+    grow = dilation * pitch
+    grid = voxel_grid(bounds + np.array([[-grow], [grow]]), pitch=pitch)
+    cells = float(np.prod(np.array(grid.shape, dtype=np.float64)))
+    check_memory(cells * VOXELIZE_BYTES_PER_CELL,
+                 f"hierarchy: a {grid.shape[0]} x {grid.shape[1]} x {grid.shape[2]} voxel grid")
+    solid = ~outside_voxels(surface_voxels(mesh.vertices, mesh.faces, grid))
+    if dilation > 0:
+        solid = ndimage.binary_dilation(solid, iterations=dilation)
+    return voxel_boundary_mesh(solid, grid)
+
+
+def _submesh(mesh: trimesh.Trimesh, faces: np.ndarray) -> trimesh.Trimesh:
+    tri = np.asarray(mesh.faces)[faces]
+    used, inverse = np.unique(tri.reshape(-1), return_inverse=True)
+    return trimesh.Trimesh(np.asarray(mesh.vertices)[used], inverse.reshape(-1, 3),
+                           process=False)
+
+
+def _empty_mesh() -> trimesh.Trimesh:
+    return trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), process=False)
+
+
+def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 64,
+                    voxels: int = 64, leaf_objects: int = 1,
+                    max_leaves: int = DEFAULT_MAX_LEAVES, inner_dilation: int = INNER_DILATION,
+                    seed: int = 0, **node_options) -> dict:
+    """Occluder hierarchy of a scene: a BVH over its objects, an occluder per node.
+
+    Silvennoinen et al. 2014 [1]_, sec. 5: "we build a bounding volume
+    hierarchy (BVH) and apply our algorithm independently for each node",
+    with one dilation step of the voxel solid at inner nodes. The module
+    docstring gives the choices the paper leaves open (objects, splits,
+    voxel size per node, dilation, error).
+
+    Parameters
+    ----------
+    mesh_or_meshes : trimesh.Trimesh or sequence of trimesh.Trimesh
+        One mesh, whose connected components (over vertices merged at equal
+        positions) are the objects; or a list of meshes, each one object.
+    node_occluder : {'planar-sections', 'qem', 'aabb-skins'} or callable, optional
+        The per-node builder. Default: planar sections. A callable is called
+        as ``node_occluder(mesh, *, budget, seed, **kw)`` and returns an
+        :class:`Occluder` or a :class:`trimesh.Trimesh`; ``kw`` holds
+        the voxel size (world units) as ``voxel_size`` or ``pitch`` if it
+        declares that keyword, else ``voxels`` (along the longest side of
+        ``mesh``) if it declares that; the dilation steps (int) as
+        ``dilation`` or ``dilate`` if it declares that, and then ``mesh`` is
+        the node's geometry; otherwise, at inner nodes, ``mesh`` is the
+        closed voxel mesh of the node's dilated solid
+        (:func:`dilated_voxel_mesh`).
+        ``node_options`` are passed on.
+    budget : int or None, optional
+        Triangle budget of each node's occluder (default 64); None is passed
+        on to the builder (planar sections: no budget cut).
+    voxels : int, optional
+        Voxels along the longest side of each node's bounding box, 1 to 2048
+        (default 64); the voxel size is then raised to the children's largest.
+    leaf_objects : int, optional
+        Split nodes until they hold at most this many objects (default 1).
+    max_leaves : int, optional
+        Stop splitting at this many leaves (default 32); a leaf may then
+        hold more than ``leaf_objects`` objects.
+    inner_dilation : int, optional
+        Dilation steps at inner nodes, 0 to 8 (default 1, the paper's single
+        step); leaves get none.
+    seed : int, optional
+        Passed to every node's builder.
+    **node_options
+        Passed to the builder at every node.
+
+    Returns
+    -------
+    dict
+        The root node, by the ``hierarchy`` schema of
+        :mod:`viscore.generators.occluder` (``bounds`` (2, 3) float64,
+        ``occluder`` trimesh, ``children``), with, per node: ``id`` (int,
+        pre-order, root 0), ``objects`` ((k,) int64 object indices),
+        ``geometry_bounds`` (2, 3) float64, ``voxel_size`` and ``error``
+        (float, world units), ``dilation`` (int), ``triangles`` (int),
+        ``double_sided`` (bool), ``seconds`` (float), and ``note`` (str, empty
+        unless the builder refused the node with an :class:`InputError`: the
+        node then has an empty occluder, and a warning is logged).
+
+    Raises
+    ------
+    InputError
+        Bad options, an empty or invalid mesh, or a voxel grid beyond the
+        memory limit, before any occluder is built; or the builder refused
+        every node (e.g. an option it does not accept).
+
+    Notes
+    -----
+    Guarantees: children's ``bounds`` lie inside their parent's; every object
+    is in exactly one leaf; ``voxel_size`` and ``error`` never decrease from
+    child to parent. Deterministic given the inputs and ``seed``. A node's
+    occluder is whatever the builder makes; the bound ``error`` holds for
+    the voxel solid it was given, and for occluders inside that solid
+    (planar sections, boxes), not for decimation (``qem``).
+
+    References
+    ----------
+    .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+       Simplification using Planar Sections". Computer Graphics Forum 33(1),
+       2014, pp. 235-245. :DOI:`10.1111/cgf.12271`
+
+    Examples
+    --------
+    >>> boxes = [trimesh.creation.box(bounds=[[x, 0, 0], [x + 1, 1, 1]]) for x in (0, 2, 4)]
+    >>> root = build_hierarchy(boxes, node_occluder="qem", budget=12, voxels=8)
+    >>> len(root["children"]), sorted(int(i) for i in root["objects"])
+    (2, [0, 1, 2])
+    """
+    budget = None if budget is None else as_positive_int(budget, "budget")
+    voxels = as_positive_int(voxels, "voxels", maximum=MAX_VOXELS)
+    if isinstance(inner_dilation, bool) or not isinstance(inner_dilation, numbers.Integral) \
+            or not 0 <= inner_dilation <= MAX_DILATION:
+        raise InputError(f"inner_dilation: expected an integer from 0 to {MAX_DILATION}, "
+                         f"got {inner_dilation!r}")
+    leaf_objects = as_positive_int(leaf_objects, "leaf_objects")
+    max_leaves = as_positive_int(max_leaves, "max_leaves")
+    seed = as_seed(seed, "seed")
+    builder, builder_name = _resolve_builder(node_occluder)
+    reserved = sorted(set(node_options) & {"voxel_size", "pitch", "dilation", "dilate"})
+    if reserved:
+        raise InputError(f"{', '.join(reserved)}: set per node by the hierarchy (voxels over "
+                         "the node's extent; dilation at inner nodes)")
+    mesh, objects = _scene_objects(mesh_or_meshes)
+
+    tri = np.asarray(mesh.vertices)[np.asarray(mesh.faces)]  # (f, 3, 3)
+    order = np.concatenate(objects)
+    starts = np.cumsum([0] + [len(f) for f in objects[:-1]])
+    lo = np.minimum.reduceat(tri.min(axis=1)[order], starts, axis=0)  # (objects, 3)
+    hi = np.maximum.reduceat(tri.max(axis=1)[order], starts, axis=0)
+    del tri, order
+    root = _split_tree(0.5 * (lo + hi), lo, hi, leaf_objects=leaf_objects,
+                       max_leaves=max_leaves)
+
+    nodes = []  # pre-order
+    stack = [root]
+    while stack:
+        n = stack.pop()
+        n["id"] = len(nodes)
+        nodes.append(n)
+        stack.extend(reversed(n["children"]))
+    # voxel sizes bottom-up (reverse pre-order visits children before parents)
+    for n in reversed(nodes):
+        objs = n["objects"]
+        gb = np.stack([lo[objs].min(axis=0), hi[objs].max(axis=0)])
+        n["geometry_bounds"] = gb
+        own = float((gb[1] - gb[0]).max()) / voxels
+        n["voxel_size"] = max([own] + [c["voxel_size"] for c in n["children"]])
+        n["dilation"] = int(inner_dilation) if n["children"] else 0
+    # the largest grid, checked before any work (each node's builder checks its own again)
+    worst = max(float(np.prod((n["geometry_bounds"][1] - n["geometry_bounds"][0])
+                              / n["voxel_size"] + 3 + 2 * n["dilation"] + 4)) for n in nodes)
+    check_memory(worst * VOXELIZE_BYTES_PER_CELL, "hierarchy: the largest node's voxel grid")
+
+    names = _keywords(builder)
+    dilate_kw = next((k for k in ("dilation", "dilate") if k in names), None)
+    size_kw = next((k for k in ("voxel_size", "pitch") if k in names), None)
+    faces_of = [np.concatenate([objects[i] for i in n["objects"]]) for n in nodes]
+    failures = []
+    for n in reversed(nodes):
+        geometry = _submesh(mesh, faces_of[n["id"]])
+        pitch, dilation = n["voxel_size"], n["dilation"]
+        kw = dict(node_options)
+        revoxelized = False
+        if dilate_kw:
+            kw[dilate_kw] = dilation
+            given = geometry
+        elif dilation:
+            given = dilated_voxel_mesh(geometry, voxel_size=pitch, dilation=dilation)
+            revoxelized = True
+        else:
+            given = geometry
+        if size_kw:
+            kw[size_kw] = pitch
+        elif "voxels" in names:
+            kw["voxels"] = max(1, round(float(np.ptp(given.vertices, axis=0).max()) / pitch))
+        start = time.perf_counter()
+        note = ""
+        try:
+            made = builder(given, budget=budget, seed=seed, **kw)
+        except InputError as exc:  # e.g. nothing to build at this node
+            made, note = _empty_mesh(), str(exc)
+            failures.append(exc)
+            _log.warning("hierarchy node %d: %s", n["id"], exc)
+        occ_mesh = made.mesh if isinstance(made, Occluder) else made
+        if not isinstance(occ_mesh, trimesh.Trimesh):
+            raise TypeError(f"node_occluder returned {type(made).__name__}, "
+                            "expected an Occluder or a trimesh.Trimesh")
+        own_error = pitch * (1 + dilation + (0.5 if revoxelized else 0.0))
+        n["error"] = max([own_error] + [c["error"] for c in n["children"]])
+        gb = n["geometry_bounds"]
+        # the geometry grown by the error, the occluder (slices may reach past the voxel
+        # solid: pixel footprints, RDP) and the children's bounds: nested by construction
+        boxes = [gb[0] - n["error"], gb[1] + n["error"]]
+        if len(occ_mesh.vertices):
+            boxes += [np.asarray(occ_mesh.vertices, dtype=np.float64)]
+        boxes += [c["bounds"] for c in n["children"]]
+        stacked = np.concatenate([np.atleast_2d(b) for b in boxes])
+        n["bounds"] = np.stack([stacked.min(axis=0), stacked.max(axis=0)])
+        n["occluder"] = occ_mesh
+        n["triangles"] = len(occ_mesh.faces)
+        n["double_sided"] = bool(made.double_sided) if isinstance(made, Occluder) else True
+        n["seconds"] = time.perf_counter() - start
+        n["note"] = note
+        n["objects"] = np.asarray(n["objects"], dtype=np.int64)
+        del n["_diag"]
+    if len(failures) == len(nodes):  # bad builder options, most likely: say so once
+        raise InputError(f"node_occluder {builder_name}: every node failed; the first: "
+                         f"{failures[0]}")
+    root["builder"] = builder_name
+    return root
+
+
+def _walk(root: dict) -> list[dict]:
+    out, stack = [], [root]
+    while stack:
+        n = stack.pop()
+        out.append(n)
+        stack.extend(reversed(n["children"]))
+    return out
+
+

@@ -1,0 +1,181 @@
+"""One planar-sections occluder at one voxel size (Silvennoinen et al. 2014, sec. 4).
+
+The pipeline of :func:`viscore.generators.planar_sections.generate_planar_sections`
+for one voxel size: the voxel solid (sec. 4.1), the slices (sec. 4.2), their
+polygons and simplification chains (sec. 4.3-4.4), the greedy selection by
+occlusion measure (sec. 4.5) and the budget cut. The module docstring of
+:mod:`viscore.generators.planar_sections.generator` gives the method.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+
+import numpy as np
+import trimesh
+from viscore.metrics.orbit import orbit_frame
+
+from viscore import InputError, voxel_grid
+from viscore._validate import (
+    check_memory,
+)
+
+from .._polygon_chain import refine_chain, simplification_chain
+from . import _slices
+from ._loops import slice_polygons
+from ._select import (
+    MEASURE_DIRECTIONS,
+    MEASURE_RESOLUTION,
+    measure_directions,
+    project_candidates,
+    reduce_to_budget,
+    select_greedy,
+)
+from ._slices import best_slices, section_solid, slice_image
+
+_log = logging.getLogger(__name__)
+
+#: Largest voxel count along the longest side (the memory check refuses most grids below).
+MAX_VOXELS = 1024
+
+#: Candidate polygons kept for the greedy search, largest first (its cost grows
+#: with their number; a tangle such as the hairball gives thousands of small ones).
+MAX_CANDIDATES = 160
+
+#: Bytes per voxel cell of the whole generation: the voxelization's working
+#: memory (:data:`viscore.voxels.VOXELIZE_BYTES_PER_CELL`, 24) and the solid,
+#: its erosion and the winding-number labels of the conservative variant.
+BYTES_PER_CELL = 40
+
+#: A voxel solid has "no interior" when it has fewer than :data:`INTERIOR_SHARE` times
+#: its surface voxels (an open sheet, or a shell with openings wider than a voxel) and
+#: under :data:`ERODED_SHARE` of it survives a one-voxel erosion (at 64^3: bunny 0.86,
+#: airplane 0.49, a dense tangle of strands whose surface voxels fill the ball 0.71; the
+#: open-bottomed buildings 0.03-0.25, terrain 0.03).
+INTERIOR_SHARE = 1.1
+ERODED_SHARE = 0.5
+
+def _no_interior(info: dict) -> bool:
+    """Whether the voxel solid described by ``info`` has (almost) no interior."""
+    return (info["solid_voxels"] < INTERIOR_SHARE * info["surface_voxels"]
+            and info["interior_voxels"] < ERODED_SHARE * info["solid_voxels"])
+
+
+def _resolution(mesh: trimesh.Trimesh, voxels, voxel_size, what: str) -> dict:
+    """``{"resolution": n}`` or ``{"pitch": s}`` after the grid and memory checks."""
+    extent = float(np.max(mesh.extents))
+    if voxel_size is not None:
+        n = math.ceil(extent / voxel_size - 1e-9) if np.isfinite(extent / voxel_size) else math.inf
+        if n > MAX_VOXELS:
+            raise InputError(f"{what}: a voxel size of {voxel_size:.4g} needs {n:.4g} voxels "
+                             f"along the longest side ({extent:.4g}); the limit is {MAX_VOXELS}")
+        size = {"pitch": float(voxel_size)}
+    else:
+        size = {"resolution": int(voxels)}
+    grid = voxel_grid(np.asarray(mesh.bounds), **size)
+    cells = float(np.prod(np.array(grid.shape, dtype=np.float64)))
+    check_memory(cells * BYTES_PER_CELL,
+                 f"{what} ({grid.shape[0]} x {grid.shape[1]} x {grid.shape[2]} voxels)")
+    return size
+
+
+def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, depth_bins,
+                  alpha, measure, reduce, rdp_tolerance, chain, conservative, dilate,
+                  close, warn_interior: bool = True):
+    """One level of detail: (mesh, polygons, info)."""
+    timing = {}
+    t0 = time.perf_counter()
+    sec = section_solid(mesh, conservative=conservative, dilate=dilate, close=close, **size)
+    pitch = sec.grid.pitch
+    extent = float(np.max(mesh.extents))
+    info = {"voxel_size": pitch, "voxels": int(math.ceil(extent / pitch - 1e-9)),
+            "grid": list(sec.grid.shape), "direction_bins": direction_bins,
+            "depth_bins": depth_bins, "solid_voxels": sec.solid_voxels,
+            "surface_voxels": sec.surface_voxels, "interior_voxels": sec.interior_voxels,
+            "closed_oriented": sec.closed_oriented,
+            "conservative_guaranteed": bool(conservative and sec.closed_oriented)}
+    if conservative and not sec.closed_oriented:
+        _log.warning("planar-sections: the mesh is not closed and consistently oriented; "
+                     "--conservative cannot guarantee anything (run 'viscore validate')")
+    if warn_interior and not conservative and not close and _no_interior(info):
+        _log.warning("planar-sections: the voxel solid has (almost) no interior at %d voxels "
+                     "(an open sheet, or a surface with openings), so the slices are thin "
+                     "strips; for an object with holes, close them with --close 3 (or more "
+                     "voxels)", info["voxels"])
+    timing["voxels"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    slices = best_slices(sec, direction_bins, depth_bins)
+    timing["slices"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    tolerance = None if conservative else rdp_tolerance * _slices.PIXELS_PER_VOXEL
+    cands, chains = [], []
+    for s in slices:
+        for poly in slice_polygons(slice_image(sec, s), tolerance=tolerance):
+            cands.append((s, poly))
+            chains.append(simplification_chain(poly.ring, loose=not conservative))
+    if len(cands) > MAX_CANDIDATES:  # the largest polygons; crumbs of tangles cost time only
+        keep = np.argsort([-ch.areas[0] for ch in chains], kind="stable")[:MAX_CANDIDATES]
+        cands = [cands[i] for i in keep]
+        chains = [chains[i] for i in keep]
+    timing["polygons"] = time.perf_counter() - t0
+    info.update(slices=len(slices), candidates=len(cands))
+
+    t0 = time.perf_counter()
+    center, frame = orbit_frame(mesh)
+    dirs = measure_directions(MEASURE_DIRECTIONS)
+    rings = [s.to_world(p.ring) for s, p in cands]
+    bitmaps = project_candidates(rings, dirs, center, frame, MEASURE_RESOLUTION)
+    mpixel = frame / MEASURE_RESOLUTION
+    timing["projections"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    chosen, totals = select_greedy(bitmaps, mpixel, alpha=alpha, measure=measure,
+                                   max_polygons=budget)
+    timing["greedy"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    for i in chosen:  # stages inside the candidate; the largest ones for chain='optimal'
+        chains[i] = refine_chain(chains[i], cands[i][1].polygon,
+                                 search=chain == "optimal" and budget is not None)
+    timing["chains"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    cache: dict = {}
+    # a refined chain's first stage is the candidate itself unless it left the candidate
+    whole = [np.array_equal(chains[c].stage_ring(0), cands[c][1].ring) for c in chosen]
+
+    def bitmaps_of(i: int, s: int) -> np.ndarray:
+        if s == 0 and whole[i]:
+            return bitmaps[chosen[i]]
+        if (i, s) not in cache:
+            sl, _ = cands[chosen[i]]
+            ring = sl.to_world(chains[chosen[i]].stage_ring(s))
+            cache[(i, s)] = project_candidates([ring], dirs, center, frame,
+                                               MEASURE_RESOLUTION)[0]
+        return cache[(i, s)]
+
+    stages, _ = reduce_to_budget([chains[i] for i in chosen], budget, reduce=reduce,
+                                 bitmaps_of=bitmaps_of, pixel=mpixel)
+    timing["budget_cut"] = time.perf_counter() - t0
+    vertices, faces, polygons = [], [], []
+    offset = 0
+    for i, s in zip(chosen, stages, strict=True):
+        if s < 0:
+            continue
+        sl, _ = cands[i]
+        ch = chains[i]
+        tri = ch.stage_triangles(int(s))
+        if len(tri) == 0:
+            continue
+        used, inv = np.unique(tri, return_inverse=True)
+        vertices.append(sl.to_world(ch.ring[used]))
+        faces.append(inv.reshape(-1, 3) + offset)
+        offset += len(used)
+        polygons.append(sl.to_world(ch.stage_ring(int(s))))
+    if faces:
+        out = trimesh.Trimesh(np.concatenate(vertices), np.concatenate(faces), process=False)
+    else:
+        out = trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), process=False)
+    info.update(greedy_polygons=len(chosen), polygons=len(polygons),
+                measure_totals=totals.tolist(), seconds_steps=timing)
+    return out, polygons, info
