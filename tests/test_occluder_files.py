@@ -11,9 +11,9 @@ import pytest
 import trimesh
 
 from viscore import InputError
+from viscore.godot_text import _float_texts
 from viscore.occluder_files import (
     OccluderInstance,
-    _float_texts,
     load_occluder,
     occonly_glb_bytes,
     tres_text,

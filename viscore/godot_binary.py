@@ -1,0 +1,330 @@
+"""Godot 4 binary resources (``.occ``/``.res``) in: the ``ArrayOccluder3D`` of a bake.
+
+Godot's occluder bake writes its ``ArrayOccluder3D`` [2]_ as a binary
+resource: the ``RSRC`` format of Godot's ``ResourceFormatSaverBinary`` [3]_.
+:func:`_load_occ` reads the main resource's ``vertices``
+(``PackedVector3Array``) and ``indices`` (``PackedInt32Array``) at the
+precision the file declares (float32 ``real_t``, or float64 when the header
+says so) and skips every other variant, bounds-checked: each count is checked
+against the bytes left before anything is allocated, and nesting is bounded.
+Compressed (``RSCC``) resources are refused.
+
+This module is the lowest of the occluder readers, so it also holds the
+checks they share: :func:`_read_file` (a regular, non-empty file),
+:func:`_checked_geometry` (finite vertices, in-range indices) and
+:func:`_occluder_mesh` (the world-space triangle soup they return), used by
+:mod:`viscore.godot_text`, :mod:`viscore.occonly_gltf` and
+:mod:`viscore.occluder_files`.
+
+References
+----------
+.. [1] Godot Engine contributors. "Godot Engine", version 4,
+   https://godotengine.org (source: https://github.com/godotengine/godot).
+.. [2] Godot Engine documentation, class reference "ArrayOccluder3D",
+   https://docs.godotengine.org/en/stable/classes/class_arrayoccluder3d.html
+.. [3] Godot Engine source, ``core/io/resource_format_binary.cpp`` and
+   ``core/io/resource_format_binary.h`` (``ResourceLoaderBinary``,
+   ``ResourceFormatSaverBinaryInstance``; binary format version 6).
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import struct
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from ._validate import InputError
+
+#: Binary resource format versions read here (Godot 4.0 wrote 4; 4.3+ writes 6).
+BINARY_FORMATS = range(4, 7)
+#: Header flags of the binary format (``resource_format_binary.h``).
+_FLAG_UIDS = 2
+_FLAG_REAL_T_IS_DOUBLE = 4
+_FLAG_HAS_SCRIPT_CLASS = 8
+#: Reserved 32-bit fields after the header (``RESERVED_FIELDS``).
+_RESERVED_FIELDS = 11
+#: Nesting depth of Arrays/Dictionaries refused in a binary resource (a bound
+#: against recursion bombs; occluders hold no nested containers at all).
+_MAX_NESTING = 64
+_OCCLUDER_TYPE = "ArrayOccluder3D"
+
+# binary variant type ids (resource_format_binary.cpp)
+_V_NIL, _V_BOOL, _V_INT, _V_FLOAT, _V_STRING = 1, 2, 3, 4, 5
+_V_NODE_PATH, _V_RID, _V_OBJECT = 22, 23, 24
+_V_DICTIONARY, _V_ARRAY = 26, 30
+_V_PACKED_BYTE, _V_PACKED_INT32, _V_PACKED_FLOAT32, _V_PACKED_STRING = 31, 32, 33, 34
+_V_PACKED_VECTOR3, _V_PACKED_COLOR, _V_PACKED_VECTOR2 = 35, 36, 37
+_V_INT64, _V_DOUBLE, _V_CALLABLE, _V_SIGNAL, _V_STRING_NAME = 40, 41, 42, 43, 44
+_V_PACKED_INT64, _V_PACKED_FLOAT64, _V_PACKED_VECTOR4 = 48, 49, 53
+#: Fixed-size variants: type id -> (reals, bytes besides the reals).
+_V_FIXED = {
+    10: (2, 0),   # Vector2
+    11: (4, 0),   # Rect2
+    12: (3, 0),   # Vector3
+    13: (4, 0),   # Plane
+    14: (4, 0),   # Quaternion
+    15: (6, 0),   # AABB
+    16: (9, 0),   # Basis
+    17: (12, 0),  # Transform3D
+    18: (6, 0),   # Transform2D
+    20: (0, 16),  # Color: always float32
+    45: (0, 8),   # Vector2i
+    46: (0, 16),  # Rect2i
+    47: (0, 12),  # Vector3i
+    50: (4, 0),   # Vector4
+    51: (0, 16),  # Vector4i
+    52: (16, 0),  # Projection
+}
+#: Packed arrays of fixed-size items: type id -> (reals per item, bytes per item besides).
+_V_PACKED = {
+    _V_PACKED_INT32: (0, 4), _V_PACKED_FLOAT32: (0, 4), _V_PACKED_VECTOR2: (2, 0),
+    _V_PACKED_VECTOR3: (3, 0), _V_PACKED_COLOR: (0, 16), _V_PACKED_INT64: (0, 8),
+    _V_PACKED_FLOAT64: (0, 8), _V_PACKED_VECTOR4: (4, 0),
+}
+
+# ----------------------------------------------------------------------------- input checks
+
+
+def _read_file(path: Path, label: str) -> bytes:
+    """The bytes of a regular, non-empty file, or one-line :class:`InputError`."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise InputError(f"{label}: no such file") from None
+    except OSError as exc:
+        raise InputError(f"{label}: cannot reach the file ({exc.strerror or exc})") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise InputError(f"{label}: is a directory, expected an occluder file")
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError(f"{label}: not a regular file, expected an occluder file")
+    if st.st_size == 0:
+        raise InputError(f"{label}: the file is empty")
+    try:
+        return path.read_bytes()
+    except MemoryError:
+        raise InputError(f"{label}: not enough memory to read this file") from None
+    except OSError as exc:
+        raise InputError(f"{label}: cannot read the file ({exc.strerror or exc})") from None
+
+
+def _checked_geometry(vertices: np.ndarray, indices: np.ndarray, label: str,
+                      what: str) -> tuple[np.ndarray, np.ndarray]:
+    """Finite ``(n, 3) float64`` vertices and in-range ``(m, 3) int64`` faces."""
+    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    indices = np.asarray(indices, dtype=np.int64).reshape(-1)
+    if not np.isfinite(vertices).all():
+        raise InputError(f"{label}: {what} has NaN or infinite vertex coordinates")
+    if len(indices) % 3:
+        raise InputError(f"{label}: {what} has {len(indices)} indices, not a multiple of 3")
+    if len(indices) and (indices.min() < 0 or indices.max() >= len(vertices)):
+        raise InputError(f"{label}: {what} has indices outside 0..{len(vertices) - 1}")
+    return vertices, indices.reshape(-1, 3)
+
+
+def _occluder_mesh(vertices: np.ndarray, faces: np.ndarray, label: str, fmt: str,
+                   names: list[str], counts: list[int]) -> trimesh.Trimesh:
+    if len(faces) == 0:
+        raise InputError(f"{label}: the occluders hold no triangles")
+    mesh = trimesh.Trimesh(vertices=np.ascontiguousarray(vertices, dtype=np.float64),
+                           faces=np.ascontiguousarray(faces, dtype=np.int64), process=False)
+    mesh.metadata.update({"name": label, "source_format": fmt, "object_names": list(names),
+                          "object_triangles": [int(c) for c in counts]})
+    return mesh
+
+
+# ----------------------------------------------------------------------------- Godot binary
+
+
+class _Reader:
+    """Bounds-checked reads over the bytes of a binary resource."""
+
+    def __init__(self, data: bytes, label: str) -> None:
+        self.data = data
+        self.pos = 0
+        self.end = "<"
+        self.real = 4
+        self.label = label
+
+    def need(self, size: int, what: str) -> None:
+        if size < 0 or self.pos + size > len(self.data):
+            raise InputError(f"{self.label}: truncated Godot binary resource ({what} needs "
+                             f"{size} bytes at offset {self.pos}, the file has "
+                             f"{len(self.data)})")
+
+    def take(self, size: int, what: str) -> bytes:
+        self.need(size, what)
+        out = self.data[self.pos:self.pos + size]
+        self.pos += size
+        return out
+
+    def u32(self, what: str) -> int:
+        return struct.unpack(self.end + "I", self.take(4, what))[0]
+
+    def u64(self, what: str) -> int:
+        return struct.unpack(self.end + "Q", self.take(8, what))[0]
+
+    def string(self, what: str) -> str:
+        size = self.u32(what)
+        raw = self.take(size, what)
+        try:
+            return raw.split(b"\0", 1)[0].decode("utf-8")
+        except UnicodeDecodeError:
+            raise InputError(f"{self.label}: {what} is not UTF-8 text") from None
+
+    def count(self, item_bytes: int, what: str) -> int:
+        """An item count, refused when its items cannot fit in the bytes left."""
+        n = self.u32(what)
+        left = len(self.data) - self.pos
+        if n * item_bytes > left:
+            raise InputError(f"{self.label}: {what}: {n} items of {item_bytes} bytes exceed "
+                             f"the {left} bytes left in the file")
+        return n
+
+    def array(self, n: int, kind: str, item: int, what: str) -> np.ndarray:
+        raw = self.take(n * item, what)
+        return np.frombuffer(raw, dtype=np.dtype(f"{self.end}{kind}{item}"))
+
+
+def _skip_name(r: _Reader, strings: list[str], what: str) -> str:
+    """A property or node-path name: a string-table index, or inline when the top bit is set."""
+    idx = r.u32(what)
+    if idx & 0x80000000:
+        raw = r.take(idx & 0x7FFFFFFF, what)
+        return raw.split(b"\0", 1)[0].decode("utf-8", "replace")
+    if idx >= len(strings):
+        raise InputError(f"{r.label}: {what}: string index {idx} beyond the table of "
+                         f"{len(strings)}")
+    return strings[idx]
+
+
+def _variant(r: _Reader, strings: list[str], what: str, depth: int = 0) -> object:
+    """Read one variant: packed Vector3/Int32 arrays are returned, the rest skipped (None)."""
+    if depth > _MAX_NESTING:
+        raise InputError(f"{r.label}: {what}: containers nested deeper than {_MAX_NESTING}")
+    at = r.pos
+    kind = r.u32(what)
+    if kind in (_V_NIL, _V_CALLABLE, _V_SIGNAL):
+        return None
+    if kind in (_V_BOOL, _V_INT, _V_RID):
+        r.take(4, what)
+    elif kind in (_V_INT64, _V_DOUBLE):
+        r.take(8, what)
+    elif kind == _V_FLOAT:
+        r.take(r.real, what)
+    elif kind in (_V_STRING, _V_STRING_NAME):
+        r.string(what)
+    elif kind in _V_FIXED:
+        reals, extra = _V_FIXED[kind]
+        r.take(reals * r.real + extra, what)
+    elif kind == _V_NODE_PATH:
+        names = struct.unpack(r.end + "H", r.take(2, what))[0]
+        subnames = struct.unpack(r.end + "H", r.take(2, what))[0] & 0x7FFF
+        for _ in range(names + subnames):
+            _skip_name(r, strings, what)
+    elif kind == _V_OBJECT:
+        obj = r.u32(what)
+        if obj == 1:
+            r.string(what)
+            r.string(what)
+        elif obj in (2, 3):
+            r.take(4, what)
+        elif obj != 0:
+            raise InputError(f"{r.label}: {what}: unknown object reference kind {obj} at "
+                             f"offset {at}")
+    elif kind in (_V_ARRAY, _V_DICTIONARY):
+        per = 2 if kind == _V_DICTIONARY else 1
+        n = r.u32(what) & 0x7FFFFFFF
+        if n * per * 4 > len(r.data) - r.pos:
+            raise InputError(f"{r.label}: {what}: {n} items exceed the bytes left in the file")
+        for _ in range(n * per):
+            _variant(r, strings, what, depth + 1)
+    elif kind == _V_PACKED_BYTE:
+        n = r.count(1, what)
+        r.take(n + (-n) % 4, what)
+    elif kind == _V_PACKED_STRING:
+        n = r.count(4, what)
+        for _ in range(n):
+            r.string(what)
+    elif kind in _V_PACKED:
+        reals, extra = _V_PACKED[kind]
+        item = reals * r.real + extra
+        n = r.count(item, what)
+        if kind == _V_PACKED_VECTOR3:
+            return r.array(n * 3, "f", r.real, what).astype(np.float64).reshape(-1, 3)
+        if kind == _V_PACKED_INT32:
+            return r.array(n, "i", 4, what).astype(np.int64)
+        r.take(n * item, what)
+    else:
+        raise InputError(f"{r.label}: {what}: unknown variant type {kind} at offset {at} "
+                         "(corrupt file or a newer Godot format)")
+    return None
+
+
+def _load_occ(data: bytes, label: str) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and indices of a binary ``ArrayOccluder3D`` resource (``RSRC``)."""
+    r = _Reader(data, label)
+    magic = r.take(4, "the header")
+    if magic == b"RSCC":
+        raise InputError(f"{label}: a compressed Godot binary resource (RSCC); save it "
+                         "uncompressed or as .tres")
+    if magic != b"RSRC":
+        raise InputError(f"{label}: not a Godot binary resource (no RSRC header)")
+    big_endian = r.u32("the header")
+    r.u32("the header")  # "64 bits file", always 0
+    r.end = ">" if big_endian else "<"
+    major, minor, fmt = r.u32("the header"), r.u32("the header"), r.u32("the header")
+    if major < 4:
+        raise InputError(f"{label}: a Godot {major}.{minor} resource; {_OCCLUDER_TYPE} needs "
+                         "Godot 4")
+    if fmt not in BINARY_FORMATS:
+        raise InputError(f"{label}: binary resource format {fmt} is not supported "
+                         f"({BINARY_FORMATS.start}..{BINARY_FORMATS.stop - 1})")
+    kind = r.string("the resource type")
+    if kind != _OCCLUDER_TYPE:
+        raise InputError(f"{label}: a Godot {kind or '?'} resource, not an {_OCCLUDER_TYPE}")
+    r.u64("the header")  # import metadata offset
+    flags = r.u32("the header")
+    r.u64("the header")  # uid (present even when the UIDS flag is clear)
+    if flags & _FLAG_HAS_SCRIPT_CLASS:
+        r.string("the script class")
+    r.real = 8 if flags & _FLAG_REAL_T_IS_DOUBLE else 4
+    r.take(4 * _RESERVED_FIELDS, "the header")
+    strings = [r.string("the string table") for _ in range(r.count(4, "the string table"))]
+    for _ in range(r.count(8, "the external resources")):
+        r.string("an external resource")
+        r.string("an external resource")
+        if flags & _FLAG_UIDS:
+            r.u64("an external resource")
+    n_internal = r.count(12, "the internal resources")
+    offsets = []
+    for _ in range(n_internal):
+        r.string("an internal resource")
+        offsets.append(r.u64("an internal resource"))
+    if not offsets:
+        raise InputError(f"{label}: the binary resource holds no resource")
+    main = offsets[-1]  # the main resource is saved last
+    if main >= len(data):
+        raise InputError(f"{label}: the main resource's offset {main} is beyond the file's "
+                         f"{len(data)} bytes")
+    r.pos = main
+    kind = r.string("the main resource")
+    if kind != _OCCLUDER_TYPE:
+        raise InputError(f"{label}: the main resource is a {kind or '?'}, not an "
+                         f"{_OCCLUDER_TYPE}")
+    found: dict[str, np.ndarray] = {}
+    for _ in range(r.count(8, "the properties")):
+        name = _skip_name(r, strings, "a property name")
+        value = _variant(r, strings, f"property {name!r}")
+        if name in ("vertices", "indices"):
+            expect = np.float64 if name == "vertices" else np.int64
+            if not isinstance(value, np.ndarray) or value.dtype != expect:
+                array = "PackedVector3Array" if name == "vertices" else "PackedInt32Array"
+                raise InputError(f"{label}: property {name!r} is not a {array}")
+            found[name] = value
+    vertices = found.get("vertices", np.zeros((0, 3)))
+    indices = found.get("indices", np.zeros(0, dtype=np.int64))
+    return _checked_geometry(vertices, indices, label, "the occluder")
