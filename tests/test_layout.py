@@ -1,0 +1,173 @@
+"""The house keeps its structure: the import chain, no circles, families apart, the doc true.
+
+Read from the source with :mod:`ast` (imports inside functions count), so a
+circle hidden by a deferred import fails here too. DESIGN.md's chain is
+``viscore <- viscore.metrics <- viscore.generators <- viscore.cli``: the core
+imports none of the others, metrics never imports generators or cli, and
+generators never import cli. Method families (the folders under
+``generators/``) never import each other.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: Source folder -> installed package name (pyproject.toml's package-dir mapping).
+PACKAGES = {"viscore": "viscore", "metrics": "viscore.metrics",
+            "generators": "viscore.generators", "cli": "viscore.cli"}
+
+#: Rank of each package in the import chain: a module may import only packages of
+#: equal or lower rank.
+RANK = {"viscore": 0, "viscore.metrics": 1, "viscore.generators": 2, "viscore.cli": 3}
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT).with_suffix("")
+    parts = [PACKAGES[rel.parts[0]], *rel.parts[1:]]
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _modules() -> dict[str, Path]:
+    found = {}
+    for folder in PACKAGES:
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            if "__pycache__" not in path.parts:
+                found[_module_name(path)] = path
+    return found
+
+
+def _imports(name: str, path: Path, known: set[str]) -> set[str]:
+    """Modules of ours that ``name`` imports anywhere in its source."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        targets = []
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                up = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(up + ([base] if base else []))
+            targets = [f"{base}.{alias.name}" for alias in node.names] + [base]
+        for target in targets:
+            while target and target not in known:
+                target = target.rpartition(".")[0]
+            if target and target != name:
+                out.add(target)
+    return out
+
+
+def _graph() -> dict[str, set[str]]:
+    modules = _modules()
+    known = set(modules)
+    graph = {name: _imports(name, path, known) for name, path in modules.items()}
+    # a package face re-exporting its own submodules is not an arrow of the house
+    return {name: {t for t in targets if not (modules[name].name == "__init__.py"
+                                              and t.startswith(name + "."))}
+            for name, targets in graph.items()}
+
+
+def _package(module: str) -> str:
+    for package in sorted(RANK, key=len, reverse=True):
+        if module == package or module.startswith(package + "."):
+            return package
+    raise AssertionError(module)
+
+
+def test_no_import_circle_between_modules():
+    graph = _graph()
+    index, low, on_stack, stack, circles = {}, {}, set(), [], []
+    counter = [0]
+
+    def visit(v):  # Tarjan's strongly connected components, iteratively deep enough here
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                circles.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    assert not circles, f"import circles: {circles}"
+
+
+def test_imports_follow_the_chain():
+    wrong = [f"{a} -> {b}" for a, targets in _graph().items() for b in targets
+             if RANK[_package(b)] > RANK[_package(a)]]
+    assert not wrong, f"imports against viscore <- metrics <- generators <- cli: {wrong}"
+
+
+def test_method_families_never_import_each_other():
+    families = sorted(p.name for p in (ROOT / "generators").iterdir()
+                      if p.is_dir() and not p.name.startswith(("_", ".")) and
+                      (p / "__init__.py").is_file())
+    assert {"aabb_skins", "planar_sections", "hybrid", "solid_frusta", "baselines"} <= set(families)
+
+    def family(module: str) -> str | None:
+        parts = module.split(".")
+        return parts[2] if len(parts) > 2 and parts[:2] == ["viscore", "generators"] \
+            and parts[2] in families else None
+
+    crossing = [f"{a} -> {b}" for a, targets in _graph().items() for b in targets
+                if family(a) and family(b) and family(a) != family(b)]
+    assert not crossing, f"families import each other: {crossing}"
+
+
+def test_cli_imports_no_private_library_name():
+    """Besides the core's shared helpers (validators, atomic writes), cli uses public names."""
+    shared = {"viscore._validate", "viscore._atomic"}
+    offending = []
+    for name, path in _modules().items():
+        if not name.startswith("viscore.cli"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                module = node.module
+                if not module.startswith("viscore") or module.startswith("viscore.cli"):
+                    continue
+                private_module = any(p.startswith("_") for p in module.split(".")[1:])
+                if module in shared:
+                    continue
+                if private_module or any(a.name.startswith("_") for a in node.names):
+                    offending.append(f"{path.relative_to(ROOT)}: {module}")
+    assert not offending, offending
+
+
+@pytest.mark.parametrize("folder", sorted(PACKAGES))
+def test_layout_doc_names_every_module(folder):
+    """docs/layout.md has a line for every library module (a family folder counts once)."""
+    doc = (ROOT / "docs" / "layout.md").read_text(encoding="utf-8")
+    named = set(re.findall(r"[\w/]+\.py|[\w]+/", doc))
+    missing = []
+    for path in sorted((ROOT / folder).glob("*.py")):
+        if path.name != "__init__.py" and path.name not in named:
+            missing.append(str(path.relative_to(ROOT)))
+    for sub in sorted(p for p in (ROOT / folder).iterdir() if (p / "__init__.py").is_file()):
+        if f"{sub.name}/" not in named:
+            missing.append(f"{sub.relative_to(ROOT)}/")
+    assert not missing, f"docs/layout.md does not name: {missing}"
