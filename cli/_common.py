@@ -1,4 +1,9 @@
-"""Output helpers shared by the subcommands: JSON or text, atomic files, errors.
+"""Output helpers shared by the subcommands: JSON or text, atomic files, errors, estimates.
+
+Output paths are checked before any work (:func:`check_output_file`,
+:func:`check_output_folder`: a probe that files can be made there). A long
+run says how long first, on stderr (:func:`warn_estimate`,
+:class:`RateEstimate`).
 
 Files are written by the core's shared helpers (:func:`viscore._atomic.write_atomic`,
 :func:`viscore._atomic.file_mode`) and meshes by :func:`viscore.mesh_io.save_mesh`.
@@ -7,7 +12,9 @@ Files are written by the core's shared helpers (:func:`viscore._atomic.write_ato
 from __future__ import annotations
 
 import json
+import logging
 import os
+import time
 from pathlib import Path
 
 from viscore.metrics.precision_recall import jsonable
@@ -16,7 +23,15 @@ from viscore._atomic import check_output_path, file_mode, write_atomic
 from viscore.mesh_io import SAVE_FORMATS, mesh_format, save_mesh
 
 __all__ = ["dumps", "emit", "check_output_path", "write_atomic", "file_mode", "check_mesh_path",
-           "write_mesh", "parse_list", "check_output_folder"]
+           "write_mesh", "parse_list", "check_output_folder", "check_output_file",
+           "format_duration", "warn_estimate", "ESTIMATE_WARN_SECONDS", "RateEstimate"]
+
+_log = logging.getLogger("viscore.cli")
+
+#: A run estimated to take longer than this, seconds, says so on stderr first
+#: (:func:`warn_estimate`): a few minutes, past which a user who meant a short
+#: run wants to know before waiting.
+ESTIMATE_WARN_SECONDS = 180.0
 
 
 def dumps(document: dict) -> str:
@@ -45,6 +60,49 @@ def check_mesh_path(path: str | os.PathLike) -> str:
     suffix = mesh_format(path)
     check_output_path(path)
     return suffix
+
+
+def check_output_file(path: str | os.PathLike, option: str, *, mesh: bool = False) -> Path:
+    """An output file of ``option``, refused before any work unless it can be written.
+
+    As :func:`check_output_path` (its folder must exist, it must not be a
+    folder), and for a mesh its format (:func:`check_mesh_path`); then files
+    must be creatable in its folder, probed by making and removing a
+    temporary folder there (as :func:`check_output_folder`: permission bits
+    say nothing for root, nor for a read-only mount). Files written beside it
+    (a hierarchy's ``STEM.hierarchy.json`` and node meshes) share its folder
+    and so the probe.
+
+    Raises
+    ------
+    InputError
+        One line naming ``option``, the path and the problem.
+    """
+    from viscore import InputError
+
+    try:
+        if mesh:
+            check_mesh_path(path)
+        else:
+            check_output_path(path)
+    except InputError as exc:
+        raise InputError(f"{option} {exc}") from None
+    path = Path(path)
+    problem = _cannot_write_in(path.absolute().parent)
+    if problem:
+        raise InputError(f"{option} {path}: cannot write in {str(path.parent)!r} ({problem})")
+    return path
+
+
+def _cannot_write_in(folder: Path) -> str | None:
+    """Why files cannot be made in ``folder`` (an existing folder), or None when they can."""
+    import tempfile
+
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".viscore-", dir=folder))
+    except OSError as exc:
+        return str(exc.strerror or exc)
+    return None
 
 
 def write_mesh(path: str | os.PathLike, mesh) -> None:
@@ -82,8 +140,6 @@ def check_output_folder(path: str | os.PathLike, option: str = "--out") -> Path:
     InputError
         One line naming the path and the problem.
     """
-    import tempfile
-
     from viscore import InputError
 
     path = Path(path)
@@ -96,9 +152,75 @@ def check_output_folder(path: str | os.PathLike, option: str = "--out") -> Path:
         if not where.is_dir():
             raise InputError(f"{option} {path}: the folder {str(path.parent)!r} does not "
                              "exist (it is not created)")
-    try:
-        os.rmdir(tempfile.mkdtemp(prefix=".viscore-", dir=where))
-    except OSError as exc:
-        raise InputError(f"{option} {path}: cannot write in {str(where)!r} "
-                         f"({exc.strerror or exc})") from None
+    problem = _cannot_write_in(where)
+    if problem:
+        raise InputError(f"{option} {path}: cannot write in {str(where)!r} ({problem})")
     return path
+
+
+def format_duration(seconds: float) -> str:
+    """A duration for a human: ``45 s``, ``12 min``, ``3.5 h``, ``36 days``, ``2.1e+03 years``.
+
+    Examples
+    --------
+    >>> format_duration(45), format_duration(720), format_duration(12600)
+    ('45 s', '12 min', '3.5 h')
+    """
+    if not seconds < float("inf"):
+        return "forever"
+    for unit, size in (("years", 365.25 * 86400), ("days", 86400.0), ("h", 3600.0),
+                       ("min", 60.0)):
+        if seconds >= 2 * size if unit in ("years", "days") else seconds >= size:
+            value = seconds / size
+            return f"{value:.2g} {unit}" if value < 10 or value >= 1000 else f"{value:.0f} {unit}"
+    return f"{seconds:.0f} s"
+
+
+def warn_estimate(what: str, seconds: float, basis: str) -> bool:
+    """Say on stderr (a log line) that ``what`` will take ``seconds``, when that is long.
+
+    Only beyond :data:`ESTIMATE_WARN_SECONDS`; stdout (``--json``) is never
+    touched, and ``--quiet`` silences it with the other log lines. Returns
+    whether it was said.
+    """
+    if seconds <= ESTIMATE_WARN_SECONDS:
+        return False
+    _log.warning("%s: estimated %s (%s); Ctrl-C stops it", what, format_duration(seconds),
+                 basis)
+    return True
+
+
+class RateEstimate:
+    """A progress callback that times a small first batch and warns of a long run once.
+
+    Wraps ``update`` (a progress bar's, or None) for ``total`` steps of
+    ``what``; once :data:`FIRST_SECONDS` have passed or :data:`FIRST_SHARE` of
+    the steps are done, the remaining time is estimated from the measured rate
+    and said with :func:`warn_estimate` when long.
+    """
+
+    #: Seconds of work that make a first batch, at most.
+    FIRST_SECONDS = 3.0
+    #: Share of the steps that make a first batch, at most.
+    FIRST_SHARE = 0.05
+
+    def __init__(self, what: str, total: int, unit: str, update=None) -> None:
+        self.what, self.total, self.unit, self._update = what, int(total), unit, update
+        self.done = 0
+        self._start = time.perf_counter()
+        self._said = False
+
+    def __call__(self, n: int = 1) -> None:
+        self.done += n
+        if self._update is not None:
+            self._update(n)
+        if self._said or self.done <= 0 or self.done >= self.total:
+            return
+        elapsed = time.perf_counter() - self._start
+        if elapsed < self.FIRST_SECONDS and self.done < self.FIRST_SHARE * self.total:
+            return
+        self._said = True
+        per = elapsed / self.done
+        warn_estimate(self.what, per * (self.total - self.done),
+                      f"{self.total - self.done:,} {self.unit} to go at {per:.3g} s each, "
+                      f"measured on the first {self.done:,}")

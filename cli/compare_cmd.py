@@ -47,7 +47,13 @@ from viscore._validate import as_positive_int, as_seed, check_memory
 
 from ._common import dumps, emit, parse_list, write_atomic
 from .study.report import CULLING_COLUMNS, write_occluder_glbs, write_report
-from .study.runner import JOBS_PER_CORE, StudySettings, run_study, study_memory
+from .study.runner import (
+    JOBS_PER_CORE,
+    StudySettings,
+    check_scheduler,
+    run_study,
+    study_memory,
+)
 from .study.store import StudyFolder, check_study_dir
 from .study.tables import paired_markdown, paired_rows, table_csv, table_markdown
 
@@ -158,8 +164,10 @@ def _connect(address: str | None):
     """A dask.distributed client of ``--scheduler`` (a context manager), or a null context.
 
     Connected before the study folder is touched: an address that is malformed
-    or does not answer (within dask's ``distributed.comm.timeouts.connect``)
-    is refused with one line and leaves no folder behind.
+    or whose port refuses the connection is refused at once
+    (:func:`viscore.cli.study.runner.check_scheduler`), one that does not answer
+    after dask's ``distributed.comm.timeouts.connect``; either with one line,
+    leaving no folder behind.
     """
     if address is None:
         return contextlib.nullcontext(None)
@@ -167,6 +175,7 @@ def _connect(address: str | None):
         from distributed import Client
     except ImportError:
         raise InputError("--scheduler: needs dask.distributed (pip install distributed)") from None
+    check_scheduler(address)
     try:
         return Client(address)
     except (OSError, ValueError, TypeError) as exc:

@@ -9,13 +9,26 @@ path (:func:`viscore.metrics.culling.camera_path` or ``--path``) and the
 simulation against the ray-cast ground truth
 (:func:`viscore.metrics.culling.simulate_culling`). Every argument is checked
 before any work (the scene and the camera path are read, the output folder
-checked); the output folder is created only when the simulation is done.
+checked, the frames capped at :data:`MAX_FRAMES` and their memory estimated,
+for ``--frames`` and ``--path`` alike). Then the output folder is made if
+missing and locked for this process alone (a second ``cull`` on it is refused
+with one line; :func:`viscore.cli.study.store.lock_exclusive`, the lock of a
+study folder), and what a killed run left beside or in it is removed. A run
+that fails or is interrupted removes the folder if it made it.
 
 Outputs in ``--out`` (default ``./viscore-cull``; its parent must exist):
 ``cull.json`` (the ``--json`` document), ``triangles.png`` (triangles
 rendered per frame for every runtime, as Papaioannou et al. 2006, Figs. 5-6)
-and ``cameras.json`` (the path, replayable with ``--path``), each written
-atomically.
+and ``cameras.json`` (the path, replayable with ``--path``), written as one
+set, all or none: into a temporary sibling folder ``.OUT.cull-*.tmp`` first,
+which then replaces ``--out`` in one step
+(:func:`viscore._atomic.swap_folder`); other files in ``--out`` stay. The
+table's ``conservative`` column reads ``-`` for a runtime that culled nothing
+(no false cull was possible); ``cull.json`` keeps the runtime's guarantee.
+
+A long run says how long on stderr once a first batch of occluders or frames
+is timed (:class:`viscore.cli._common.RateEstimate`), when the estimate
+exceeds a few minutes; stdout stays the JSON document.
 
 References
 ----------
@@ -27,7 +40,9 @@ References
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
+import stat
 import tempfile
 from pathlib import Path
 
@@ -51,16 +66,30 @@ from viscore.metrics.culling import (
 )
 
 from viscore import InputError, provenance
-from viscore._validate import as_positive, as_positive_int, as_seed
+from viscore._atomic import swap_folder
+from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
 from viscore.scene_graph import load_scene_objects
 
-from ._common import check_output_folder, dumps, emit, file_mode
+from ._common import RateEstimate, check_output_folder, dumps, emit, file_mode
+from .study.store import lock_exclusive
 
 #: Frames of a generated camera path when ``--frames`` is not given.
 DEFAULT_FRAMES = 100
 
 #: Largest image side accepted by ``--width`` and ``--height``, pixels.
 MAX_SIDE = 8192
+
+#: Most cameras of a walk, ``--frames`` and ``--path`` alike.
+MAX_FRAMES = 100_000
+
+#: Memory held per frame of the walk until the end, bytes: every runtime's
+#: figures of the frame and its entry in the JSON document (about 10 KB a frame
+#: at the default runtimes, measured as resident growth: 1.25 GB held after
+#: 125,000 frames of a long ``--path``).
+_BYTES_PER_FRAME = 10_000
+
+#: The files of a run, written as one set (the main document first in the table).
+_OUTPUTS = ("cull.json", "triangles.png", "cameras.json")
 
 
 def _default_methods() -> str:
@@ -136,48 +165,132 @@ def _methods(text: str | None, option: str = "--methods") -> list[str]:
 
 
 def _out_dir(text: str) -> Path:
-    """The output folder, refused before any work unless files can be made in it."""
-    return check_output_folder(text)
+    """The output folder, refused before any work unless files can be made in it.
 
-
-def _write_all(out: Path, files: dict) -> None:
-    """Write the files into ``out`` (made if missing), all or none.
-
-    ``files`` maps a name to its bytes or to a function writing that file at a
-    given path (a plot). Each goes to a temporary file in ``out`` first; they
-    are moved in place only when all are written, in the given order (the main
-    document last). On any failure or interruption the temporary files go and,
-    if this call made ``out``, the moved files and ``out`` too.
+    The set of files is swapped in as a whole folder, so the folder may not be
+    the working directory or one holding it (that folder would be swapped away).
     """
-    created = not os.path.lexists(out)
-    out.mkdir(exist_ok=True)
-    mode = file_mode()
-    temps: dict[str, Path] = {}
-    moved: list[Path] = []
-    try:
-        for name, content in files.items():
+    out = check_output_folder(text)
+    here = Path.cwd().resolve()
+    if out.resolve() == here or out.resolve() in here.parents:
+        raise InputError(f"--out {text}: the working directory or a folder holding it; the "
+                         f"cull writes its files by replacing the folder, name a folder of its own")
+    return out
+
+
+class _OutFolder:
+    """``--out`` made if missing and locked for this process alone, written as one set.
+
+    ``with _OutFolder(path) as out:`` makes the folder if missing, locks it
+    (:func:`lock_exclusive` on the folder itself: nothing is added to it) and
+    removes what a killed run of ours left (:meth:`_sweep`). If the block
+    fails and this call made the folder, the folder goes too.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.label = path
+        self.path = Path(os.path.realpath(path))  # a link to a folder: the folder
+        self._fd: int | None = None
+        self._created = False
+
+    def __enter__(self) -> _OutFolder:
+        self._created = not os.path.lexists(self.path)
+        try:
+            self.path.mkdir(exist_ok=True)
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(self.label)) from None
+        try:
+            self._fd = lock_exclusive(
+                self.path, busy=f"--out {self.label}: another cull is writing this folder; "
+                                "wait for it to finish or choose another --out")
+        except OSError:  # (when another cull holds it, the folder is that run's now)
+            self.__exit__(*(None,) * 3, failed=True)
+            raise
+        try:
+            self._sweep()
+        except BaseException:
+            self.__exit__(*(None,) * 3, failed=True)
+            raise
+        return self
+
+    def __exit__(self, exc_type, exc, tb, failed: bool = False) -> None:
+        try:
+            if (failed or exc_type is not None) and self._created:
+                with contextlib.suppress(OSError):  # only if empty: never a file of a run
+                    self.path.rmdir()
+        finally:
+            if self._fd is not None:
+                os.close(self._fd)  # releases the lock
+                self._fd = None
+
+    def _staging(self) -> list[Path]:
+        """Temporary sibling folders of ours: a new set not yet in place, or an old one."""
+        stem = glob.escape(f".{self.path.name}")
+        return [p for kind in ("cull", "old")
+                for p in self.path.parent.glob(f"{stem}.{kind}-*.tmp")]
+
+    def _sweep(self) -> None:
+        """Remove what a killed run of ours left: sibling sets, temporary files inside."""
+        for folder in self._staging():
+            self._settle(folder)
+        for name in _OUTPUTS:  # the temporary files of earlier versions, in the folder
             stem, _, suffix = name.rpartition(".")
-            fd, tmp = tempfile.mkstemp(dir=out, prefix=f".{stem}.", suffix=f".{suffix}")
-            temps[name] = Path(tmp)
-            with os.fdopen(fd, "wb") as fh:
-                if not callable(content):
-                    fh.write(content)
-            if callable(content):
-                content(Path(tmp))
-            os.chmod(tmp, mode)
-        for name in list(temps):
-            os.replace(temps[name], out / name)
-            moved.append(out / name)
-            del temps[name]
-    except BaseException:
-        for tmp in temps.values():
-            tmp.unlink(missing_ok=True)
-        if created:
-            for path in moved:
-                path.unlink(missing_ok=True)
-            with contextlib.suppress(OSError):
-                out.rmdir()
-        raise
+            for stale in self.path.glob(f".{stem}.*.{suffix}"):
+                if stale.is_file() and not stale.is_symlink():
+                    stale.unlink(missing_ok=True)
+
+    def _settle(self, folder: Path) -> None:
+        """Empty a staging folder: our files go, anything else back into ``--out``."""
+        if folder.is_symlink() or not folder.is_dir():
+            return
+        for entry in folder.iterdir():
+            if entry.name in _OUTPUTS and (entry.is_symlink() or not entry.is_dir()):
+                entry.unlink(missing_ok=True)
+            elif not os.path.lexists(self.path / entry.name):  # a file the user kept there
+                with contextlib.suppress(OSError):
+                    os.rename(entry, self.path / entry.name)
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+
+    def write_all(self, files: dict) -> None:
+        """Write the files into the folder as one set, all or none.
+
+        ``files`` maps a name to its bytes or to a function writing that file
+        at a given path (a plot). All are written into a temporary sibling
+        folder, which then replaces the folder in one step
+        (:func:`swap_folder`); files of other names in the folder are kept.
+        """
+        staging = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.cull-", suffix=".tmp",
+                                        dir=self.path.parent))
+        try:
+            mode = file_mode()
+            for name, content in files.items():
+                target = staging / name
+                if callable(content):
+                    content(target)
+                else:
+                    target.write_bytes(content)
+                os.chmod(target, mode)
+                _fsync(target)
+            os.chmod(staging, stat.S_IMODE(os.stat(self.path).st_mode))
+            _fsync(staging)
+            swap_folder(staging, self.path)  # staging now holds the old set
+        finally:
+            self._settle(staging)
+
+
+def _fsync(path: Path) -> None:
+    """Flush a file or folder to disk where the filesystem allows."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
 
 
 def _table(doc: dict) -> str:
@@ -191,14 +304,22 @@ def _table(doc: dict) -> str:
     for name, t in doc["totals"].items():
         lines.append(f"{name:<28} {t['culled_share']:>7.1%} {t['false_culls']:>6} "
                      f"{t['triangles_rendered_per_frame']:>16,.0f} {t['overhead_ms']:>12.2f} "
-                     f"{'yes' if t['conservative'] else 'no':>12}")
+                     f"{_conservative_cell(t):>12}")
     frames = max(1, s["frames"])
     lines.append(f"{'ray-cast truth (visible)':<28} {gt['hidden_share']:>7.1%} {0:>6} "
                  f"{gt['triangles_visible'] / frames:>16,.0f} {'-':>12} {'-':>12}")
     lines.append("culled: share of the objects in the view frustum (view frustum culling "
                  "first, the same for all); false: culled objects visible in the ray-cast "
-                 "object-id image, summed over frames; overhead: mean per frame")
+                 "object-id image, summed over frames; overhead: mean per frame; "
+                 "conservative: the runtime's guarantee, '-' where it culled nothing")
     return "\n".join(lines)
+
+
+def _conservative_cell(total: dict) -> str:
+    """``yes``/``no``: the runtime's guarantee; ``-`` where it culled nothing (nothing to guard)."""
+    if not total.get("culled", total.get("culled_share", 0)):
+        return "-"
+    return "yes" if total["conservative"] else "no"
 
 
 def run_cull(args) -> int:
@@ -210,7 +331,7 @@ def run_cull(args) -> int:
                                 maximum=min(width, height))
     active = as_positive_int(args.active, "--active")
     frames = None if args.frames is None else as_positive_int(args.frames, "--frames",
-                                                             maximum=100_000)
+                                                             maximum=MAX_FRAMES)
     threshold = None if args.size_threshold is None else as_positive(args.size_threshold,
                                                                       "--size-threshold")
     methods = _methods(args.methods)
@@ -221,11 +342,13 @@ def run_cull(args) -> int:
     names = _names(args.occluders, "--occluders")
     out = _out_dir(args.out)
     check_culling_memory(width, height)
+    if args.path is None:
+        _check_frames_memory(frames or DEFAULT_FRAMES, f"--frames {frames or DEFAULT_FRAMES}")
     objects = load_scene_objects(args.scene)
     if args.path is not None:
-        path = read_camera_path(args.path, up=objects.up)
-        if frames is not None:
-            path = path[:frames]
+        # capped before any camera is checked: checking one takes about 0.5 ms
+        path = read_camera_path(args.path, up=objects.up, frames=frames, maximum=MAX_FRAMES)
+        _check_frames_memory(len(path), f"--path {args.path} ({len(path):,} cameras)")
         check_camera_path(objects, path)
     else:
         path = None
@@ -236,7 +359,23 @@ def run_cull(args) -> int:
             raise
         raise InputError(f"{exc}; give --size-threshold or --occluders") from None
     progress = not (args.quiet or args.json)
-    # 2. the work
+    with _OutFolder(out) as folder:  # this process alone, from here to the files
+        doc = _simulate(args, objects, indices, path, folder, progress=progress, seed=seed,
+                        frames=frames, methods=methods, source=source, active=active,
+                        reduction=reduction, width=width, height=height)
+    emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
+         "(replay with --path)")
+    return 0
+
+
+def _check_frames_memory(frames: int, what: str) -> None:
+    """The memory the walk's frames hold until the end (:data:`_BYTES_PER_FRAME` each)."""
+    check_memory(float(frames) * _BYTES_PER_FRAME, what)
+
+
+def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: bool, seed: int,
+              frames, methods, source, active, reduction, width, height) -> dict:
+    """The work and the files of :func:`run_cull`; returns the JSON document."""
     from tqdm import tqdm
 
     if path is None:
@@ -245,25 +384,25 @@ def run_cull(args) -> int:
     todo = distinct * (len(set(methods) | {source}))
     with tqdm(total=todo, desc="occluders", unit="mesh", disable=not progress,
               leave=False) as bar:
+        tick = RateEstimate(f"cull: occluders of {todo:,} meshes", todo, "meshes", bar.update)
         runtimes, info = culling_runtimes(objects, indices, methods, active=active,
                                           reduction=reduction, seed=seed,
                                           frusta_source=source, cap=args.cap,
-                                          rank=args.rank, progress=bar.update)
+                                          rank=args.rank, progress=tick)
     with tqdm(total=len(path), desc="frames", unit="frame", disable=not progress,
               leave=False) as bar:
+        tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
-                                  progress=bar.update)
+                                  progress=tick)
     doc = {"scene": args.scene, "occluder_objects": len(indices),
            "frusta_method": source, "methods": methods, "seed": seed,
            "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
            **result.to_json(),
            "runtimes": info, "provenance": provenance()}
-    # 3. the files, all or none (cull.json, the main document, last)
-    _write_all(out, {
+    # the files, all or none
+    folder.write_all({
         "triangles.png": lambda p: culling_plot(
             result, p, title=f"{args.scene}: triangles rendered per frame"),
         "cameras.json": camera_path_json(path).encode(),
         "cull.json": dumps(doc).encode()})
-    emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
-         "(replay with --path)")
-    return 0
+    return doc

@@ -34,10 +34,22 @@ if TYPE_CHECKING:  # pragma: no cover - hints only
     from viscore.scene_graph import SceneObjects
 
 __all__ = ["PathCamera", "camera_path", "read_camera_path", "camera_path_json",
-           "check_camera_path", "DEFAULT_FOV", "EYE_HEIGHT"]
+           "check_camera_path", "DEFAULT_FOV", "EYE_HEIGHT", "MIN_FOV", "MAX_FOV"]
 
 #: Horizontal field of view of generated and JSON cameras without ``fov``, degrees.
 DEFAULT_FOV = 90.0
+
+#: Narrowest horizontal field of view accepted, degrees. A pixel of the widest
+#: image (8192 pixels) then spans 2.1e-7 rad, so two neighbouring pixels' hit
+#: points at distance D are 2.1e-7 D apart: still beyond float32's resolution
+#: of D (1.2e-7 D), in which Embree casts. Narrower, neighbouring pixels fall on
+#: one float32 point (at 1e-300 degrees, every ray of the image is the same ray).
+MIN_FOV = 0.1
+
+#: Widest horizontal field of view accepted, degrees. A planar projection has
+#: none at 180; at 179, tan(fov / 2) is already 115 and an edge pixel covers a
+#: millionth of a centre pixel's solid angle: wider views are all periphery.
+MAX_FOV = 179.0
 
 #: Eye height above the ground of the street-level frames, world units (metres
 #: in the built-in cities).
@@ -77,7 +89,7 @@ class PathCamera:
     up : (3,) float64
         Approximate up vector (the scene's up axis by default).
     fov : float
-        Horizontal field of view, degrees in (0, 180).
+        Horizontal field of view, degrees in [``MIN_FOV``, ``MAX_FOV``] = [0.1, 179].
     """
 
     position: np.ndarray
@@ -107,22 +119,30 @@ def _pose(position, forward, up, fov: float, where: str) -> PathCamera:
         f, _, _ = camera_basis(f, u)
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
-    fov = as_positive(fov, f"{where}.fov")
-    if fov >= 180:
-        raise InputError(f"{where}.fov: expected degrees in (0, 180), got {fov:g}")
+    fov = _check_fov(fov, f"{where}.fov")
     for arr in (p, f, u):
         arr.flags.writeable = False
     return PathCamera(position=p, forward=f, up=u, fov=fov)
 
 
-def read_camera_path(path: str | os.PathLike, *, up: npt.ArrayLike = (0.0, 1.0, 0.0)
+def _check_fov(fov: object, where: str) -> float:
+    """A horizontal field of view in [MIN_FOV, MAX_FOV] degrees, or one line naming ``where``."""
+    fov = as_positive(fov, where)
+    if not MIN_FOV <= fov <= MAX_FOV:
+        raise InputError(f"{where}: expected degrees in [{MIN_FOV:g}, {MAX_FOV:g}], got {fov:g}")
+    return fov
+
+
+def read_camera_path(path: str | os.PathLike, *, up: npt.ArrayLike = (0.0, 1.0, 0.0),
+                     frames: int | None = None, maximum: int | None = None
                      ) -> list[PathCamera]:
     """Read a camera path from a JSON file.
 
     Format: a JSON list of cameras, each an object with ``position`` (3
     numbers, world units), ``forward`` (3 numbers, the viewing direction),
     optionally ``up`` (3 numbers; default ``up``) and ``fov`` (horizontal
-    field of view in degrees, in (0, 180); default 90). For example::
+    field of view in degrees, in [0.1, 179], :data:`MIN_FOV` and
+    :data:`MAX_FOV`; default 90). For example::
 
         [{"position": [0, 1.7, -50], "forward": [0, 0, 1]},
          {"position": [0, 30, -80], "forward": [0, -0.4, 1], "up": [0, 1, 0], "fov": 70}]
@@ -133,6 +153,12 @@ def read_camera_path(path: str | os.PathLike, *, up: npt.ArrayLike = (0.0, 1.0, 
         The JSON file.
     up : (3,) float, optional
         Up vector of the cameras without one (default +Y, glTF's up).
+    frames : int, optional
+        Keep the first ``frames`` cameras; the others are not checked
+        (default: all).
+    maximum : int, optional
+        Refuse a path of more cameras than this (after ``frames``), before
+        any camera is checked (default: no limit but the file size's).
 
     Returns
     -------
@@ -142,11 +168,15 @@ def read_camera_path(path: str | os.PathLike, *, up: npt.ArrayLike = (0.0, 1.0, 
     ------
     InputError
         One line naming the file: missing or unreadable, not JSON, not a
-        non-empty list of camera objects, or a camera with a missing, non-finite
-        or degenerate field (zero forward, up parallel to forward, fov out of
-        range), naming the camera's index.
+        non-empty list of camera objects, more than ``maximum`` cameras, or a
+        camera with a missing, non-finite or degenerate field (zero forward, up
+        parallel to forward, fov out of range), naming the camera's index.
     """
     label = str(path)
+    if frames is not None:
+        frames = as_positive_int(frames, "frames")
+    if maximum is not None:
+        maximum = as_positive_int(maximum, "maximum")
     try:
         st = os.stat(path)
         if stat.S_ISDIR(st.st_mode):
@@ -173,6 +203,11 @@ def read_camera_path(path: str | os.PathLike, *, up: npt.ArrayLike = (0.0, 1.0, 
     if not isinstance(doc, list) or not doc:
         raise InputError(f"{label}: expected a non-empty JSON list of cameras "
                          "({\"position\": [x, y, z], \"forward\": [x, y, z], \"up\"?, \"fov\"?})")
+    if frames is not None:
+        doc = doc[:frames]
+    if maximum is not None and len(doc) > maximum:
+        raise InputError(f"{label}: {len(doc):,} cameras, more than the {maximum:,} a path "
+                         "may have")
     cameras = []
     for i, cam in enumerate(doc):
         where = f"{label}: camera {i}"
@@ -450,7 +485,8 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
         ground (or to 5% of its width, if that is more) when the scene is
         lower than that: a model in other units than metres.
     fov : float, optional
-        Horizontal field of view of every camera, degrees (default 90).
+        Horizontal field of view of every camera, degrees in [0.1, 179]
+        (:data:`MIN_FOV`, :data:`MAX_FOV`; default 90).
     up : (3,) float, optional
         The scene's up axis. Default ``objects.up`` (+Y for glTF).
 
@@ -482,9 +518,7 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     frames = as_positive_int(frames, "frames", maximum=100_000)
     seed = as_seed(seed)
     eye_height = as_positive(eye_height, "eye_height")
-    fov = as_positive(fov, "fov")
-    if fov >= 180:
-        raise InputError(f"fov: expected degrees in (0, 180), got {fov:g}")
+    fov = _check_fov(fov, "fov")
     up = np.asarray(objects.up if up is None else as_vector(up, "up"), dtype=np.float64)
     if np.linalg.norm(up) == 0:
         raise InputError("up: zero-length vector")

@@ -254,3 +254,72 @@ def test_views_reach_workers_once_through_a_file_and_the_folder_goes(tmp_path):
     assert views_from_file(str(path)) is first
     assert list(runner._WORKER_VIEWS) == [str(path)]
     runner._WORKER_VIEWS.clear()
+
+
+def test_compare_refused_scheduler_port_is_one_line_at_once(tmp_path, capsys, monkeypatch):
+    """Issue 23: a port that refuses at once took dask's 30 s connect timeout to report.
+
+    The refusal is found by a plain socket before dask's Client (whose connect
+    timeout is for silence) is ever made: a Client made here fails the test.
+    """
+    import socket
+
+    import distributed
+
+    def no_client(*args, **kwargs):
+        raise AssertionError("a refused port must be reported before a dask Client is made")
+
+    monkeypatch.setattr(distributed, "Client", no_client)
+    with socket.socket() as s:  # a loopback port nothing listens on once closed
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    out = tmp_path / "study"
+    code = main(["compare", "cow", "--methods", "bbox", *TINY, "--scheduler",
+                 f"tcp://127.0.0.1:{port}", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    assert "--scheduler" in err and "refused" in err and str(port) in err
+    assert not out.exists()
+
+
+def test_run_study_refused_scheduler_string_is_one_line(tmp_path):
+    import socket
+
+    from viscore.cli.study.runner import StudySettings, run_study
+
+    from viscore import InputError
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    with pytest.raises(InputError, match="refused"):
+        run_study(["cow"], ["bbox"], StudySettings(views=4, quads=300, resolution=32,
+                                                   rays=1000, budgets=(64,)),
+                  tmp_path / "study", scheduler=f"tcp://127.0.0.1:{port}", progress=False)
+
+
+def test_compare_refuses_a_symlinked_occluders_folder(tmp_path, capsys):
+    """Issue 23: STUDY/occluders -> elsewhere was followed: occluders landed outside the study."""
+    out, elsewhere = tmp_path / "study", tmp_path / "elsewhere"
+    out.mkdir()
+    elsewhere.mkdir()
+    (out / "occluders").symlink_to(elsewhere)
+    assert main(["compare", "cow", "--methods", "bbox", *TINY, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "occluders" in err and "symbolic link" in err, err
+    assert list(elsewhere.iterdir()) == []
+    assert not (out / "results.sqlite").exists()
+
+
+def test_study_folder_refuses_a_link_made_after_the_check(tmp_path):
+    from viscore.cli.study.store import StudyFolder
+
+    from viscore import InputError
+
+    out, elsewhere = tmp_path / "study", tmp_path / "elsewhere"
+    out.mkdir()
+    elsewhere.mkdir()
+    (out / "occluders").symlink_to(elsewhere)
+    with pytest.raises(InputError, match="symbolic link"), StudyFolder(out):
+        pass
+    assert list(elsewhere.iterdir()) == []

@@ -76,8 +76,13 @@ def test_cull_text_table(run, street, tmp_path, capsys):
     assert code == 0, captured.err
     assert "depth-buffer:bbox" in captured.out and "ray-cast truth" in captured.out
     rows = {line.split()[0]: line for line in captured.out.splitlines()[2:6]}
-    assert rows["depth-buffer:bbox"].endswith("no")  # bbox is not conservative
+    totals = json.loads((tmp_path / "o" / "cull.json").read_text())["totals"]
+    assert totals["depth-buffer:bbox"]["conservative"] is False  # bbox is not conservative
+    # issue 23: it culled nothing in this frame, so the table reads '-', not 'no'
+    assert totals["depth-buffer:bbox"]["culled"] == 0
+    assert rows["depth-buffer:bbox"].endswith("-")
     assert rows["solid-frusta"].endswith("no")  # its box as a solid: not conservative
+    assert rows["none"].endswith("-")  # culls nothing by definition
 
 
 @pytest.mark.parametrize("make, args, match", [
@@ -186,3 +191,194 @@ def test_cull_interrupted_while_writing_leaves_nothing(run, street, tmp_path, ca
                "--frusta-method", "bbox", "--width", 32, "--height", 18, "--out", out,
                "--quiet") == code
     assert list(out.iterdir()) == []
+
+
+# --------------------------------------------------------------------------- issue 23
+_SMALL = ["--occluders", "wall", "--methods", "bbox", "--frusta-method", "bbox", "--width", 32,
+          "--height", 18, "--quiet"]
+
+
+def _one_line(capsys) -> str:
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    return err
+
+
+def test_cull_path_over_the_frame_cap_refused_before_reading_cameras(run, street, tmp_path,
+                                                                     capsys, monkeypatch):
+    """--frames was capped at 100,000 while a --path of 10^6 cameras ran (1.25 GB in 35 s)."""
+
+    from viscore.metrics import camera_paths
+
+    monkeypatch.chdir(tmp_path)
+    scene, _ = street
+    big = tmp_path / "big.json"
+    big.write_text(json.dumps([{"position": [0, 1.5, -10], "forward": [0, 0, 1]}]
+                              * (cull_cmd.MAX_FRAMES + 1)))
+
+    def no_pose(*a, **k):
+        raise AssertionError("no camera may be checked past the cap")
+
+    monkeypatch.setattr(camera_paths, "_pose", no_pose)
+    assert run(scene, "--path", big, *_SMALL) == 2
+    err = _one_line(capsys)
+    assert "100,001 cameras" in err and "100,000" in err and str(big) in err, err
+    assert not (tmp_path / "viscore-cull").exists()
+
+
+def test_cull_frames_and_path_share_the_memory_estimate(run, street, tmp_path, capsys,
+                                                        monkeypatch):
+    from viscore._validate import available_memory
+
+    monkeypatch.chdir(tmp_path)
+    scene, _ = street
+    # a 1 MB limit: a 32 x 18 ground truth fits, 1,000 frames (about 10 MB) do not
+    monkeypatch.setenv("VISCORE_MEMORY_FRACTION", str(1e6 / available_memory()))
+    many = tmp_path / "many.json"
+    many.write_text(json.dumps([{"position": [0, 1.5, -10], "forward": [0, 0, 1]}] * 1000))
+    assert run(scene, "--path", many, *_SMALL) == 2
+    err = _one_line(capsys)
+    assert f"--path {many} (1,000 cameras): needs about" in err, err
+    assert run(scene, "--frames", 1000, *_SMALL) == 2
+    assert "--frames 1000: needs about" in _one_line(capsys)
+    # --frames keeps the first N of a path: within the limit
+    assert run(scene, "--path", many, "--frames", 2, *_SMALL) == 0, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("fov, ok", [(1e-300, False), (0.05, False), (0.1, True), (179, True),
+                                     (179.5, False), (180, False)])
+def test_read_camera_path_fov_range(tmp_path, fov, ok):
+    from viscore.metrics.camera_paths import MAX_FOV, MIN_FOV, read_camera_path
+
+    from viscore import InputError
+
+    assert (MIN_FOV, MAX_FOV) == (0.1, 179.0)
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps([{"position": [0, 1, 0], "forward": [0, 0, 1]},
+                                {"position": [0, 1, 0], "forward": [0, 0, 1], "fov": fov}]))
+    if ok:
+        assert read_camera_path(path)[1].fov == fov
+    else:
+        with pytest.raises(InputError, match=r"camera 1\.fov: expected degrees in \[0.1, 179\]"):
+            read_camera_path(path)
+
+
+def test_cull_tiny_fov_refused_naming_the_camera(run, street, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    scene, _ = street
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps([{"position": [0, 1.5, -10], "forward": [0, 0, 1]},
+                                {"position": [0, 1.5, -10], "forward": [0, 0, 1],
+                                 "fov": 1e-300}]))
+    assert run(scene, "--path", path, *_SMALL) == 2
+    assert f"{path}: camera 1.fov: expected degrees in [0.1, 179], got 1e-300" in _one_line(capsys)
+
+
+def test_cull_a_second_run_on_a_locked_folder_is_refused(run, street, tmp_path, capsys):
+    """Two cull --out D at once both exited 0, their renames interleaved."""
+    import fcntl
+    import os
+
+    scene, cameras = street
+    out = tmp_path / "out"
+    out.mkdir()
+    fd = os.open(out, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)  # another cull holds the folder
+        assert run(scene, "--path", cameras, *_SMALL, "--out", out) == 2
+        assert "another cull is writing" in _one_line(capsys)
+        assert list(out.iterdir()) == []
+    finally:
+        os.close(fd)
+    assert run(scene, "--path", cameras, *_SMALL, "--out", out) == 0  # released: it runs
+    assert sorted(p.name for p in out.iterdir()) == sorted(cull_cmd._OUTPUTS)
+
+
+def _set_of(out) -> tuple:
+    doc = json.loads((out / "cull.json").read_text())
+    cameras = json.loads((out / "cameras.json").read_text())
+    assert len(doc["frames"]) == len(cameras)  # one run's set
+    return len(cameras), (out / "triangles.png").stat().st_ino
+
+
+def test_cull_killed_before_the_swap_keeps_the_old_set_and_the_next_run_sweeps(
+        run, street, tmp_path, capsys, monkeypatch):
+    """A killed run left a new triangles.png beside an old cull.json, and temp files for good."""
+    scene, cameras = street
+    out = tmp_path / "out"
+    one = tmp_path / "one.json"
+    one.write_text(json.dumps(json.loads(cameras.read_text())[:1]))
+    assert run(scene, "--path", cameras, *_SMALL, "--out", out) == 0
+    assert _set_of(out)[0] == 2
+    (out / "notes.txt").write_text("mine")  # a file of the user's stays
+    # what earlier versions and a SIGKILL leave: temporary files inside, a set beside
+    (out / ".cull.abc123.json").write_text("{")
+    (out / ".cameras.abc123.json").write_text("[")
+
+    def killed(new, target):  # SIGKILL just before the swap: nothing cleans up
+        raise KeyboardInterrupt
+
+    with pytest.MonkeyPatch.context() as kill:
+        kill.setattr(cull_cmd, "swap_folder", killed)
+        kill.setattr(cull_cmd._OutFolder, "_settle", lambda self, folder: None)
+        assert run(scene, "--path", one, *_SMALL, "--out", out) == 130
+    capsys.readouterr()
+    assert _set_of(out)[0] == 2  # the old set, whole
+    assert len(list(tmp_path.glob(".out.cull-*.tmp"))) == 1
+    assert run(scene, "--path", one, *_SMALL, "--out", out) == 0, capsys.readouterr().err
+    assert _set_of(out)[0] == 1  # the new set, whole
+    assert sorted(p.name for p in out.iterdir()) == sorted([*cull_cmd._OUTPUTS, "notes.txt"])
+    assert (out / "notes.txt").read_text() == "mine"
+    assert list(tmp_path.glob(".out.*.tmp")) == []
+
+
+@pytest.mark.parametrize("exchange", [True, False])
+def test_swap_folder_replaces_a_set_in_one_step(tmp_path, monkeypatch, exchange):
+    from viscore import _atomic
+
+    if not exchange:  # the two-rename fallback of systems without RENAME_EXCHANGE
+        monkeypatch.setattr(_atomic, "_exchange", lambda a, b: False)
+    target, new = tmp_path / "out", tmp_path / ".out.new"
+    target.mkdir()
+    new.mkdir()
+    (target / "a").write_text("old")
+    (new / "a").write_text("new")
+    (new / "b").write_text("new")
+    _atomic.swap_folder(new, target)
+    assert {p.name: p.read_text() for p in target.iterdir()} == {"a": "new", "b": "new"}
+    assert {p.name: p.read_text() for p in new.iterdir()} == {"a": "old"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".out.new", "out"]
+
+
+def test_cull_long_run_says_how_long(run, street, tmp_path, capsys, monkeypatch):
+    """A cull of hours started with a bare bar; the estimate comes from a timed first batch."""
+    from viscore.cli import _common
+
+    monkeypatch.setattr(_common, "ESTIMATE_WARN_SECONDS", 0.0)  # every run is "long"
+    monkeypatch.setattr(_common.RateEstimate, "FIRST_SECONDS", 0.0)
+    scene, cameras = street
+    out = tmp_path / "out"
+    assert run(scene, "--path", cameras, *_SMALL[:-1], "--out", out, "--json") == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["settings"]["frames"] == 2  # stdout: the document alone
+    assert "cull: 2 frames: estimated" in captured.err and "measured on the first 1" in captured.err
+
+
+def test_cull_table_conservative_cell():
+    assert cull_cmd._conservative_cell({"culled": 0, "conservative": False}) == "-"
+    assert cull_cmd._conservative_cell({"culled": 0, "conservative": True}) == "-"
+    assert cull_cmd._conservative_cell({"culled": 3, "conservative": False}) == "no"
+    assert cull_cmd._conservative_cell({"culled": 3, "conservative": True}) == "yes"
+
+
+def test_cull_out_may_not_be_the_working_directory(run, street, tmp_path, capsys, monkeypatch):
+    """The set is swapped in as a folder: swapping the working directory away is refused."""
+    scene, _ = street
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "keep.txt").write_text("mine")
+    monkeypatch.chdir(work)
+    for out in (".", str(tmp_path)):
+        assert run(scene, "--out", out, *_SMALL) == 2
+        assert "--out" in _one_line(capsys)
+    assert sorted(p.name for p in work.iterdir()) == ["keep.txt"]

@@ -132,3 +132,51 @@ def test_same_seed_bit_identical_json_across_runs_and_workers(argv, capsys):
     for other in docs[1:]:
         assert json.dumps(_comparable(other), sort_keys=True) == first
     assert "seconds" in docs[0]  # the exclusion list names fields that exist
+
+
+def test_memory_message_reads_a_small_share_right(capsys, monkeypatch):
+    """Issue 23: VISCORE_MEMORY_FRACTION=0.001 read "0% of available memory"."""
+    monkeypatch.setenv("VISCORE_MEMORY_FRACTION", "0.001")
+    assert main(["measure", "nope.ply", "--directions", str(10**9)]) == 2
+    line = _one_error_line(capsys)
+    assert "(0.1% of available memory)" in line, line
+    monkeypatch.setenv("VISCORE_MEMORY_FRACTION", "0.75")
+    assert main(["measure", "nope.ply", "--directions", str(10**9)]) == 2
+    assert "(75% of available memory)" in _one_error_line(capsys)
+
+
+def test_validate_hours_long_run_prints_an_estimate_first(capsys, monkeypatch):
+    """Issue 23: --rays 1e12 started silently; the estimate comes from a timed first batch."""
+    from viscore.cli import metrics_cmd
+
+    real = metrics_cmd.check_conservative
+    calls = []
+
+    def probe_only(mesh, occ, *, rays, **kw):
+        calls.append(rays)
+        if rays > metrics_cmd._ETA_PROBE_RAYS:
+            raise KeyboardInterrupt  # the real run would take weeks: stop it here
+        return real(mesh, occ, rays=rays, **kw)
+
+    monkeypatch.setattr(metrics_cmd, "check_conservative", probe_only)
+    argv = ["validate", "fat-torus", "fat-torus", "--rays", str(10**12), "--json"]
+    assert main(argv) == 130
+    captured = capsys.readouterr()
+    assert captured.out == ""  # --json stdout stays clean
+    assert "--rays 1000000000000: estimated" in captured.err, captured.err
+    assert calls == [metrics_cmd._ETA_PROBE_RAYS, 10**12]
+
+
+def test_validate_short_run_has_no_probe(capsys, monkeypatch):
+    from viscore.cli import metrics_cmd
+
+    calls = []
+    real = metrics_cmd.check_conservative
+
+    def counting(mesh, occ, *, rays, **kw):
+        calls.append(rays)
+        return real(mesh, occ, rays=rays, **kw)
+
+    monkeypatch.setattr(metrics_cmd, "check_conservative", counting)
+    assert main(["validate", "fat-torus", "fat-torus", "--rays", "2000", "--json"]) in (0, 1)
+    assert calls == [2000] and "estimated" not in capsys.readouterr().err

@@ -5,19 +5,24 @@ Shared by the command line (tables, meshes, reports) and the figure module of
 
 The core's shared set (STYLE rule 3: private to the package, imported by
 ``viscore.metrics``, ``viscore.generators`` and ``viscore.cli`` alike):
-:func:`write_atomic`, :func:`check_output_path` and :func:`file_mode` (the
+:func:`write_atomic`, :func:`check_output_path`, :func:`file_mode` (the
 mode a new file gets, for writers that make their own temporary files, such
-as the command line's all-or-none output folders).
+as the command line's all-or-none output folders) and :func:`swap_folder`
+(a whole folder of files replaced in one step).
 """
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 import tempfile
 from pathlib import Path
 
-__all__ = ["write_atomic", "check_output_path", "file_mode"]
+__all__ = ["write_atomic", "check_output_path", "file_mode", "swap_folder"]
+
+#: ``renameat2`` arguments (Linux ``<fcntl.h>``, ``<linux/fs.h>``).
+_AT_FDCWD, _RENAME_EXCHANGE = -100, 2
 
 
 def _umask() -> int:
@@ -146,3 +151,61 @@ def write_atomic(path: str | os.PathLike, data: bytes, *, parents: bool = False)
         pass
     finally:
         os.close(dir_fd)
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two existing paths in one step (Linux ``renameat2(RENAME_EXCHANGE)``).
+
+    Returns False where the call or the flag is not supported (not Linux, an
+    old kernel or C library, a filesystem without it); other failures raise
+    OSError naming ``b``.
+    """
+    import ctypes
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p,
+                          ctypes.c_uint]
+    if renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
+        return False
+    raise OSError(err, os.strerror(err), str(b))
+
+
+def swap_folder(new: str | os.PathLike, target: str | os.PathLike) -> None:
+    """Put the folder ``new`` at the existing folder ``target``; the old one goes to ``new``.
+
+    Where Linux allows (``renameat2`` with ``RENAME_EXCHANGE``) the two are
+    exchanged in one step: a reader of ``target`` sees the old files or the
+    new ones, never a mix, and a killed process leaves one or the other.
+    Elsewhere two renames: killed between them, ``target`` is missing (none
+    of the files, never a mix) and the old folder is at ``new``. Both paths
+    must be in one filesystem (siblings are); the caller removes ``new``.
+
+    Raises
+    ------
+    OSError
+        If the folders cannot be renamed; its ``filename`` is ``target``.
+    """
+    new, target = Path(new), Path(target)
+    if _exchange(new, target):
+        return
+    old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", suffix=".tmp", dir=target.parent))
+    try:
+        os.replace(target, old)  # an empty folder is replaced by a folder
+        try:
+            os.replace(new, target)
+        except OSError:
+            os.replace(old, target)  # put the old folder back
+            raise
+        os.replace(old, new)  # the old files where the caller removes them
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from None
+    finally:
+        if old.is_dir() and not any(old.iterdir()):
+            old.rmdir()

@@ -185,7 +185,22 @@ def check_memory(nbytes: float, what: str) -> None:
         nbytes = float("inf")
     if not np.isfinite(nbytes) or nbytes > limit:
         raise InputError(f"{what}: needs about {_human_bytes(nbytes)} of memory, more than the "
-                         f"limit of {_human_bytes(limit)} ({fraction:.0%} of available memory)")
+                         f"limit of {_human_bytes(limit)} ({_percent(fraction)} of available "
+                         "memory)")
+
+
+def _percent(fraction: float) -> str:
+    """A share as a percentage with three significant digits: 75%, 0.1%, 0.0001%.
+
+    ``format(0.001, ".0%")`` reads "0%": a small ``VISCORE_MEMORY_FRACTION``
+    must still read as the share it is.
+
+    Examples
+    --------
+    >>> _percent(0.75), _percent(0.001), _percent(1.5e-6)
+    ('75%', '0.1%', '0.00015%')
+    """
+    return f"{100 * fraction:.3g}%"
 
 
 def _human_bytes(n: float) -> str:

@@ -18,7 +18,11 @@ and keeps the views of one mesh (:func:`views_from_file`), so the ~35 MiB of
 views are not pickled into every job. The folder is removed when the jobs end,
 on Ctrl-C and on errors too; one a killed run left behind is removed when the
 study folder is next opened (:class:`viscore.cli.study.store.StudyFolder`).
-On dask the views are one future, which dask moves to each worker once.
+On dask the views are one future, which dask moves to each worker once. A
+scheduler address is probed first (:func:`check_scheduler`): a TCP port that
+refuses the connection is reported at once, with one line; dask's own connect
+timeout (``distributed.comm.timeouts.connect``, 30 s by default) is left for
+an address that does not answer at all.
 
 Crash safety. The study folder is opened by this process alone
 (:class:`~viscore.cli.study.store.StudyFolder`). Each job's occluder file is
@@ -47,6 +51,7 @@ import os
 import pickle
 import shutil
 import signal
+import socket
 import tempfile
 import threading
 from collections.abc import Callable
@@ -56,14 +61,15 @@ from pathlib import Path
 
 from viscore.metrics.estimates import study_bytes
 
-from viscore import cpu_cores
+from viscore import InputError, cpu_cores
 from viscore.mesh_io import mesh_bytes
 
 from .._common import dumps, write_atomic
 from .store import StudyFolder
 
 __all__ = ["StudySettings", "Job", "study_jobs", "view_settings", "study_memory", "build_views",
-           "views_from_file", "run_job", "run_study", "TIMING_FIELDS", "JOBS_PER_CORE"]
+           "views_from_file", "run_job", "run_study", "check_scheduler", "TIMING_FIELDS",
+           "JOBS_PER_CORE", "SCHEDULER_PROBE_SECONDS"]
 
 #: Fields of a row that are wall times (they differ between runs; everything
 #: else in a row is deterministic given the settings).
@@ -71,6 +77,14 @@ TIMING_FIELDS = ("seconds", "seconds_evaluate", "seconds_measure", "seconds_vali
 
 #: Local jobs allowed per core (``--jobs`` beyond ``JOBS_PER_CORE`` x cores is refused).
 JOBS_PER_CORE = 4
+
+#: Seconds the probe of a scheduler's TCP port waits for an answer
+#: (:func:`check_scheduler`). A refusal comes back at once, whatever this is;
+#: a port that stays silent this long is left to dask's own connect timeout.
+SCHEDULER_PROBE_SECONDS = 2.0
+
+#: Port of a scheduler address that names none (dask.distributed's default).
+_DEFAULT_SCHEDULER_PORT = 8786
 
 
 @dataclass(frozen=True)
@@ -332,11 +346,55 @@ def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
         shutil.rmtree(folder, ignore_errors=True)
 
 
+def check_scheduler(address: str) -> None:
+    """Refuse at once a dask scheduler address that cannot be reached.
+
+    For a ``tcp://`` or ``tls://`` address (a bare ``host:port`` is TCP), a
+    plain socket connects to the host and port first, waiting at most
+    :data:`SCHEDULER_PROBE_SECONDS`: a refused connection, an unknown host or
+    an unreachable network is one line at once, where
+    ``distributed.Client`` would retry until its connect timeout (30 s)
+    runs out. A port that stays silent passes: the client's timeout is kept
+    for that case. Other schemes (``inproc://``, ``ucx://``) are not probed.
+
+    Raises
+    ------
+    InputError
+        One line naming ``--scheduler``, the address and the problem.
+    """
+    from distributed.comm import parse_address, parse_host_port
+
+    where = f"--scheduler {address!r}"
+    try:
+        scheme, location = parse_address(str(address))
+        if scheme not in ("tcp", "tls"):
+            return
+        host, port = parse_host_port(location, _DEFAULT_SCHEDULER_PORT)
+    except (ValueError, TypeError) as exc:
+        raise InputError(f"{where}: not a scheduler address ({exc})") from None
+    try:
+        with socket.create_connection((host, port), timeout=SCHEDULER_PROBE_SECONDS):
+            pass
+    except TimeoutError:  # silence: dask's connect timeout decides
+        return
+    except ConnectionRefusedError:
+        raise InputError(f"{where}: connection refused by {host}:{port} (no scheduler "
+                         "listens there; start one with 'dask scheduler' or fix the port)"
+                         ) from None
+    except socket.gaierror as exc:
+        raise InputError(f"{where}: unknown host {host!r} ({exc.strerror or exc})") from None
+    except (OSError, OverflowError) as exc:  # unreachable network, a port beyond 65535
+        raise InputError(f"{where}: cannot connect "
+                         f"({getattr(exc, 'strerror', None) or exc})") from None
+
+
 def _dask(pending: list[Job], scheduler, commit: Callable) -> None:
     """As :func:`_local` on a dask cluster: the views move to the jobs' workers once."""
     from distributed import Client
     from distributed import as_completed as dask_completed
 
+    if not isinstance(scheduler, Client):
+        check_scheduler(scheduler)
     client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
     futures: dict = {}
     try:

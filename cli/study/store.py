@@ -8,7 +8,12 @@ resumes, and a killed run (SIGKILL included) loses only the jobs that were
 running. A store that is not a study store (another file, another schema, a
 row that is not JSON) is refused with one line naming the file, before any
 work. Opening a folder removes the temporary files (and the temporary views
-folders of :mod:`viscore.cli.study.runner`) a killed run left behind.
+folders of :mod:`viscore.cli.study.runner`) a killed run left behind. A
+study's subfolder (``occluders/``) that is a symbolic link is refused with one
+line: the study writes inside its folder, never elsewhere through a link.
+
+:func:`lock_exclusive` is the lock itself, shared with ``viscore cull``'s
+output folder.
 """
 
 from __future__ import annotations
@@ -24,8 +29,8 @@ from viscore import InputError
 
 from .._common import check_output_folder, dumps
 
-__all__ = ["ResultStore", "StudyFolder", "check_study_dir", "STORE_NAME", "LOCK_NAME",
-           "OCCLUDER_DIR", "STORE_COLUMNS"]
+__all__ = ["ResultStore", "StudyFolder", "check_study_dir", "lock_exclusive", "STORE_NAME",
+           "LOCK_NAME", "OCCLUDER_DIR", "STORE_COLUMNS"]
 
 #: File names inside a study folder.
 STORE_NAME, LOCK_NAME, OCCLUDER_DIR = "results.sqlite", ".lock", "occluders"
@@ -117,6 +122,76 @@ class ResultStore:
             self._db = None
 
 
+def lock_exclusive(path: str | os.PathLike, busy: str) -> int:
+    """Take an exclusive advisory lock on ``path`` for this process; returns its descriptor.
+
+    ``path`` is a lock file (created if missing) or a folder (locked as it is,
+    nothing is created in it). The lock is ``fcntl.flock(LOCK_EX | LOCK_NB)``:
+    it is released when the descriptor is closed or the process dies, SIGKILL
+    included. A path replaced while the lock was being taken (another process
+    renamed a folder over it) is locked again on what it now names.
+
+    Parameters
+    ----------
+    path : path-like
+        The lock file or folder.
+    busy : str
+        The one-line message when another process holds the lock.
+
+    Returns
+    -------
+    int
+        The descriptor; close it to release the lock.
+
+    Raises
+    ------
+    InputError
+        ``busy``, when another process holds the lock.
+    OSError
+        When the path cannot be opened or locked; its ``filename`` is ``path``.
+    """
+    import fcntl
+
+    path = Path(path)
+    for _ in range(_LOCK_ATTEMPTS):
+        try:
+            flags = os.O_RDONLY | os.O_DIRECTORY if path.is_dir() else os.O_RDWR | os.O_CREAT
+            fd = os.open(path, flags | os.O_CLOEXEC, 0o666)
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(path)) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            same = os.path.samestat(os.fstat(fd), os.stat(path))
+        except BlockingIOError:
+            os.close(fd)
+            raise InputError(busy) from None
+        except FileNotFoundError:  # renamed away while we locked it: lock what is there now
+            os.close(fd)
+            continue
+        except OSError as exc:
+            os.close(fd)
+            raise OSError(exc.errno, f"cannot lock ({exc.strerror})", str(path)) from None
+        if same:
+            return fd
+        os.close(fd)
+    raise InputError(busy)
+
+
+#: Attempts of :func:`lock_exclusive` on a path that keeps being replaced.
+_LOCK_ATTEMPTS = 5
+
+
+def _refuse_linked_subfolders(path: Path) -> None:
+    """One line when a subfolder the study writes into is a symbolic link."""
+    sub = path / OCCLUDER_DIR
+    if sub.is_symlink():
+        raise InputError(f"--out {path}: {sub} is a symbolic link (to "
+                         f"{os.readlink(sub)!r}); a study writes only inside its folder "
+                         f"(replace the link by a folder or choose another --out)")
+    if os.path.lexists(sub) and not sub.is_dir():
+        raise InputError(f"--out {path}: {sub} is not a folder")
+
+
 def check_study_dir(path: str | os.PathLike) -> Path:
     """Refuse, before any work, a study folder that cannot be used.
 
@@ -127,12 +202,15 @@ def check_study_dir(path: str | os.PathLike) -> Path:
     Raises
     ------
     InputError
-        One line naming the path and the problem.
+        One line naming the path and the problem: among them a store that is
+        not a file, and an ``occluders/`` that is a symbolic link (a study
+        writes only inside its folder).
     """
     path = check_output_folder(path)
     store = path / STORE_NAME
     if os.path.lexists(store) and not store.is_file():
         raise _not_a_store(store, "is a folder" if store.is_dir() else "is not a file")
+    _refuse_linked_subfolders(path)
     return path
 
 
@@ -150,8 +228,8 @@ class StudyFolder:
     ------
     InputError
         If another process holds the lock ("another compare is writing
-        ...") or the store is damaged: one line, and the folder is left as
-        it was (but for the lock file).
+        ..."), the store is damaged or ``occluders/`` is a symbolic link:
+        one line, and the folder is left as it was (but for the lock file).
     """
 
     def __init__(self, path: str | os.PathLike) -> None:
@@ -164,27 +242,18 @@ class StudyFolder:
         return self.path / OCCLUDER_DIR
 
     def __enter__(self) -> StudyFolder:
-        import fcntl
-
         check_study_dir(self.path)
         try:
             self.path.mkdir(exist_ok=True)
-            fd = os.open(self.path / LOCK_NAME, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
         except OSError as exc:
             raise OSError(exc.errno, exc.strerror, str(exc.filename or self.path)) from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            os.close(fd)
-            raise InputError(f"--out {self.path}: another compare is writing this study "
-                             f"(it holds {self.path / LOCK_NAME}); wait for it to finish or "
-                             "choose another --out") from None
-        except OSError as exc:
-            os.close(fd)
-            raise OSError(exc.errno, f"cannot lock the study ({exc.strerror})",
-                          str(self.path / LOCK_NAME)) from None
+        fd = lock_exclusive(
+            self.path / LOCK_NAME,
+            busy=f"--out {self.path}: another compare is writing this study (it holds "
+                 f"{self.path / LOCK_NAME}); wait for it to finish or choose another --out")
         self._lock_fd = fd
         try:
+            _refuse_linked_subfolders(self.path)  # again, under the lock
             self.store = ResultStore(self.path / STORE_NAME)
             self.occluders.mkdir(exist_ok=True)
             for stale in [*self.path.glob(".*.tmp"), *self.occluders.glob(".*.tmp")]:
