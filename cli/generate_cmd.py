@@ -5,7 +5,9 @@ The methods, their descriptions and their options all come from
 Parts an occluder carries as geometry of their own are written beside OUT:
 a tree (``parts["hierarchy"]``) as ``STEM.hierarchy.json`` plus one PLY per
 node, levels of detail (``parts["lods"]``) as ``STEM.lod<i>.ply``; the
-``--json`` document lists them.
+``--json`` document lists them. OUT is checked before any work: its format,
+its folder, and that files can be made there (that folder holds every file
+written, OUT and the parts beside it); a refusal names ``-o`` and the path.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from viscore.generators import REGISTRY, generate, get_generator, hierarchy_to_j
 from viscore import InputError, load_mesh, provenance
 from viscore._validate import as_seed
 
-from ._common import check_mesh_path, emit, write_mesh
+from ._common import check_output_file, emit, write_mesh
 
 _log = logging.getLogger("viscore")
 
@@ -60,12 +62,15 @@ def add_parser(sub, common) -> None:
         budget_help = (_BUDGET_HELP if spec.budgeted else
                        _BUDGET_HELP + "; this method does not take one, and warns when its "
                        "result exceeds it")
+        plugin = f"{spec.plugin[0]} {spec.plugin[1]}" if spec.plugin else None
         m = methods.add_parser(
             name, parents=[common],
-            help=spec.description + (" [experimental]" if spec.experimental else ""),
+            help=(spec.description + (" [experimental]" if spec.experimental else "")
+                  + (f" [plugin: {plugin}]" if plugin else "")).replace("%", "%%"),
             description=f"{name}: {spec.description}."
                         + (" Conservative on closed meshes." if spec.conservative else "")
-                        + (" Experimental: not yet validated." if spec.experimental else ""))
+                        + (" Experimental: not yet validated." if spec.experimental else "")
+                        + (f" Plugin method from the {plugin} package." if plugin else ""))
         m.add_argument("mesh", help="mesh file or built-in scene name")
         m.add_argument("-o", "--output", required=True, help="occluder mesh file (.ply, .obj, ...)")
         m.add_argument("--budget", type=_budget, default=None, help=budget_help)
@@ -98,7 +103,7 @@ def _format_info(info: dict) -> str:
 
 def run_generate(args) -> int:
     spec = get_generator(args.method)
-    check_mesh_path(args.output)
+    check_output_file(args.output, "-o", mesh=True)  # OUT and the parts beside it, first
     params = {o.name: getattr(args, o.name) for o in spec.options if hasattr(args, o.name)}
     params["seed"] = as_seed(args.seed, "--seed")
     if args.budget is not None:

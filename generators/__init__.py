@@ -5,7 +5,10 @@ and is registered by its CLI name in :data:`REGISTRY`, with its options
 declared there (:class:`GeneratorSpec`, :class:`GeneratorOption`). Run one by
 name with :func:`generate`, which checks the options first and flags an
 occluder over its budget. ``Occluder.parts`` follows the schema documented in
-:mod:`viscore.generators.occluder` (:func:`check_parts`).
+:mod:`viscore.generators.occluder` (:func:`check_parts`). Other packages add
+methods under the ``viscore.generators`` entry points (plugins, see
+:mod:`viscore.generators.registry`); :func:`check_generator`
+(:mod:`viscore.generators.testing`) checks a method against the contract.
 """
 
 from .aabb_skins import boxes_mesh, generate_aabb_skins
@@ -23,16 +26,20 @@ from .planar_hierarchy import (
 )
 from .planar_sections import generate_planar_sections
 from .registry import (
+    PLUGIN_GROUP,
     REGISTRY,
     GeneratorOption,
     GeneratorSpec,
     MethodVariant,
+    PluginError,
     generate,
     get_generator,
     parse_method,
+    plugin_versions,
 )
 from .scene_occluders import culling_runtimes, frusta_method, occluder_objects, scene_occluders
 from .solid_frusta import generate_solid_frusta
+from .testing import check_generator
 
 __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOption",
            "generate", "get_generator", "parse_method", "MethodVariant", "generate_aabb_skins",
@@ -41,4 +48,5 @@ __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOpt
            "generate_solid_frusta", "build_hierarchy", "cut_hierarchy", "index_hierarchy",
            "HierarchyIndex", "generate_planar_hierarchy", "hierarchy_to_json",
            "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify",
-           "occluder_objects", "scene_occluders", "culling_runtimes", "frusta_method"]
+           "occluder_objects", "scene_occluders", "culling_runtimes", "frusta_method",
+           "PluginError", "PLUGIN_GROUP", "plugin_versions", "check_generator"]

@@ -1,6 +1,7 @@
 """``viscore generate``: methods, flags and checks built from the registry alone."""
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -190,3 +191,48 @@ def test_generate_planar_sections_hierarchy_writes_the_tree(tmp_path, capsys):
     np.testing.assert_array_equal(written.faces, root["occluder"].faces)
     assert len(cut_hierarchy(root, (1e6, 0, 0))) == 1
     assert len(cut_hierarchy(root, (1.25, 0.5, 0.5))) == 2  # between the boxes: both leaves
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs a read-only /proc")
+@pytest.mark.parametrize("method", ["bbox", "parts"])
+def test_generate_unwritable_output_folder_refused_before_any_work(monkeypatch, capsys,
+                                                                   method):
+    """Issue 23: a read-only folder ran the whole generation before exit 2, without naming -o.
+
+    The probe covers the parts written beside OUT (a hierarchy's JSON and node meshes):
+    they go to OUT's folder.
+    """
+    def no_work(*a, **k):
+        raise AssertionError("nothing may be loaded or generated before -o is checked")
+
+    monkeypatch.setitem(REGISTRY, "parts", GeneratorSpec("parts", _boxes_with_parts,
+                                                         "boxes with parts", budgeted=False))
+    monkeypatch.setattr(generate_cmd, "load_mesh", no_work)
+    monkeypatch.setattr(generate_cmd, "generate", no_work)
+    assert main(["generate", method, "cow", "-o", "/proc/o.ply"]) == 2
+    err = _err_lines(capsys)
+    assert len(err) == 1 and err[0].startswith("viscore: error: -o /proc/o.ply: cannot write"), err
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes in a read-only folder")
+def test_generate_read_only_folder_refused_naming_the_option(monkeypatch, tmp_path, capsys):
+    def no_work(*a, **k):
+        raise AssertionError("nothing may be generated before -o is checked")
+
+    monkeypatch.setattr(generate_cmd, "generate", no_work)
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    folder.chmod(0o555)
+    try:
+        assert main(["generate", "bbox", "cow", "-o", str(folder / "o.ply")]) == 2
+    finally:
+        folder.chmod(0o755)
+    err = _err_lines(capsys)
+    assert len(err) == 1 and f"-o {folder / 'o.ply'}: cannot write" in err[0], err
+    assert list(folder.iterdir()) == []
+
+
+def test_generate_missing_output_folder_names_the_option(tmp_path, capsys):
+    assert main(["generate", "bbox", "cow", "-o", str(tmp_path / "no" / "o.ply")]) == 2
+    err = _err_lines(capsys)
+    assert len(err) == 1 and f"-o {tmp_path / 'no' / 'o.ply'}: the folder" in err[0], err

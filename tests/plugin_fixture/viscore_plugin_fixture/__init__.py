@@ -1,0 +1,1 @@
+"""A viscore plugin package, for the tests (``tests/plugin_fixture``)."""
