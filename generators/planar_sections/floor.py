@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 import trimesh
+from viscore.metrics.frames import orbit_frame
 
 from viscore import InputError
 
@@ -99,11 +100,12 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     views = ReferenceViews(mesh, protocol="orbit", views=FLOOR_VIEWS,
                            seed=seed + FLOOR_SEED_OFFSET)
     extent = float(np.max(mesh.extents))
+    orbit = orbit_frame(mesh)  # every step's selection frame, computed once
 
     def run(size: dict, close: int):
         t0 = time.perf_counter()
         result = _generate_one(mesh, size, **{**options, "close": close},
-                               warn_interior=not auto_close)
+                               warn_interior=not auto_close, orbit=orbit)
         if len(result[0].faces) == 0:  # nothing to over-occlude with
             p, se, r = 1.0, 0.0, 0.0
         else:
