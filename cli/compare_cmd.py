@@ -40,7 +40,7 @@ import logging
 from dataclasses import asdict
 from pathlib import Path
 
-from viscore.generators import REGISTRY, get_generator, parse_method
+from viscore.generators import REGISTRY, get_generator, parse_method, plugin_versions
 
 from viscore import InputError, cpu_cores, load_mesh, provenance
 from viscore._validate import as_positive_int, as_seed, check_memory
@@ -217,8 +217,10 @@ def run_compare(args) -> int:
         culling = (_culling(culling_methods, out, frames=culling_frames, seed=seed,
                             quiet=args.quiet or args.json)
                    if args.culling and culling_methods else [])
+        # plugin methods: their distribution and version beside the toolkit's
+        plugins = plugin_versions(methods)
         doc = {"settings": asdict(settings), "rows": rows, "paired": paired,
-               "provenance": provenance()}
+               "provenance": provenance() | ({"plugins": plugins} if plugins else {})}
         md = table_markdown(rows)
         if paired:
             md += (f"\nPaired against {versus} on the same views (difference, 95% bootstrap "

@@ -400,3 +400,21 @@ def test_installed_plugin_is_listed_with_its_package_and_version(tmp_path):
         print(sorted(check_generator("fixture-spec")))
         """)], capture_output=True, text=True, timeout=600, env=run_env)
     assert check.returncode == 0 and "sphere" in check.stdout, check.stderr
+
+
+def test_compare_records_plugin_methods_in_its_provenance(plugin_env, tmp_path, capsys):
+    """A study's provenance names each plugin method's distribution and version."""
+    import json
+
+    module = plugin_env(shrunk="MOD:shrunk")
+    out = tmp_path / "study"
+    code = main(["compare", "cow", "--methods", "bbox,shrunk", "--budget", "64", "--views", "4",
+                 "--quads", "200", "--rays", "500", "--res", "32",
+                 "--no-culling", "--quiet", "--json", "--out", str(out)])
+    assert code == 0, capsys.readouterr().err
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["provenance"]["plugins"] == {
+        "shrunk": {"package": module.__name__, "version": "unknown"}}
+    assert {row["method"] for row in doc["rows"]} == {"bbox", "shrunk"}
+    stored = json.loads((out / "results.json").read_text())
+    assert stored["provenance"]["plugins"] == doc["provenance"]["plugins"]
