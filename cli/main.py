@@ -32,13 +32,14 @@ from . import (
     data_cmd,
     generate_cmd,
     metrics_cmd,
+    occlude_cmd,
     uncertainty_cmd,
 )
 from .bench import command as bench_cmd
 
 #: Subcommand modules; each has ``add_parser(subparsers, common)`` and sets ``run``.
 _COMMANDS = [compare_cmd, generate_cmd, metrics_cmd, uncertainty_cmd, data_cmd, cull_cmd,
-             bench_cmd]
+             occlude_cmd, bench_cmd]
 
 #: Exit codes (see the module docstring and the README).
 EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
@@ -153,6 +154,10 @@ def configure_logging(*, verbose: bool = False, quiet: bool = False) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Run one ``viscore`` command; returns the exit code (see the module docstring)."""
+    words = sys.argv[1:] if argv is None else [str(a) for a in argv]
+    # building the parser reads the registry, which discovers plugins: their warning
+    # lines must already go through our handler (and --quiet must silence them)
+    configure_logging(verbose="--verbose" in words, quiet="--quiet" in words)
     parser = build_parser()
     try:
         args, extras = parser.parse_known_args(argv)

@@ -1,0 +1,212 @@
+"""``viscore occlude LEVEL -o DIR``: occluders for every large object of a level, as Godot files.
+
+Parse, one call (:func:`viscore.generators.level_occluders.occlude_level`),
+format. Every option is checked before any work and before ``DIR`` is made:
+the methods and their variants (:func:`viscore.generators.parse_method`),
+``--budget`` against each method's ``min_budget``, ``--min-size`` in (0, 1],
+``--jobs`` (at most :data:`viscore.cli.study.runner.JOBS_PER_CORE` per core),
+``--up``, ``-o`` (its parent must exist and be writable), ``--scheduler`` (by
+connecting), then the level itself (read, split, objects chosen; an unknown
+``--occluders`` name). Then ``DIR`` is made if missing and locked for this
+process alone (:func:`viscore.cli.study.store.lock_exclusive` on
+``DIR/.lock``): a second run on the same folder is refused with one line.
+
+Outputs in ``DIR``: ``<method>.tscn`` and ``<method>.glb`` per method that
+covered an object, ``occlude.json`` (written last), and the finished jobs under
+``occluders/<method>/`` that let a killed run resume.
+
+Exit codes: 0 when the run finished, also when some or all objects were
+refused (each refused object gets one line on stderr, the too-small ones at
+most :data:`REFUSED_LINES` lines then a count; all are in ``occlude.json``, and
+a method that covered nothing writes no ``.tscn``/``.glb``); 2 for bad input.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+
+from viscore.generators import REGISTRY, parse_method
+from viscore.generators.level_occluders import (
+    MIN_SIZE,
+    UP_AXES,
+    default_methods,
+    level_objects,
+    occlude_level,
+)
+
+from viscore import InputError, cpu_cores
+from viscore._validate import as_positive_int
+
+from ._common import check_output_folder, emit
+from .study.runner import JOBS_PER_CORE, check_scheduler
+from .study.store import LOCK_NAME, lock_exclusive
+
+_log = logging.getLogger(__name__)
+
+#: Too-small objects listed one per line on stderr; the rest are counted.
+REFUSED_LINES = 20
+
+
+def add_parser(sub, common) -> None:
+    c = sub.add_parser("occlude", parents=[common],
+                       help="occluders for the objects of a level, as Godot 4 files")
+    c.add_argument("level", metavar="LEVEL",
+                   help="glTF/GLB scene (every mesh node an object, instancing honoured) or a "
+                        "single mesh (OBJ, PLY, OFF, STL) split into parts")
+    c.add_argument("-o", "--out", dest="out", required=True, metavar="DIR",
+                   help="output folder; its parent must exist (a killed run resumes in it)")
+    c.add_argument("--methods", default=None,
+                   help="comma-separated methods or variants NAME:option=value (default: "
+                        + ",".join(default_methods()) + "; surface-patches,aabb-skins when "
+                        "surface-patches is registered)")
+    pick = c.add_mutually_exclusive_group()
+    pick.add_argument("--min-size", type=float, default=None,
+                      help="objects whose bounding-box diagonal is at least this fraction of "
+                           f"the level's get occluders, in (0, 1] (default {MIN_SIZE})")
+    pick.add_argument("--occluders", default=None, metavar="NAME,...",
+                      help="exactly these objects get occluders")
+    c.add_argument("--budget", type=int, default=None,
+                   help="triangle budget per distinct mesh (default: each method's own)")
+    run = c.add_mutually_exclusive_group()
+    run.add_argument("--jobs", type=int, default=1,
+                     help=f"parallel processes, at most {JOBS_PER_CORE} per core (default 1)")
+    run.add_argument("--scheduler", default=None,
+                     help="dask.distributed scheduler address: run the jobs on that cluster")
+    c.add_argument("--up", choices=UP_AXES, default=None,
+                   help="up axis of a single-mesh level (default: guessed and printed; glTF "
+                        "is +Y up)")
+    c.set_defaults(run=run_occlude)
+
+
+def _methods(text: str | None) -> list[str]:
+    names = default_methods() if text is None else [m.strip() for m in text.split(",")
+                                                    if m.strip()]
+    if not names:
+        raise InputError(f"--methods: expected comma-separated methods, got {text!r} "
+                         f"(registered: {', '.join(REGISTRY)})")
+    return list(dict.fromkeys(parse_method(m, "--methods").label for m in names))
+
+
+def _check_budget(budget: int | None, methods: list[str]) -> int | None:
+    if budget is None:
+        return None
+    budget = as_positive_int(budget, "--budget")
+    for m in methods:
+        parse_method(m, "--methods").spec.check_params({"budget": budget}, flags=True)
+    return budget
+
+
+def _jobs(value: int) -> int:
+    jobs = as_positive_int(value, "--jobs")
+    cores = cpu_cores()
+    if jobs > JOBS_PER_CORE * cores:
+        raise InputError(f"--jobs {jobs}: at most {JOBS_PER_CORE * cores} "
+                         f"({JOBS_PER_CORE} per core, {cores} cores)")
+    return jobs
+
+
+def _connect(address: str | None):
+    if address is None:
+        return contextlib.nullcontext(None)
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("--scheduler: needs dask.distributed (pip install distributed)") from None
+    check_scheduler(address)
+    try:
+        return Client(address)
+    except (OSError, ValueError, TypeError) as exc:
+        raise InputError(f"--scheduler {address!r}: cannot connect ({exc})") from None
+
+
+class _Bar:
+    """``progress(done, total, label)`` as a tqdm bar with an ETA on stderr."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled, self.bar = enabled, None
+
+    def __call__(self, done: int, total: int, label: str) -> None:
+        if self.bar is None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, initial=done, desc="occlude", unit="job",
+                            disable=not self.enabled)
+            return
+        self.bar.set_postfix_str(label[:60])
+        self.bar.update(done - self.bar.n)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def run_occlude(args) -> int:
+    # 1. every option, before any work and before DIR is made
+    methods = _methods(args.methods)
+    budget = _check_budget(args.budget, methods)
+    jobs = _jobs(args.jobs) if args.scheduler is None else 1
+    if args.min_size is not None and not 0.0 < args.min_size <= 1.0:
+        raise InputError(f"--min-size: expected a fraction of the level's bounding-box "
+                         f"diagonal in (0, 1], got {args.min_size}")
+    names = None
+    if args.occluders is not None:
+        names = [n.strip() for n in args.occluders.split(",") if n.strip()]
+        if not names:
+            raise InputError(f"--occluders: expected comma-separated object names, got "
+                             f"{args.occluders!r}")
+    out = check_output_folder(args.out, "-o")
+    quiet = args.quiet
+    with _connect(args.scheduler) as client:
+        level = level_objects(args.level, up=args.up, min_size=args.min_size, names=names)
+        if level.up_guessed and not quiet:
+            _log.info("%s: up axis guessed +%s (%s); pass --up to set it", args.level,
+                      level.up.upper(), level.up_reason)
+        # 2. the run, in a folder this process alone writes
+        try:
+            out.mkdir(exist_ok=True)
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(out)) from None
+        fd = lock_exclusive(out / LOCK_NAME,
+                            busy=f"-o {out}: another occlude is writing this folder (it holds "
+                                 f"{out / LOCK_NAME}); wait for it to finish or choose another -o")
+        bar = _Bar(enabled=not (quiet or args.json))
+        try:
+            made = occlude_level(level, out, methods=methods, budget=budget, seed=args.seed,
+                                 jobs=jobs, scheduler=client, progress=bar)
+        finally:
+            bar.close()
+            os.close(fd)
+    doc = made.manifest
+    if not quiet:
+        _refusals(doc)
+    emit(doc, args.json, _summary(doc, out, made))
+    return 0
+
+
+def _refusals(doc: dict) -> None:
+    """One line per refused object on stderr (too-small ones capped at REFUSED_LINES)."""
+    small = [(n, r["refused"]) for n, r in doc["objects"].items() if r["refused"]]
+    for name, why in small[:REFUSED_LINES]:
+        _log.warning("refused %s: %s", name, why)
+    if len(small) > REFUSED_LINES:
+        _log.warning("refused %d more objects as too small or not named (listed in "
+                     "occlude.json)", len(small) - REFUSED_LINES)
+    for name, row in doc["objects"].items():
+        for method, occ in row["occluders"].items():
+            if "refused" in occ:
+                _log.warning("refused %s for %s: %s", name, method, occ["refused"])
+
+
+def _summary(doc: dict, out, made) -> str:
+    lines = [f"{doc['level']}: {doc['objects_total']} objects, {doc['objects_chosen']} chosen "
+             f"(up +{doc['up'].upper()}); {made.computed} jobs run, {made.reused} resumed", "",
+             "| method | objects | refused | meshes | triangles | guaranteed | seconds |",
+             "|---|---|---|---|---|---|---|"]
+    for method, s in doc["methods"].items():
+        lines.append(f"| {method} | {s['objects']} | {s['refused']} | {s['meshes']} | "
+                     f"{s['triangles']} | {'yes' if s['conservative_guaranteed'] else 'no'} | "
+                     f"{s['seconds']:.1f} |")
+    lines += ["", f"wrote {', '.join(str(out / f) for f in made.files)}"]
+    return "\n".join(lines)

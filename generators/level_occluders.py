@@ -1,0 +1,984 @@
+"""Occluders for a whole game level: its objects, one occluder per mesh and method, engine files.
+
+A level is a glTF/GLB scene, every mesh node one object with instancing
+honoured (glTF 2.0 [1]_, sec. 3.5 and 3.7: a mesh referenced by many nodes is
+one geometry placed by each node's transform), or a single mesh (OBJ, PLY,
+OFF, STL) such as an exported game map, split here into objects. The objects
+above a size threshold, or the ones named, get an occluder from each chosen
+method; each distinct mesh is generated once in its own frame and placed by
+every instance's transform (meshes of identical vertices and faces count as
+one; an invertible affine map keeps a conservative
+occluder conservative: a point inside the mesh stays inside its image). The
+occluders are written as the Godot 4 engine [2]_ reads them: a text scene of
+``OccluderInstance3D`` nodes whose ``ArrayOccluder3D`` sub-resources are shared
+by the instances of one mesh, and a glTF whose nodes carry Godot's
+``-occonly`` import suffix (:mod:`viscore.occluder_files`).
+
+Splitting a single mesh (:func:`level_objects`). Vertices at identical
+positions are merged and the faces split into connected components by edge
+adjacency. A component whose bounding-box diagonal is at least
+:data:`PART_FRACTION` of the level's is a part of its own. A smaller one (a
+window frame, a railing, a loose prop) joins the nearest such part whose
+bounding box lies within :data:`PART_FRACTION` x the level's diagonal of its
+own (box-to-box distance; ties to the earlier part); the small components
+left are grouped by single linkage under the same gap, each group one part
+(they may still be too small to get an occluder). Parts are named
+``<file stem>_part<k>``, numbered by their first face in the file.
+
+Up axis. glTF is +Y up by its specification and a ``--up`` other than ``y``
+is refused for it. A single mesh has no convention; when ``up`` is not given
+it is guessed (:func:`guess_up`): the axis along which the level is clearly
+thinnest (a map is wider than tall); else the axis with the largest net
+face area (open game geometry: roofs and ground face up, nothing faces
+down); else the axis most face area faces. The occluder files are always in
+Godot's +Y-up frame: a +Z-up level is turned by -90 degrees about X (a
++X-up one by +90 degrees about Z), recorded as ``to_godot``.
+
+Choosing objects. By default an object gets occluders when its bounding-box
+diagonal is at least :data:`MIN_SIZE` of the level's. A flat object (its
+extent along the up axis under :data:`FLAT_RATIO` of its widest horizontal
+extent: ground, terrain, a floor slab) is a candidate like any other, but
+never the only kind chosen: when every object above the threshold is flat,
+the non-flat objects whose diagonal is at least the threshold fraction of the
+diagonal of the non-flat objects' own bounding box are chosen too (or, when
+none is, those at least :data:`FALLBACK_SHARE` of the largest non-flat
+object's diagonal).
+
+Resumption (:func:`occlude_level`). Each (mesh, method) job's result is
+written as soon as it finishes, atomically, under ``DIR/occluders/<method>/``:
+``<mesh>.ply`` (the local-space occluder, float64) and then ``<mesh>.json``
+(its record, which marks the job done). A rerun on the same level with the
+same method, budget and seed reuses every finished job (a record whose key
+does not match the mesh, method, budget, seed and viscore version is
+recomputed). The final files are written only when every job has finished.
+The caller holds the folder alone (the command line locks it).
+
+References
+----------
+.. [1] The Khronos 3D Formats Working Group. "glTF 2.0 Specification",
+   version 2.0.1. The Khronos Group, 2021.
+   https://registry.khronos.org/glTF/specs/2.0/glTF-2.0.html
+.. [2] Godot Engine documentation, class references "OccluderInstance3D" and
+   "ArrayOccluder3D", and "Node type customization using name suffixes",
+   https://docs.godotengine.org/en/stable/ (Godot 4).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import re
+import signal
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from viscore import InputError, OccluderInstance, load_mesh, occonly_glb_bytes, tscn_text
+from viscore._atomic import write_atomic
+from viscore._validate import as_positive_int, as_seed
+from viscore.mesh_io import ply_bytes
+from viscore.scene_graph import SceneObjects, load_scene_objects
+
+from .registry import REGISTRY, generate, parse_method
+from .scene_occluders import _guaranteed
+
+__all__ = ["LevelObjects", "MeshOccluder", "LevelOccluders", "level_objects", "guess_up",
+           "default_methods", "occluder_of_mesh", "occlude_level", "MIN_SIZE", "PART_FRACTION",
+           "FLAT_RATIO", "FALLBACK_SHARE", "UP_AXES", "MANIFEST_NAME", "JOB_DIR"]
+
+_log = logging.getLogger(__name__)
+
+#: Default size threshold: bounding-box diagonal, fraction of the level's. In
+#: the built-in city (624 world units across) it keeps the ground and every
+#: building (4.7-9.2 %) and leaves trees (1.6-1.8 %), lamps, cars and benches.
+MIN_SIZE = 0.02
+#: Splitting a single mesh: components under this fraction of the level's
+#: diagonal are merged into parts (see the module docstring); also the gap,
+#: same unit, under which they join.
+PART_FRACTION = 0.02
+#: An object is flat when its extent along the up axis is under this fraction
+#: of its widest horizontal extent (ground, terrain, floor slabs).
+FLAT_RATIO = 0.1
+#: When only flat objects pass the threshold and no non-flat one passes the
+#: threshold against the non-flat objects' own box: non-flat objects at least
+#: this share of the largest non-flat object's diagonal are chosen.
+FALLBACK_SHARE = 0.5
+#: Up guess: the level is clearly thinnest along an axis when its extent
+#: there is under this fraction of the next smallest extent.
+_THIN_LEVEL = 0.5
+#: Up guess: net face area (signed normal component) along an axis, as a
+#: share of the total area, from which that axis is taken as up.
+_NET_AREA_SHARE = 0.05
+
+#: The axes ``--up`` names.
+UP_AXES = ("x", "y", "z")
+#: Rotations from a level's frame to Godot's +Y up (right-handed, det +1).
+_TO_GODOT = {
+    "y": np.eye(4),
+    "z": np.array([[1.0, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 0], [0, 0, 0, 1]]),
+    "x": np.array([[0.0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]),
+}
+#: Files of an output folder.
+MANIFEST_NAME, JOB_DIR = "occlude.json", "occluders"
+#: Formats read as a glTF scene.
+_GLTF = (".glb", ".gltf")
+#: Longest file stem made from an object, mesh or method name.
+_STEM_CHARS = 80
+#: Box pairs compared at once when joining small components (memory ~ 50 B each).
+_PAIR_CHUNK = 2_000_000
+
+
+# --------------------------------------------------------------------------- the level
+@dataclass(frozen=True, eq=False)
+class LevelObjects:
+    """A level as objects, with the ones that get occluders chosen.
+
+    Attributes
+    ----------
+    objects : SceneObjects
+        Every object (glTF: every mesh node; a single mesh: its parts), in the
+        level's own frame, world units.
+    up : str
+        The level's up axis, ``'x'``, ``'y'`` or ``'z'`` (positive direction).
+    up_guessed : bool
+        Whether ``up`` was guessed (:func:`guess_up`).
+    up_reason : str
+        One line saying how ``up`` was set.
+    to_godot : (4, 4) float64
+        Rotation from the level's frame to Godot's +Y-up frame.
+    kind : str
+        ``'gltf'`` or ``'mesh'`` (a single mesh split into parts).
+    components : int
+        Connected components of a single mesh before merging (0 for glTF).
+    sizes : (n,) float64
+        Bounding-box diagonal of each object, fraction of the level's.
+    flat : (n,) bool
+        Whether each object is flat (see :data:`FLAT_RATIO`).
+    chosen : (k,) int64
+        Indices of the objects that get occluders, ascending.
+    refused : dict of str -> str
+        Object name -> why it gets none (too small), for the others.
+    min_size : float or None
+        The size threshold used (None when objects were named).
+    names : tuple of str or None
+        The objects named, when given.
+    """
+
+    objects: SceneObjects
+    up: str
+    up_guessed: bool
+    up_reason: str
+    to_godot: np.ndarray
+    kind: str
+    components: int
+    sizes: np.ndarray
+    flat: np.ndarray
+    chosen: np.ndarray
+    refused: dict = field(default_factory=dict)
+    min_size: float | None = MIN_SIZE
+    names: tuple | None = None
+
+    @property
+    def source(self) -> str:
+        """The file or label the level came from."""
+        return self.objects.source
+
+
+def _up_name(up: object) -> str | None:
+    if up is None:
+        return None
+    text = str(up).strip().lower().lstrip("+")
+    if text not in UP_AXES:
+        raise InputError(f"up: expected one of {', '.join(UP_AXES)}, got {up!r}")
+    return text
+
+
+def guess_up(mesh: trimesh.Trimesh) -> tuple[str, str]:
+    """Guess the up axis of a mesh without a convention (OBJ, PLY, OFF, STL).
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        The level, in its own frame.
+
+    Returns
+    -------
+    axis : str
+        ``'x'``, ``'y'`` or ``'z'``.
+    reason : str
+        One line saying which rule decided.
+
+    Notes
+    -----
+    Rules in order: (1) the axis along which the level's bounding box is
+    thinnest, when that extent is under half the next smallest (a map is
+    wider than tall); (2) the axis of the largest net face area (area times
+    the signed normal component, summed), when it is at least 5 % of the
+    total area: open game geometry has roofs and ground facing up and no
+    floor facing down (a closed mesh has no net area along any axis); (3)
+    the axis most face area faces (absolute normal components). A guess, not
+    a guarantee: pass ``up`` when the file's convention is known.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> guess_up(trimesh.creation.box(extents=(10, 1, 10)))[0]
+    'y'
+    """
+    ext = np.asarray(mesh.extents, dtype=np.float64)
+    order = np.argsort(ext, kind="stable")
+    dims = " x ".join(f"{e:.3g}" for e in ext)
+    if ext[order[0]] < _THIN_LEVEL * ext[order[1]]:
+        axis = UP_AXES[int(order[0])]
+        return axis, f"the level is thinnest along {axis} ({dims} world units)"
+    area = np.asarray(mesh.area_faces, dtype=np.float64)
+    normals = np.asarray(mesh.face_normals, dtype=np.float64)
+    net = np.abs(area @ normals)
+    total = float(area.sum()) or 1.0
+    k = int(np.argmax(net))
+    if net[k] >= _NET_AREA_SHARE * total:
+        axis = UP_AXES[k]
+        return axis, (f"most net face area faces along {axis} ({net[k] / total:.0%} of the "
+                      "area: open geometry facing up)")
+    k = int(np.argmax(area @ np.abs(normals)))
+    axis = UP_AXES[k]
+    return axis, f"most face area faces along {axis} (level {dims} world units)"
+
+
+def _box_gaps(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray,
+              hi_b: np.ndarray) -> np.ndarray:
+    """``(a, b)`` Euclidean distances between axis-aligned boxes (0 when they overlap)."""
+    gap = np.maximum(0.0, np.maximum(lo_a[:, None] - hi_b[None], lo_b[None] - hi_a[:, None]))
+    return np.sqrt((gap**2).sum(axis=-1))
+
+
+def _split_parts(mesh: trimesh.Trimesh) -> tuple[np.ndarray, int]:
+    """Part label of each face (parts numbered by first face), and the component count."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    merged = trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=True)
+    labels = trimesh.graph.connected_component_labels(merged.face_adjacency,
+                                                      node_count=len(merged.faces))
+    n = int(labels.max()) + 1 if len(labels) else 0
+    tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]
+    lo = np.full((n, 3), np.inf)
+    hi = np.full((n, 3), -np.inf)
+    np.minimum.at(lo, labels, tri.min(axis=1))
+    np.maximum.at(hi, labels, tri.max(axis=1))
+    level = float(np.linalg.norm(tri.reshape(-1, 3).max(0) - tri.reshape(-1, 3).min(0)))
+    limit = PART_FRACTION * level
+    diag = np.linalg.norm(hi - lo, axis=1)
+    big = np.flatnonzero(diag >= limit)
+    small = np.flatnonzero(diag < limit)
+    owner = np.arange(n)
+    if len(big) and len(small):
+        step = max(1, _PAIR_CHUNK // len(big))
+        for a in range(0, len(small), step):
+            s = small[a:a + step]
+            d = _box_gaps(lo[s], hi[s], lo[big], hi[big])
+            near = np.argmin(d, axis=1)
+            close = d[np.arange(len(s)), near] <= limit
+            owner[s[close]] = big[near[close]]
+    rest = small[owner[small] == small]
+    if len(rest) > 1:  # single linkage among the small components left
+        from scipy.spatial import cKDTree
+
+        centre = (lo[rest] + hi[rest]) / 2
+        # small boxes have diagonals under `limit`: centres of boxes within
+        # `limit` of each other are within 2 * limit
+        pairs = cKDTree(centre).query_pairs(2 * limit, output_type="ndarray")
+        if len(pairs):
+            lo_p, hi_p = lo[rest], hi[rest]
+            gap = np.maximum(0.0, np.maximum(lo_p[pairs[:, 0]] - hi_p[pairs[:, 1]],
+                                             lo_p[pairs[:, 1]] - hi_p[pairs[:, 0]]))
+            keep = pairs[np.sqrt((gap**2).sum(axis=1)) <= limit]
+            graph = coo_matrix((np.ones(len(keep)), (keep[:, 0], keep[:, 1])),
+                               shape=(len(rest), len(rest)))
+            _, group = connected_components(graph, directed=False)
+            first = np.full(int(group.max()) + 1, len(rest))
+            np.minimum.at(first, group, np.arange(len(rest)))
+            owner[rest] = rest[first[group]]
+    part_of_face = owner[labels]
+    _, first_face = np.unique(part_of_face, return_index=True)
+    rank = np.empty(n, dtype=np.int64)
+    roots = part_of_face[np.sort(first_face)]
+    rank[roots] = np.arange(len(roots))
+    return rank[part_of_face], n
+
+
+def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str) -> tuple[SceneObjects, int]:
+    """A single mesh split into parts (:func:`_split_parts`) as a :class:`SceneObjects`."""
+    parts, components = _split_parts(mesh)
+    count = int(parts.max()) + 1
+    stem = Path(label).stem or "level"
+    width = len(str(count))
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    meshes, names = [], []
+    order = np.argsort(parts, kind="stable")
+    bounds = np.searchsorted(parts[order], np.arange(count + 1))
+    for k in range(count):
+        f = faces[order[bounds[k]:bounds[k + 1]]]
+        used, inverse = np.unique(f, return_inverse=True)
+        part = trimesh.Trimesh(vertices[used], inverse.reshape(-1, 3), process=False)
+        meshes.append(part)
+        names.append(f"{stem}_part{k + 1:0{width}d}")
+    lower = np.array([m.vertices.min(axis=0) for m in meshes])
+    upper = np.array([m.vertices.max(axis=0) for m in meshes])
+    up_vec = np.eye(3)[UP_AXES.index(up)]
+    arrays = dict(mesh_ids=np.arange(count, dtype=np.int64),
+                  transforms=np.repeat(np.eye(4)[None], count, axis=0),
+                  lower=lower, upper=upper,
+                  triangles=np.array([len(m.faces) for m in meshes], dtype=np.int64),
+                  up=up_vec)
+    for arr in arrays.values():
+        arr.flags.writeable = False
+    objects = SceneObjects(names=tuple(names), meshes=tuple(meshes), mesh_names=tuple(names),
+                           source=label, **arrays)
+    return objects, components
+
+
+def _choose(objects: SceneObjects, up: str, min_size: float | None,
+            names: Sequence[str] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+    """Sizes, flatness, chosen indices and refusals (see the module docstring)."""
+    level = float(np.linalg.norm(objects.bounds[1] - objects.bounds[0])) or 1.0
+    extent = objects.upper - objects.lower
+    diag = np.linalg.norm(extent, axis=1)
+    sizes = diag / level
+    k = UP_AXES.index(up)
+    horizontal = np.delete(extent, k, axis=1).max(axis=1)
+    flat = extent[:, k] < FLAT_RATIO * horizontal
+    for arr in (sizes, flat):
+        arr.flags.writeable = False
+    if names is not None:
+        index = {n: i for i, n in enumerate(objects.names)}
+        unknown = [n for n in names if n not in index]
+        if unknown or not names:
+            some = ", ".join(objects.names[:5]) + (", ..." if len(objects) > 5 else "")
+            raise InputError(f"occluders: no object named {', '.join(unknown) or '(none given)'}"
+                             f" in {objects.source} (objects: {some})")
+        chosen = np.array(sorted({index[n] for n in names}), dtype=np.int64)
+        refused = {objects.names[i]: "not named in --occluders"
+                   for i in range(len(objects)) if i not in set(chosen.tolist())}
+        return sizes, flat, chosen, refused
+    mask = sizes >= min_size
+    solid = ~flat
+    if mask.any() and not (mask & solid).any() and solid.any():
+        lo, hi = objects.lower[solid].min(axis=0), objects.upper[solid].max(axis=0)
+        limit = min(min_size * float(np.linalg.norm(hi - lo)),
+                    FALLBACK_SHARE * float(diag[solid].max()))
+        extra = solid & (diag >= limit)
+        _log.info("%s: only flat objects (ground, terrain) pass the size threshold; also "
+                  "choosing the %d non-flat objects of diagonal %.4g world units or more",
+                  objects.source, int(extra.sum()), limit)
+        mask |= extra
+    chosen = np.flatnonzero(mask).astype(np.int64)
+    refused = {objects.names[i]: (f"too small: its bounding-box diagonal is {sizes[i]:.2%} of "
+                                  f"the level's, under the threshold of {min_size:.2%}")
+               for i in np.flatnonzero(~mask)}
+    return sizes, flat, chosen, refused
+
+
+def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *,
+                  up: str | None = None, min_size: float | None = None,
+                  names: Sequence[str] | None = None) -> LevelObjects:
+    """Read a level as objects and choose those that get occluders.
+
+    Parameters
+    ----------
+    source : str, path, trimesh.Scene or trimesh.Trimesh
+        A glTF/GLB file or a ``trimesh.Scene`` (every mesh node an object,
+        instancing honoured; +Y up), or a single-mesh file (OBJ, PLY, OFF,
+        STL) or ``trimesh.Trimesh``, split into parts (module docstring).
+    up : str, optional
+        ``'x'``, ``'y'`` or ``'z'``, the level's up axis. Default: +Y for
+        glTF, guessed by :func:`guess_up` for a single mesh.
+    min_size : float, optional
+        Bounding-box diagonal, fraction of the level's, from which an object
+        gets occluders; in (0, 1]. Default :data:`MIN_SIZE` (0.02). Not used
+        with ``names``.
+    names : sequence of str, optional
+        Exactly these objects get occluders.
+
+    Returns
+    -------
+    LevelObjects
+
+    Raises
+    ------
+    InputError
+        A file :func:`viscore.scene_graph.load_scene_objects` or
+        :func:`viscore.load_mesh` refuses; ``up`` not an axis, or not ``y``
+        for glTF; ``min_size`` outside (0, 1]; both ``min_size`` and
+        ``names``; a name no object has.
+
+    Notes
+    -----
+    Deterministic. A flat object spanning the level is never the only kind
+    chosen (module docstring). Objects under the threshold are listed in
+    ``refused`` with their size.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> parts = [trimesh.creation.box(bounds=[[x, 0, 0], [x + 1, 1, 1]]) for x in (0, 3)]
+    >>> level = level_objects(trimesh.util.concatenate(parts), up="z")
+    >>> level.objects.names, level.chosen.tolist()
+    (('mesh_part1', 'mesh_part2'), [0, 1])
+    """
+    up = _up_name(up)
+    if names is not None and min_size is not None:
+        raise InputError("occluders: give a size threshold or names, not both")
+    if names is not None:
+        names = list(dict.fromkeys(str(n).strip() for n in names if str(n).strip()))
+        if not names:
+            raise InputError("occluders: expected object names, got none")
+    if min_size is None and names is None:
+        min_size = MIN_SIZE
+    if min_size is not None:
+        try:
+            min_size = float(min_size)
+        except (TypeError, ValueError):
+            raise InputError(f"min_size: expected a number in (0, 1], got {min_size!r}") from None
+        if not 0.0 < min_size <= 1.0:
+            raise InputError(f"min_size: expected a fraction of the level's bounding-box "
+                             f"diagonal in (0, 1], got {min_size!r}")
+    gltf = isinstance(source, trimesh.Scene) or (
+        not isinstance(source, trimesh.Trimesh) and Path(os.fspath(source)).suffix.lower()
+        in _GLTF)
+    if gltf:
+        if up not in (None, "y"):
+            raise InputError(f"up: {source} is glTF, +Y up by its specification; "
+                             f"--up {up} is refused for it")
+        objects = load_scene_objects(source)
+        kind, components, up, guessed, reason = "gltf", 0, "y", False, "glTF is +Y up"
+    else:
+        label = (str(source.metadata.get("name", "mesh")) if isinstance(source, trimesh.Trimesh)
+                 else str(source))
+        mesh = load_mesh(source)
+        if up is None:
+            up, reason = guess_up(mesh)
+            guessed = True
+        else:
+            guessed, reason = False, f"given as {up}"
+        objects, components = _mesh_level(mesh, label, up)
+        kind = "mesh"
+    sizes, flat, chosen, refused = _choose(objects, up, min_size, names)
+    to_godot = _TO_GODOT[up].copy()
+    to_godot.flags.writeable = False
+    return LevelObjects(objects=objects, up=up, up_guessed=guessed, up_reason=reason,
+                        to_godot=to_godot, kind=kind, components=components, sizes=sizes,
+                        flat=flat, chosen=chosen, refused=refused,
+                        min_size=None if names is not None else min_size,
+                        names=None if names is None else tuple(names))
+
+
+def default_methods() -> list[str]:
+    """The methods ``viscore occlude`` runs by default.
+
+    ``surface-patches, aabb-skins`` when ``surface-patches`` is registered
+    (guaranteed occluders in the surface of thin, open game geometry, and
+    boxes where parts are thick), else ``aabb-skins, planar-sections``.
+
+    Examples
+    --------
+    >>> "aabb-skins" in default_methods()
+    True
+    """
+    if "surface-patches" in REGISTRY:
+        return ["surface-patches", "aabb-skins"]
+    return ["aabb-skins", "planar-sections"]
+
+
+# --------------------------------------------------------------------------- the jobs
+@dataclass(frozen=True, eq=False)
+class MeshOccluder:
+    """One (mesh, method) job's result: a local-space occluder, or why there is none.
+
+    Attributes
+    ----------
+    mesh : str
+        Mesh name (the level's distinct geometry).
+    method : str
+        Canonical method label (:func:`viscore.generators.parse_method`).
+    vertices : (v, 3) float64
+        Occluder vertices in the mesh's local frame, world units; ``(0, 3)``
+        when refused.
+    faces : (t, 3) int64
+        Triangles; ``(0, 3)`` when refused.
+    triangles : int
+        ``len(faces)``.
+    conservative_guaranteed : bool
+        Whether the occluder carries its method's guarantee (the generator's
+        word, or the registry's flag and a closed occluder).
+    seconds : float
+        Wall time of the generation.
+    refused : str or None
+        Why no occluder was made: the generator's :class:`InputError`, or an
+        empty occluder. None when made.
+    key : str
+        Hash of the mesh, method, budget, seed and viscore version.
+    """
+
+    mesh: str
+    method: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    triangles: int
+    conservative_guaranteed: bool
+    seconds: float
+    refused: str | None
+    key: str
+
+    def record(self) -> dict:
+        """The JSON record of the job (everything but the geometry)."""
+        return {"key": self.key, "mesh": self.mesh, "method": self.method,
+                "triangles": self.triangles,
+                "conservative_guaranteed": self.conservative_guaranteed,
+                "seconds": self.seconds, "refused": self.refused}
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("viscore")
+    except PackageNotFoundError:  # pragma: no cover - a bare checkout
+        return "unknown"
+
+
+def _job_key(vertices: np.ndarray, faces: np.ndarray, method: str, budget: int | None,
+             seed: int) -> str:
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(vertices, dtype="<f8").tobytes())
+    h.update(np.ascontiguousarray(faces, dtype="<i8").tobytes())
+    h.update(json.dumps([method, budget, seed, _version()]).encode())
+    return h.hexdigest()
+
+
+def occluder_of_mesh(mesh: trimesh.Trimesh, method: str, *, name: str = "mesh",
+                     budget: int | None = None, seed: int = 0) -> MeshOccluder:
+    """One job: the occluder of one distinct mesh by one method, in the mesh's frame.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        The geometry, local frame.
+    method : str
+        A registered method or variant (``planar-sections:chain=greedy``).
+    name : str, optional
+        The mesh's name, kept in the result (default ``'mesh'``).
+    budget : int, optional
+        Triangle budget (default: the method's own).
+    seed : int, optional
+        Passed to the generator (default 0).
+
+    Returns
+    -------
+    MeshOccluder
+        ``refused`` says why when the generator raised :class:`InputError` on
+        this mesh or made an occluder without triangles.
+
+    Raises
+    ------
+    InputError
+        An unknown method, or a budget or option the method refuses
+        (checked before the generator runs).
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> job = occluder_of_mesh(trimesh.creation.box(), "bbox")
+    >>> job.triangles, job.refused
+    (12, None)
+    """
+    variant = parse_method(method, "method")
+    seed = as_seed(seed)
+    variant.spec.check_params({"budget": budget, "seed": seed})
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    key = _job_key(vertices, faces, variant.label, budget, seed)
+    start = time.perf_counter()
+    empty_v, empty_f = np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+    try:
+        occ = generate(variant.label, mesh, budget=budget, seed=seed)
+    except InputError as exc:
+        seconds = time.perf_counter() - start
+        return MeshOccluder(name, variant.label, empty_v, empty_f, 0, False, seconds,
+                            f"no occluder possible with {variant.label}: "
+                            f"{' '.join(str(exc).split())}", key)
+    seconds = time.perf_counter() - start
+    if occ.triangles == 0:
+        return MeshOccluder(name, variant.label, empty_v, empty_f, 0, False, seconds,
+                            f"no occluder possible with {variant.label}: it made an empty "
+                            "occluder", key)
+    return MeshOccluder(name, variant.label, np.asarray(occ.mesh.vertices, dtype=np.float64),
+                        np.asarray(occ.mesh.faces, dtype=np.int64), int(occ.triangles),
+                        bool(_guaranteed(occ, variant.label)), seconds, None, key)
+
+
+def _run_job(vertices: np.ndarray, faces: np.ndarray, name: str, method: str,
+             budget: int | None, seed: int) -> MeshOccluder:
+    """A job as a process pool or a dask worker runs it (arrays in, no trimesh pickled)."""
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    return occluder_of_mesh(mesh, method, name=name, budget=budget, seed=seed)
+
+
+def _worker_init(parent: int, threads: int) -> None:
+    """In a pool worker: ignore SIGINT, die with the parent, use ``threads`` ray threads."""
+    from viscore import set_workers
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    set_workers(threads)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(1, signal.SIGKILL, 0, 0, 0) != 0:  # 1 = PR_SET_PDEATHSIG
+            raise OSError(ctypes.get_errno(), "prctl")
+    except (OSError, AttributeError):  # pragma: no cover - not Linux: watch the parent
+        def watch() -> None:
+            while os.getppid() == parent:
+                time.sleep(0.5)
+            os._exit(1)
+
+        threading.Thread(target=watch, daemon=True).start()
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _stem(name: str) -> str:
+    """A file stem for an object, mesh or method name (unsafe characters to ``_``)."""
+    safe = re.sub(r"[^A-Za-z0-9._=+-]", "_", name)[:_STEM_CHARS].lstrip(".") or "_"
+    if safe != name:
+        safe += "-" + hashlib.sha256(name.encode()).hexdigest()[:8]
+    return safe
+
+
+def _job_paths(out: Path, method: str, mesh: str) -> tuple[Path, Path]:
+    folder = out / JOB_DIR / _stem(method)
+    return folder / f"{_stem(mesh)}.ply", folder / f"{_stem(mesh)}.json"
+
+
+def _stored(out: Path, method: str, mesh: str, key: str) -> MeshOccluder | None:
+    """The finished job kept in the folder, or None (missing, damaged or stale)."""
+    ply, rec = _job_paths(out, method, mesh)
+    try:
+        record = json.loads(rec.read_text(encoding="utf-8"))
+        if not isinstance(record, dict) or record.get("key") != key:
+            return None
+        if record["refused"] is not None:
+            v, f = np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+        else:
+            back = trimesh.load(str(ply), file_type="ply", process=False)
+            v = np.asarray(back.vertices, dtype=np.float64)
+            f = np.asarray(back.faces, dtype=np.int64).reshape(-1, 3)
+            if len(f) != record["triangles"]:
+                return None
+        return MeshOccluder(mesh, method, v, f, int(record["triangles"]),
+                            bool(record["conservative_guaranteed"]), float(record["seconds"]),
+                            record["refused"], key)
+    except (OSError, ValueError, KeyError, TypeError, IndexError):
+        return None
+
+
+def _keep(out: Path, job: MeshOccluder) -> None:
+    """Write a finished job: the occluder, then its record (which marks it done)."""
+    ply, rec = _job_paths(out, job.method, job.mesh)
+    if job.refused is None:
+        write_atomic(ply, ply_bytes(trimesh.Trimesh(job.vertices, job.faces, process=False)),
+                     parents=True)
+    write_atomic(rec, json.dumps(job.record(), indent=1).encode(), parents=True)
+
+
+def _stop_pool(pool) -> None:
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        if p.is_alive():
+            p.kill()
+    for p in processes:
+        p.join(timeout=2)
+
+
+def _run_jobs(pending: list[tuple], jobs: int, scheduler, commit: Callable) -> None:
+    """Run the pending jobs here, in a process pool or on dask; commit each as it finishes."""
+    if scheduler is not None:
+        from distributed import Client
+        from distributed import as_completed as dask_completed
+
+        client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
+        futures = {}
+        try:
+            futures = {client.submit(_run_job, *args, pure=False): args for args in pending}
+            for fut in dask_completed(list(futures)):
+                futures.pop(fut)
+                commit(fut.result())
+        except BaseException:
+            if futures:
+                client.cancel(list(futures))
+            raise
+        finally:
+            if not isinstance(scheduler, Client):
+                client.close()
+        return
+    if jobs <= 1 or len(pending) <= 1:
+        for args in pending:
+            commit(_run_job(*args))
+        return
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    from viscore import cpu_cores
+
+    workers = min(jobs, len(pending))
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_init,
+                               initargs=(os.getpid(), max(1, cpu_cores() // workers)))
+    running = {}
+    try:
+        running = {pool.submit(_run_job, *args): args for args in pending}
+        while running:
+            done, _ = wait(list(running), return_when=FIRST_COMPLETED)
+            for fut in done:
+                del running[fut]
+                commit(fut.result())
+    except BaseException:
+        try:
+            for fut in list(running):
+                if fut.done() and not fut.cancelled() and fut.exception() is None:
+                    commit(fut.result())
+        finally:
+            _stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+# --------------------------------------------------------------------------- the level run
+@dataclass(frozen=True)
+class LevelOccluders:
+    """What :func:`occlude_level` made: the manifest and the files.
+
+    Attributes
+    ----------
+    manifest : dict
+        The document written to ``DIR/occlude.json`` (see :func:`occlude_level`).
+    files : tuple of str
+        The files written, relative to ``DIR``, ``occlude.json`` last.
+    reused : int
+        Jobs found finished in the folder (a resumed run).
+    computed : int
+        Jobs run now.
+    """
+
+    manifest: dict
+    files: tuple
+    reused: int
+    computed: int
+
+
+def _check_methods(methods: Sequence[str] | None, budget: int | None) -> list[str]:
+    labels = list(dict.fromkeys(parse_method(m, "methods").label
+                                for m in (default_methods() if methods is None else methods)))
+    if not labels:
+        raise InputError("methods: expected at least one method")
+    if budget is not None:
+        budget = as_positive_int(budget, "budget")
+        for label in labels:
+            parse_method(label).spec.check_params({"budget": budget})
+    return labels
+
+
+def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
+                  methods: Sequence[str] | None = None, budget: int | None = None,
+                  seed: int = 0, jobs: int = 1, scheduler=None,
+                  progress: Callable[[int, int, str], None] | None = None) -> LevelOccluders:
+    """Occluders of a level's chosen objects by each method, written as engine files.
+
+    Parameters
+    ----------
+    level : LevelObjects
+        From :func:`level_objects`.
+    out_dir : path
+        The output folder; must exist. The caller holds it alone (two runs
+        writing one folder at once would mix their jobs).
+    methods : sequence of str, optional
+        Registered methods or variants; default :func:`default_methods`.
+    budget : int, optional
+        Triangle budget per distinct mesh (default: each method's own);
+        checked against each method's ``min_budget`` before any work.
+    seed : int, optional
+        Passed to every generator (default 0).
+    jobs : int, optional
+        Local worker processes (default 1: this process).
+    scheduler : str or distributed.Client, optional
+        Run the jobs on that dask.distributed cluster instead; the files are
+        the same.
+    progress : callable, optional
+        ``progress(done, total, label)``: once before the jobs run (label
+        ``''``; ``done`` counts the jobs found finished) and after each job.
+
+    Returns
+    -------
+    LevelOccluders
+
+    Raises
+    ------
+    InputError
+        An unknown method, a budget a method cannot meet, a bad ``jobs`` or
+        ``seed``, a missing folder.
+    OSError
+        A file cannot be written.
+
+    Notes
+    -----
+    Writes, per method that covered at least one object, ``DIR/<method>.tscn``
+    (Godot 4 text scene, one ``OccluderInstance3D`` per object instance with
+    its transform, one ``ArrayOccluder3D`` sub-resource per distinct mesh in
+    its local frame, shared by its instances; meshes of identical vertices and
+    faces, such as copies a file stores once per node, are one job and one
+    sub-resource) and ``DIR/<method>.glb`` (nodes
+    ``<object>-occonly``), both in Godot's +Y-up frame; a method that covered
+    nothing gets neither (files of an earlier run under those names are
+    removed). Then ``DIR/occlude.json``: the level, up axis, settings, per
+    object its size, whether chosen and per method its occluder file, node,
+    triangles, ``conservative_guaranteed``, seconds or why it was refused,
+    and per method a summary. All with atomic writes, after every job has
+    finished; the manifest last. Deterministic given the level, methods,
+    budget and seed (``seconds`` aside), whatever ``jobs`` or ``scheduler``.
+
+    Examples
+    --------
+    >>> import tempfile, trimesh
+    >>> level = level_objects(trimesh.creation.box(), up="z")
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     made = occlude_level(level, tmp, methods=["bbox"])
+    >>> made.files
+    ('bbox.tscn', 'bbox.glb', 'occlude.json')
+    """
+    out = Path(out_dir)
+    if not out.is_dir():
+        raise InputError(f"out_dir: {out} is not an existing folder")
+    labels = _check_methods(methods, budget)
+    seed = as_seed(seed)
+    jobs = as_positive_int(jobs, "jobs")
+    objects = level.objects
+    chosen = level.chosen
+    mesh_ids = sorted(set(objects.mesh_ids[chosen].tolist()))
+    for stale in [*out.glob(".*.tmp"), *(out / JOB_DIR).glob("*/.*.tmp")]:
+        stale.unlink(missing_ok=True)  # a killed run's half-written file
+    # meshes of identical geometry (copies placed by node transforms) share one job,
+    # one stored file and one sub-resource: the first of them by mesh index
+    canonical: dict[int, int] = {}
+    first: dict[bytes, int] = {}
+    for m in mesh_ids:
+        mesh = objects.meshes[m]
+        digest = hashlib.sha256(
+            np.ascontiguousarray(mesh.vertices, dtype="<f8").tobytes()
+            + np.ascontiguousarray(mesh.faces, dtype="<i8").tobytes()).digest()
+        canonical[m] = first.setdefault(digest, m)
+    results: dict[tuple[str, int], MeshOccluder] = {}
+    pending = []
+    for label in labels:
+        for m in sorted(set(canonical.values())):
+            mesh = objects.meshes[m]
+            v = np.asarray(mesh.vertices, dtype=np.float64)
+            f = np.asarray(mesh.faces, dtype=np.int64)
+            name = objects.mesh_names[m]
+            found = _stored(out, label, name, _job_key(v, f, label, budget, seed))
+            if found is not None:
+                results[(label, m)] = found
+            else:
+                pending.append((v, f, name, label, budget, seed))
+    # the biggest meshes first: the pool's last job is a small one
+    pending.sort(key=lambda a: -len(a[1]))
+    index = {(objects.mesh_names[m], label): m for m in mesh_ids for label in labels}
+    total, reused = len(results) + len(pending), len(results)
+    if progress is not None:
+        progress(reused, total, "")
+
+    def commit(job: MeshOccluder) -> None:
+        _keep(out, job)
+        results[(job.method, index[(job.mesh, job.method)])] = job
+        if progress is not None:
+            progress(len(results), total, f"{job.method} {job.mesh}")
+
+    _run_jobs(pending, jobs, scheduler, commit)
+    for label in labels:
+        for m in mesh_ids:
+            results[(label, m)] = results[(label, canonical[m])]
+    return _write_level(level, out, labels, results, budget=budget, seed=seed,
+                        reused=reused, computed=len(pending))
+
+
+def _write_level(level: LevelObjects, out: Path, labels: list[str],
+                 results: dict[tuple[str, int], MeshOccluder], *, budget: int | None,
+                 seed: int, reused: int, computed: int) -> LevelOccluders:
+    objects = level.objects
+    chosen = set(level.chosen.tolist())
+    rows: dict[str, dict] = {}
+    for i, name in enumerate(objects.names):
+        rows[name] = {"mesh": objects.mesh_names[objects.mesh_ids[i]],
+                      "size": float(level.sizes[i]), "flat": bool(level.flat[i]),
+                      "chosen": i in chosen, "refused": level.refused.get(name),
+                      "occluders": {}}
+    summary: dict[str, dict] = {}
+    files: list[str] = []
+    for label in labels:
+        stem = _stem(label)
+        instances, meshes, covered, refused = [], {}, [], 0
+        distinct = {id(job): job for (lab, _), job in results.items() if lab == label}
+        seconds = float(sum(job.seconds for job in distinct.values()))
+        for i in sorted(chosen):
+            job = results[(label, int(objects.mesh_ids[i]))]
+            name = objects.names[i]
+            if job.refused is not None:
+                rows[name]["occluders"][label] = {"refused": job.refused}
+                refused += 1
+                continue
+            key = job.mesh
+            meshes[key] = (job.vertices, job.faces)
+            instances.append(OccluderInstance(name, key, level.to_godot @ objects.transforms[i]))
+            covered.append(i)
+            rows[name]["occluders"][label] = {
+                "file": f"{stem}.tscn", "glb": f"{stem}.glb",
+                "mesh_file": _job_paths(Path("."), label, job.mesh)[0].as_posix(),
+                "method": label, "triangles": job.triangles,
+                "conservative_guaranteed": job.conservative_guaranteed,
+                "seconds": job.seconds}
+        made = bool(instances)
+        if made:
+            write_atomic(out / f"{stem}.tscn", tscn_text(instances, meshes).encode("utf-8"))
+            write_atomic(out / f"{stem}.glb", occonly_glb_bytes(instances, meshes))
+            files += [f"{stem}.tscn", f"{stem}.glb"]
+        else:
+            for suffix in (".tscn", ".glb"):
+                (out / f"{stem}{suffix}").unlink(missing_ok=True)
+        summary[label] = {
+            "objects": len(covered), "refused": refused,
+            "meshes": len(meshes),
+            "triangles": int(sum(len(meshes[inst.mesh_key][1]) for inst in instances)),
+            "conservative_guaranteed": bool(made) and all(
+                rows[objects.names[i]]["occluders"][label]["conservative_guaranteed"]
+                for i in covered),
+            "seconds": seconds,
+            "files": [f"{stem}.tscn", f"{stem}.glb"] if made else []}
+    manifest = {
+        "level": objects.source, "kind": level.kind, "up": level.up,
+        "up_guessed": level.up_guessed, "up_reason": level.up_reason,
+        "to_godot": level.to_godot.tolist(), "components": level.components,
+        "settings": {"methods": labels, "budget": budget, "seed": seed,
+                     "min_size": level.min_size,
+                     "occluders": None if level.names is None else list(level.names)},
+        "objects_total": len(objects), "objects_chosen": len(chosen),
+        "methods": summary, "objects": rows}
+    write_atomic(out / MANIFEST_NAME, (json.dumps(manifest, indent=1) + "\n").encode())
+    files.append(MANIFEST_NAME)
+    return LevelOccluders(manifest=manifest, files=tuple(files), reused=reused,
+                          computed=computed)

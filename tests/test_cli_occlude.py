@@ -1,0 +1,349 @@
+"""``viscore occlude``: levels as objects, occluders per mesh and method, Godot files."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+from viscore.cli.main import main
+from viscore.generators.level_occluders import (
+    LevelObjects,
+    default_methods,
+    guess_up,
+    level_objects,
+    occlude_level,
+    occluder_of_mesh,
+)
+
+from viscore import InputError, load_occluder
+
+T = trimesh.transformations
+
+
+def _glb_level(path: Path) -> Path:
+    """Two instances of one crate (one rotated) and a wall; glTF, +Y up."""
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.creation.box(extents=(1, 1, 1)), geom_name="crate",
+                       node_name="crate_a", transform=T.translation_matrix((0, 0.5, 0)))
+    scene.graph.update(frame_to="crate_b", geometry="crate",
+                       matrix=T.translation_matrix((3, 0.5, 0)) @ T.rotation_matrix(0.5, (0, 1, 0)))
+    scene.add_geometry(trimesh.creation.box(extents=(6, 2, 0.3)), geom_name="wall",
+                       node_name="wall", transform=T.translation_matrix((1, 1, 3)))
+    scene.export(path)
+    return path
+
+
+def _obj_level(path: Path, *, up: int = 1) -> Path:
+    """A +Y-up map as one mesh: a ground slab, three blocks, a detail and far debris."""
+    boxes = [((-5, -0.2, -5), (5, 0, 5)),            # ground
+             ((-4, 0, -4), (-3, 2, -3)), ((0, 0, 0), (1, 2.5, 1)), ((3, 0, 2), (4, 1.5, 3)),
+             ((1.02, 1, 0.4), (1.08, 1.06, 0.46)),   # a detail beside the second block
+             ((-4.9, 0, 8), (-4.85, 0.05, 8.05))]    # debris far from everything
+    parts = [trimesh.creation.box(bounds=np.array(b, dtype=float)) for b in boxes]
+    mesh = trimesh.util.concatenate(parts)
+    if up == 2:  # the same map, +Z up
+        mesh.apply_transform(T.rotation_matrix(np.pi / 2, (1, 0, 0)))
+    mesh.export(path)
+    return path
+
+
+def _run(*argv: str) -> int:
+    return main(["occlude", *map(str, argv)])
+
+
+def _world_triangles(out: Path, method: str, level: LevelObjects, *,
+                     float32_transform: bool = True) -> dict[str, np.ndarray]:
+    """The occluders placed by the instances' transforms, float32 as Godot stores them.
+
+    Vertices are float32 in both files; the ``.tscn`` stores transforms as
+    float32 (Godot's ``real_t``), the glTF node matrices keep float64.
+    """
+    doc = json.loads((out / "occlude.json").read_text())
+    objects = level.objects
+    placed = {}
+    for i, name in enumerate(objects.names):
+        occ = doc["objects"][name]["occluders"].get(method)
+        if not occ or "refused" in occ:
+            continue
+        local = trimesh.load(out / occ["mesh_file"], file_type="ply", process=False)
+        v = np.asarray(local.vertices).astype(np.float32).astype(np.float64)
+        m = level.to_godot @ objects.transforms[i]
+        if float32_transform:
+            m = m.astype(np.float32).astype(np.float64)
+        placed[name] = ((v @ m[:3, :3].T + m[:3, 3])[np.asarray(local.faces)]).astype(np.float32)
+    return placed
+
+
+def _read_back(path: Path) -> dict[str, np.ndarray]:
+    mesh = load_occluder(path)
+    tri = np.asarray(mesh.vertices)[np.asarray(mesh.faces)].astype(np.float32)
+    out, start = {}, 0
+    for name, count in zip(mesh.metadata["object_names"], mesh.metadata["object_triangles"],
+                           strict=True):
+        out[Path(name).name.removesuffix("-occonly")] = tri[start:start + count]
+        start += count
+    return out
+
+
+def _same_files(a: Path, b: Path) -> None:
+    names = sorted(p.name for p in a.iterdir() if p.suffix in (".tscn", ".glb"))
+    assert names == sorted(p.name for p in b.iterdir() if p.suffix in (".tscn", ".glb"))
+    assert names
+    for name in names:
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+
+    def strip(doc):
+        if isinstance(doc, dict):
+            return {k: strip(v) for k, v in doc.items() if k != "seconds"}
+        return doc
+    da, db = (json.loads((d / "occlude.json").read_text()) for d in (a, b))
+    assert strip(da) == strip(db)
+
+
+# ----------------------------------------------------------------------------- the files
+def test_occlude_glb_files_read_back_in_world_space(tmp_path, capsys):
+    glb = _glb_level(tmp_path / "level.glb")
+    out = tmp_path / "out"
+    assert _run(glb, "-o", out, "--methods", "aabb-skins,bbox", "--json") == 0
+    doc = json.loads(capsys.readouterr().out)
+    level = level_objects(glb)
+    for method in ("aabb-skins", "bbox"):
+        assert doc["methods"][method]["objects"] == 3
+        for suffix in (".tscn", ".glb"):
+            expected = _world_triangles(out, method, level, float32_transform=suffix == ".tscn")
+            back = _read_back(out / f"{method}{suffix}")
+            assert sorted(back) == sorted(expected) == ["crate_a", "crate_b", "wall"]
+            for name in expected:
+                np.testing.assert_array_equal(back[name], expected[name])
+    row = doc["objects"]["crate_b"]["occluders"]["aabb-skins"]
+    assert row["file"] == "aabb-skins.tscn" and row["triangles"] == 12
+    assert row["conservative_guaranteed"] is True
+    assert doc["objects"]["crate_b"]["occluders"]["bbox"]["conservative_guaranteed"] is False
+
+
+def test_occlude_instancing_one_sub_resource_many_nodes(tmp_path):
+    glb = _glb_level(tmp_path / "level.glb")
+    out = tmp_path / "out"
+    assert _run(glb, "-o", out, "--methods", "bbox", "--quiet") == 0
+    text = (out / "bbox.tscn").read_text()
+    assert text.count('[sub_resource type="ArrayOccluder3D"') == 2  # crate, wall
+    assert text.count('type="OccluderInstance3D"') == 3
+    crate_ref = [line for line in text.splitlines() if line.startswith("occluder =")]
+    assert len(set(crate_ref)) == 2 and len(crate_ref) == 3
+    # one job per distinct mesh and method
+    assert sorted(p.name for p in (out / "occluders" / "bbox").glob("*.json")) == \
+        ["crate.json", "wall.json"]
+
+
+def test_occlude_identical_meshes_share_a_job(tmp_path):
+    scene = trimesh.Scene()
+    for k in range(3):  # three copies of one geometry, each its own glTF mesh
+        scene.add_geometry(trimesh.creation.box(), geom_name=f"copy{k}", node_name=f"n{k}",
+                           transform=T.translation_matrix((3 * k, 0, 0)))
+    level = level_objects(scene)
+    made = occlude_level(level, tmp_path, methods=["bbox"])
+    assert made.computed == 1 and made.manifest["methods"]["bbox"]["objects"] == 3
+    assert (tmp_path / "bbox.tscn").read_text().count("[sub_resource") == 1
+
+
+# ----------------------------------------------------------------------------- single meshes
+def test_level_objects_obj_split_and_up_guessed(tmp_path, caplog):
+    obj = _obj_level(tmp_path / "map.obj")
+    level = level_objects(obj)
+    assert level.kind == "mesh" and level.up == "y" and level.up_guessed
+    assert level.components == 6
+    # the detail joined the block beside it; the far debris is a part of its own
+    assert len(level.objects) == 5
+    assert level.objects.triangles.tolist() == [12, 12, 24, 12, 12]
+    assert level.flat.tolist() == [True, False, False, False, False]
+    chosen = [level.objects.names[i] for i in level.chosen]
+    assert chosen == ["map_part1", "map_part2", "map_part3", "map_part4"]
+    assert "too small" in level.refused["map_part5"]
+    np.testing.assert_array_equal(level.to_godot, np.eye(4))
+    out = tmp_path / "out"
+    with caplog.at_level("INFO"):
+        assert _run(obj, "-o", out, "--methods", "bbox") == 0
+    assert any("up axis guessed +Y" in r.getMessage() for r in caplog.records)
+    assert any("refused map_part5: too small" in r.getMessage() for r in caplog.records)
+
+
+def test_level_objects_z_up_written_in_godot_frame(tmp_path):
+    obj = _obj_level(tmp_path / "map.obj", up=2)
+    level = level_objects(obj)
+    assert level.up == "z"
+    out = tmp_path / "out"
+    assert _run(obj, "-o", out, "--methods", "bbox", "--quiet") == 0
+    back = load_occluder(out / "bbox.tscn")
+    lo, hi = np.asarray(back.vertices).min(0), np.asarray(back.vertices).max(0)
+    np.testing.assert_allclose([lo[1], hi[1]], [-0.2, 2.5], atol=1e-6)  # heights on Godot's Y
+
+
+def test_level_objects_never_only_the_ground():
+    ground = trimesh.creation.box(bounds=[[-50, -0.2, -50], [50, 0, 50]])
+    blocks = [trimesh.creation.box(bounds=[[x, 0, 0], [x + 1, 1, 1]]) for x in (-30, 0, 30)]
+    scene = trimesh.Scene()
+    scene.add_geometry(ground, geom_name="ground", node_name="ground")
+    for k, b in enumerate(blocks):
+        scene.add_geometry(b, geom_name=f"block{k}", node_name=f"block{k}")
+    level = level_objects(scene)
+    assert [level.objects.names[i] for i in level.chosen] == ["block0", "block1", "block2",
+                                                            "ground"]
+
+
+def test_guess_up_open_geometry_faces_up():
+    box = trimesh.creation.box()
+    open_top = trimesh.Trimesh(box.vertices, box.faces[box.face_normals[:, 2] > -0.5])
+    assert guess_up(open_top)[0] == "z"
+
+
+def test_level_objects_invalid_input(tmp_path):
+    glb = _glb_level(tmp_path / "level.glb")
+    with pytest.raises(InputError, match="up"):
+        level_objects(glb, up="z")
+    with pytest.raises(InputError, match="min_size"):
+        level_objects(glb, min_size=0)
+    with pytest.raises(InputError, match="no object named"):
+        level_objects(glb, names=["nosuch"])
+    with pytest.raises(InputError, match="not both"):
+        level_objects(glb, names=["wall"], min_size=0.1)
+
+
+def test_occluder_of_mesh_invalid_input():
+    with pytest.raises(InputError):
+        occluder_of_mesh(trimesh.creation.box(), "nosuch")
+    with pytest.raises(InputError, match="12"):
+        occluder_of_mesh(trimesh.creation.box(), "aabb-skins", budget=5)
+
+
+def test_default_methods_guaranteed():
+    from viscore.generators import REGISTRY
+
+    methods = default_methods()
+    assert methods[0] == ("surface-patches" if "surface-patches" in REGISTRY else "aabb-skins")
+
+
+# ----------------------------------------------------------------------------- refusals
+def test_occlude_all_refused_exit_0_no_scene(tmp_path, capsys):
+    """Open quads: aabb-skins makes nothing. Exit 0, each object refused, no .tscn/.glb."""
+    scene = trimesh.Scene()
+    quad = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    for k in range(2):
+        scene.add_geometry(quad, geom_name="quad", node_name=f"panel{k}",
+                           transform=T.translation_matrix((2 * k, 0, 0)))
+    glb = tmp_path / "panels.glb"
+    scene.export(glb)
+    out = tmp_path / "out"
+    assert _run(glb, "-o", out, "--methods", "aabb-skins") == 0
+    err = capsys.readouterr().err
+    assert err.count("refused panel") == 2 and "empty occluder" in err
+    assert not (out / "aabb-skins.tscn").exists() and not (out / "aabb-skins.glb").exists()
+    doc = json.loads((out / "occlude.json").read_text())
+    assert doc["methods"]["aabb-skins"]["objects"] == 0
+    assert all("refused" in r["occluders"]["aabb-skins"] for r in doc["objects"].values())
+
+
+# ----------------------------------------------------------------------------- runs
+def test_occlude_jobs_1_and_2_identical(tmp_path):
+    glb = _glb_level(tmp_path / "level.glb")
+    for jobs in (1, 2):
+        assert _run(glb, "-o", tmp_path / f"j{jobs}", "--methods", "aabb-skins,bbox",
+                    "--jobs", jobs, "--quiet") == 0
+    _same_files(tmp_path / "j1", tmp_path / "j2")
+
+
+def _many_meshes_level(path: Path, count: int = 24) -> Path:
+    scene = trimesh.Scene()
+    for k in range(count):
+        box = trimesh.creation.box(extents=(1 + 0.05 * k, 1, 1 + 0.03 * k))
+        scene.add_geometry(box, geom_name=f"m{k:02d}", node_name=f"o{k:02d}",
+                           transform=T.translation_matrix((3 * (k % 6), 0, 3 * (k // 6))))
+    scene.export(path)
+    return path
+
+
+def test_occlude_resumes_after_sigkill(tmp_path):
+    glb = _many_meshes_level(tmp_path / "many.glb")
+    killed = tmp_path / "killed"
+    args = ["occlude", str(glb), "-o", str(killed), "--methods", "aabb-skins,bbox", "--quiet"]
+    proc = subprocess.Popen([sys.executable, "-m", "viscore.cli.main", *args],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while not list(killed.glob("occluders/*/*.json")):
+            assert proc.poll() is None, "the run ended before a job finished"
+            assert time.monotonic() < deadline
+            time.sleep(0.02)
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        proc.wait()
+    kept = len(list(killed.glob("occluders/*/*.json")))
+    assert not (killed / "occlude.json").exists()  # killed before the final files
+    assert _run(glb, "-o", killed, "--methods", "aabb-skins,bbox", "--quiet") == 0
+    fresh = tmp_path / "fresh"
+    assert _run(glb, "-o", fresh, "--methods", "aabb-skins,bbox", "--quiet") == 0
+    _same_files(killed, fresh)
+    assert 0 < kept < 48
+
+
+def test_occlude_second_run_on_locked_folder_exit_2(tmp_path, capsys):
+    from viscore.cli.study.store import lock_exclusive
+
+    glb = _glb_level(tmp_path / "level.glb")
+    out = tmp_path / "out"
+    out.mkdir()
+    fd = lock_exclusive(out / ".lock", busy="held")
+    try:
+        assert _run(glb, "-o", out, "--methods", "bbox") == 2
+    finally:
+        os.close(fd)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "another occlude" in err[0]
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--budget", "5", "--methods", "aabb-skins"], "12"),
+    (["--methods", "nosuch"], "nosuch"),
+    (["--methods", "planar-sections:nosuch=1"], "nosuch"),
+    (["--jobs", "100000"], "--jobs"),
+    (["--min-size", "0"], "--min-size"),
+    (["--min-size", "1.5"], "--min-size"),
+    (["--up", "z"], "+Y"),
+    (["--occluders", "nosuch"], "nosuch"),
+    (["--min-size", "0.1", "--occluders", "wall"], "not allowed"),
+    (["--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"], "not allowed"),
+    (["--up", "w"], "--up"),
+])
+def test_occlude_bad_options_exit_2_one_line(tmp_path, capsys, argv, words):
+    glb = _glb_level(tmp_path / "level.glb")
+    out = tmp_path / "out"
+    assert _run(glb, "-o", out, *argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+    assert not out.exists()
+
+
+def test_occlude_missing_parent_exit_2(tmp_path, capsys):
+    glb = _glb_level(tmp_path / "level.glb")
+    assert _run(glb, "-o", tmp_path / "no" / "out", "--methods", "bbox") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "does not exist" in err[0]
+
+
+@pytest.mark.slow
+def test_occlude_dask_local_cluster_same_files(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    glb = _glb_level(tmp_path / "level.glb")
+    assert _run(glb, "-o", tmp_path / "local", "--methods", "aabb-skins,bbox", "--quiet") == 0
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        assert _run(glb, "-o", tmp_path / "dask", "--methods", "aabb-skins,bbox",
+                    "--scheduler", cluster.scheduler_address, "--quiet") == 0
+    _same_files(tmp_path / "local", tmp_path / "dask")
