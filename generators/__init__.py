@@ -39,13 +39,15 @@ from .registry import (
 )
 from .scene_occluders import culling_runtimes, frusta_method, occluder_objects, scene_occluders
 from .solid_frusta import generate_solid_frusta
+from .surface_patches import generate_surface_patches
 from .testing import check_generator
 
 __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOption",
            "generate", "get_generator", "parse_method", "MethodVariant", "generate_aabb_skins",
            "boxes_mesh", "generate_qem",
            "generate_bbox", "generate_original", "generate_godot", "generate_planar_sections",
-           "generate_solid_frusta", "build_hierarchy", "cut_hierarchy", "index_hierarchy",
+           "generate_solid_frusta", "generate_surface_patches", "build_hierarchy", "cut_hierarchy",
+           "index_hierarchy",
            "HierarchyIndex", "generate_planar_hierarchy", "hierarchy_to_json",
            "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify",
            "occluder_objects", "scene_occluders", "culling_runtimes", "frusta_method",

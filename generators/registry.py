@@ -84,6 +84,9 @@ from .planar_sections.generator import RDP_TOLERANCE as PLANAR_RDP_TOLERANCE
 from .planar_sections.generator import use_hierarchy
 from .solid_frusta import generate_solid_frusta
 from .solid_frusta.generator import use_box_source
+from .surface_patches import generate_surface_patches
+from .surface_patches.generator import MIN_AREA as SURFACE_MIN_AREA
+from .surface_patches.generator import PLANE_TOLERANCE as SURFACE_PLANE_TOLERANCE
 
 __all__ = ["GeneratorOption", "GeneratorSpec", "REGISTRY", "get_generator", "generate",
            "COMMON_OPTIONS", "MethodVariant", "parse_method", "PluginError", "PLUGIN_GROUP",
@@ -605,6 +608,24 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                                 low=1, high=30),
             ),
             conservative=True, min_budget=TRIANGLES_PER_BOX),
+        GeneratorSpec(
+            "surface-patches", generate_surface_patches,
+            "double-sided polygons cut from the input's own coplanar regions (across loose "
+            "parts), chosen by occlusion measure; conservative on any input (thin, open game "
+            "geometry)",
+            options=(
+                GeneratorOption("plane_tolerance", float, SURFACE_PLANE_TOLERANCE,
+                                "coplanarity tolerance: largest distance of a region face's "
+                                "vertex from its plane, fraction of the bounding-box diagonal",
+                                low=0, low_open=True, high=1e-5),
+                GeneratorOption("min_area", float, SURFACE_MIN_AREA,
+                                "skip regions and pieces under this fraction of the input's "
+                                "face area", low=0, high=1),
+                GeneratorOption("chain", str, "optimal",
+                                "stages of at most 12 triangles: largest inscribed polygons or "
+                                "the paper's greedy chain", choices=("optimal", "greedy")),
+            ),
+            conservative=True, min_budget=1),
         GeneratorSpec("qem", generate_qem, "quadric edge-collapse decimation to the budget",
                       baseline=True),
         GeneratorSpec(

@@ -1,0 +1,191 @@
+"""Tests of the surface-patches generator (conservative occluders in the input's own planes)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+from viscore.generators.surface_patches import generate_surface_patches
+from viscore.generators.surface_patches._regions import plane_regions
+from viscore.metrics import check_conservative
+
+import viscore
+from viscore import InputError, Scene
+
+
+def _quad(x0, y0, x1, y1, z=0.0):
+    v = np.array([[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]], dtype=np.float64)
+    return trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]], process=False)
+
+
+def _wall_with_window():
+    """A 4 x 3 single-sided wall in z = 0 with a 1 x 1 window at [1.5, 2.5] x [1, 2]."""
+    parts = [_quad(0, 0, 4, 1), _quad(0, 2, 4, 3), _quad(0, 1, 1.5, 2), _quad(2.5, 1, 4, 2)]
+    return trimesh.util.concatenate(parts)
+
+
+def _panelled_wall(n=10):
+    """n loose boxes side by side, touching, one row: a panelled wall 0.1 thick."""
+    boxes = [trimesh.creation.box(extents=(1.0, 0.1, 2.0),
+                                  transform=trimesh.transformations.translation_matrix(
+                                      (i + 0.5, 0.0, 1.0))) for i in range(n)]
+    return trimesh.util.concatenate(boxes)
+
+
+def _hollow_box():
+    outer = trimesh.creation.box(extents=(4, 4, 4))
+    inner = trimesh.creation.box(extents=(3.6, 3.6, 3.6))
+    inner.invert()
+    return trimesh.util.concatenate([outer, inner])
+
+
+def _room(size=(4.0, 4.0, 3.0), wall=0.1, door=None, offset=(0.0, 0.0, 0.0)):
+    """Open-topped room of loose wall boxes; ``door`` (width) cut into the -y wall."""
+    sx, sy, sz = size
+    ox, oy, oz = offset
+    t = trimesh.transformations.translation_matrix
+    parts = [trimesh.creation.box(extents=(sx, sy, wall), transform=t((ox, oy, oz + wall / 2)))]
+    parts.append(trimesh.creation.box(extents=(sx, wall, sz),
+                                      transform=t((ox, oy + sy / 2, oz + sz / 2))))
+    parts.append(trimesh.creation.box(extents=(wall, sy, sz),
+                                      transform=t((ox - sx / 2, oy, oz + sz / 2))))
+    parts.append(trimesh.creation.box(extents=(wall, sy, sz),
+                                      transform=t((ox + sx / 2, oy, oz + sz / 2))))
+    if door is None:
+        parts.append(trimesh.creation.box(extents=(sx, wall, sz),
+                                          transform=t((ox, oy - sy / 2, oz + sz / 2))))
+    else:
+        side = (sx - door) / 2
+        for sign in (-1, 1):
+            parts.append(trimesh.creation.box(
+                extents=(side, wall, sz),
+                transform=t((ox + sign * (door / 2 + side / 2), oy - sy / 2, oz + sz / 2))))
+    return trimesh.util.concatenate(parts)
+
+
+def test_plane_regions_panelled_wall_one_region_per_side():
+    mesh = _panelled_wall(10)
+    diag = float(np.linalg.norm(mesh.extents))
+    regions = plane_regions(np.asarray(mesh.vertices), np.asarray(mesh.faces),
+                            tolerance=1e-7 * diag)
+    facing_y = [r for r in regions if abs(abs(r.normal[1]) - 1) < 1e-12]
+    # the front (y = -0.05) and back (y = +0.05) faces of the 10 panels: 20 triangles each
+    assert len(facing_y) == 2
+    for r in facing_y:
+        assert len(r.faces) == 20
+        assert r.area == pytest.approx(20.0)
+    # tops and bottoms: one region each as well; the 11 panel ends x = 0 .. 10 apart
+    assert len([r for r in regions if abs(abs(r.normal[2]) - 1) < 1e-12]) == 2
+    # both orientations of one plane are one plane: a face and its flipped copy
+    quad = _quad(0, 0, 1, 1)
+    flipped = trimesh.Trimesh(quad.vertices, quad.faces[:, ::-1], process=False)
+    both = trimesh.util.concatenate([quad, flipped])
+    assert len(plane_regions(np.asarray(both.vertices), np.asarray(both.faces),
+                             tolerance=1e-9)) == 1
+
+
+def test_generate_surface_patches_panelled_wall_front_is_one_polygon():
+    occ = generate_surface_patches(_panelled_wall(10), budget=None)
+    big = [p for p in occ.parts["polygons"] if np.ptp(p[:, 0]) > 9.9]
+    assert len(big) >= 2  # front and back span the 10 panels in one polygon each
+    assert occ.info["conservative_guaranteed"] is True
+    assert occ.double_sided is True
+
+
+def test_generate_surface_patches_quad_equals_quad():
+    occ = generate_surface_patches(_quad(0, 0, 2, 1), budget=None)
+    assert occ.triangles == 2
+    # the erosion takes 4e-6 of the diagonal off each side
+    assert occ.mesh.area == pytest.approx(2.0, rel=1e-4)
+    assert occ.mesh.area <= 2.0
+    assert np.abs(occ.mesh.vertices[:, 2]).max() == 0.0  # exactly in the quad's plane
+
+
+def test_generate_surface_patches_window_stays_open():
+    wall = _wall_with_window()
+    occ = generate_surface_patches(wall, budget=None)
+    assert occ.mesh.area == pytest.approx(11.0, rel=1e-4)
+    scene = Scene(occ.mesh)
+    rng = np.random.default_rng(3)
+    # rays through the window (inside it by 1e-3) must miss the occluder
+    hole = np.column_stack([rng.uniform(1.501, 2.499, 2000), rng.uniform(1.001, 1.999, 2000),
+                            np.full(2000, -1.0)])
+    dist, _ = scene.first_hit(hole, np.tile([0.0, 0.0, 1.0], (2000, 1)))
+    assert np.isinf(dist).all()
+    # rays through the wall away from the window and the rim hit it
+    wall_pts = np.column_stack([rng.uniform(0.01, 3.99, 2000), rng.uniform(0.01, 0.99, 2000),
+                                np.full(2000, -1.0)])
+    dist, _ = scene.first_hit(wall_pts, np.tile([0.0, 0.0, 1.0], (2000, 1)))
+    assert np.isfinite(dist).all()
+
+
+def test_generate_surface_patches_sphere_gives_almost_nothing():
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    occ = generate_surface_patches(sphere)
+    assert occ.mesh.area <= 0.02 * sphere.area
+
+
+@pytest.mark.parametrize("name", ["house", "hollow_box", "narrow_door", "nested_rooms"])
+def test_generate_surface_patches_conservative(name):
+    if name == "house":
+        mesh = viscore.load_mesh("building-house")
+    elif name == "hollow_box":
+        mesh = _hollow_box()
+    elif name == "narrow_door":  # a door of 0.02 m: far narrower than a 64^3 voxel (~0.07)
+        mesh = _room(door=0.02)
+    else:
+        mesh = trimesh.util.concatenate([_room((8, 8, 4), door=1.0),
+                                         _room((3, 3, 2.5), door=0.8, offset=(0, 0, 0.1))])
+    occ = generate_surface_patches(mesh)
+    assert occ.triangles > 0
+    report = check_conservative(mesh, occ.mesh, rays=100_000, domain="volume", seed=11)
+    assert report.violations == 0, report.summary()
+
+
+def test_generate_surface_patches_budget_honoured():
+    mesh = trimesh.util.concatenate([_room((8, 8, 4), door=1.0), _wall_with_window()])
+    areas = []
+    for budget in (1, 12, 60):
+        occ = generate_surface_patches(mesh, budget=budget)
+        assert 0 < occ.triangles <= budget
+        areas.append(occ.mesh.area)
+    assert areas[0] < areas[1] < areas[2]
+
+
+def test_generate_surface_patches_deterministic():
+    mesh = _wall_with_window()
+    a = generate_surface_patches(mesh, budget=6, seed=1)
+    b = generate_surface_patches(mesh, budget=6, seed=1)
+    assert np.array_equal(a.mesh.vertices, b.mesh.vertices)
+    assert np.array_equal(a.mesh.faces, b.mesh.faces)
+
+
+@pytest.mark.parametrize("kwargs", [
+    {"budget": 0}, {"budget": 2.5}, {"seed": -1}, {"plane_tolerance": 0},
+    {"plane_tolerance": 1e-3}, {"plane_tolerance": float("nan")}, {"min_area": 1.5},
+    {"chain": "best"},
+])
+def test_generate_surface_patches_invalid_input(kwargs):
+    with pytest.raises(InputError):
+        generate_surface_patches(_quad(0, 0, 1, 1), **kwargs)
+    with pytest.raises(InputError):
+        generate_surface_patches(trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), int)))
+
+
+#: The cottage's sloped roof: one ray in 10^6 grazes it at cos 0.0024, where Embree's float32
+#: puts the occluder's and the roof's hits 1.27e-4 apart (eps 1.09e-4) although in float64 they
+#: agree to 1e-13 (the occluder splits the roof's quad into other triangles). The check's epsilon
+#: does not grow with 1/cos of the incidence; until it does, this case is a known failure.
+_GRAZING = pytest.mark.xfail(reason="float32 hit distance of a grazing ray on a sloped roof",
+                             strict=False)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [pytest.param(n, marks=_GRAZING) if n == "building-cottage"
+                                  else n for n in viscore.scene_group("buildings")])
+def test_generate_surface_patches_conservative_buildings(name):
+    mesh = viscore.load_mesh(name)
+    occ = generate_surface_patches(mesh)
+    for domain in ("orbit", "volume"):
+        report = check_conservative(mesh, occ.mesh, rays=1_000_000, domain=domain, seed=5)
+        assert report.violations == 0, report.summary()
