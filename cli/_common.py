@@ -6,7 +6,9 @@ run says how long first, on stderr (:func:`warn_estimate`,
 :class:`RateEstimate`).
 
 Files are written by the core's shared helpers (:func:`viscore._atomic.write_atomic`,
-:func:`viscore._atomic.file_mode`) and meshes by :func:`viscore.mesh_io.save_mesh`.
+:func:`viscore._atomic.file_mode`), meshes by :func:`viscore.mesh_io.save_mesh`,
+and an occluder for an engine by :func:`write_occluder` (a mesh format, or Godot's
+``.tres`` / ``.tscn``; a ``.glb`` whose one node carries Godot's ``-occonly`` suffix).
 """
 
 from __future__ import annotations
@@ -20,11 +22,12 @@ from pathlib import Path
 from viscore.metrics.precision_recall import jsonable
 
 from viscore._atomic import check_output_path, file_mode, write_atomic
-from viscore.mesh_io import SAVE_FORMATS, mesh_format, save_mesh
+from viscore.mesh_io import SAVE_FORMATS, mesh_bytes, mesh_format, save_mesh
 
 __all__ = ["dumps", "emit", "check_output_path", "write_atomic", "file_mode", "check_mesh_path",
-           "write_mesh", "parse_list", "check_output_folder", "check_output_file",
-           "format_duration", "warn_estimate", "ESTIMATE_WARN_SECONDS", "RateEstimate"]
+           "check_occluder_path", "write_mesh", "write_occluder", "parse_list",
+           "check_output_folder", "check_output_file", "format_duration", "warn_estimate",
+           "ESTIMATE_WARN_SECONDS", "RateEstimate", "MESH_FORMATS", "OCCLUDER_FORMATS"]
 
 _log = logging.getLogger("viscore.cli")
 
@@ -62,11 +65,41 @@ def check_mesh_path(path: str | os.PathLike) -> str:
     return suffix
 
 
-def check_output_file(path: str | os.PathLike, option: str, *, mesh: bool = False) -> Path:
+#: Formats an occluder is written in beside :data:`MESH_FORMATS`: Godot 4 text files
+#: (:func:`write_occluder`).
+OCCLUDER_FORMATS = frozenset({"tres", "tscn"})
+
+
+def check_occluder_path(path: str | os.PathLike) -> str:
+    """The format of an output occluder path, checked before any work.
+
+    One of :data:`MESH_FORMATS` or :data:`OCCLUDER_FORMATS` (``.tres``,
+    ``.tscn``), and a path :func:`check_output_path` accepts.
+
+    Raises
+    ------
+    InputError
+        For an unknown suffix (one line listing the formats), a missing
+        folder, a directory.
+    """
+    from viscore import InputError
+
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in MESH_FORMATS | OCCLUDER_FORMATS:
+        raise InputError(f"{path}: unknown occluder format '.{suffix}'; use "
+                         + ", ".join(f".{f}" for f in sorted(MESH_FORMATS | OCCLUDER_FORMATS)))
+    check_output_path(path)
+    return suffix
+
+
+def check_output_file(path: str | os.PathLike, option: str, *, mesh: bool = False,
+                      occluder: bool = False) -> Path:
     """An output file of ``option``, refused before any work unless it can be written.
 
     As :func:`check_output_path` (its folder must exist, it must not be a
-    folder), and for a mesh its format (:func:`check_mesh_path`); then files
+    folder), for a mesh its format (:func:`check_mesh_path`) and for an
+    occluder its format (:func:`check_occluder_path`: a mesh format or
+    ``.tres``/``.tscn``); then files
     must be creatable in its folder, probed by making and removing a
     temporary folder there (as :func:`check_output_folder`: permission bits
     say nothing for root, nor for a read-only mount). Files written beside it
@@ -81,7 +114,9 @@ def check_output_file(path: str | os.PathLike, option: str, *, mesh: bool = Fals
     from viscore import InputError
 
     try:
-        if mesh:
+        if occluder:
+            check_occluder_path(path)
+        elif mesh:
             check_mesh_path(path)
         else:
             check_output_path(path)
@@ -112,6 +147,54 @@ def write_mesh(path: str | os.PathLike, mesh) -> None:
     specifications) refuse a mesh float32 cannot hold, with one line.
     """
     save_mesh(mesh, path, format=check_mesh_path(path))
+
+
+def write_occluder(path: str | os.PathLike, mesh, *, name: str) -> None:
+    """Write one occluder atomically, in the format its suffix names.
+
+    - ``.tres``: one Godot 4 ``ArrayOccluder3D`` resource
+      (:func:`viscore.tres_text`);
+    - ``.tscn``: a Godot 4 scene holding one ``OccluderInstance3D`` node
+      ``name`` with that occluder, untransformed (:func:`viscore.tscn_text`);
+    - ``.glb``: the GLB :func:`write_mesh` writes, but for its one node, named
+      ``<name>-occonly`` (Godot imports it as an occluder that is not drawn);
+      same accessors, buffers and mesh;
+    - any other mesh format: :func:`write_mesh`.
+
+    Godot and GLB store float32: a mesh float32 cannot hold is refused with
+    one line, as :func:`viscore.mesh_io.mesh_bytes` refuses it for GLB;
+    otherwise the file reads back (:func:`viscore.load_occluder`) as the
+    mesh's float32 triangles.
+
+    Raises
+    ------
+    InputError
+        An unknown suffix, a mesh float32 cannot hold, input the Godot
+        writers refuse (one line naming the path).
+    """
+    import trimesh
+
+    from viscore import InputError, OccluderInstance, tres_text, tscn_text
+
+    fmt = check_occluder_path(path)
+    if fmt not in ("tres", "tscn", "glb"):
+        write_mesh(path, mesh)
+        return
+    mesh_bytes(mesh, "glb", name=path)  # float32 must hold it: refused as for GLB
+    vertices, indices = mesh.vertices, mesh.faces.reshape(-1)
+    try:
+        if fmt == "tres":
+            data = tres_text(vertices, indices).encode("utf-8")
+        elif fmt == "tscn":
+            data = tscn_text([OccluderInstance(name, "occluder")],
+                             {"occluder": (vertices, indices)}).encode("utf-8")
+        else:  # the same GLB but for its node's name (trimesh names geometries alike)
+            scene = trimesh.Scene()
+            scene.add_geometry(mesh, node_name=f"{name}-occonly")
+            data = trimesh.exchange.gltf.export_glb(scene)
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None
+    write_atomic(path, data)
 
 
 def parse_list(text: str, kind: type, option: str) -> tuple:

@@ -14,6 +14,14 @@ this process alone (:class:`viscore.cli.study.store.StudyFolder`): a second
 ``compare`` on the same folder is refused with one line, and a damaged store
 is refused with one line naming it.
 
+Occluders made by other tools join as rows: ``--occluder-files NAME=PATH``
+(repeatable) assesses PATH (one file for every mesh, or a folder of
+``<mesh>.<ext>`` / ``<mesh>.<budget>.<ext>`` files) as the method ``NAME``,
+with its paired comparisons, plots and report entries; drawn double-sided,
+its conservativeness claim False unless the file says so. Such a row is
+resumed while the file's content is unchanged (its key holds the content's
+SHA-256) and assessed again once it changes.
+
 Outputs in the study folder: ``results.{json,csv,md}``, ``recall.png``,
 ``budget.png``, ``silhouettes_*.png``, ``report.html`` (one self-contained
 page: the table with intervals, the plots inline, the paired comparisons,
@@ -51,6 +59,7 @@ from .study.runner import (
     JOBS_PER_CORE,
     StudySettings,
     check_scheduler,
+    resolve_occluder_files,
     run_study,
     study_memory,
 )
@@ -108,6 +117,13 @@ def add_parser(sub, common) -> None:
                         + ")")
     c.add_argument("--culling-frames", type=int, default=CULLING_FRAMES,
                    help=f"frames of that walk (default {CULLING_FRAMES})")
+    c.add_argument("--occluder-files", action="append", default=[], metavar="NAME=PATH",
+                   help="occluders made by other tools, assessed as the method row NAME "
+                        "(repeatable): PATH a file every mesh uses (any format "
+                        "viscore.load_occluder reads: .tscn, .tres, .occ, -occonly .glb, a "
+                        "mesh), or a folder holding <mesh>.<ext> per mesh, or "
+                        "<mesh>.<budget>.<ext> per budget; double-sided, not conservative "
+                        "unless the file says so")
     c.add_argument("--out", default="viscore-study",
                    help="study folder; its parent must exist (default ./viscore-study)")
     c.set_defaults(run=run_compare)
@@ -123,13 +139,26 @@ def _methods(text: str, flag: str = "--methods") -> list[str]:
     return list(dict.fromkeys(parse_method(m, flag).label for m in names))
 
 
-def _versus(text: str | None, methods: list[str]) -> str | None:
+def _file_specs(items: list[str]) -> list[tuple[str, str]]:
+    """``--occluder-files NAME=PATH`` items as (NAME, PATH) pairs."""
+    specs = []
+    for item in items:
+        name, sep, path = str(item).partition("=")
+        if not sep or not name.strip() or not path.strip():
+            raise InputError(f"--occluder-files {item!r}: expected NAME=PATH")
+        specs.append((name.strip(), path.strip()))
+    return specs
+
+
+def _versus(text: str | None, methods: list[str], files: list[str] = ()) -> str | None:
     if text is None:
         return "qem" if "qem" in methods else None
+    if text in files:  # an occluder-files row is a reference like any method
+        return text
     text = parse_method(text, "--versus").label
     if text not in methods:
         raise InputError(f"--versus: {text} is not among the methods run "
-                         f"({', '.join(methods)}); add it to --methods")
+                         f"({', '.join([*methods, *files])}); add it to --methods")
     return text
 
 
@@ -186,7 +215,8 @@ def run_compare(args) -> int:
     # 1. every argument, before any work and before the study folder is touched
     methods = _methods(args.methods)
     seed = as_seed(args.seed, "--seed")
-    versus = _versus(args.versus, methods)
+    specs = _file_specs(getattr(args, "occluder_files", None) or [])
+    versus = _versus(args.versus, methods, [name for name, _ in specs])
     views = as_positive_int(args.views, "--views")
     quads = as_positive_int(args.quads, "--quads")
     res = as_positive_int(args.res, "--res", maximum=MAX_RESOLUTION)
@@ -204,15 +234,17 @@ def run_compare(args) -> int:
                              rays=rays, budgets=budgets, seed=seed)
     meshes = list(dict.fromkeys(args.meshes or DEFAULT_SCENES))
     originals = {m: load_mesh(m) for m in meshes}
+    # every occluder file found and read now: a missing or bad one leaves no folder behind
+    files = resolve_occluder_files(specs, meshes, methods=methods)
     if args.scheduler is None:
-        n_jobs = min(jobs, len(meshes) * len(methods) * len(budgets))
+        n_jobs = min(jobs, len(meshes) * len(methods) * len(budgets) + len(files))
         check_memory(study_memory(settings, originals, n_jobs),
                      f"--jobs {jobs} --views {views} --quads {quads} --res {res} --rays {rays}")
     # 2. the study, in a folder this process alone writes (the cluster reached first)
     with _connect(args.scheduler) as client, StudyFolder(out) as study:
         rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
                          scheduler=client, progress=not (args.quiet or args.json),
-                         originals=originals)
+                         originals=originals, files=files)
         paired = paired_rows(rows, versus) if versus else []
         culling = (_culling(culling_methods, out, frames=culling_frames, seed=seed,
                             quiet=args.quiet or args.json)

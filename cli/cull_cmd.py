@@ -4,11 +4,16 @@ Parse, call the library, format: the scene's objects
 (:func:`viscore.scene_graph.load_scene_objects`), the objects that get
 occluders (:func:`viscore.generators.occluder_objects`), the
 runtimes (:func:`viscore.generators.culling_runtimes`: ``none``,
-``planar-frusta``, ``solid-frusta``, ``depth-buffer:<method>``), the camera
+``planar-frusta``, ``solid-frusta``, ``depth-buffer:<method>``, and
+``depth-buffer:<stem>`` per ``--occluder-files`` file, read by
+:func:`viscore.generators.scene_occluders.file_occluder`: an engine's own
+occluders, such as Godot's bake, or the ``*.tscn`` of a ``viscore occlude``
+folder, each one occluder set in world space, conservative only when the
+file says so), the camera
 path (:func:`viscore.metrics.culling.camera_path` or ``--path``) and the
 simulation against the ray-cast ground truth
 (:func:`viscore.metrics.culling.simulate_culling`). Every argument is checked
-before any work (the scene and the camera path are read, the output folder
+before any work (the scene, the occluder files and the camera path are read, the output folder
 checked, the frames capped at :data:`MAX_FRAMES` and their memory estimated,
 for ``--frames`` and ``--path`` alike). Then the output folder is made if
 missing and locked for this process alone (a second ``cull`` on it is refused
@@ -53,6 +58,7 @@ from viscore.generators import (
     occluder_objects,
     parse_method,
 )
+from viscore.generators.scene_occluders import file_occluder
 from viscore.metrics.culling import (
     DEFAULT_HEIGHT,
     DEFAULT_WIDTH,
@@ -102,7 +108,8 @@ def add_parser(sub, common) -> None:
         "cull", parents=[common],
         help="simulate occlusion culling along a camera path against ray-cast truth",
         description="Walk a camera through a scene of objects and report, per runtime "
-                    "(none, planar-frusta, solid-frusta, depth-buffer:<method>), the objects "
+                    "(none, planar-frusta, solid-frusta, depth-buffer:<method>, "
+                    "depth-buffer:<file> per --occluder-files file), the objects "
                     "culled, the false culls (culled yet visible in a ray-cast object-id "
                     "image), the triangles rendered and the overhead per frame.")
     c.add_argument("scene", nargs="?", default="city", metavar="SCENE",
@@ -119,6 +126,13 @@ def add_parser(sub, common) -> None:
     c.add_argument("--occluders", default=None,
                    help="comma-separated object names that get occluders (default: the "
                         "objects above --size-threshold)")
+    c.add_argument("--occluder-files", default=None, metavar="PATH[,PATH...]",
+                   help="occluders made by other tools, each a runtime "
+                        "depth-buffer:<file stem> beside the methods': a file "
+                        "viscore.load_occluder reads (Godot .tscn/.tres/.occ such as the bake's "
+                        "node_3d.occ, an -occonly glTF, any mesh) holding the whole level's "
+                        "occluders in world space, or a folder of 'viscore occlude' (each of "
+                        "its *.tscn); not conservative unless the file says so")
     c.add_argument("--size-threshold", type=float, default=None,
                    help="bounding-box diagonal, world units, from which an object gets "
                         "occluders (default 2.5 x the median object's)")
@@ -340,6 +354,7 @@ def run_cull(args) -> int:
         raise InputError(f"--frusta-method: expected one method, got {args.frusta_method!r}")
     source = source[0]
     names = _names(args.occluders, "--occluders")
+    files = _occluder_files(args.occluder_files, methods)
     out = _out_dir(args.out)
     check_culling_memory(width, height)
     if args.path is None:
@@ -362,10 +377,50 @@ def run_cull(args) -> int:
     with _OutFolder(out) as folder:  # this process alone, from here to the files
         doc = _simulate(args, objects, indices, path, folder, progress=progress, seed=seed,
                         frames=frames, methods=methods, source=source, active=active,
-                        reduction=reduction, width=width, height=height)
+                        reduction=reduction, width=width, height=height, files=files)
     emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
          "(replay with --path)")
     return 0
+
+
+def _occluder_file_paths(text: str) -> list[Path]:
+    """The files of ``--occluder-files``: each path a file, or a folder's ``*.tscn``."""
+    paths = []
+    for item in _names(text, "--occluder-files"):
+        p = Path(item)
+        if p.is_dir():
+            found = sorted(q for q in p.glob("*.tscn") if not q.name.startswith("."))
+            if not found:
+                raise InputError(f"--occluder-files {item}: a folder without *.tscn files "
+                                 "(expected a folder written by 'viscore occlude', or name "
+                                 "the occluder files themselves)")
+            paths += found
+        else:
+            paths.append(p)
+    return paths
+
+
+def _occluder_files(text: str | None, methods: list[str]) -> dict:
+    """``--occluder-files`` read before any work: runtime name (file stem) -> Occluder."""
+    if text is None:
+        return {}
+    files: dict = {}
+    where: dict[str, Path] = {}
+    for p in _occluder_file_paths(text):
+        name = p.stem
+        if name in where:
+            raise InputError(f"--occluder-files: {where[name]} and {p} both name the runtime "
+                             f"depth-buffer:{name}; rename one of them")
+        if name in methods:
+            raise InputError(f"--occluder-files {p}: depth-buffer:{name} is also the runtime "
+                             f"of --methods {name}; drop {name} from --methods or rename the "
+                             "file")
+        try:
+            files[name] = file_occluder(p)
+        except InputError as exc:
+            raise InputError(f"--occluder-files {exc}") from None
+        where[name] = p
+    return files
 
 
 def _check_frames_memory(frames: int, what: str) -> None:
@@ -374,7 +429,8 @@ def _check_frames_memory(frames: int, what: str) -> None:
 
 
 def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: bool, seed: int,
-              frames, methods, source, active, reduction, width, height) -> dict:
+              frames, methods, source, active, reduction, width, height,
+              files: dict | None = None) -> dict:
     """The work and the files of :func:`run_cull`; returns the JSON document."""
     from tqdm import tqdm
 
@@ -388,14 +444,16 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
         runtimes, info = culling_runtimes(objects, indices, methods, active=active,
                                           reduction=reduction, seed=seed,
                                           frusta_source=source, cap=args.cap,
-                                          rank=args.rank, progress=tick)
+                                          rank=args.rank, progress=tick, files=files)
     with tqdm(total=len(path), desc="frames", unit="frame", disable=not progress,
               leave=False) as bar:
         tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
                                   progress=tick)
     doc = {"scene": args.scene, "occluder_objects": len(indices),
-           "frusta_method": source, "methods": methods, "seed": seed,
+           "frusta_method": source, "methods": methods,
+           "occluder_files": {name: occ.params["file"] for name, occ in (files or {}).items()},
+           "seed": seed,
            "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
            **result.to_json(),
            "runtimes": info, "provenance": provenance()}

@@ -8,6 +8,14 @@ node, levels of detail (``parts["lods"]``) as ``STEM.lod<i>.ply``; the
 ``--json`` document lists them. OUT is checked before any work: its format,
 its folder, and that files can be made there (that folder holds every file
 written, OUT and the parts beside it); a refusal names ``-o`` and the path.
+
+OUT's suffix names its format (:func:`viscore.cli._common.write_occluder`,
+atomically): a mesh (``.ply``, ``.obj``, ``.off``, ``.stl``), a Godot 4
+``ArrayOccluder3D`` resource (``.tres``), a Godot 4 scene of one
+``OccluderInstance3D`` node named after MESH (``.tscn``), or a GLB whose one
+node is ``<MESH>-occonly`` (``.glb``; the mesh's GLB otherwise unchanged), so
+that Godot imports it as an occluder. Each reads back through
+:func:`viscore.load_occluder` as the occluder's float32 triangles.
 """
 
 from __future__ import annotations
@@ -23,7 +31,7 @@ from viscore.generators import REGISTRY, generate, get_generator, hierarchy_to_j
 from viscore import InputError, load_mesh, provenance
 from viscore._validate import as_seed
 
-from ._common import check_output_file, emit, write_mesh
+from ._common import check_output_file, emit, write_mesh, write_occluder
 
 _log = logging.getLogger("viscore")
 
@@ -72,7 +80,10 @@ def add_parser(sub, common) -> None:
                         + (" Experimental: not yet validated." if spec.experimental else "")
                         + (f" Plugin method from the {plugin} package." if plugin else ""))
         m.add_argument("mesh", help="mesh file or built-in scene name")
-        m.add_argument("-o", "--output", required=True, help="occluder mesh file (.ply, .obj, ...)")
+        m.add_argument("-o", "--output", required=True,
+                       help="occluder file: a mesh (.ply, .obj, .off, .stl), Godot's .tres "
+                            "(ArrayOccluder3D) or .tscn (one OccluderInstance3D), or .glb "
+                            "(its node <MESH>-occonly)")
         m.add_argument("--budget", type=_budget, default=None, help=budget_help)
         for option in spec.options:
             if option.type is bool:  # a switch pair: --conservative / --no-conservative
@@ -103,7 +114,7 @@ def _format_info(info: dict) -> str:
 
 def run_generate(args) -> int:
     spec = get_generator(args.method)
-    check_output_file(args.output, "-o", mesh=True)  # OUT and the parts beside it, first
+    check_output_file(args.output, "-o", occluder=True)  # OUT and the parts beside it, first
     params = {o.name: getattr(args, o.name) for o in spec.options if hasattr(args, o.name)}
     params["seed"] = as_seed(args.seed, "--seed")
     if args.budget is not None:
@@ -117,7 +128,7 @@ def run_generate(args) -> int:
         raise InputError(f"{args.mesh}: {args.method} produced no triangles"
                          f"{_format_info(occ.info)}")
     extra = _write_parts(occ, Path(args.output))  # beside OUT, before it
-    write_mesh(args.output, occ.mesh)
+    write_occluder(args.output, occ.mesh, name=Path(args.mesh).stem)
     doc = {"mesh": args.mesh, "output": args.output, **occ.summary(), "seed": params["seed"],
            **extra, "provenance": provenance()}
     files = "".join(f"; {key}: {_files_text(value)}" for key, value in extra.items())

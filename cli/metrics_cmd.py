@@ -8,6 +8,11 @@ meshes are loaded. The estimates below were measured as peak RSS growth with
 checks for what depends on the mesh, such as the volume protocol's positions).
 The figures and the estimates live in :mod:`viscore.metrics.estimates`.
 
+The OCCLUDER of ``evaluate`` and ``validate`` is read by
+:func:`viscore.load_occluder`: any mesh file, and engines' occluder files
+(Godot 4 ``.tscn``, ``.tres``, binary ``.occ``, ``-occonly`` glTF), in world
+space.
+
 ``validate`` with many rays times a first batch of :data:`_ETA_PROBE_RAYS`
 rays (same mesh, occluder and settings; its result is dropped) and, when the
 whole run is estimated beyond a few minutes
@@ -24,7 +29,7 @@ from dataclasses import asdict
 from viscore.metrics import check_conservative, evaluate, occlusion_measure
 from viscore.metrics.estimates import conservativeness_bytes, evaluation_bytes, measure_bytes
 
-from viscore import InputError, load_mesh, provenance
+from viscore import InputError, load_mesh, load_occluder, provenance
 from viscore._validate import as_fraction, as_positive, as_positive_int, as_seed, check_memory
 
 from ._common import emit, warn_estimate
@@ -44,6 +49,11 @@ _ETA_PROBE_RAYS = 262_144
 _ETA_MIN_RAYS = 4_000_000
 
 
+#: Help of the OCCLUDER argument (read by :func:`viscore.load_occluder`).
+_OCCLUDER_HELP = ("occluder file: any mesh file, Godot 4 .tscn/.tres/.occ (ArrayOccluder3D, as "
+                  "Godot's bake writes), or a glTF/GLB with -occonly nodes; world space")
+
+
 def add_parser(sub, common) -> None:
     m = sub.add_parser("measure", parents=[common], help="total occlusion measure of a mesh")
     m.add_argument("mesh", help="mesh file or built-in scene name")
@@ -54,7 +64,7 @@ def add_parser(sub, common) -> None:
     e = sub.add_parser("evaluate", parents=[common],
                        help="quad precision/recall of an occluder against its mesh")
     e.add_argument("mesh")
-    e.add_argument("occluder")
+    e.add_argument("occluder", help=_OCCLUDER_HELP)
     e.add_argument("--protocol", choices=["orbit", "volume"], default="orbit")
     e.add_argument("--depth-aware", action="store_true")
     e.add_argument("--views", type=int, default=256, help="orbit views (default 256)")
@@ -69,7 +79,7 @@ def add_parser(sub, common) -> None:
     v = sub.add_parser("validate", parents=[common],
                        help="ray-wise conservativeness; exit 1 when the bound exceeds --max-rate")
     v.add_argument("mesh")
-    v.add_argument("occluder")
+    v.add_argument("occluder", help=_OCCLUDER_HELP)
     v.add_argument("--rays", type=int, default=100_000)
     v.add_argument("--confidence", type=float, default=0.95,
                    help="of the upper bound on the violation rate, in (0, 1) (default 0.95)")
@@ -131,7 +141,7 @@ def run_evaluate(args) -> int:
         check_memory(evaluation_bytes("volume", quads=quads, resolution=res,
                                       depth_aware=args.depth_aware),
                      f"--res {res} --quads {quads}")
-    mesh, occ = load_mesh(args.mesh), load_mesh(args.occluder)
+    mesh, occ = load_mesh(args.mesh), load_occluder(args.occluder)
     r = evaluate(mesh, occ, protocol=args.protocol, **params)
     doc = {"mesh": args.mesh, "occluder": args.occluder, "triangles": len(occ.faces),
            **asdict(r), "provenance": provenance()}
@@ -152,7 +162,7 @@ def run_validate(args) -> int:
         raise InputError("--confidence: expected a number in (0, 1), got 1.0")
     max_rate = as_fraction(args.max_rate, "--max-rate")
     check_memory(conservativeness_bytes(rays), f"--rays {rays}")
-    mesh, occ = load_mesh(args.mesh), load_mesh(args.occluder)
+    mesh, occ = load_mesh(args.mesh), load_occluder(args.occluder)
     settings = {"confidence": confidence, "domain": args.domain, "seed": seed}
     if rays >= _ETA_MIN_RAYS:  # a long run says how long first
         start = time.perf_counter()

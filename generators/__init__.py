@@ -37,7 +37,13 @@ from .registry import (
     parse_method,
     plugin_versions,
 )
-from .scene_occluders import culling_runtimes, frusta_method, occluder_objects, scene_occluders
+from .scene_occluders import (
+    culling_runtimes,
+    file_occluder,
+    frusta_method,
+    occluder_objects,
+    scene_occluders,
+)
 from .solid_frusta import generate_solid_frusta
 from .surface_patches import generate_surface_patches
 from .testing import check_generator
@@ -50,5 +56,5 @@ __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOpt
            "index_hierarchy",
            "HierarchyIndex", "generate_planar_hierarchy", "hierarchy_to_json",
            "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify",
-           "occluder_objects", "scene_occluders", "culling_runtimes", "frusta_method",
+           "occluder_objects", "scene_occluders", "file_occluder", "culling_runtimes", "frusta_method",
            "PluginError", "PLUGIN_GROUP", "plugin_versions", "check_generator"]

@@ -29,9 +29,13 @@ References
 from __future__ import annotations
 
 import dataclasses
+import json
 import logging
+import math
+import os
 from collections import OrderedDict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -50,7 +54,8 @@ from .occluder import Occluder
 from .registry import REGISTRY, generate, get_generator, parse_method
 
 __all__ = ["occluder_objects", "scene_occluders", "scene_hierarchy", "transform_occluder",
-           "culling_runtimes", "frusta_method", "SIZE_FACTOR"]
+           "culling_runtimes", "frusta_method", "file_occluder", "SIZE_FACTOR",
+           "OCCLUDE_MANIFEST"]
 
 _log = logging.getLogger(__name__)
 
@@ -62,7 +67,13 @@ SIZE_FACTOR = 2.5
 #: Distinct hierarchy cuts whose occluder scenes are kept between frames.
 _CUT_CACHE = 8
 
+#: Smallest |determinant| of a manifest's ``to_godot`` taken as invertible (a rotation's is 1).
+_MIN_DETERMINANT = 1e-12
+
 _UNIT_BOX = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+
+#: The manifest ``viscore occlude`` writes beside its occluder files.
+OCCLUDE_MANIFEST = "occlude.json"
 
 
 def occluder_objects(objects: SceneObjects, *, size_threshold: float | None = None,
@@ -264,6 +275,118 @@ def frusta_method() -> str:
     return "solid-frusta" if "solid-frusta" in REGISTRY else "aabb-skins"
 
 
+def _manifest_entry(path: Path) -> tuple[dict, dict] | None:
+    """The ``viscore occlude`` manifest beside ``path`` and the method summary listing it."""
+    try:
+        doc = json.loads((path.parent / OCCLUDE_MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    methods = doc.get("methods") if isinstance(doc, dict) else None
+    if not isinstance(methods, dict):
+        return None
+    for summary in methods.values():
+        files = summary.get("files") if isinstance(summary, dict) else None
+        if isinstance(files, list) and path.name in files:
+            return doc, summary
+    return None
+
+
+def _from_godot(doc: dict, manifest: Path) -> np.ndarray | None:
+    """The inverse of a manifest's ``to_godot`` (None for the identity or none given)."""
+    raw = doc.get("to_godot")
+    if raw is None:
+        return None
+    try:
+        matrix = np.asarray(raw, dtype=np.float64)
+        ok = matrix.shape == (4, 4) and bool(np.isfinite(matrix).all())
+    except (TypeError, ValueError):
+        ok = False
+    if not ok or abs(np.linalg.det(matrix[:3, :3])) < _MIN_DETERMINANT:
+        raise InputError(f"{manifest}: to_godot is not an invertible 4 x 4 transform")
+    if np.array_equal(matrix, np.eye(4)):
+        return None
+    return np.linalg.inv(matrix)
+
+
+def file_occluder(path: str | os.PathLike) -> Occluder:
+    """An occluder file made by another tool, as one occluder in the level's world space.
+
+    Parameters
+    ----------
+    path : str or path
+        Any file :func:`viscore.load_occluder` reads: a Godot 4 ``.tscn``,
+        ``.tres`` or binary ``.occ``/``.res`` (as Godot's occluder bake
+        writes), a glTF/GLB with ``-occonly`` nodes, or any mesh file.
+
+    Returns
+    -------
+    Occluder
+        ``mesh``: every triangle of the file in world units (one occluder
+        set); ``method``: the file's stem; ``params``: ``{"file": path}``;
+        ``double_sided`` True (drawn from both sides, as Godot's occluders
+        are); ``seconds`` NaN (not generated here); ``info``:
+        ``conservative_guaranteed`` (see Notes), ``file``, ``source_format``
+        and ``from_godot_frame`` (whether the manifest's frame was undone).
+
+    Raises
+    ------
+    InputError
+        As :func:`viscore.load_occluder` (one line naming the file), or a
+        ``viscore occlude`` manifest whose ``to_godot`` is not an invertible
+        transform.
+
+    Notes
+    -----
+    The conservativeness claim is False unless the file says otherwise: a
+    ``conservative_guaranteed`` entry in the loaded mesh's metadata, or,
+    for a file that ``viscore occlude`` wrote, its manifest
+    (:data:`OCCLUDE_MANIFEST` in the same folder, whose method summary lists
+    the file under ``files``) and that summary's ``conservative_guaranteed``.
+    Such a file is in Godot's +Y-up frame; the manifest's ``to_godot`` is
+    undone, so the triangles are in the level's own frame (the frame
+    :func:`viscore.scene_graph.load_scene_objects` reads the level in). A file
+    without a manifest is taken as it stands (Godot and glTF are both +Y up).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from viscore import tres_text
+    >>> quad = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = pathlib.Path(tmp) / "wall.tres"
+    ...     _ = path.write_text(tres_text(quad, [0, 1, 2, 0, 2, 3]))
+    ...     occ = file_occluder(path)
+    >>> occ.method, occ.triangles, occ.info["conservative_guaranteed"]
+    ('wall', 2, False)
+    """
+    from viscore import load_occluder
+
+    try:
+        p = Path(os.fspath(path))
+    except TypeError:
+        raise InputError(f"occluder file: expected a path, got {type(path).__name__}") from None
+    mesh = load_occluder(p)
+    claim = mesh.metadata.get("conservative_guaranteed")
+    moved = False
+    entry = _manifest_entry(p)
+    if entry is not None:
+        doc, summary = entry
+        if claim is None:
+            claim = summary.get("conservative_guaranteed") is True
+        inverse = _from_godot(doc, p.parent / OCCLUDE_MANIFEST)
+        if inverse is not None:
+            faces = np.asarray(mesh.faces, dtype=np.int64)
+            if np.linalg.det(inverse[:3, :3]) < 0:
+                faces = faces[:, ::-1].copy()
+            mesh = trimesh.Trimesh(_move(mesh.vertices, inverse), faces, process=False,
+                                   metadata=dict(mesh.metadata))
+            moved = True
+    info = {"conservative_guaranteed": bool(claim), "file": str(path),
+            "source_format": mesh.metadata.get("source_format"), "from_godot_frame": moved}
+    return Occluder(mesh=mesh, method=p.stem, params={"file": str(path)}, double_sided=True,
+                    seconds=math.nan, info=info)
+
+
 def _guaranteed(occluder: Occluder, method: str) -> bool:
     """Whether one occluder carries the conservativeness guarantee.
 
@@ -330,7 +453,8 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
                      frusta: bool = True, frusta_source: str | None = None,
                      cap: str = "front-faces", rank: str = "faces",
                      params: dict[str, dict] | None = None,
-                     progress: Callable[[int], None] | None = None
+                     progress: Callable[[int], None] | None = None,
+                     files: Mapping[str, Occluder] | None = None
                      ) -> tuple[dict[str, Runtime], dict]:
     """The runtimes of the culling simulation for a scene's occluder objects.
 
@@ -362,12 +486,20 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
         Generator options per method.
     progress : callable, optional
         Called with 1 after each distinct mesh generated (all methods).
+    files : mapping of str -> Occluder, optional
+        Occluders made by other tools (:func:`file_occluder`), by name; each
+        gives a ``depth-buffer:<name>`` runtime after the methods' (a name
+        that is also a method's is refused). The whole file's triangles are
+        one occluder set in world space, prepared once as a method's
+        occluders are; its guarantee is the file's
+        ``info["conservative_guaranteed"]`` (False unless the file says so).
 
     Returns
     -------
     runtimes : dict of str -> Runtime
         ``none``, then ``planar-frusta`` and ``solid-frusta``, then
-        ``depth-buffer:<method>`` per method. A method whose occluders carry
+        ``depth-buffer:<method>`` per method, then ``depth-buffer:<name>``
+        per file. A method whose occluders carry
         a hierarchy (probed on the first mesh) gets one tree over all the
         objects (:func:`scene_hierarchy`), cut for each frame's camera
         (``cut_hierarchy`` with the camera's horizontal field of view and
@@ -379,12 +511,13 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
         for example False for aabb-skins or solid-frusta on an open mesh;
         else the registry flag and a closed, consistently oriented occluder
         mesh) and ``not_guaranteed``, the names of the objects whose occluders
-        lack it.
+        lack it. A file's entry has ``method`` None, ``file``, ``triangles``
+        and ``source_format`` instead.
 
     Raises
     ------
     InputError
-        Unknown method, bad option.
+        Unknown method, bad option, a file name that is also a method's.
     """
     active = as_positive_int(active, "active")
     reduction = as_positive_int(reduction, "reduction", maximum=1024)
@@ -392,6 +525,14 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
     methods = list(dict.fromkeys(methods))
     for m in methods:
         get_generator(m)
+    files = dict(files or {})
+    for name, occ in files.items():
+        if name in methods:
+            raise InputError(f"files: {name!r} is also a method; depth-buffer:{name} would "
+                             "name two runtimes")
+        if not isinstance(occ, Occluder):
+            raise InputError(f"files[{name!r}]: expected an Occluder (file_occluder), got "
+                             f"{type(occ).__name__}")
     source = (frusta_method() if frusta_source is None
               else parse_method(frusta_source, "frusta_source").label)
     cache: dict[str, dict[int, Occluder]] = {}
@@ -450,6 +591,17 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
         info[name] = {"method": m, "occluders": len(occ), "conservative": conservative,
                       "not_guaranteed": _unsure_names(objects, unsure),
                       "hierarchy": any("hierarchy" in o.parts for o in occ)}
+    for name, occ in files.items():
+        runtime = f"depth-buffer:{name}"
+        conservative = bool(occ.info.get("conservative_guaranteed", False))
+        # the whole file is one occluder set in world space, prepared once
+        runtimes[runtime] = depth_buffer_runtime([occ], reduction=reduction,
+                                                 conservative=conservative)
+        info[runtime] = {"method": None, "file": occ.info.get("file", occ.params.get("file")),
+                         "source_format": occ.info.get("source_format"), "occluders": 1,
+                         "triangles": occ.triangles, "conservative": conservative,
+                         "not_guaranteed": [] if conservative else [f"(file {name})"],
+                         "hierarchy": False}
     return runtimes, info
 
 

@@ -10,6 +10,17 @@ measure, conservativeness). Jobs run in a local process pool, or on a
 dask.distributed cluster with ``scheduler``; each job is deterministic given
 its settings, so both give identical rows.
 
+Occluder files. A study may also assess occluders made by other tools
+(``compare --occluder-files NAME=PATH``, :func:`resolve_occluder_files`): a
+row ``NAME`` per mesh (and per budget a folder's file names state), assessed
+exactly as a generated occluder and paired, plotted and reported like one. The
+file is read by :func:`viscore.generators.scene_occluders.file_occluder`
+(any format :func:`viscore.load_occluder` reads; drawn double-sided; not
+conservative unless the file says so). Its row key adds the SHA-256 of the
+file's content to the usual (mesh, method, budget, settings), so a resumed
+study reuses the row while the file is unchanged and assesses it again once
+it changes.
+
 Views once per worker. In the local pool, a worker builds a mesh's views
 (from the mesh the parent loaded, not loaded again) and pickles them once to a
 file in a temporary folder of the study (``DIR/.views-*.tmp/``); each job of
@@ -49,6 +60,7 @@ import hashlib
 import json
 import os
 import pickle
+import re
 import shutil
 import signal
 import socket
@@ -67,9 +79,10 @@ from viscore.mesh_io import mesh_bytes
 from .._common import dumps, write_atomic
 from .store import StudyFolder
 
-__all__ = ["StudySettings", "Job", "study_jobs", "view_settings", "study_memory", "build_views",
-           "views_from_file", "run_job", "run_study", "check_scheduler", "TIMING_FIELDS",
-           "JOBS_PER_CORE", "SCHEDULER_PROBE_SECONDS"]
+__all__ = ["StudySettings", "Job", "OccluderFile", "study_jobs", "occluder_file_jobs",
+           "resolve_occluder_files", "file_digest", "view_settings", "study_memory",
+           "build_views", "views_from_file", "run_job", "run_study", "check_scheduler",
+           "TIMING_FIELDS", "JOBS_PER_CORE", "SCHEDULER_PROBE_SECONDS", "OCCLUDER_SUFFIXES"]
 
 #: Fields of a row that are wall times (they differ between runs; everything
 #: else in a row is deterministic given the settings).
@@ -86,6 +99,13 @@ SCHEDULER_PROBE_SECONDS = 2.0
 #: Port of a scheduler address that names none (dask.distributed's default).
 _DEFAULT_SCHEDULER_PORT = 8786
 
+#: Suffixes of the occluder files looked for in an ``--occluder-files`` folder: those
+#: :func:`viscore.load_occluder` reads as Godot or glTF files, and the usual mesh files.
+OCCLUDER_SUFFIXES = ("tscn", "tres", "occ", "res", "glb", "gltf", "obj", "ply", "off", "stl")
+
+#: Names an ``--occluder-files`` row may take (no ``:`` or ``,``: never a method variant).
+_FILE_ROW_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
+
 
 @dataclass(frozen=True)
 class StudySettings:
@@ -100,8 +120,12 @@ class StudySettings:
     budgets: tuple = (64, 256)
     seed: int = 0
 
-    def key(self, mesh: str, method: str, budget: int | None) -> str:
+    def key(self, mesh: str, method: str, budget: int | None, digest: str | None = None
+            ) -> str:
+        """The row key of a job; an occluder file's row adds its content ``digest``."""
         d = {k: v for k, v in asdict(self).items() if k != "budgets"}
+        if digest is not None:  # (generated rows keep their keys of before)
+            d["occluder_digest"] = digest
         text = json.dumps({"mesh": mesh, "method": method, "budget": budget, **d},
                           sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:24]
@@ -109,20 +133,164 @@ class StudySettings:
 
 @dataclass(frozen=True)
 class Job:
+    """One row of a study: a method's occluder, or an occluder file's (``source``)."""
+
     mesh: str
     method: str
     budget: int | None
     settings: StudySettings = field(repr=False)
+    #: An occluder file made by another tool (``--occluder-files``): assessed, not generated.
+    source: str | None = None
+    #: SHA-256 of that file's content, part of the row key (a changed file is redone).
+    digest: str | None = None
 
     @property
     def key(self) -> str:
-        return self.settings.key(self.mesh, self.method, self.budget)
+        return self.settings.key(self.mesh, self.method, self.budget, self.digest)
 
     @property
     def occluder_file(self) -> str:
         safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in Path(self.mesh).stem)
         method = "".join(c if c.isalnum() or c in "-_" else "_" for c in self.method)
         return f"{safe}__{method}__{self.budget or 'any'}__{self.key[:8]}.ply"
+
+
+@dataclass(frozen=True)
+class OccluderFile:
+    """An occluder file of one mesh, assessed as the study row ``name``.
+
+    ``budget`` is the budget its file name states (``<mesh>.<budget>.<ext>``),
+    else None; ``digest`` the SHA-256 of its content (:func:`file_digest`).
+    """
+
+    name: str
+    mesh: str
+    budget: int | None
+    path: str
+    digest: str
+
+
+def file_digest(path: str | os.PathLike) -> str:
+    """SHA-256 (hex) of a file's content (of a ``.gltf``: the JSON file, not its buffers)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _folder_files(folder: Path, stem: str) -> dict:
+    """``<stem>.<ext>`` (budget None) and ``<stem>.<budget>.<ext>`` in a folder: budget -> paths."""
+    found: dict = {}
+    prefix = stem + "."
+    for entry in sorted(folder.iterdir()):
+        name = entry.name
+        if not name.startswith(prefix) or name.startswith(".") or not entry.is_file():
+            continue
+        parts = name[len(prefix):].split(".")
+        if parts[-1].lower() not in OCCLUDER_SUFFIXES:
+            continue
+        if len(parts) == 1:
+            found.setdefault(None, []).append(entry)
+        elif len(parts) == 2 and parts[0].isdigit() and int(parts[0]) > 0:
+            found.setdefault(int(parts[0]), []).append(entry)
+    return found
+
+
+def resolve_occluder_files(specs: list[tuple[str, str]], meshes: list[str], *,
+                           methods: list[str] = (), check: bool = True
+                           ) -> list[OccluderFile]:
+    """The occluder files of ``--occluder-files NAME=PATH`` for each mesh, checked.
+
+    Parameters
+    ----------
+    specs : list of (str, str)
+        ``(NAME, PATH)``: PATH a file (every mesh's occluder) or a folder
+        holding ``<mesh>.<ext>`` and/or ``<mesh>.<budget>.<ext>`` per mesh
+        (``<mesh>`` the mesh's file stem or built-in name; ``<ext>`` one of
+        :data:`OCCLUDER_SUFFIXES`), one row per file found.
+    meshes : list of str
+        The study's meshes.
+    methods : list of str, optional
+        The methods run: a NAME among them is refused.
+    check : bool, optional
+        Read each file (:func:`viscore.generators.scene_occluders.file_occluder`)
+        so that a bad one is refused now, before any work (default True).
+
+    Returns
+    -------
+    list of OccluderFile
+        In mesh, NAME, budget order (budget None first).
+
+    Raises
+    ------
+    InputError
+        One line: a NAME that is not a plain name, is a registered method or
+        a method run, or is given twice; a PATH that does not exist; a folder
+        without a file for a mesh (naming NAME, the mesh and the paths looked
+        for), or with two for one mesh and budget; a file that cannot be read.
+    """
+    from viscore.generators import REGISTRY
+    from viscore.generators.scene_occluders import file_occluder
+
+    seen: set[str] = set()
+    for name, path in specs:
+        where = f"--occluder-files {name}={path}"
+        if not _FILE_ROW_NAME.fullmatch(name):
+            raise InputError(f"{where}: NAME must be letters, digits and _ . + - (starting "
+                             "with a letter or digit)")
+        if name in REGISTRY or name in methods:
+            raise InputError(f"{where}: {name} is a registered method; name the occluder "
+                             "files otherwise")
+        if name in seen:
+            raise InputError(f"{where}: {name} is given twice")
+        seen.add(name)
+        if not os.path.exists(path):
+            raise InputError(f"{where}: no such file or folder")
+    out: list[OccluderFile] = []
+    for mesh in meshes:
+        stem = Path(mesh).stem
+        for name, path in specs:
+            where = f"--occluder-files {name}={path}"
+            p = Path(path)
+            if not p.is_dir():
+                out.append(OccluderFile(name, mesh, None, str(p), ""))
+                continue
+            found = _folder_files(p, stem)
+            if not found:
+                raise InputError(
+                    f"{where}: no occluder file for mesh {mesh}; looked for "
+                    f"{p / stem}.<ext> and {p / stem}.<budget>.<ext> "
+                    f"(<ext>: {', '.join(OCCLUDER_SUFFIXES)})")
+            for budget in sorted(found, key=lambda b: -1 if b is None else b):
+                paths = found[budget]
+                if len(paths) > 1:
+                    raise InputError(f"{where}: {len(paths)} files for mesh {mesh}"
+                                     + (f" at budget {budget}" if budget else "")
+                                     + f" ({', '.join(q.name for q in paths)}); keep one")
+                out.append(OccluderFile(name, mesh, budget, str(paths[0]), ""))
+    digests: dict[str, str] = {}
+    resolved = []
+    for f in out:
+        if f.path not in digests:
+            if check:
+                try:
+                    file_occluder(f.path)
+                except InputError as exc:
+                    raise InputError(f"--occluder-files {f.name}: {exc}") from None
+            try:
+                digests[f.path] = file_digest(f.path)
+            except OSError as exc:
+                raise InputError(f"--occluder-files {f.name}: {f.path}: cannot read "
+                                 f"({exc.strerror or exc})") from None
+        resolved.append(OccluderFile(f.name, f.mesh, f.budget, f.path, digests[f.path]))
+    return resolved
+
+
+def occluder_file_jobs(files: list[OccluderFile], settings: StudySettings) -> list[Job]:
+    """One job per occluder file (:func:`resolve_occluder_files`)."""
+    return [Job(f.mesh, f.name, f.budget, settings, source=f.path, digest=f.digest)
+            for f in files]
 
 
 def view_settings(settings: StudySettings) -> dict:
@@ -205,13 +373,34 @@ def _run_job_on_file(job: Job, workers: int | None, path: str) -> tuple[dict, by
     return run_job(job, workers, views_from_file(path))
 
 
+def _file_occluder(job: Job):
+    """The occluder of a file job, named after its row; the file must be unchanged."""
+    import dataclasses
+
+    from viscore.generators.scene_occluders import file_occluder
+
+    occ = file_occluder(job.source)
+    if file_digest(job.source) != job.digest:
+        raise InputError(f"--occluder-files {job.method}: {job.source} changed while the "
+                         "study ran; run compare again")
+    info = {**occ.info, "digest": job.digest}
+    if job.budget is not None:
+        info["over_budget"] = occ.triangles > job.budget
+    return dataclasses.replace(occ, method=job.method,
+                               params={"file": job.source, "digest": job.digest}, info=info)
+
+
 def run_job(job: Job, workers: int | None = None, views=None) -> tuple[dict, bytes]:
     """Generate one occluder and assess it; returns the row and the occluder PLY.
 
     The occluder comes from :func:`viscore.generators.generate` (parameters
-    checked against the registry; ``info["over_budget"]`` set). ``views`` are
-    the mesh's :class:`viscore.metrics.ReferenceViews` for the job's settings
-    (built here when not given).
+    checked against the registry; ``info["over_budget"]`` set), or for a
+    file job (``job.source``) from the file
+    (:func:`viscore.generators.scene_occluders.file_occluder`: double-sided,
+    ``info["conservative_guaranteed"]`` False unless the file says so,
+    ``seconds`` NaN; the file's content must still match ``job.digest``).
+    ``views`` are the mesh's :class:`viscore.metrics.ReferenceViews` for the
+    job's settings (built here when not given).
     """
     from viscore.generators import generate
     from viscore.metrics import assess_occluder
@@ -221,11 +410,16 @@ def run_job(job: Job, workers: int | None = None, views=None) -> tuple[dict, byt
     s = job.settings
     set_workers(workers)
     views = views if views is not None else build_views(job.mesh, s, workers)
-    params = {"seed": s.seed} | ({"budget": job.budget} if job.budget else {})
-    occ = generate(job.method, views.mesh, **params)
+    if job.source is not None:
+        occ = _file_occluder(job)
+    else:
+        params = {"seed": s.seed} | ({"budget": job.budget} if job.budget else {})
+        occ = generate(job.method, views.mesh, **params)
     assessed = assess_occluder(views, occ, directions=s.directions, rays=s.rays)
     row = {"key": job.key, "mesh": job.mesh, "budget": job.budget, **assessed.to_json(),
            "method": job.method, "occluder_file": job.occluder_file, "settings": asdict(s)}
+    if job.source is not None:
+        row["occluder_source"] = job.source
     # float64 PLY (trimesh writes float32 vertices): the occluder file is the occluder
     ply = mesh_bytes(occ.mesh, "ply") if occ.triangles else b""
     return json.loads(dumps(row)), ply
@@ -254,8 +448,13 @@ def _by_mesh(pending: list[Job]) -> dict:
     return groups
 
 
-def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings) -> list[Job]:
-    """One job per mesh, method and budget (one budget-less job for unbudgeted methods)."""
+def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings,
+               files: list[OccluderFile] = ()) -> list[Job]:
+    """One job per mesh, method and budget (one budget-less job for unbudgeted methods).
+
+    Each mesh's methods are followed by its occluder files' jobs
+    (:func:`occluder_file_jobs`), in the order given.
+    """
     from viscore.generators import get_generator
 
     jobs = []
@@ -263,6 +462,7 @@ def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings) -
         for method in methods:
             budgets = settings.budgets if get_generator(method).budgeted else (None,)
             jobs += [Job(mesh, method, b, settings) for b in budgets]
+        jobs += occluder_file_jobs([f for f in files if f.mesh == mesh], settings)
     return jobs
 
 
@@ -416,7 +616,8 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
               out_dir: str | os.PathLike | StudyFolder, *, jobs: int = 1,
               workers: int | None = None, scheduler=None, progress: bool = True,
               on_row: Callable[[dict], None] | None = None,
-              originals: dict | None = None) -> list[dict]:
+              originals: dict | None = None,
+              files: list[OccluderFile] = ()) -> list[dict]:
     """Run (or resume) every job; returns the rows in mesh, method, budget order.
 
     Parameters
@@ -439,17 +640,21 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
     originals : dict of str -> trimesh.Trimesh, optional
         The meshes already loaded (by name): the local workers build the views
         from them instead of loading the files again.
+    files : list of OccluderFile, optional
+        Occluder files made by other tools (:func:`resolve_occluder_files`),
+        each a row of its own after the mesh's methods; its key holds the
+        file's content digest, so a changed file is assessed again on resume.
     """
     if not isinstance(out_dir, StudyFolder):
         with StudyFolder(out_dir) as study:
             return run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
                              scheduler=scheduler, progress=progress, on_row=on_row,
-                             originals=originals)
+                             originals=originals, files=files)
     from tqdm import tqdm
 
     study = out_dir
     store = study.store
-    todo = study_jobs(meshes, methods, settings)
+    todo = study_jobs(meshes, methods, settings, files)
     rows: dict[str, dict] = {}
     pending = []
     for job in dict.fromkeys(todo):
