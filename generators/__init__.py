@@ -56,5 +56,6 @@ __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOpt
            "index_hierarchy",
            "HierarchyIndex", "generate_planar_hierarchy", "hierarchy_to_json",
            "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify",
-           "occluder_objects", "scene_occluders", "file_occluder", "culling_runtimes", "frusta_method",
+           "occluder_objects", "scene_occluders", "file_occluder", "culling_runtimes",
+           "frusta_method",
            "PluginError", "PLUGIN_GROUP", "plugin_versions", "check_generator"]
