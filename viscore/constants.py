@@ -25,9 +25,10 @@ CONSERVATIVE_EPS_RELATIVE = 1e-5
 #: undefined and they block no ray).
 DEGENERATE_AREA_RELATIVE = 1e-14
 
-#: Rays per Embree call: batches are cut into chunks of about this size, so
-#: that one chunk's float32 copies stay in cache and the chunks spread over
-#: the thread pool; a batch no larger than this runs on the calling thread.
+#: Fewest rays per Embree call (a chunk): batches are cut into equal chunks of
+#: at least this many rays (at most ``scene._MAX_RAYS_PER_CHUNK``), so that one
+#: chunk's float32 copies stay in cache and the fixed cost of each numpy call
+#: and Embree call is spread; a batch no larger than this runs on the calling thread.
 MIN_RAYS_PER_TASK = 16384
 
 #: Voxel grids above this many cells are refused outright (about 6 GiB of

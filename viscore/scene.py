@@ -7,12 +7,17 @@ from the mesh translated to its bounding-box centre and scaled to unit size
 float32, whose error is relative, so a mesh of size 1e-12 or 1e17 is traced
 as accurately as one of size 1. Queries take and return float64 in world
 units: ray origins are mapped into the unit frame, distances mapped back.
-Batches are split over a thread pool, one worker per core by default:
-embreex releases the GIL inside ``EmbreeScene.run``.
+Batches are cut into equal chunks of 16384 to 65536 rays that a pool of
+threads (one per core by default, the calling thread among them) claims in
+order, converting, checking and tracing each chunk in its own reused
+float32 buffers: embreex releases the GIL inside ``EmbreeScene.run``, and
+the dozen numpy calls per chunk, which release it in their loops, hold it
+for a few per cent of the time in all.
 """
 
 from __future__ import annotations
 
+import itertools
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -30,8 +35,23 @@ __all__ = ["Scene", "AllHits", "set_workers", "get_workers"]
 #: Squared-norm tolerance of directions taken as unit in float32 (a few ulps).
 _UNIT_TOLERANCE_F32 = 1e-6
 
-#: Embree reports a miss as this tfar (its initial "infinite" distance).
+#: Longest tfar handed to Embree, unit-frame units: ``max_distance`` is clamped
+#: to it so that it stays finite in float32 (``inf`` included); every hit of the
+#: unit-size scene is far nearer. Misses are told by triangle id -1, not by tfar.
 _EMBREE_MISS_T = 1e30
+
+#: Chunks per thread a large batch is cut into, at least: enough that a thread
+#: slowed by other work on the machine leaves the rest to the others (the
+#: chunks are claimed as the threads get free), few enough that each chunk
+#: stays large (see ``_MAX_RAYS_PER_CHUNK``).
+_CHUNKS_PER_WORKER = 4
+
+#: Most rays per Embree call, rays. Each numpy operation on a chunk costs a few
+#: microseconds however small the chunk, about 1 ns a ray at this size (against
+#: 80-300 ns a ray of tracing); larger chunks gain nothing and cost memory:
+#: about 110 bytes a ray of per-thread buffers (float64 and float32 copies,
+#: Embree's outputs), 7 MiB a thread here.
+_MAX_RAYS_PER_CHUNK = 65536
 
 _workers: int | None = None
 
@@ -64,6 +84,29 @@ def _as_max_distance(value: npt.ArrayLike | None, n: int) -> np.ndarray | None:
     if (arr < 0).any():
         raise InputError("max_distance: expected non-negative distances")
     return arr
+
+
+def _raise_first_bad_ray(o: np.ndarray, o32: np.ndarray, norm2: np.ndarray,
+                         first_ray: int) -> None:
+    """Raise :class:`InputError` for the first bad ray of a chunk, if there is one.
+
+    ``o`` are the chunk's float64 origins, ``o32`` their float32 unit-frame
+    copies, ``norm2`` the float32 squared norms of its directions. Of one
+    ray, its origin is reported before its direction. Returns when every ray
+    is good (a float32 sum of the origins overflowed, none of them did).
+    """
+    problems = (
+        (~np.isfinite(o).all(axis=1), "origins: contains NaN or infinite values"),
+        (~np.isfinite(o32).all(axis=1), "origins: too far from the mesh for float32 ray "
+                                        "tracing (beyond ~1e38 x its diagonal)"),
+        (~np.isfinite(norm2), "directions: contains NaN or infinite values"),
+        (norm2 <= 0, "directions: contains zero-length direction vectors"),
+    )
+    firsts = [int(np.argmax(bad)) if bad.any() else len(norm2) for bad, _ in problems]
+    ray = min(firsts)
+    if ray < len(norm2):
+        message = problems[firsts.index(ray)][1]
+        raise InputError(f"{message} (first at ray {first_ray + ray})")
 
 
 def set_workers(workers: int | None) -> None:
@@ -149,6 +192,16 @@ class Scene:
     the mesh's size is refused by :func:`viscore.validate_mesh`. Ray origins
     farther than ~1e38 diagonals from the mesh are refused. The Embree handle
     is not pickled; it is rebuilt from the stored arrays after unpickling.
+
+    A query is traced in chunks of
+    :data:`~viscore.constants.MIN_RAYS_PER_TASK` to ``_MAX_RAYS_PER_CHUNK``
+    (65536) rays spread over ``workers`` threads; a batch smaller than two
+    chunks runs on the calling thread. A ray's result does not depend on the
+    batch it comes in, the chunking or the number of threads: a direction
+    whose float32 squared norm is within ``_UNIT_TOLERANCE_F32`` (1e-6) of 1 is
+    traced as given, any other is normalised in float64 first. Bad rays in
+    :meth:`first_hit` and :meth:`any_hit` raise for the first bad ray of the
+    batch, whose index the message gives.
 
     Examples
     --------
@@ -243,66 +296,155 @@ class Scene:
 
     def _cast(self, o: np.ndarray, d: np.ndarray, tfar: np.ndarray | None, intersect: bool,
               check_values: bool = False):
-        """One Embree pass over float64 world-space rays; chunks over the pool.
+        """One Embree pass over float64 world-space rays, in chunks over the pool.
 
         Returns (t, tri) for ``intersect`` (t = inf, tri = -1 on a miss), else a
-        bool occluded array.
+        bool occluded array. The batch is cut into chunks (see
+        :meth:`_chunk_count`) that the threads claim in order, each thread
+        reusing its own float32 buffers; the calling thread is one of the
+        workers. With ``check_values`` each chunk is checked as it is
+        converted (see :meth:`_check_chunk`). A ray's result does not depend
+        on the other rays of the batch, the chunking or the number of threads.
         """
         n = len(o)
         if n == 0:
             return (np.zeros(0), np.zeros(0, dtype=np.int64)) if intersect else np.zeros(0, bool)
         scene = self._embree
         offset, scale = self._offset, self._scale
+        inverse = 1.0 / scale
+        # multiplying by an exact inverse of a power of two rounds as dividing does
+        exact_inverse = bool(np.isfinite(inverse) and inverse * scale == 1.0)
         if intersect:
             t_out = np.empty(n)
             tri_out = np.empty(n, dtype=np.int64)
         else:
             hit_out = np.empty(n, dtype=bool)
-
-        def run(sl: slice) -> None:
-            # checks and conversion happen per chunk, in cache, and on the pool too
-            with np.errstate(over="ignore", invalid="ignore"):  # checked just below
-                o32 = np.ascontiguousarray((o[sl] - offset) / scale, dtype=np.float32)
-            d32 = np.ascontiguousarray(d[sl], dtype=np.float32)
-            if check_values:
-                if not np.isfinite(o32).all():  # also origins beyond float32's range
-                    if not np.isfinite(o[sl]).all():
-                        raise InputError("origins: contains NaN or infinite values")
-                    raise InputError("origins: too far from the mesh for float32 ray "
-                                     "tracing (beyond ~1e38 x its diagonal)")
-                norm2 = np.einsum("ij,ij->i", d32, d32)
-                if not np.isfinite(norm2).all():
-                    raise InputError("directions: contains NaN or infinite values")
-                if norm2.min() <= 0:
-                    raise InputError("directions: contains zero-length direction vectors")
-                if np.abs(norm2 - 1.0).max() > _UNIT_TOLERANCE_F32:
-                    dc = d[sl]
-                    d32 = np.ascontiguousarray(
-                        dc / np.sqrt(np.einsum("ij,ij->i", dc, dc))[:, None], dtype=np.float32)
-            dists = None if tfar is None else np.ascontiguousarray(
-                np.minimum(tfar[sl] / scale, _EMBREE_MISS_T), dtype=np.float32)
-            if intersect:
-                res = scene.run(o32, d32, dists=dists, output=1)
-                tri, t = res["primID"], res["tfar"]
-                t_world = t.astype(np.float64) * scale  # power of two: exact
-                t_world[tri < 0] = np.inf
-                tri_out[sl] = tri
-                t_out[sl] = t_world
-            else:
-                hit_out[sl] = scene.run(o32, d32, dists=dists, query="OCCLUDED") >= 0
-
         workers = self.workers or get_workers()
-        # cache-sized chunks: the float32 conversion of one chunk stays in cache
-        tasks = max(1, n // MIN_RAYS_PER_TASK)
-        bounds = np.linspace(0, n, tasks + 1).astype(int)
-        slices = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
-        if workers == 1 or tasks == 1:
-            for sl in slices:
-                run(sl)
+        n_chunks = self._chunk_count(n, workers)
+        size = -(-n // n_chunks)  # rays in the largest chunk
+        workers = min(workers, n_chunks)
+        claim = itertools.count().__next__  # atomic under the GIL: chunks go out in order
+        errors: dict[int, Exception] = {}  # chunk index -> what it raised
+
+        def work() -> None:
+            # per-thread buffers; the offset as whole rows, so that the subtraction
+            # is one flat loop rather than a broadcast over rows of 3
+            offset_rows = np.tile(offset, (size, 1))
+            o64 = np.empty((size, 3))
+            o32 = np.empty((size, 3), dtype=np.float32)
+            d32 = np.empty((size, 3), dtype=np.float32)
+            if check_values:
+                squares = np.empty((size, 3), dtype=np.float32)
+                norm2 = np.empty(size, dtype=np.float32)
+            if tfar is not None:
+                t64 = np.empty(size)
+                dists = np.empty(size, dtype=np.float32)
+            # one errstate per thread (it is per thread, and costly to enter per
+            # chunk): float32 overflow to inf, and NaN from it, are refused by the checks
+            with np.errstate(over="ignore", invalid="ignore"):
+                while not errors:
+                    k = claim()
+                    if k >= n_chunks:
+                        return
+                    a = k * n // n_chunks
+                    b = (k + 1) * n // n_chunks
+                    m = b - a
+                    try:
+                        # unit frame: (o - offset) / scale in float64, then rounded once
+                        # to float32, in place (a cast inside a ufunc is slower)
+                        np.subtract(o[a:b], offset_rows[:m], out=o64[:m])
+                        if exact_inverse:
+                            np.multiply(o64[:m], inverse, out=o64[:m])
+                        else:  # pragma: no cover - diagonal near float64's limits
+                            np.divide(o64[:m], scale, out=o64[:m])
+                        np.copyto(o32[:m], o64[:m], casting="same_kind")
+                        np.copyto(d32[:m], d[a:b], casting="same_kind")
+                        if check_values:
+                            self._check_chunk(o[a:b], d[a:b], o32[:m], d32[:m], squares[:m],
+                                              norm2[:m], first_ray=a)
+                        if tfar is None:
+                            tfar32 = None
+                        else:
+                            np.divide(tfar[a:b], scale, out=t64[:m])
+                            np.minimum(t64[:m], _EMBREE_MISS_T, out=t64[:m])
+                            np.copyto(dists[:m], t64[:m], casting="same_kind")
+                            tfar32 = dists[:m]
+                        if intersect:
+                            res = scene.run(o32[:m], d32[:m], dists=tfar32, output=1)
+                            tri = res["primID"]
+                            t_world = t_out[a:b]
+                            # float32 -> float64 is exact, and so is the power-of-two scale
+                            np.multiply(res["tfar"], scale, out=t_world, dtype=np.float64)
+                            np.putmask(t_world, tri < 0, np.inf)
+                            tri_out[a:b] = tri
+                        else:
+                            hit_out[a:b] = scene.run(o32[:m], d32[:m], dists=tfar32,
+                                                     query="OCCLUDED") >= 0
+                    except Exception as exc:  # noqa: BLE001 - re-raised below, in chunk order
+                        errors[k] = exc
+                        return
+
+        if workers == 1:
+            work()
         else:
-            with ThreadPoolExecutor(max_workers=workers) as pool:
-                list(pool.map(run, slices))
+            with ThreadPoolExecutor(max_workers=workers - 1) as pool:
+                helpers = [pool.submit(work) for _ in range(workers - 1)]
+                work()
+                for helper in helpers:
+                    helper.result()
+        if errors:
+            # chunks are claimed in order and a claimed chunk always finishes, so
+            # the lowest failed chunk holds the first bad ray of the whole batch
+            raise errors[min(errors)]
         return (t_out, tri_out) if intersect else hit_out
+
+    @staticmethod
+    def _chunk_count(n: int, workers: int) -> int:
+        """Chunks (Embree calls) that a batch of ``n`` rays on ``workers`` threads is cut into.
+
+        Chunks are equal to within one ray and hold at least
+        :data:`~viscore.constants.MIN_RAYS_PER_TASK` rays (a smaller batch is
+        one chunk, on the calling thread) and at most ``_MAX_RAYS_PER_CHUNK``.
+        Within those bounds there are ``_CHUNKS_PER_WORKER`` per thread, or,
+        for a batch too small for that, a multiple of the number of threads,
+        so that no thread is left with one chunk more than another.
+        """
+        fewest = -(-n // _MAX_RAYS_PER_CHUNK)
+        most = max(1, n // MIN_RAYS_PER_TASK)
+        count = min(workers * _CHUNKS_PER_WORKER, most)
+        if workers <= count < workers * _CHUNKS_PER_WORKER:
+            count -= count % workers
+        return max(count, fewest)
+
+    @staticmethod
+    def _check_chunk(o: np.ndarray, d: np.ndarray, o32: np.ndarray, d32: np.ndarray,
+                     squares: np.ndarray, norm2: np.ndarray, *, first_ray: int) -> None:
+        """Check one converted chunk; normalise the directions that are not unit.
+
+        ``o``, ``d`` are the chunk's float64 rays, ``o32``, ``d32`` their float32
+        unit-frame copies (``d32`` is fixed in place); ``squares`` and ``norm2``
+        are scratch of the chunk's size; ``first_ray`` is the chunk's offset in
+        the batch. Origins must be finite and within float32's range of the
+        unit frame, directions finite and non-zero in float32; a direction
+        whose float32 squared norm is off 1 by more than
+        ``_UNIT_TOLERANCE_F32`` is normalised in float64 first. On bad input the
+        :class:`InputError` names the first bad ray. The caller ignores float
+        overflow and invalid-value warnings: what overflows is refused here.
+        """
+        # float32 squared norms, (x*x + y*y) + z*z as einsum("ij,ij->i") sums them
+        np.multiply(d32, d32, out=squares)
+        np.add(squares[:, 0], squares[:, 1], out=norm2)
+        np.add(norm2, squares[:, 2], out=norm2)
+        lo, hi = norm2.min(), norm2.max()  # NaN propagates into both
+        # a finite sum has only finite terms; a sum that overflowed is looked at closer
+        if not (np.isfinite(np.add.reduce(o32.reshape(-1))) and np.isfinite(lo)
+                and np.isfinite(hi) and lo > 0):
+            _raise_first_bad_ray(o, o32, norm2, first_ray)
+        # rounding is monotonic, so the extremes bound every |norm2 - 1|
+        if max(abs(hi - 1.0), abs(lo - 1.0)) > _UNIT_TOLERANCE_F32:
+            off = np.flatnonzero(np.abs(norm2 - 1.0) > _UNIT_TOLERANCE_F32)
+            dc = d[off]
+            d32[off] = dc / np.sqrt(np.einsum("ij,ij->i", dc, dc))[:, None]
 
     # ------------------------------------------------------------------ queries
     def first_hit(self, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
