@@ -56,8 +56,6 @@ import trimesh
 from ._validate import InputError, check_memory
 from .mesh_io import (
     _BYTES_PER_TRIANGLE,
-    _MAX_COORDINATE,
-    _MAX_OFFSET_RATIO,
     _describe_without_triangles,
     _kind,
     _loading,
@@ -67,6 +65,7 @@ from .mesh_io import (
     load_mesh,
     validate_mesh,
 )
+from .mesh_validation import _MAX_COORDINATE, _MAX_OFFSET_RATIO
 from .scene import Scene
 
 __all__ = ["SceneObjects", "load_scene_objects", "culling_scene_names", "culling_scene_path",
