@@ -98,6 +98,7 @@ def generate_planar_hierarchy(mesh, *, budget: int | None = 64, seed: int = 0,
 
     Examples
     --------
+    >>> import trimesh
     >>> boxes = [trimesh.creation.box(bounds=[[x, 0, 0], [x + 1, 1, 1]]) for x in (0, 2)]
     >>> occ = generate_planar_hierarchy(boxes, budget=12, voxels=8, node_occluder="qem")
     >>> occ.info["nodes"], occ.info["leaves"], occ.triangles <= 12

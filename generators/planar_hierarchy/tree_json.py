@@ -67,6 +67,7 @@ def hierarchy_to_json(tree: dict, folder: str | os.PathLike, stem: str) -> Path:
     Examples
     --------
     >>> import tempfile
+    >>> from viscore.generators import build_hierarchy
     >>> root = build_hierarchy(trimesh.creation.box(), node_occluder="qem", budget=12)
     >>> with tempfile.TemporaryDirectory() as d:
     ...     path = hierarchy_to_json(root, d, "box")
