@@ -54,14 +54,9 @@ from viscore.metrics import check_conservative
 from viscore import InputError, validate_mesh
 
 from .occluder import Occluder
-from .registry import (
-    GeneratorOption,
-    GeneratorSpec,
-    PluginError,
-    _plugin_output,
-    get_generator,
-    parse_method,
-)
+from .plugins import PluginError, _plugin_output
+from .registry import get_generator, parse_method
+from .specs import GeneratorOption, GeneratorSpec
 
 __all__ = ["check_generator", "CHECK_SCENES"]
 

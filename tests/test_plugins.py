@@ -28,6 +28,7 @@ from viscore.generators import (
     generate,
     get_generator,
     plugin_versions,
+    plugins,
     registry,
 )
 
@@ -125,7 +126,7 @@ def plugin_env(tmp_path, monkeypatch):
         items = [*pairs, *((k.replace("_", "-"), v) for k, v in entries.items())]
         eps = [EntryPoint(name=k, value=v.replace("MOD", name), group=registry.PLUGIN_GROUP)
                for k, v in items]
-        monkeypatch.setattr(registry, "_entry_points", lambda: eps)
+        monkeypatch.setattr(plugins, "_entry_points", lambda: eps)
         REGISTRY._rediscover()
         return importlib.import_module(name)
 
@@ -135,7 +136,7 @@ def plugin_env(tmp_path, monkeypatch):
 
 def _warnings(caplog) -> list[str]:
     return [r.getMessage() for r in caplog.records
-            if r.levelno == logging.WARNING and r.name == registry.__name__]
+            if r.levelno == logging.WARNING and r.name == plugins.__name__]
 
 
 def test_plugin_function_options_from_signature_and_docstring(plugin_env):
@@ -280,8 +281,8 @@ def test_no_plugins_env_turns_discovery_off(plugin_env, monkeypatch):
 def test_discovery_runs_once(plugin_env, monkeypatch):
     plugin_env(shrunk="MOD:shrunk")
     calls = []
-    eps = registry._entry_points()
-    monkeypatch.setattr(registry, "_entry_points", lambda: calls.append(1) or eps)
+    eps = plugins._entry_points()
+    monkeypatch.setattr(plugins, "_entry_points", lambda: calls.append(1) or eps)
     REGISTRY._rediscover()
     for _ in range(3):
         assert "shrunk" in REGISTRY and len(list(REGISTRY.items())) == len(REGISTRY)
