@@ -28,13 +28,8 @@ import logging
 import os
 
 from viscore.generators import REGISTRY, parse_method
-from viscore.generators.level_occluders import (
-    MIN_SIZE,
-    UP_AXES,
-    default_methods,
-    level_objects,
-    occlude_level,
-)
+from viscore.generators.level_objects import MIN_SIZE, UP_AXES, default_methods, level_objects
+from viscore.generators.level_occluders import occlude_level
 
 from viscore import InputError, cpu_cores
 from viscore._validate import as_positive_int

@@ -14,14 +14,13 @@ import numpy as np
 import pytest
 import trimesh
 from viscore.cli.main import main
-from viscore.generators.level_occluders import (
+from viscore.generators.level_objects import (
     LevelObjects,
     default_methods,
     guess_up,
     level_objects,
-    occlude_level,
-    occluder_of_mesh,
 )
+from viscore.generators.level_occluders import occlude_level, occluder_of_mesh
 
 from viscore import InputError, load_occluder
 

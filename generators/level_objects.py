@@ -1,0 +1,434 @@
+"""A game level as objects: glTF nodes, or a single mesh split into parts, and its up axis.
+
+A level is a glTF/GLB scene, every mesh node one object with instancing
+honoured (glTF 2.0 [1]_, sec. 3.5 and 3.7), or a single mesh (OBJ, PLY, OFF,
+STL) such as an exported game map, split here into objects; which objects
+get occluders is chosen by size, never the flat ground alone. The rules are
+in :mod:`viscore.generators.level_occluders`, which makes the occluders.
+
+References
+----------
+.. [1] The Khronos Group. "glTF 2.0 Specification". 2021.
+   https://registry.khronos.org/glTF/specs/2.0/glTF-2.0.html
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from viscore import InputError, load_mesh
+from viscore.scene_graph import SceneObjects, load_scene_objects
+
+from .registry import REGISTRY
+
+__all__ = ["LevelObjects", "level_objects", "guess_up", "default_methods", "MIN_SIZE",
+           "PART_FRACTION", "FLAT_RATIO", "FALLBACK_SHARE", "UP_AXES"]
+
+_log = logging.getLogger(__name__)
+
+#: Default size threshold: bounding-box diagonal, fraction of the level's. In
+#: the built-in city (624 world units across) it keeps the ground and every
+#: building (4.7-9.2 %) and leaves trees (1.6-1.8 %), lamps, cars and benches.
+MIN_SIZE = 0.02
+#: Splitting a single mesh: components under this fraction of the level's
+#: diagonal are merged into parts (see the module docstring); also the gap,
+#: same unit, under which they join.
+PART_FRACTION = 0.02
+#: An object is flat when its extent along the up axis is under this fraction
+#: of its widest horizontal extent (ground, terrain, floor slabs).
+FLAT_RATIO = 0.1
+#: When only flat objects pass the threshold and no non-flat one passes the
+#: threshold against the non-flat objects' own box: non-flat objects at least
+#: this share of the largest non-flat object's diagonal are chosen.
+FALLBACK_SHARE = 0.5
+#: Up guess: the level is clearly thinnest along an axis when its extent
+#: there is under this fraction of the next smallest extent.
+_THIN_LEVEL = 0.5
+#: Up guess: net face area (signed normal component) along an axis, as a
+#: share of the total area, from which that axis is taken as up.
+_NET_AREA_SHARE = 0.05
+
+#: The axes ``--up`` names.
+UP_AXES = ("x", "y", "z")
+#: Rotations from a level's frame to Godot's +Y up (right-handed, det +1).
+_TO_GODOT = {
+    "y": np.eye(4),
+    "z": np.array([[1.0, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 0], [0, 0, 0, 1]]),
+    "x": np.array([[0.0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]),
+}
+#: Formats read as a glTF scene.
+_GLTF = (".glb", ".gltf")
+#: Box pairs compared at once when joining small components (memory ~ 50 B each).
+_PAIR_CHUNK = 2_000_000
+
+
+# --------------------------------------------------------------------------- the level
+@dataclass(frozen=True, eq=False)
+class LevelObjects:
+    """A level as objects, with the ones that get occluders chosen.
+
+    Attributes
+    ----------
+    objects : SceneObjects
+        Every object (glTF: every mesh node; a single mesh: its parts), in the
+        level's own frame, world units.
+    up : str
+        The level's up axis, ``'x'``, ``'y'`` or ``'z'`` (positive direction).
+    up_guessed : bool
+        Whether ``up`` was guessed (:func:`guess_up`).
+    up_reason : str
+        One line saying how ``up`` was set.
+    to_godot : (4, 4) float64
+        Rotation from the level's frame to Godot's +Y-up frame.
+    kind : str
+        ``'gltf'`` or ``'mesh'`` (a single mesh split into parts).
+    components : int
+        Connected components of a single mesh before merging (0 for glTF).
+    sizes : (n,) float64
+        Bounding-box diagonal of each object, fraction of the level's.
+    flat : (n,) bool
+        Whether each object is flat (see :data:`FLAT_RATIO`).
+    chosen : (k,) int64
+        Indices of the objects that get occluders, ascending.
+    refused : dict of str -> str
+        Object name -> why it gets none (too small), for the others.
+    min_size : float or None
+        The size threshold used (None when objects were named).
+    names : tuple of str or None
+        The objects named, when given.
+    """
+
+    objects: SceneObjects
+    up: str
+    up_guessed: bool
+    up_reason: str
+    to_godot: np.ndarray
+    kind: str
+    components: int
+    sizes: np.ndarray
+    flat: np.ndarray
+    chosen: np.ndarray
+    refused: dict = field(default_factory=dict)
+    min_size: float | None = MIN_SIZE
+    names: tuple | None = None
+
+    @property
+    def source(self) -> str:
+        """The file or label the level came from."""
+        return self.objects.source
+
+
+def _up_name(up: object) -> str | None:
+    if up is None:
+        return None
+    text = str(up).strip().lower().lstrip("+")
+    if text not in UP_AXES:
+        raise InputError(f"up: expected one of {', '.join(UP_AXES)}, got {up!r}")
+    return text
+
+
+def guess_up(mesh: trimesh.Trimesh) -> tuple[str, str]:
+    """Guess the up axis of a mesh without a convention (OBJ, PLY, OFF, STL).
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        The level, in its own frame.
+
+    Returns
+    -------
+    axis : str
+        ``'x'``, ``'y'`` or ``'z'``.
+    reason : str
+        One line saying which rule decided.
+
+    Notes
+    -----
+    Rules in order: (1) the axis along which the level's bounding box is
+    thinnest, when that extent is under half the next smallest (a map is
+    wider than tall); (2) the axis of the largest net face area (area times
+    the signed normal component, summed), when it is at least 5 % of the
+    total area: open game geometry has roofs and ground facing up and no
+    floor facing down (a closed mesh has no net area along any axis); (3)
+    the axis most face area faces (absolute normal components). A guess, not
+    a guarantee: pass ``up`` when the file's convention is known.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> guess_up(trimesh.creation.box(extents=(10, 1, 10)))[0]
+    'y'
+    """
+    ext = np.asarray(mesh.extents, dtype=np.float64)
+    order = np.argsort(ext, kind="stable")
+    dims = " x ".join(f"{e:.3g}" for e in ext)
+    if ext[order[0]] < _THIN_LEVEL * ext[order[1]]:
+        axis = UP_AXES[int(order[0])]
+        return axis, f"the level is thinnest along {axis} ({dims} world units)"
+    area = np.asarray(mesh.area_faces, dtype=np.float64)
+    normals = np.asarray(mesh.face_normals, dtype=np.float64)
+    net = np.abs(area @ normals)
+    total = float(area.sum()) or 1.0
+    k = int(np.argmax(net))
+    if net[k] >= _NET_AREA_SHARE * total:
+        axis = UP_AXES[k]
+        return axis, (f"most net face area faces along {axis} ({net[k] / total:.0%} of the "
+                      "area: open geometry facing up)")
+    k = int(np.argmax(area @ np.abs(normals)))
+    axis = UP_AXES[k]
+    return axis, f"most face area faces along {axis} (level {dims} world units)"
+
+
+def _box_gaps(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray,
+              hi_b: np.ndarray) -> np.ndarray:
+    """``(a, b)`` Euclidean distances between axis-aligned boxes (0 when they overlap)."""
+    gap = np.maximum(0.0, np.maximum(lo_a[:, None] - hi_b[None], lo_b[None] - hi_a[:, None]))
+    return np.sqrt((gap**2).sum(axis=-1))
+
+
+def _split_parts(mesh: trimesh.Trimesh) -> tuple[np.ndarray, int]:
+    """Part label of each face (parts numbered by first face), and the component count."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    merged = trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=True)
+    labels = trimesh.graph.connected_component_labels(merged.face_adjacency,
+                                                      node_count=len(merged.faces))
+    n = int(labels.max()) + 1 if len(labels) else 0
+    tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]
+    lo = np.full((n, 3), np.inf)
+    hi = np.full((n, 3), -np.inf)
+    np.minimum.at(lo, labels, tri.min(axis=1))
+    np.maximum.at(hi, labels, tri.max(axis=1))
+    level = float(np.linalg.norm(tri.reshape(-1, 3).max(0) - tri.reshape(-1, 3).min(0)))
+    limit = PART_FRACTION * level
+    diag = np.linalg.norm(hi - lo, axis=1)
+    big = np.flatnonzero(diag >= limit)
+    small = np.flatnonzero(diag < limit)
+    owner = np.arange(n)
+    if len(big) and len(small):
+        step = max(1, _PAIR_CHUNK // len(big))
+        for a in range(0, len(small), step):
+            s = small[a:a + step]
+            d = _box_gaps(lo[s], hi[s], lo[big], hi[big])
+            near = np.argmin(d, axis=1)
+            close = d[np.arange(len(s)), near] <= limit
+            owner[s[close]] = big[near[close]]
+    rest = small[owner[small] == small]
+    if len(rest) > 1:  # single linkage among the small components left
+        from scipy.spatial import cKDTree
+
+        centre = (lo[rest] + hi[rest]) / 2
+        # small boxes have diagonals under `limit`: centres of boxes within
+        # `limit` of each other are within 2 * limit
+        pairs = cKDTree(centre).query_pairs(2 * limit, output_type="ndarray")
+        if len(pairs):
+            lo_p, hi_p = lo[rest], hi[rest]
+            gap = np.maximum(0.0, np.maximum(lo_p[pairs[:, 0]] - hi_p[pairs[:, 1]],
+                                             lo_p[pairs[:, 1]] - hi_p[pairs[:, 0]]))
+            keep = pairs[np.sqrt((gap**2).sum(axis=1)) <= limit]
+            graph = coo_matrix((np.ones(len(keep)), (keep[:, 0], keep[:, 1])),
+                               shape=(len(rest), len(rest)))
+            _, group = connected_components(graph, directed=False)
+            first = np.full(int(group.max()) + 1, len(rest))
+            np.minimum.at(first, group, np.arange(len(rest)))
+            owner[rest] = rest[first[group]]
+    part_of_face = owner[labels]
+    _, first_face = np.unique(part_of_face, return_index=True)
+    rank = np.empty(n, dtype=np.int64)
+    roots = part_of_face[np.sort(first_face)]
+    rank[roots] = np.arange(len(roots))
+    return rank[part_of_face], n
+
+
+def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str) -> tuple[SceneObjects, int]:
+    """A single mesh split into parts (:func:`_split_parts`) as a :class:`SceneObjects`."""
+    parts, components = _split_parts(mesh)
+    count = int(parts.max()) + 1
+    stem = Path(label).stem or "level"
+    width = len(str(count))
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    meshes, names = [], []
+    order = np.argsort(parts, kind="stable")
+    bounds = np.searchsorted(parts[order], np.arange(count + 1))
+    for k in range(count):
+        f = faces[order[bounds[k]:bounds[k + 1]]]
+        used, inverse = np.unique(f, return_inverse=True)
+        part = trimesh.Trimesh(vertices[used], inverse.reshape(-1, 3), process=False)
+        meshes.append(part)
+        names.append(f"{stem}_part{k + 1:0{width}d}")
+    lower = np.array([m.vertices.min(axis=0) for m in meshes])
+    upper = np.array([m.vertices.max(axis=0) for m in meshes])
+    up_vec = np.eye(3)[UP_AXES.index(up)]
+    arrays = dict(mesh_ids=np.arange(count, dtype=np.int64),
+                  transforms=np.repeat(np.eye(4)[None], count, axis=0),
+                  lower=lower, upper=upper,
+                  triangles=np.array([len(m.faces) for m in meshes], dtype=np.int64),
+                  up=up_vec)
+    for arr in arrays.values():
+        arr.flags.writeable = False
+    objects = SceneObjects(names=tuple(names), meshes=tuple(meshes), mesh_names=tuple(names),
+                           source=label, **arrays)
+    return objects, components
+
+
+def _choose(objects: SceneObjects, up: str, min_size: float | None,
+            names: Sequence[str] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+    """Sizes, flatness, chosen indices and refusals (see the module docstring)."""
+    level = float(np.linalg.norm(objects.bounds[1] - objects.bounds[0])) or 1.0
+    extent = objects.upper - objects.lower
+    diag = np.linalg.norm(extent, axis=1)
+    sizes = diag / level
+    k = UP_AXES.index(up)
+    horizontal = np.delete(extent, k, axis=1).max(axis=1)
+    flat = extent[:, k] < FLAT_RATIO * horizontal
+    for arr in (sizes, flat):
+        arr.flags.writeable = False
+    if names is not None:
+        index = {n: i for i, n in enumerate(objects.names)}
+        unknown = [n for n in names if n not in index]
+        if unknown or not names:
+            some = ", ".join(objects.names[:5]) + (", ..." if len(objects) > 5 else "")
+            raise InputError(f"occluders: no object named {', '.join(unknown) or '(none given)'}"
+                             f" in {objects.source} (objects: {some})")
+        chosen = np.array(sorted({index[n] for n in names}), dtype=np.int64)
+        refused = {objects.names[i]: "not named in --occluders"
+                   for i in range(len(objects)) if i not in set(chosen.tolist())}
+        return sizes, flat, chosen, refused
+    mask = sizes >= min_size
+    solid = ~flat
+    if mask.any() and not (mask & solid).any() and solid.any():
+        lo, hi = objects.lower[solid].min(axis=0), objects.upper[solid].max(axis=0)
+        limit = min(min_size * float(np.linalg.norm(hi - lo)),
+                    FALLBACK_SHARE * float(diag[solid].max()))
+        extra = solid & (diag >= limit)
+        _log.info("%s: only flat objects (ground, terrain) pass the size threshold; also "
+                  "choosing the %d non-flat objects of diagonal %.4g world units or more",
+                  objects.source, int(extra.sum()), limit)
+        mask |= extra
+    chosen = np.flatnonzero(mask).astype(np.int64)
+    refused = {objects.names[i]: (f"too small: its bounding-box diagonal is {sizes[i]:.2%} of "
+                                  f"the level's, under the threshold of {min_size:.2%}")
+               for i in np.flatnonzero(~mask)}
+    return sizes, flat, chosen, refused
+
+
+def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *,
+                  up: str | None = None, min_size: float | None = None,
+                  names: Sequence[str] | None = None) -> LevelObjects:
+    """Read a level as objects and choose those that get occluders.
+
+    Parameters
+    ----------
+    source : str, path, trimesh.Scene or trimesh.Trimesh
+        A glTF/GLB file or a ``trimesh.Scene`` (every mesh node an object,
+        instancing honoured; +Y up), or a single-mesh file (OBJ, PLY, OFF,
+        STL) or ``trimesh.Trimesh``, split into parts (module docstring).
+    up : str, optional
+        ``'x'``, ``'y'`` or ``'z'``, the level's up axis. Default: +Y for
+        glTF, guessed by :func:`guess_up` for a single mesh.
+    min_size : float, optional
+        Bounding-box diagonal, fraction of the level's, from which an object
+        gets occluders; in (0, 1]. Default :data:`MIN_SIZE` (0.02). Not used
+        with ``names``.
+    names : sequence of str, optional
+        Exactly these objects get occluders.
+
+    Returns
+    -------
+    LevelObjects
+
+    Raises
+    ------
+    InputError
+        A file :func:`viscore.scene_graph.load_scene_objects` or
+        :func:`viscore.load_mesh` refuses; ``up`` not an axis, or not ``y``
+        for glTF; ``min_size`` outside (0, 1]; both ``min_size`` and
+        ``names``; a name no object has.
+
+    Notes
+    -----
+    Deterministic. A flat object spanning the level is never the only kind
+    chosen (module docstring). Objects under the threshold are listed in
+    ``refused`` with their size.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> parts = [trimesh.creation.box(bounds=[[x, 0, 0], [x + 1, 1, 1]]) for x in (0, 3)]
+    >>> level = level_objects(trimesh.util.concatenate(parts), up="z")
+    >>> level.objects.names, level.chosen.tolist()
+    (('mesh_part1', 'mesh_part2'), [0, 1])
+    """
+    up = _up_name(up)
+    if names is not None and min_size is not None:
+        raise InputError("occluders: give a size threshold or names, not both")
+    if names is not None:
+        names = list(dict.fromkeys(str(n).strip() for n in names if str(n).strip()))
+        if not names:
+            raise InputError("occluders: expected object names, got none")
+    if min_size is None and names is None:
+        min_size = MIN_SIZE
+    if min_size is not None:
+        try:
+            min_size = float(min_size)
+        except (TypeError, ValueError):
+            raise InputError(f"min_size: expected a number in (0, 1], got {min_size!r}") from None
+        if not 0.0 < min_size <= 1.0:
+            raise InputError(f"min_size: expected a fraction of the level's bounding-box "
+                             f"diagonal in (0, 1], got {min_size!r}")
+    gltf = isinstance(source, trimesh.Scene) or (
+        not isinstance(source, trimesh.Trimesh) and Path(os.fspath(source)).suffix.lower()
+        in _GLTF)
+    if gltf:
+        if up not in (None, "y"):
+            raise InputError(f"up: {source} is glTF, +Y up by its specification; "
+                             f"--up {up} is refused for it")
+        objects = load_scene_objects(source)
+        kind, components, up, guessed, reason = "gltf", 0, "y", False, "glTF is +Y up"
+    else:
+        label = (str(source.metadata.get("name", "mesh")) if isinstance(source, trimesh.Trimesh)
+                 else str(source))
+        mesh = load_mesh(source)
+        if up is None:
+            up, reason = guess_up(mesh)
+            guessed = True
+        else:
+            guessed, reason = False, f"given as {up}"
+        objects, components = _mesh_level(mesh, label, up)
+        kind = "mesh"
+    sizes, flat, chosen, refused = _choose(objects, up, min_size, names)
+    to_godot = _TO_GODOT[up].copy()
+    to_godot.flags.writeable = False
+    return LevelObjects(objects=objects, up=up, up_guessed=guessed, up_reason=reason,
+                        to_godot=to_godot, kind=kind, components=components, sizes=sizes,
+                        flat=flat, chosen=chosen, refused=refused,
+                        min_size=None if names is not None else min_size,
+                        names=None if names is None else tuple(names))
+
+
+def default_methods() -> list[str]:
+    """The methods ``viscore occlude`` runs by default.
+
+    ``surface-patches, aabb-skins`` when ``surface-patches`` is registered
+    (guaranteed occluders in the surface of thin, open game geometry, and
+    boxes where parts are thick), else ``aabb-skins, planar-sections``.
+
+    Examples
+    --------
+    >>> "aabb-skins" in default_methods()
+    True
+    """
+    if "surface-patches" in REGISTRY:
+        return ["surface-patches", "aabb-skins"]
+    return ["aabb-skins", "planar-sections"]
+
+
