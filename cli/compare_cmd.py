@@ -285,7 +285,8 @@ def _plots(rows: list[dict], out: Path, meshes: list[str], seed: int) -> dict[st
     recall_plot(rows, out / "recall.png")
     budget_plot(rows, out / "budget.png")
     images = {"Recall per view, each method at its largest budget": "recall.png",
-              "Recall (solid) and precision (dashed) against occluder triangles": "budget.png"}
+              "Recall (top) and precision as 1 - P on a log axis (bottom) against occluder "
+              "triangles": "budget.png"}
     for mesh in meshes[:2]:
         name = f"silhouettes_{Path(mesh).stem}.png"
         silhouette_plot(rows, out, mesh, out / name, seed=seed)

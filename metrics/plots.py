@@ -57,6 +57,19 @@ SILHOUETTE_VIEWS = 3
 #: Panels per row of the per-mesh figures, and inches per panel.
 _PANEL_COLUMNS = 3
 _PANEL_INCHES = 3.0
+#: Inches per row of recall panels: the panel plus its slanted method names.
+_RECALL_PANEL_HEIGHT = 3.4
+#: Slant of the method names under the recall boxes, degrees.
+_LABEL_ROTATION = 45
+#: Inches per row of meshes in the budget plot (recall above, precision below).
+_BUDGET_PANEL_HEIGHT = 5.2
+#: Methods per legend row of the budget plot, and inches per legend row.
+_LEGEND_COLUMNS = 4
+_LEGEND_ROW_INCHES = 0.3
+#: Where the budget plot's 1 - P axis stops: a precision of exactly 1 is drawn here.
+#: 1e-5 resolves precisions up to 0.99999, beyond the quads' own resolution at the
+#: default settings (a few hundred thousand pixels scored per view).
+_ONE_MINUS_P_FLOOR = 1e-5
 
 
 def _figure(width: float, height: float) -> Figure:
@@ -208,10 +221,10 @@ def _largest_budget(rows: list[Mapping]) -> list[Mapping]:
     return list(best.values())
 
 
-def _panels(count: int, size: float = _PANEL_INCHES):
+def _panels(count: int, size: float = _PANEL_INCHES, height: float | None = None):
     cols = min(_PANEL_COLUMNS, count)
     rows = -(-count // cols)
-    fig = _figure(size * cols + 0.4, size * rows)
+    fig = _figure(size * cols + 0.4, (height or size) * rows)
     axes = fig.subplots(rows, cols, squeeze=False)
     for ax in axes.flat[count:]:
         ax.set_axis_off()
@@ -222,7 +235,8 @@ def recall_plot(rows: list[dict], path: Path) -> None:
     """Per-method distribution of per-view recall, one panel per mesh.
 
     As Silvennoinen et al. 2014, Figure 11; each (mesh, method) at its
-    largest budget.
+    largest budget. Method names stand under their boxes at 45 degrees, so
+    that eight or more names stay apart.
 
     Parameters
     ----------
@@ -230,8 +244,9 @@ def recall_plot(rows: list[dict], path: Path) -> None:
         Study rows with ``mesh``, ``method``, ``budget`` and
         ``per_view['recall']`` ((V,) floats, None where undefined).
     path : str or path-like
-        Figure file; 300 pixels per panel, up to three panels a row
-        (+40 pixels of width).
+        Figure file; 300 pixels wide per panel, up to three panels a row
+        (+40 pixels of width), 340 pixels high per row of panels (room for
+        the slanted names).
 
     Raises
     ------
@@ -242,14 +257,15 @@ def recall_plot(rows: list[dict], path: Path) -> None:
     _format_of(path)
     rows = _largest_budget(_check_rows(rows, ("mesh", "method", "budget", "per_view")))
     meshes = list(dict.fromkeys(r["mesh"] for r in rows))
-    fig, axes = _panels(len(meshes))
+    fig, axes = _panels(len(meshes), height=_RECALL_PANEL_HEIGHT)
     for ax, mesh in zip(axes, meshes, strict=False):
         sub = [r for r in rows if r["mesh"] == mesh]
         data = [np.array([v for v in r["per_view"].get("recall", []) if v is not None],
                          dtype=float) for r in sub]
         data = [d if len(d) else np.array([np.nan]) for d in data]
         ax.boxplot(data, showfliers=False)
-        ax.set_xticks(range(1, len(sub) + 1), [r["method"] for r in sub], fontsize=7)
+        ax.set_xticks(range(1, len(sub) + 1), [r["method"] for r in sub], fontsize=7,
+                      rotation=_LABEL_ROTATION, ha="right", rotation_mode="anchor")
         ax.set_ylim(-0.02, 1.02)
         ax.set_title(Path(mesh).stem, fontsize=9)
         ax.set_ylabel("recall per view", fontsize=8)
@@ -257,8 +273,15 @@ def recall_plot(rows: list[dict], path: Path) -> None:
     _save(fig, path)
 
 
-def budget_plot(rows: list[dict], path: Path) -> None:
-    """Recall (solid) and precision (dashed) against occluder triangles, a panel per mesh.
+def budget_plot(rows: list[dict], path: Path, *, precision_target: float = 0.995) -> None:
+    """Recall and precision against occluder triangles, two stacked panels per mesh.
+
+    The upper panel draws recall on a linear axis; the lower one precision
+    as 1 - P on a log axis (ticks labelled with P: 0.9, 0.99, 0.999, ...), so
+    that precisions of 0.99 and 0.999 lie a decade apart instead of on one
+    line at 1.0. A precision of exactly 1 (no false occlusion) is drawn as a
+    downward triangle on the axis floor, 1 - P = 1e-5 (labelled >= 0.99999).
+    A dotted line marks ``precision_target``.
 
     Parameters
     ----------
@@ -266,7 +289,12 @@ def budget_plot(rows: list[dict], path: Path) -> None:
         Study rows with ``mesh``, ``method``, ``triangles``, ``recall`` and
         ``precision`` (None where undefined).
     path : str or path-like
-        Figure file; sized as :func:`recall_plot`.
+        Figure file; 300 pixels wide per mesh, up to three meshes a row (+40
+        pixels of width), 520 pixels high per row of meshes, plus a legend
+        row of 30 pixels per four methods.
+    precision_target : float, optional
+        Precision marked by the dotted line. Default 0.995 (the report's
+        summary floor).
 
     Raises
     ------
@@ -278,25 +306,56 @@ def budget_plot(rows: list[dict], path: Path) -> None:
     rows = _check_rows(rows, ("mesh", "method", "triangles", "recall", "precision"))
     meshes = list(dict.fromkeys(r["mesh"] for r in rows))
     methods = list(dict.fromkeys(r["method"] for r in rows))
-    fig, axes = _panels(len(meshes))
-    for ax, mesh in zip(axes, meshes, strict=False):
-        for c, method in enumerate(methods):
+    cols = min(_PANEL_COLUMNS, len(meshes))
+    grid_rows = -(-len(meshes) // cols)
+    legend_rows = 1 + -(-len(methods) // _LEGEND_COLUMNS)  # + the two-line title
+    legend_inches = _LEGEND_ROW_INCHES * legend_rows
+    fig = _figure(_PANEL_INCHES * cols + 0.4,
+                  _BUDGET_PANEL_HEIGHT * grid_rows + legend_inches)
+    gs = fig.add_gridspec(2 * grid_rows, cols, height_ratios=[1.15, 1.0] * grid_rows)
+    floor = _ONE_MINUS_P_FLOOR
+    handles = {}
+    for m, mesh in enumerate(meshes):
+        g, c = divmod(m, cols)
+        top = fig.add_subplot(gs[2 * g, c])
+        low = fig.add_subplot(gs[2 * g + 1, c], sharex=top)
+        for k, method in enumerate(methods):
             sub = sorted((r for r in rows if r["mesh"] == mesh and r["method"] == method),
                          key=lambda r: r["triangles"])
             if not sub:
                 continue
-            x = [max(1, r["triangles"]) for r in sub]
-            for key, style in (("recall", "o-"), ("precision", "s--")):
-                y = [np.nan if r[key] is None else r[key] for r in sub]
-                ax.plot(x, y, style, ms=3, color=f"C{c}",
-                        label=method if key == "recall" else None)
-        ax.set_xscale("log")
-        ax.minorticks_off()
-        ax.set_ylim(-0.02, 1.02)
-        ax.set_title(Path(mesh).stem, fontsize=9)
-        ax.set_xlabel("occluder triangles", fontsize=8)
-    axes[0].legend(fontsize=7, title="recall -, precision --", title_fontsize=7)
-    fig.tight_layout()
+            x = np.array([max(1, r["triangles"]) for r in sub], dtype=float)
+            rec = np.array([np.nan if r["recall"] is None else r["recall"] for r in sub])
+            line, = top.plot(x, rec, "o-", ms=3, color=f"C{k % 10}")
+            handles.setdefault(method, line)
+            miss = np.array([np.nan if r["precision"] is None else 1.0 - r["precision"]
+                             for r in sub])
+            low.plot(x, np.maximum(miss, floor), "s--", ms=3, color=f"C{k % 10}")
+            exact = miss <= floor
+            if exact.any():
+                low.plot(x[exact], np.full(exact.sum(), floor), "v", ms=5,
+                         color=f"C{k % 10}")
+        top.set_xscale("log")
+        top.set_ylim(-0.02, 1.02)
+        top.set_title(Path(mesh).stem, fontsize=9)
+        top.set_ylabel("recall", fontsize=8)
+        top.tick_params(labelbottom=False, labelsize=7)
+        low.set_yscale("log")
+        low.set_ylim(floor / 2, 1.0)
+        decades = [10.0 ** -e for e in range(1, 1 + round(-np.log10(floor)))]
+        labels = [f"{1 - d:.{e + 1}f}" for e, d in enumerate(decades)]
+        labels[-1] = "\u2265" + labels[-1]  # the floor also holds P = 1
+        low.set_yticks(decades, labels, fontsize=7)
+        low.minorticks_off()
+        low.axhline(1.0 - precision_target, color="0.4", lw=0.8, ls=":")
+        low.set_ylabel("precision (log 1 - P)", fontsize=8)
+        low.set_xlabel("occluder triangles", fontsize=8)
+        low.tick_params(labelsize=7)
+    fig.legend(list(handles.values()), list(handles), loc="lower center",
+               ncol=min(_LEGEND_COLUMNS, len(handles)), fontsize=7, frameon=False,
+               title=f"recall solid, precision dashed\nP = 1: triangle; dotted: P = "
+                     f"{precision_target:g}", title_fontsize=7)
+    fig.tight_layout(rect=(0, legend_inches / fig.get_figheight(), 1, 1))
     _save(fig, path)
 
 

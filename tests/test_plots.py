@@ -93,15 +93,80 @@ def test_recall_plot_png(tmp_path):
     rows = _rows("a.ply") + _rows("b.ply", seed=1)
     path = tmp_path / "recall.png"
     recall_plot(rows, path)
-    _assert_drawn(_pixels(path), (640, 300))  # two panels of 300 px, +40
+    _assert_drawn(_pixels(path), (640, 340))  # two panels of 300 px, +40; 340 high
+
+
+def _captured(monkeypatch):
+    """The figures the plots would write, kept instead of saved."""
+    import viscore.metrics.plots as plots
+
+    figures = []
+    monkeypatch.setattr(plots, "_save", lambda fig, path: figures.append(fig))
+    return figures
+
+
+def _overlap(a, b):
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+EIGHT = ("aabb-skins", "planar-sections", "hybrid", "solid-frusta", "qem", "godot", "bbox",
+         "original")
+
+
+def test_recall_plot_eight_method_names_apart(tmp_path, monkeypatch):
+    figures = _captured(monkeypatch)
+    rows = [{"mesh": mesh, "method": name, "budget": 64,
+             "per_view": {"recall": [0.5 + 0.05 * k, 0.6]}}
+            for mesh in ("a.ply", "b.ply") for k, name in enumerate(EIGHT)]
+    recall_plot(rows, tmp_path / "r.png")
+    fig, = figures
+    renderer = fig.canvas.get_renderer()
+    size = fig.bbox
+    for ax in fig.axes:
+        labels = [t for t in ax.get_xticklabels() if t.get_text()]
+        assert [t.get_text() for t in labels] == list(EIGHT)
+        boxes = [t.get_window_extent(renderer) for t in labels]
+        angle = np.radians(labels[0].get_rotation())
+        if angle == 0:  # upright names: their boxes must not meet
+            for i in range(len(boxes) - 1):
+                assert not _overlap(boxes[i], boxes[i + 1]), (labels[i], labels[i + 1])
+        else:  # slanted parallel names: the gap across them must exceed a line of text
+            ticks = ax.transData.transform([(x, 0) for x in ax.get_xticks()])[:, 0]
+            line = labels[0].get_fontsize() * fig.dpi / 72
+            assert (np.diff(ticks) * np.sin(angle)).min() > line
+        for b in boxes:  # and none is cut off by the figure's edge
+            assert b.x0 >= 0 and b.y0 >= 0 and b.x1 <= size.x1 and b.y1 <= size.y1
 
 
 def test_budget_plot_png_grid(tmp_path):
     rows = sum((_rows(f"m{k}.ply", seed=k) for k in range(4)), [])
     path = tmp_path / "budget.png"
     budget_plot(rows, path)
-    _assert_drawn(_pixels(path), (940, 600))  # 3 columns x 2 rows of 300 px
+    # 3 columns x 2 rows of meshes, 520 px each (recall over precision), + 2 legend rows
+    _assert_drawn(_pixels(path), (940, 2 * 520 + 2 * 30))
     assert not [p for p in os.listdir(tmp_path) if p.endswith(".tmp")]  # temp file renamed
+
+
+def test_budget_plot_precision_axis_separates_099_from_0999(tmp_path, monkeypatch):
+    """Precisions 0.99, 0.999 and 1 are drawn a decade apart, not on one line at 1.0."""
+    figures = _captured(monkeypatch)
+    rows = [{"mesh": "m", "method": name, "budget": 64, "triangles": 64, "recall": 0.8,
+             "precision": p} for name, p in (("a", 0.99), ("b", 0.999), ("c", 1.0))]
+    budget_plot(rows, tmp_path / "b.png")
+    fig, = figures
+    recall_ax, precision_ax = fig.axes
+    assert precision_ax.get_yscale() == "log"
+    heights = {}
+    for line in precision_ax.get_lines():
+        y = line.get_ydata()
+        if len(y) == 1 and line.get_linestyle() == "--":
+            heights[line.get_color()] = precision_ax.transData.transform((64, y[0]))[1]
+    assert len(heights) == 3
+    a, b, c = (heights[f"C{k}"] for k in range(3))
+    # a linear axis of 0..1 puts 0.99 and 0.999 two pixels apart; a decade is ~36 px here
+    assert a - b > 25 and b - c > 25  # 0.99 above 0.999 above 1 (at the floor)
+    recall_y = {round(float(line.get_ydata()[0]), 6) for line in recall_ax.get_lines()}
+    assert recall_y == {0.8}  # recall keeps its own linear axis
 
 
 def test_budget_plot_invalid_input_leaves_file(tmp_path):

@@ -3,7 +3,9 @@
 ``generate --json`` (bbox, qem, aabb-skins, godot on a small scene of loose,
 open parts, so that aabb-skins takes the multi-threaded ray-parity path) and
 ``uncertainty --json`` (tiny settings, with a paired ``--versus`` occluder),
-each run with ``--workers 1`` and twice with the default worker count. The
+each run with ``--workers 1``, with ``--workers 2`` (forced, so that even a
+one-CPU runner compares one thread with two) and with the default worker
+count; the provenance must show 1, 2 and the default. The
 written occluder files are compared byte for byte too. Excluded from the
 comparison: wall-clock times (``seconds`` and keys starting ``seconds_``) and
 ``provenance`` (it records the worker count, which differs by design).
@@ -23,8 +25,8 @@ from viscore.generators import generate
 
 from viscore import load_mesh
 
-#: The worker settings of the three runs: one thread, then the default twice.
-WORKERS = (["--workers", "1"], [], [])
+#: The worker settings of the three runs: one thread, two threads, then the default.
+WORKERS = (["--workers", "1"], ["--workers", "2"], [])
 
 
 def _comparable(doc):
@@ -45,7 +47,10 @@ def _run(argv: list[str]) -> dict:
 
 
 def _assert_identical(docs: list[dict]) -> None:
-    assert docs[0]["provenance"]["workers"] == 1  # the first run really had one thread
+    from viscore import cpu_cores
+
+    # the runs really had one thread, two threads, and one per core
+    assert [d["provenance"]["workers"] for d in docs] == [1, 2, cpu_cores()]
     first = json.dumps(_comparable(docs[0]), sort_keys=True)
     for other in docs[1:]:
         assert json.dumps(_comparable(other), sort_keys=True) == first

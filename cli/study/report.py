@@ -2,7 +2,11 @@
 
 :func:`write_report` writes one self-contained HTML page (no script, no
 stylesheet or image outside the file: the plots are inline ``data:`` URIs),
-so it opens offline and can be mailed or archived as one file.
+so it opens offline and can be mailed or archived as one file. The page
+leads with the answer a study is run for (:func:`best_at_precision`: per
+mesh and budget, the method of highest recall at precision >= 0.995, with its
+interval and whether it carries the conservativeness guarantee), then the
+full results table at the page's width, the winners marked.
 :func:`write_occluder_glb` writes a glTF 2.0 binary holding the original
 (grey, translucent) and the occluder (coloured, opaque), for any glTF viewer;
 :func:`write_occluder_glbs` writes one beside every kept occluder of a study.
@@ -43,8 +47,13 @@ from viscore import InputError
 from .._common import write_atomic
 from .store import OCCLUDER_DIR
 
-__all__ = ["write_report", "write_occluder_glb", "write_occluder_glbs", "CULLING_COLUMNS",
-           "REPORT_COLUMNS", "PAIRED_COLUMNS", "ORIGINAL_RGBA", "OCCLUDER_RGBA"]
+__all__ = ["write_report", "write_occluder_glb", "write_occluder_glbs", "best_at_precision",
+           "CULLING_COLUMNS", "REPORT_COLUMNS", "PAIRED_COLUMNS", "SUMMARY_COLUMNS",
+           "SUMMARY_PRECISION", "ORIGINAL_RGBA", "OCCLUDER_RGBA"]
+
+#: Precision a method must reach (point estimate) to be named in the page's summary:
+#: the question every study asks is the highest recall at precision >= this.
+SUMMARY_PRECISION = 0.995
 
 #: Columns of the results table: (row key, header). A ``*_ci`` key shows as an
 #: interval; the columns follow ``viscore.cli.study.tables.TABLE_COLUMNS``.
@@ -54,6 +63,14 @@ REPORT_COLUMNS = (
     ("recall", "recall"), ("recall_ci", "recall 95% interval"),
     ("occlusion_measure", "occlusion measure"), ("occlusion_measure_se", "s.e."),
     ("violation_upper_bound", "violation upper bound"), ("seconds", "seconds"),
+)
+
+#: Columns of the summary table (:func:`best_at_precision`'s rows): (key, header).
+SUMMARY_COLUMNS = (
+    ("mesh", "mesh"), ("budget", "budget"), ("method", "best method"),
+    ("triangles", "triangles"), ("recall", "recall"), ("recall_ci", "recall 95% interval"),
+    ("precision", "precision"), ("guaranteed", "conservative guarantee"),
+    ("violation_upper_bound", "violation upper bound"),
 )
 
 #: Columns of the paired comparisons: (row key, header).
@@ -79,15 +96,18 @@ OCCLUDER_RGBA = (0.95, 0.45, 0.1, 1.0)
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 _STYLE = """
-body { font: 14px/1.45 system-ui, sans-serif; margin: 2em auto; max-width: 76em;
-       padding: 0 1em; color: #222; }
+body { font: 14px/1.45 system-ui, sans-serif; margin: 1.5em 0; padding: 0 1.5em;
+       color: #222; }
+p, ul { max-width: 76em; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em; }
-table { border-collapse: collapse; margin: 0.5em 0; }
-th, td { border: 1px solid #ccc; padding: 0.2em 0.5em; }
+table { border-collapse: collapse; margin: 0.5em 0; font-size: 13px; }
+th, td { border: 1px solid #ccc; padding: 0.2em 0.45em; }
 td { white-space: nowrap; }
 .scroll { overflow-x: auto; }
 th { background: #f3f3f3; text-align: left; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; }
+td.best { font-weight: bold; background: #e4f3e4; }
+table.summary td.none { color: #a33; }
 figure { display: inline-block; margin: 0.5em 1em 1em 0; vertical-align: top; }
 figure img { max-width: 100%; border: 1px solid #ddd; }
 figcaption { font-size: 0.9em; color: #555; }
@@ -125,7 +145,10 @@ def _cell(value) -> tuple[str, bool]:
 
 
 def _table(rows: Sequence[Mapping], columns: Sequence[tuple[str, str]], *, row_class: str,
-           extra: Sequence[str] | None = None, extra_header: str | None = None) -> str:
+           extra: Sequence[str] | None = None, extra_header: str | None = None,
+           best: Sequence[frozenset] | None = None, table_class: str = "",
+           cell_class: Mapping[tuple[int, str], str] | None = None) -> str:
+    """An HTML table; ``best[k]`` names the keys of row ``k`` shown as best values."""
     head = "".join(f"<th>{escape(h)}</th>" for _, h in columns)
     if extra is not None:
         head += f"<th>{escape(extra_header or '')}</th>"
@@ -134,12 +157,152 @@ def _table(rows: Sequence[Mapping], columns: Sequence[tuple[str, str]], *, row_c
         cells = []
         for key, _ in columns:
             text, numeric = _cell(r.get(key))
-            cells.append(f'<td class="num">{text}</td>' if numeric else f"<td>{text}</td>")
+            classes = (["num"] if numeric else []) + (
+                ["best"] if best is not None and key in best[k] else [])
+            if cell_class and (k, key) in cell_class:
+                classes.append(cell_class[k, key])
+            attr = f' class="{" ".join(classes)}"' if classes else ""
+            cells.append(f"<td{attr}>{text}</td>")
         if extra is not None:
             cells.append(f"<td>{extra[k]}</td>")
         body.append(f'<tr class="{row_class}">' + "".join(cells) + "</tr>")
-    return (f'<div class="scroll"><table>\n<thead><tr>{head}</tr></thead>\n<tbody>\n'
+    attr = f' class="{table_class}"' if table_class else ""
+    return (f'<div class="scroll"><table{attr}>\n<thead><tr>{head}</tr></thead>\n<tbody>\n'
             + "\n".join(body) + "\n</tbody>\n</table></div>")
+
+
+def _guaranteed(row: Mapping) -> bool | None:
+    """Whether a row's occluder carries the conservativeness guarantee, None if unknown.
+
+    The generator's own word when the row records it
+    (``info["conservative_guaranteed"]``: aabb-skins, solid-frusta and
+    planar-sections say False on an open or inconsistently oriented mesh);
+    otherwise the registry's ``conservative`` flag of the method (a promise
+    on closed meshes); None for a method the registry does not know.
+    """
+    info = row.get("info")
+    if isinstance(info, Mapping) and info.get("conservative_guaranteed") is not None:
+        return bool(info["conservative_guaranteed"])
+    try:
+        from viscore.generators import get_generator
+
+        return bool(get_generator(str(row.get("method"))).conservative)
+    except Exception:  # an unknown or renamed method: say so rather than guess
+        return None
+
+
+def _study_budgets(rows: Sequence[Mapping], budgets: Sequence[int] | None) -> list:
+    if budgets:
+        return sorted({int(b) for b in budgets})
+    found = sorted({int(r["budget"]) for r in rows if r.get("budget") is not None})
+    return found or [None]
+
+
+def _finite(value) -> float | None:
+    if value is None or isinstance(value, (bool, np.bool_)):
+        return None
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def best_at_precision(rows: Sequence[Mapping], *, budgets: Sequence[int] | None = None,
+                      precision: float = SUMMARY_PRECISION) -> list[dict]:
+    """For each mesh and budget, the method of highest recall among those of precision >= a floor.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Study rows (``mesh``, ``method``, ``budget``, ``triangles``,
+        ``precision``, ``recall``; optional ``recall_ci``,
+        ``violation_upper_bound``, ``info``).
+    budgets : sequence of int, optional
+        The study's budgets. Default: those found in the rows (one group per
+        mesh, budget None, when no row has one).
+    precision : float, optional
+        The precision floor (point estimate). Default :data:`SUMMARY_PRECISION`.
+
+    Returns
+    -------
+    summary : list of dict
+        One per (mesh, budget), meshes in order of appearance, budgets
+        ascending, keyed as :data:`SUMMARY_COLUMNS` plus ``winners`` (the
+        indices into ``rows`` of the named methods) and ``candidates`` (how
+        many rows were eligible). ``method`` is None when no eligible row
+        reaches the floor; tied recalls name every tied method, fewest
+        triangles first, joined by " = ".
+
+    Notes
+    -----
+    A row is eligible at budget B when it was made for B (``budget == B``),
+    or its method ignores the budget (``budget`` None), and its occluder
+    has at most B triangles: a method over its budget does not compete.
+    Recall ties are exact equalities of the stored values. Precision and
+    recall are the orbit or volume protocol's pooled values (Silvennoinen et
+    al. 2014, sec. 6.1; Wu et al. 2022, sec. 3.2; module references [1], [2]).
+
+    Examples
+    --------
+    >>> rows = [{"mesh": "m", "method": "a", "budget": 64, "triangles": 64,
+    ...          "precision": 0.999, "recall": 0.8},
+    ...         {"mesh": "m", "method": "b", "budget": 64, "triangles": 60,
+    ...          "precision": 0.99, "recall": 0.9}]
+    >>> [(e["budget"], e["method"]) for e in best_at_precision(rows)]
+    [(64, 'a')]
+    """
+    rows = list(rows)
+    meshes = list(dict.fromkeys(str(r.get("mesh")) for r in rows))
+    out = []
+    for mesh in meshes:
+        for budget in _study_budgets(rows, budgets):
+            eligible = []
+            for i, r in enumerate(rows):
+                if str(r.get("mesh")) != mesh:
+                    continue
+                if budget is not None:
+                    tri = _finite(r.get("triangles"))
+                    if r.get("budget") not in (None, budget) or tri is None or tri > budget:
+                        continue
+                eligible.append(i)
+            ok = [i for i in eligible
+                  if (p := _finite(rows[i].get("precision"))) is not None and p >= precision
+                  and _finite(rows[i].get("recall")) is not None]
+            entry = {"mesh": mesh, "budget": budget, "candidates": len(eligible),
+                     "winners": [], "method": None}
+            if ok:
+                top = max(_finite(rows[i]["recall"]) for i in ok)
+                winners = sorted((i for i in ok if _finite(rows[i]["recall"]) == top),
+                                 key=lambda i: (_finite(rows[i].get("triangles")) or 0, i))
+                first = rows[winners[0]]
+                guarantees = [_guaranteed(rows[i]) for i in winners]
+                entry.update(
+                    winners=winners,
+                    method=" = ".join(str(rows[i].get("method")) for i in winners),
+                    triangles=first.get("triangles"), recall=first.get("recall"),
+                    recall_ci=first.get("recall_ci"), precision=first.get("precision"),
+                    violation_upper_bound=first.get("violation_upper_bound"),
+                    guaranteed=" / ".join({True: "yes", False: "no", None: "unknown"}[g]
+                                          for g in guarantees))
+            out.append(entry)
+    return out
+
+
+def _summary_html(summary: list[dict], precision: float) -> str:
+    """The summary table; a (mesh, budget) without a qualifier says so in its method cell."""
+    shown = []
+    for e in summary:
+        row = dict(e)
+        if row["budget"] is None:
+            row["budget"] = "any"
+        if row["method"] is None:
+            row["method"] = (f"none reaches precision {precision:g}"
+                             f" ({_count(row['candidates'], 'eligible result')})")
+        shown.append(row)
+    none = {(k, "method"): "none" for k, e in enumerate(summary) if e["method"] is None}
+    return _table(shown, SUMMARY_COLUMNS, row_class="summary", table_class="summary",
+                  cell_class=none)
 
 
 def _key_values(doc: Mapping, css_class: str) -> str:
@@ -220,12 +383,15 @@ def write_report(out_dir: str | os.PathLike, rows: Sequence[Mapping], *,
         ``method``, ``budget``, ``triangles``, ``precision``,
         ``precision_ci``, ``recall``, ``recall_ci``, ``occlusion_measure``,
         ``occlusion_measure_se``, ``violation_upper_bound``, ``seconds``;
-        optional ``occluder_file``). Missing or None values show as "-".
+        optional ``occluder_file`` and ``info``, whose
+        ``conservative_guaranteed`` the summary reports). Missing or None
+        values show as "-".
     paired_rows : sequence of dict, optional
         Paired comparisons keyed as :data:`PAIRED_COLUMNS` (the output of
         ``viscore.cli.study.paired_rows``). Default none.
     settings : dict or dataclass, optional
-        Evaluation settings (e.g. ``StudySettings``), shown as a table.
+        Evaluation settings (e.g. ``StudySettings``), shown as a table; its
+        ``budgets`` are the summary's budgets (default: those of the rows).
     provenance : dict, optional
         Versions and platform (``viscore.provenance()``), shown as a table.
     culling_rows : sequence of dict, optional
@@ -250,9 +416,13 @@ def write_report(out_dir: str | os.PathLike, rows: Sequence[Mapping], *,
     -----
     The page loads nothing from outside itself (no script, no remote
     stylesheet, font or image); links to the occluder files beside it are
-    relative and only shown for files that exist. Each result is one
-    ``<tr class="result">`` of the results table, each paired comparison one
-    ``<tr class="paired">``. Deterministic: the same inputs give the same bytes.
+    relative and only shown for files that exist. Each (mesh, budget) of the
+    summary is one ``<tr class="summary">``, each result one
+    ``<tr class="result">`` of the results table (the summary's winners have
+    their method and recall cells of class ``best``), each paired comparison
+    one ``<tr class="paired">``. Tables take the page's width (no fixed
+    column); paragraphs stay at most 76 em wide for reading. Deterministic:
+    the same inputs give the same bytes.
 
     Examples
     --------
@@ -273,6 +443,11 @@ def write_report(out_dir: str | os.PathLike, rows: Sequence[Mapping], *,
     meshes = list(dict.fromkeys(str(r.get("mesh")) for r in rows))
     methods = list(dict.fromkeys(str(r.get("method")) for r in rows))
     protocol = settings.get("protocol")
+    summary = best_at_precision(rows, budgets=settings.get("budgets"))
+    best = [set() for _ in rows]
+    for e in summary:
+        for i in e["winners"]:
+            best[i].update(("method", "recall"))
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en">',
@@ -289,13 +464,22 @@ def write_report(out_dir: str | os.PathLike, rows: Sequence[Mapping], *,
         f"({escape(', '.join(methods))}) on {_count(len(meshes), 'mesh', 'meshes')} "
         f"({escape(', '.join(meshes))})"
         + (f", {escape(str(protocol))} protocol" if protocol else "") + ".</p>",
+        f'<h2 id="summary">Highest recall at precision &ge; {SUMMARY_PRECISION:g}</h2>',
+        f"<p>For each mesh and triangle budget, the method of highest recall among the "
+        f"results of precision &ge; {SUMMARY_PRECISION:g} (point estimate) whose occluder "
+        "fits the budget (a method that ignores the budget competes at every budget it "
+        "fits). Conservative guarantee: the generator's own report for that occluder, else "
+        "the registry's promise for the method on closed meshes; the violation upper bound "
+        "is what the rays measured.</p>",
+        _summary_html(summary, SUMMARY_PRECISION),
         '<h2 id="results">Results</h2>',
         _table(rows, REPORT_COLUMNS, row_class="result", extra=_file_links(rows, out_dir),
-               extra_header="files"),
+               extra_header="files", best=[frozenset(b) for b in best]),
         '<p class="note">Intervals: 95% percentile bootstrap over views (Efron 1987). '
         "Occlusion measure with its standard error over random directions. Violation upper "
         "bound: one-sided Clopper-Pearson bound on the rate of rays the occluder stops before "
-        "the original. \"-\": undefined (no quads of that kind) or not measured.</p>",
+        "the original. \"-\": undefined (no quads of that kind) or not measured. "
+        "Highlighted: the summary's choice for a budget.</p>",
     ]
     if paired_rows:
         versus = sorted({str(p.get("versus")) for p in paired_rows})
