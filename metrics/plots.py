@@ -394,6 +394,8 @@ def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
     from viscore import directions_uniform, load_mesh
     from viscore._validate import as_positive_int, as_seed
 
+    from ._views import scene_of
+    from .frames import orbit_frame
     from .silhouettes import silhouette_image
 
     _format_of(path)
@@ -404,6 +406,9 @@ def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
     if not sub:
         raise InputError(f"mesh {mesh!r}: no study row of this mesh")
     original = load_mesh(mesh)
+    # one Embree scene for the original and one per occluder, shared by every view
+    frame = orbit_frame(original)
+    original_scene = scene_of(original, "mesh")
     dirs = directions_uniform(SILHOUETTE_VIEWS, seed=seed)
     fig = _figure(2.2 * SILHOUETTE_VIEWS, 2.2 * len(sub))
     axes = fig.subplots(len(sub), SILHOUETTE_VIEWS, squeeze=False)
@@ -411,8 +416,10 @@ def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
         file = Path(out_dir) / "occluders" / r["occluder_file"]
         # viscore's loader: trimesh's own merges vertices at 1e-8 and ruins tiny or huge meshes
         occ = load_mesh(file) if r["triangles"] and file.is_file() else None
+        occ_scene = scene_of(occ, "occluder")
         for j, d in enumerate(dirs):
-            axes[i, j].imshow(silhouette_image(original, occ, d, resolution=resolution))
+            axes[i, j].imshow(silhouette_image(original_scene, occ_scene, d,
+                                               resolution=resolution, frame=frame))
             axes[i, j].set_axis_off()
         axes[i, 0].set_title(f"{r['method']} ({r['triangles']} tris)", fontsize=8, loc="left")
     fig.suptitle(f"{Path(mesh).stem}: black original only, yellow both, blue occluder only",

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from viscore import OrthoCamera
+from viscore import InputError, OrthoCamera, Scene
 from viscore._validate import as_positive_int, check_memory
 
 from ._views import scene_of
@@ -33,19 +33,25 @@ SILHOUETTE_COLOURS = {"background": (255, 255, 255), "original": (0, 0, 0),
                       "both": (240, 200, 0), "occluder": (30, 90, 230)}
 
 
-def silhouette_image(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None,
-                     direction, *, resolution: int = 256) -> np.ndarray:
+def silhouette_image(mesh: trimesh.Trimesh | Scene, occluder: trimesh.Trimesh | Scene | None,
+                     direction, *, resolution: int = 256,
+                     frame: tuple | None = None) -> np.ndarray:
     """RGB image: original only black, overlap yellow, over-occlusion blue.
 
     Parameters
     ----------
-    mesh : trimesh.Trimesh
-        The original; sets the orbit frame.
-    occluder : trimesh.Trimesh or None
+    mesh : trimesh.Trimesh or Scene
+        The original; its mesh sets the orbit frame. A prebuilt
+        :class:`viscore.Scene` (with ``frame``) is cast as it is, so that many
+        images of one mesh share one Embree scene.
+    occluder : trimesh.Trimesh, Scene or None
     direction : (3,) float
         Viewing direction.
     resolution : int, optional
         At most 8192. Default 256.
+    frame : (center, extent), optional
+        The original's :func:`~viscore.metrics.orbit_frame`; required when
+        ``mesh`` is a Scene, computed from the mesh otherwise.
 
     Returns
     -------
@@ -72,9 +78,11 @@ def silhouette_image(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh | None,
     resolution = as_positive_int(resolution, "resolution", maximum=_MAX_RESOLUTION)
     # two coverage images and the RGB image; rays are cast a batch at a time
     check_memory(5.0 * resolution**2 + 96.0 * _RAYS_PER_BATCH, f"resolution={resolution}")
+    if frame is None and isinstance(mesh, Scene):
+        raise InputError("frame: required when the original is given as a Scene")
     original = scene_of(mesh, "mesh")
     other = scene_of(occluder, "occluder")
-    center, extent = orbit_frame(mesh)
+    center, extent = orbit_frame(mesh) if frame is None else frame
     cam = OrthoCamera(direction, center, extent, resolution)
     orig = _coverage(_ray_inside(original, cam), resolution)
     occ = (_coverage(_ray_inside(other, cam), resolution) if other is not None
