@@ -29,12 +29,29 @@ def _axis_ok(p0, p1, p2, r):
 
 
 @njit_cached()
-def mark_surface_voxels(tri, lo, hi, origin, pitch, h, out):
-    """Set out[x, y, z] for every voxel (closed cube of half-size h) a triangle touches."""
-    for t in range(tri.shape[0]):
-        ax, ay, az = tri[t, 0, 0], tri[t, 0, 1], tri[t, 0, 2]
-        bx, by, bz = tri[t, 1, 0], tri[t, 1, 1], tri[t, 1, 2]
-        cx, cy, cz = tri[t, 2, 0], tri[t, 2, 1], tri[t, 2, 2]
+def mark_surface_voxels(vertices, faces, origin, pitch, slack, h, out):  # pragma: no cover
+    """Set out[x, y, z] for every voxel (closed cube of half-size h) a triangle touches.
+
+    One pass over the faces: each triangle's corners are read from ``vertices``,
+    its voxel bounding box (widened by ``slack`` voxels, clipped to the grid)
+    computed, and its voxels tested with the separating-axis test, the plane
+    test first; voxels already marked are skipped. No ``(f, 3, 3)`` corner
+    array or temporaries: a scan of a million triangles costs the test alone.
+    """
+    sx, sy, sz = out.shape[0] - 1, out.shape[1] - 1, out.shape[2] - 1
+    ox, oy, oz = origin[0], origin[1], origin[2]
+    for t in range(faces.shape[0]):
+        fa, fb, fc = faces[t, 0], faces[t, 1], faces[t, 2]
+        ax, ay, az = vertices[fa, 0], vertices[fa, 1], vertices[fa, 2]
+        bx, by, bz = vertices[fb, 0], vertices[fb, 1], vertices[fb, 2]
+        cx, cy, cz = vertices[fc, 0], vertices[fc, 1], vertices[fc, 2]
+        # voxel bounding box: floor((min - origin) / pitch - slack), as numpy did, clipped
+        i0 = min(max(int(np.floor((min(ax, bx, cx) - ox) / pitch - slack)), 0), sx)
+        j0 = min(max(int(np.floor((min(ay, by, cy) - oy) / pitch - slack)), 0), sy)
+        k0 = min(max(int(np.floor((min(az, bz, cz) - oz) / pitch - slack)), 0), sz)
+        i1 = min(max(int(np.floor((max(ax, bx, cx) - ox) / pitch + slack)), 0), sx)
+        j1 = min(max(int(np.floor((max(ay, by, cy) - oy) / pitch + slack)), 0), sy)
+        k1 = min(max(int(np.floor((max(az, bz, cz) - oz) / pitch + slack)), 0), sz)
         e0x, e0y, e0z = bx - ax, by - ay, bz - az
         e1x, e1y, e1z = cx - bx, cy - by, cz - bz
         e2x, e2y, e2z = ax - cx, ay - cy, az - cz
@@ -42,14 +59,14 @@ def mark_surface_voxels(tri, lo, hi, origin, pitch, h, out):
         ny = e0z * e1x - e0x * e1z
         nz = e0x * e1y - e0y * e1x
         rn = h * (abs(nx) + abs(ny) + abs(nz))
-        for i in range(lo[t, 0], hi[t, 0] + 1):
-            px = origin[0] + (i + 0.5) * pitch
-            for j in range(lo[t, 1], hi[t, 1] + 1):
-                py = origin[1] + (j + 0.5) * pitch
-                for k in range(lo[t, 2], hi[t, 2] + 1):
+        for i in range(i0, i1 + 1):
+            px = ox + (i + 0.5) * pitch
+            for j in range(j0, j1 + 1):
+                py = oy + (j + 0.5) * pitch
+                for k in range(k0, k1 + 1):
                     if out[i, j, k]:
                         continue
-                    pz = origin[2] + (k + 0.5) * pitch
+                    pz = oz + (k + 0.5) * pitch
                     vax, vay, vaz = ax - px, ay - py, az - pz
                     if abs(nx * vax + ny * vay + nz * vaz) > rn:
                         continue  # the triangle's plane misses the box
@@ -75,17 +92,6 @@ def mark_surface_voxels(tri, lo, hi, origin, pitch, h, out):
                     if ok:
                         out[i, j, k] = True
     return out
-
-
-def surface_voxels_kernel(tri: np.ndarray, lo: np.ndarray, hi: np.ndarray, origin: np.ndarray,
-                          pitch: float, half: float, shape: tuple) -> np.ndarray:
-    """Boolean grid of surface voxels (see :func:`mark_surface_voxels`)."""
-    out = np.zeros(shape, dtype=np.bool_)
-    return mark_surface_voxels(np.ascontiguousarray(tri, dtype=np.float64),
-                               np.ascontiguousarray(lo, dtype=np.int64),
-                               np.ascontiguousarray(hi, dtype=np.int64),
-                               np.asarray(origin, dtype=np.float64), float(pitch), float(half),
-                               out)
 
 
 @njit_cached()

@@ -46,8 +46,7 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
-from ._jit import njit_cached
-from ._sat_kernel import _axis_ok
+from ._sat_kernel import mark_surface_voxels
 from ._validate import InputError, as_positive, as_positive_int, check_memory
 from .constants import MAX_VOXEL_CELLS
 
@@ -192,74 +191,6 @@ def _sat_overlap(tri: np.ndarray, center: np.ndarray, half: float) -> np.ndarray
     return ok
 
 
-@njit_cached()
-def _mark_surface_voxels(vertices, faces, origin, pitch, slack, h, out):  # pragma: no cover
-    """Set out[x, y, z] for every voxel (closed cube of half-size h) a triangle touches.
-
-    One pass over the faces: each triangle's corners are read from ``vertices``,
-    its voxel bounding box (widened by ``slack`` voxels, clipped to the grid)
-    computed, and its voxels tested with the separating-axis test, the plane
-    test first; voxels already marked are skipped. The same arithmetic, in the
-    same order, as the numpy gather and bounding boxes plus
-    :func:`viscore._sat_kernel.mark_surface_voxels` it replaces (bit-identical
-    grids), without the ``(f, 3, 3)`` corner array and its temporaries.
-    """
-    sx, sy, sz = out.shape[0] - 1, out.shape[1] - 1, out.shape[2] - 1
-    ox, oy, oz = origin[0], origin[1], origin[2]
-    for t in range(faces.shape[0]):
-        fa, fb, fc = faces[t, 0], faces[t, 1], faces[t, 2]
-        ax, ay, az = vertices[fa, 0], vertices[fa, 1], vertices[fa, 2]
-        bx, by, bz = vertices[fb, 0], vertices[fb, 1], vertices[fb, 2]
-        cx, cy, cz = vertices[fc, 0], vertices[fc, 1], vertices[fc, 2]
-        # voxel bounding box: floor((min - origin) / pitch - slack), as numpy did, clipped
-        i0 = min(max(int(np.floor((min(ax, bx, cx) - ox) / pitch - slack)), 0), sx)
-        j0 = min(max(int(np.floor((min(ay, by, cy) - oy) / pitch - slack)), 0), sy)
-        k0 = min(max(int(np.floor((min(az, bz, cz) - oz) / pitch - slack)), 0), sz)
-        i1 = min(max(int(np.floor((max(ax, bx, cx) - ox) / pitch + slack)), 0), sx)
-        j1 = min(max(int(np.floor((max(ay, by, cy) - oy) / pitch + slack)), 0), sy)
-        k1 = min(max(int(np.floor((max(az, bz, cz) - oz) / pitch + slack)), 0), sz)
-        e0x, e0y, e0z = bx - ax, by - ay, bz - az
-        e1x, e1y, e1z = cx - bx, cy - by, cz - bz
-        e2x, e2y, e2z = ax - cx, ay - cy, az - cz
-        nx = e0y * e1z - e0z * e1y
-        ny = e0z * e1x - e0x * e1z
-        nz = e0x * e1y - e0y * e1x
-        rn = h * (abs(nx) + abs(ny) + abs(nz))
-        for i in range(i0, i1 + 1):
-            px = ox + (i + 0.5) * pitch
-            for j in range(j0, j1 + 1):
-                py = oy + (j + 0.5) * pitch
-                for k in range(k0, k1 + 1):
-                    if out[i, j, k]:
-                        continue
-                    pz = oz + (k + 0.5) * pitch
-                    vax, vay, vaz = ax - px, ay - py, az - pz
-                    if abs(nx * vax + ny * vay + nz * vaz) > rn:
-                        continue  # the triangle's plane misses the box
-                    vbx, vby, vbz = bx - px, by - py, bz - pz
-                    vcx, vcy, vcz = cx - px, cy - py, cz - pz
-                    ok = True
-                    for ex, ey, ez in ((e0x, e0y, e0z), (e1x, e1y, e1z), (e2x, e2y, e2z)):
-                        # axis x cross e = (0, -ez, ey)
-                        if not _axis_ok(-ez * vay + ey * vaz, -ez * vby + ey * vbz,
-                                        -ez * vcy + ey * vcz, h * (abs(ez) + abs(ey))):
-                            ok = False
-                            break
-                        # axis y cross e = (ez, 0, -ex)
-                        if not _axis_ok(ez * vax - ex * vaz, ez * vbx - ex * vbz,
-                                        ez * vcx - ex * vcz, h * (abs(ez) + abs(ex))):
-                            ok = False
-                            break
-                        # axis z cross e = (-ey, ex, 0)
-                        if not _axis_ok(-ey * vax + ex * vay, -ey * vbx + ex * vby,
-                                        -ey * vcx + ex * vcy, h * (abs(ey) + abs(ex))):
-                            ok = False
-                            break
-                    if ok:
-                        out[i, j, k] = True
-    return out
-
-
 def surface_voxels(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGrid) -> np.ndarray:
     """Voxels touched by any triangle, by the exact triangle/box overlap test.
 
@@ -278,7 +209,7 @@ def surface_voxels(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGrid) -> 
     -----
     Candidates are the voxels of each triangle's bounding box, tested with
     the 13-axis separating-axis test (the plane test first) in one numba
-    loop over the faces (:func:`_mark_surface_voxels`), which reads the
+    loop over the faces (:func:`viscore._sat_kernel.mark_surface_voxels`), which reads the
     corners from ``vertices`` itself: no ``(f, 3, 3)`` corner array, so the
     cost is a few tens of nanoseconds per triangle of a scan much finer than
     the grid (0.15 s for 1.1M triangles at 64 voxels). :func:`_sat_overlap`
@@ -298,7 +229,7 @@ def surface_voxels(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGrid) -> 
     out = np.zeros(grid.shape, dtype=np.bool_)
     # a triangle on a voxel boundary touches the voxels on both sides: widen by a hair
     slack = _TOUCH_TOLERANCE * 10
-    return _mark_surface_voxels(v, f, np.asarray(grid.origin, dtype=np.float64),
+    return mark_surface_voxels(v, f, np.asarray(grid.origin, dtype=np.float64),
                                 float(grid.pitch), slack,
                                 float(0.5 * grid.pitch * (1.0 + _TOUCH_TOLERANCE)), out)
 
