@@ -42,7 +42,6 @@ References
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import logging
 from dataclasses import asdict
@@ -58,7 +57,7 @@ from .study.report import CULLING_COLUMNS, write_occluder_glbs, write_report
 from .study.runner import (
     JOBS_PER_CORE,
     StudySettings,
-    check_scheduler,
+    connect_scheduler,
     resolve_occluder_files,
     run_study,
     study_memory,
@@ -189,28 +188,6 @@ def _jobs(value: object, scheduler) -> int:
     return jobs
 
 
-def _connect(address: str | None):
-    """A dask.distributed client of ``--scheduler`` (a context manager), or a null context.
-
-    Connected before the study folder is touched: an address that is malformed
-    or whose port refuses the connection is refused at once
-    (:func:`viscore.cli.study.runner.check_scheduler`), one that does not answer
-    after dask's ``distributed.comm.timeouts.connect``; either with one line,
-    leaving no folder behind.
-    """
-    if address is None:
-        return contextlib.nullcontext(None)
-    try:
-        from distributed import Client
-    except ImportError:
-        raise InputError("--scheduler: needs dask.distributed (pip install distributed)") from None
-    check_scheduler(address)
-    try:
-        return Client(address)
-    except (OSError, ValueError, TypeError) as exc:
-        raise InputError(f"--scheduler {address!r}: cannot connect ({exc})") from None
-
-
 def run_compare(args) -> int:
     # 1. every argument, before any work and before the study folder is touched
     methods = _methods(args.methods)
@@ -241,7 +218,7 @@ def run_compare(args) -> int:
         check_memory(study_memory(settings, originals, n_jobs),
                      f"--jobs {jobs} --views {views} --quads {quads} --res {res} --rays {rays}")
     # 2. the study, in a folder this process alone writes (the cluster reached first)
-    with _connect(args.scheduler) as client, StudyFolder(out) as study:
+    with connect_scheduler(args.scheduler) as client, StudyFolder(out) as study:
         rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
                          scheduler=client, progress=not (args.quiet or args.json),
                          originals=originals, files=files)

@@ -23,7 +23,6 @@ a method that covered nothing writes no ``.tscn``/``.glb``); 2 for bad input.
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import os
 
@@ -35,7 +34,7 @@ from viscore import InputError, cpu_cores
 from viscore._validate import as_positive_int
 
 from ._common import check_output_folder, emit
-from .study.runner import JOBS_PER_CORE, check_scheduler
+from .study.runner import JOBS_PER_CORE, connect_scheduler
 from .study.store import LOCK_NAME, lock_exclusive
 
 _log = logging.getLogger(__name__)
@@ -102,20 +101,6 @@ def _jobs(value: int) -> int:
     return jobs
 
 
-def _connect(address: str | None):
-    if address is None:
-        return contextlib.nullcontext(None)
-    try:
-        from distributed import Client
-    except ImportError:
-        raise InputError("--scheduler: needs dask.distributed (pip install distributed)") from None
-    check_scheduler(address)
-    try:
-        return Client(address)
-    except (OSError, ValueError, TypeError) as exc:
-        raise InputError(f"--scheduler {address!r}: cannot connect ({exc})") from None
-
-
 class _Bar:
     """``progress(done, total, label)`` as a tqdm bar with an ETA on stderr."""
 
@@ -153,7 +138,7 @@ def run_occlude(args) -> int:
                              f"{args.occluders!r}")
     out = check_output_folder(args.out, "-o")
     quiet = args.quiet
-    with _connect(args.scheduler) as client:
+    with connect_scheduler(args.scheduler) as client:
         level = level_objects(args.level, up=args.up, min_size=args.min_size, names=names)
         if level.up_guessed and not quiet:
             _log.info("%s: up axis guessed +%s (%s); pass --up to set it", args.level,

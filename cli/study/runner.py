@@ -56,6 +56,7 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -82,6 +83,7 @@ from .store import StudyFolder
 __all__ = ["StudySettings", "Job", "OccluderFile", "study_jobs", "occluder_file_jobs",
            "resolve_occluder_files", "file_digest", "view_settings", "study_memory",
            "build_views", "views_from_file", "run_job", "run_study", "check_scheduler",
+           "connect_scheduler",
            "TIMING_FIELDS", "JOBS_PER_CORE", "SCHEDULER_PROBE_SECONDS", "OCCLUDER_SUFFIXES"]
 
 #: Fields of a row that are wall times (they differ between runs; everything
@@ -586,6 +588,27 @@ def check_scheduler(address: str) -> None:
     except (OSError, OverflowError) as exc:  # unreachable network, a port beyond 65535
         raise InputError(f"{where}: cannot connect "
                          f"({getattr(exc, 'strerror', None) or exc})") from None
+
+def connect_scheduler(address: str | None):
+    """A dask.distributed client of ``--scheduler`` (a context manager), or a null context.
+
+    Connected before any output folder is touched: an address that is malformed
+    or whose port refuses the connection is refused at once
+    (:func:`check_scheduler`), one that does not answer after dask's
+    ``distributed.comm.timeouts.connect``; either with one line.
+    """
+    if address is None:
+        return contextlib.nullcontext(None)
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("--scheduler: needs dask.distributed (pip install distributed)") from None
+    check_scheduler(address)
+    try:
+        return Client(address)
+    except (OSError, ValueError, TypeError) as exc:
+        raise InputError(f"--scheduler {address!r}: cannot connect ({exc})") from None
+
 
 
 def _dask(pending: list[Job], scheduler, commit: Callable) -> None:
