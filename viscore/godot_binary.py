@@ -125,6 +125,19 @@ def _checked_geometry(vertices: np.ndarray, indices: np.ndarray, label: str,
     return vertices, indices.reshape(-1, 3)
 
 
+def _placed(vertices: np.ndarray, mat: np.ndarray, label: str, node: str) -> np.ndarray:
+    """``(v, 3) float64``: a node's vertices in world space by its (4, 4) transform.
+
+    InputError when the transform carries a vertex beyond float64's range.
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        placed = vertices @ mat[:3, :3].T + mat[:3, 3]
+    if not np.isfinite(placed).all():
+        raise InputError(f"{label}: node {node!r}: its transform places vertices beyond "
+                         "float64's range")
+    return placed
+
+
 def _occluder_mesh(vertices: np.ndarray, faces: np.ndarray, label: str, fmt: str,
                    names: list[str], counts: list[int]) -> trimesh.Trimesh:
     if len(faces) == 0:

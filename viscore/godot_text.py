@@ -51,6 +51,7 @@ from .godot_binary import (
     _checked_geometry,
     _load_occ,
     _occluder_mesh,
+    _placed,
     _read_file,
 )
 
@@ -348,12 +349,7 @@ def _load_tscn(data: bytes, path: Path, label: str) -> trimesh.Trimesh:
                                                 node_path)
         vertices, faces = cache[key]
         mat = world_of(node_path, node_path)
-        with np.errstate(over="ignore", invalid="ignore"):
-            placed = vertices @ mat[:3, :3].T + mat[:3, 3]
-        if not np.isfinite(placed).all():
-            raise InputError(f"{label}: node {node_path!r}: its transform places vertices "
-                             "beyond float64's range")
-        parts_v.append(placed)
+        parts_v.append(_placed(vertices, mat, label, node_path))
         parts_f.append(faces + offset)
         offset += len(vertices)
         names.append(node_path)

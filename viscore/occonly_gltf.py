@@ -36,7 +36,7 @@ import numpy.typing as npt
 import trimesh
 
 from ._validate import InputError
-from .godot_binary import _checked_geometry, _occluder_mesh, _read_file
+from .godot_binary import _checked_geometry, _occluder_mesh, _placed, _read_file
 from .godot_text import OccluderInstance, _checked_scene, _unique
 
 __all__ = ["occonly_glb_bytes"]
@@ -138,12 +138,7 @@ def _load_gltf(path: Path, label: str) -> trimesh.Trimesh:
         if not np.isfinite(mat).all():
             raise InputError(f"{label}: node {name!r} has a NaN or infinite transform")
         vertices, faces = _checked_geometry(geom.vertices, geom.faces, label, f"node {name!r}")
-        with np.errstate(over="ignore", invalid="ignore"):
-            placed = vertices @ mat[:3, :3].T + mat[:3, 3]
-        if not np.isfinite(placed).all():
-            raise InputError(f"{label}: node {name!r}: its transform places vertices beyond "
-                             "float64's range")
-        parts_v.append(placed)
+        parts_v.append(_placed(vertices, mat, label, name))
         parts_f.append(faces + offset)
         offset += len(vertices)
         names.append(name)
