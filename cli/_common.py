@@ -25,7 +25,7 @@ from viscore._atomic import check_output_path, file_mode, write_atomic
 from viscore.mesh_io import SAVE_FORMATS, mesh_bytes, mesh_format, save_mesh
 
 __all__ = ["dumps", "emit", "check_output_path", "write_atomic", "file_mode", "check_mesh_path",
-           "check_occluder_path", "write_mesh", "write_occluder", "parse_list",
+           "check_occluder_path", "write_mesh", "write_occluder", "occluder_bytes", "parse_list",
            "check_output_folder", "check_output_file", "format_duration", "warn_estimate",
            "ESTIMATE_WARN_SECONDS", "RateEstimate", "MESH_FORMATS", "OCCLUDER_FORMATS"]
 
@@ -150,7 +150,12 @@ def write_mesh(path: str | os.PathLike, mesh) -> None:
 
 
 def write_occluder(path: str | os.PathLike, mesh, *, name: str) -> None:
-    """Write one occluder atomically, in the format its suffix names.
+    """Write one occluder atomically, in the format its suffix names (:func:`occluder_bytes`)."""
+    write_atomic(path, occluder_bytes(path, mesh, name=name))
+
+
+def occluder_bytes(path: str | os.PathLike, mesh, *, name: str) -> bytes:
+    """The content of one occluder file, in the format the suffix of ``path`` names.
 
     - ``.tres``: one Godot 4 ``ArrayOccluder3D`` resource
       (:func:`viscore.tres_text`);
@@ -159,7 +164,8 @@ def write_occluder(path: str | os.PathLike, mesh, *, name: str) -> None:
     - ``.glb``: the GLB :func:`write_mesh` writes, but for its one node, named
       ``<name>-occonly`` (Godot imports it as an occluder that is not drawn);
       same accessors, buffers and mesh;
-    - any other mesh format: :func:`write_mesh`.
+    - any other mesh format: what :func:`write_mesh` writes
+      (:func:`viscore.mesh_io.mesh_bytes`).
 
     Godot and GLB store float32: a mesh float32 cannot hold is refused with
     one line, as :func:`viscore.mesh_io.mesh_bytes` refuses it for GLB;
@@ -178,8 +184,7 @@ def write_occluder(path: str | os.PathLike, mesh, *, name: str) -> None:
 
     fmt = check_occluder_path(path)
     if fmt not in ("tres", "tscn", "glb"):
-        write_mesh(path, mesh)
-        return
+        return mesh_bytes(mesh, fmt, name=path)
     mesh_bytes(mesh, "glb", name=path)  # float32 must hold it: refused as for GLB
     vertices, indices = mesh.vertices, mesh.faces.reshape(-1)
     try:
@@ -194,7 +199,7 @@ def write_occluder(path: str | os.PathLike, mesh, *, name: str) -> None:
             data = trimesh.exchange.gltf.export_glb(scene)
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
-    write_atomic(path, data)
+    return data
 
 
 def parse_list(text: str, kind: type, option: str) -> tuple:

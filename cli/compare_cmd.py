@@ -1,7 +1,9 @@
 """``viscore compare [MESH ...]``: every registered method on every mesh, with intervals.
 
 Every argument is checked before any work and before the study folder is
-created or touched: the methods and ``--versus`` against the registry, each
+created or touched: the methods and ``--versus`` against the registry (a
+method variant's options also by its generator's own rules across options,
+:func:`viscore.generators.check_method`), each
 budget against each budgeted method's registry entry
 (:meth:`viscore.generators.GeneratorSpec.check_params`, ``min_budget``), the
 sizes (views, quads, pixels, rays) and
@@ -47,7 +49,13 @@ import logging
 from dataclasses import asdict
 from pathlib import Path
 
-from viscore.generators import REGISTRY, get_generator, parse_method, plugin_versions
+from viscore.generators import (
+    REGISTRY,
+    check_method,
+    get_generator,
+    parse_method,
+    plugin_versions,
+)
 
 from viscore import InputError, cpu_cores, load_mesh, provenance
 from viscore._validate import as_positive_int, as_seed, check_memory
@@ -130,12 +138,13 @@ def add_parser(sub, common) -> None:
 
 def _methods(text: str, flag: str = "--methods") -> list[str]:
     """Canonical method labels: registered names, or variants ``name:option=value:...``
-    (:func:`viscore.generators.parse_method`), each once."""
+    (:func:`viscore.generators.parse_method`), each once, and each checked as its
+    generator checks its options (:func:`viscore.generators.check_method`)."""
     names = [m.strip() for m in str(text).split(",") if m.strip()]
     if not names:
         raise InputError(f"{flag}: expected comma-separated methods, got {text!r} "
                          f"(registered: {', '.join(REGISTRY)})")
-    return list(dict.fromkeys(parse_method(m, flag).label for m in names))
+    return list(dict.fromkeys(check_method(m, flag).label for m in names))
 
 
 def _file_specs(items: list[str]) -> list[tuple[str, str]]:

@@ -13,12 +13,13 @@ file says so), the camera
 path (:func:`viscore.metrics.culling.camera_path` or ``--path``) and the
 simulation against the ray-cast ground truth
 (:func:`viscore.metrics.culling.simulate_culling`). Every argument is checked
-before any work (the scene, the occluder files and the camera path are read, the output folder
-checked, the frames capped at :data:`MAX_FRAMES` and their memory estimated,
-for ``--frames`` and ``--path`` alike). Then the output folder is made if
-missing and locked for this process alone (a second ``cull`` on it is refused
-with one line; :func:`viscore.cli.study.store.lock_exclusive`, the lock of a
-study folder), and what a killed run left beside or in it is removed. A run
+before any work (``--methods`` and ``--frusta-method`` by their generators' own rules
+across options, :func:`viscore.generators.check_method`; the scene, the occluder files and
+the camera path are read, the output folder checked, the frames capped at
+:data:`MAX_FRAMES` and their memory estimated, for ``--frames`` and ``--path`` alike).
+Then the output folder is made if missing and locked for this process alone (a second
+``cull`` on it is refused with one line; :func:`viscore.cli.study.store.lock_exclusive`,
+the lock of a study folder), and what a killed run left beside or in it is removed. A run
 that fails or is interrupted removes the folder if it made it.
 
 Outputs in ``--out`` (default ``./viscore-cull``; its parent must exist):
@@ -53,10 +54,10 @@ from pathlib import Path
 
 from viscore.generators import (
     REGISTRY,
+    check_method,
     culling_runtimes,
     frusta_method,
     occluder_objects,
-    parse_method,
 )
 from viscore.generators.scene_occluders import file_occluder
 from viscore.metrics.culling import (
@@ -175,7 +176,7 @@ def _names(text: str | None, option: str) -> list[str] | None:
 
 def _methods(text: str | None, option: str = "--methods") -> list[str]:
     methods = _names(_default_methods() if text is None else text, option)
-    return list(dict.fromkeys(parse_method(m, option).label for m in methods))
+    return list(dict.fromkeys(check_method(m, option).label for m in methods))
 
 
 def _out_dir(text: str) -> Path:

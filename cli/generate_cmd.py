@@ -5,12 +5,18 @@ The methods, their descriptions and their options all come from
 Parts an occluder carries as geometry of their own are written beside OUT:
 a tree (``parts["hierarchy"]``) as ``STEM.hierarchy.json`` plus one PLY per
 node, levels of detail (``parts["lods"]``) as ``STEM.lod<i>.ply``; the
-``--json`` document lists them. OUT is checked before any work: its format,
-its folder, and that files can be made there (that folder holds every file
-written, OUT and the parts beside it); a refusal names ``-o`` and the path.
+``--json`` document lists them. OUT and its parts are one set, written all or
+none (:class:`viscore._atomic.FileSet`: staged in a temporary folder beside
+them, then moved into place, OUT last): a failure on any file leaves none of
+them, and earlier files of those names as they were. OUT is checked before
+any work: its format, its folder, and that files can be made there (that
+folder holds every file written, OUT and the parts beside it); a refusal
+names ``-o`` and the path. So are the method's own rules across its options
+(:meth:`viscore.generators.GeneratorSpec.check_options`), before the mesh is
+loaded.
 
-OUT's suffix names its format (:func:`viscore.cli._common.write_occluder`,
-atomically): a mesh (``.ply``, ``.obj``, ``.off``, ``.stl``), a Godot 4
+OUT's suffix names its format (:func:`viscore.cli._common.occluder_bytes`): a
+mesh (``.ply``, ``.obj``, ``.off``, ``.stl``), a Godot 4
 ``ArrayOccluder3D`` resource (``.tres``), a Godot 4 scene of one
 ``OccluderInstance3D`` node named after MESH (``.tscn``), or a GLB whose one
 node is ``<MESH>-occonly`` (``.glb``; the mesh's GLB otherwise unchanged), so
@@ -26,12 +32,14 @@ import logging
 import numbers
 from pathlib import Path
 
-from viscore.generators import REGISTRY, generate, get_generator, hierarchy_to_json
+from viscore.generators import REGISTRY, generate, get_generator, hierarchy_files
 
 from viscore import InputError, load_mesh, provenance
+from viscore._atomic import FileSet
 from viscore._validate import as_seed
+from viscore.mesh_io import mesh_bytes
 
-from ._common import check_output_file, emit, write_mesh, write_occluder
+from ._common import check_output_file, emit, occluder_bytes
 
 _log = logging.getLogger("viscore")
 
@@ -120,6 +128,7 @@ def run_generate(args) -> int:
     if args.budget is not None:
         params["budget"] = args.budget
     params = spec.check_params(params, flags=True)  # before any work
+    spec.check_options(params)  # the generator's rules across options, before the mesh loads
     if spec.experimental:
         _log.warning("%s is experimental: not yet validated", spec.name)
     mesh = load_mesh(args.mesh)
@@ -127,8 +136,12 @@ def run_generate(args) -> int:
     if occ.triangles == 0:
         raise InputError(f"{args.mesh}: {args.method} produced no triangles"
                          f"{_format_info(occ.info)}")
-    extra = _write_parts(occ, Path(args.output))  # beside OUT, before it
-    write_occluder(args.output, occ.mesh, name=Path(args.mesh).stem)
+    output = Path(args.output)
+    parts, extra = _part_files(occ, output)
+    with FileSet(output.parent) as files:  # OUT and its parts: all or none
+        for name, data in parts.items():
+            files.write(name, data)
+        files.write(output.name, occluder_bytes(output, occ.mesh, name=Path(args.mesh).stem))
     doc = {"mesh": args.mesh, "output": args.output, **occ.summary(), "seed": params["seed"],
            **extra, "provenance": provenance()}
     files = "".join(f"; {key}: {_files_text(value)}" for key, value in extra.items())
@@ -143,18 +156,21 @@ def _files_text(value) -> str:
     return ", ".join(item["file"] for item in value)
 
 
-def _write_parts(occ, output: Path) -> dict:
-    """Write the parts an occluder carries as files beside ``output``; their JSON entries.
+def _part_files(occ, output: Path) -> tuple[dict[str, bytes], dict]:
+    """The files of the parts an occluder carries, to write beside ``output``; their JSON entries.
 
     ``parts["hierarchy"]``: ``STEM.hierarchy.json`` and one PLY per node
-    (:func:`hierarchy_to_json`). ``parts["lods"]``, a list of
-    ``{"distance", "mesh", "voxels"}``: ``STEM.lod<i>.ply`` per entry. Every
-    file is written atomically; OUT itself is written after them.
+    (:func:`hierarchy_files`). ``parts["lods"]``, a list of
+    ``{"distance", "mesh", "voxels"}``: ``STEM.lod<i>.ply`` per entry.
+    Returns ``({file name: bytes}, {"hierarchy": ..., "lods": ...})``.
     """
+    files: dict[str, bytes] = {}
     extra = {}
     if "hierarchy" in occ.parts:
-        path = hierarchy_to_json(occ.parts["hierarchy"], output.parent, output.stem)
-        nodes = json.loads(path.read_text())["nodes"]
+        tree = hierarchy_files(occ.parts["hierarchy"], output.stem)
+        files.update(tree)
+        path = output.parent / f"{output.stem}.hierarchy.json"
+        nodes = json.loads(tree[path.name])["nodes"]
         extra["hierarchy"] = {"file": str(path), "nodes": len(nodes),
                               "meshes": [str(output.parent / n["mesh"]) for n in nodes
                                          if n["mesh"] is not None]}
@@ -162,9 +178,9 @@ def _write_parts(occ, output: Path) -> dict:
         lods = []
         for i, lod in enumerate(occ.parts["lods"]):
             path = output.parent / f"{output.stem}.lod{i}.ply"
-            write_mesh(path, lod["mesh"])
+            files[path.name] = mesh_bytes(lod["mesh"], "ply", name=path)
             lods.append({"file": str(path), "distance": lod["distance"],
                          "voxels": lod.get("voxels"), "voxel_size": lod.get("voxel_size"),
                          "triangles": len(lod["mesh"].faces)})
         extra["lods"] = lods
-    return extra
+    return files, extra

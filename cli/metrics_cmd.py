@@ -17,7 +17,10 @@ space.
 rays (same mesh, occluder and settings; its result is dropped) and, when the
 whole run is estimated beyond a few minutes
 (:data:`viscore.cli._common.ESTIMATE_WARN_SECONDS`), says so on stderr before
-starting it.
+starting it. Its memory does not grow with ``--rays`` (one batch at a time),
+its time does: ``--rays`` is capped at :data:`MAX_RAYS` (about 9 hours at the
+rate measured on a 2-core machine, :data:`RAYS_PER_SECOND`), and a larger
+count is refused with one line giving its time at that rate.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from viscore.metrics.estimates import conservativeness_bytes, evaluation_bytes, 
 from viscore import InputError, load_mesh, load_occluder, provenance
 from viscore._validate import as_fraction, as_positive, as_positive_int, as_seed, check_memory
 
-from ._common import emit, warn_estimate
+from ._common import emit, format_duration, warn_estimate
 
 _log = logging.getLogger("viscore.cli")
 
@@ -47,6 +50,15 @@ _ETA_PROBE_RAYS = 262_144
 #: ``--rays`` from which ``validate`` times a first batch: the batch then costs
 #: under 7% of the run, and a smaller run takes seconds (13 s at 3e5 rays/s).
 _ETA_MIN_RAYS = 4_000_000
+
+#: Rays per second of ``validate``, measured on fat-torus on a busy 2-core machine:
+#: the figure the ``--rays`` cap states its time at.
+RAYS_PER_SECOND = 3e5
+
+#: At most this many ``validate --rays``: 10^10, about 9 hours at
+#: :data:`RAYS_PER_SECOND` (an overnight run; its bound on the violation rate
+#: at 0 violations is 3e-10). More is refused before anything is loaded.
+MAX_RAYS = 10**10
 
 
 #: Help of the OCCLUDER argument (read by :func:`viscore.load_occluder`).
@@ -80,7 +92,10 @@ def add_parser(sub, common) -> None:
                        help="ray-wise conservativeness; exit 1 when the bound exceeds --max-rate")
     v.add_argument("mesh")
     v.add_argument("occluder", help=_OCCLUDER_HELP)
-    v.add_argument("--rays", type=int, default=100_000)
+    v.add_argument("--rays", type=int, default=100_000,
+                   help=f"rays cast (default 100000; at most {MAX_RAYS:.0e}, about "
+                        f"{format_duration(MAX_RAYS / RAYS_PER_SECOND)} at "
+                        f"{RAYS_PER_SECOND:.0e} rays/s)")
     v.add_argument("--confidence", type=float, default=0.95,
                    help="of the upper bound on the violation rate, in (0, 1) (default 0.95)")
     v.add_argument("--max-rate", type=float, default=0.001,
@@ -154,9 +169,31 @@ def run_evaluate(args) -> int:
     return 0
 
 
+def check_rays(value: object) -> int:
+    """``validate --rays``: a positive integer up to :data:`MAX_RAYS`, or one line saying why.
+
+    Examples
+    --------
+    >>> check_rays(10**6)
+    1000000
+    >>> try:
+    ...     check_rays(10**12)
+    ... except InputError as exc:
+    ...     print(exc)
+    --rays 1000000000000: at most 10000000000 (it would take about 39 days at 3e+05 rays/s, ...
+    """
+    rays = as_positive_int(value, "--rays")
+    if rays > MAX_RAYS:
+        raise InputError(f"--rays {rays}: at most {MAX_RAYS} (it would take about "
+                         f"{format_duration(rays / RAYS_PER_SECOND)} at {RAYS_PER_SECOND:.0e} "
+                         f"rays/s, the rate on a 2-core machine; the cap about "
+                         f"{format_duration(MAX_RAYS / RAYS_PER_SECOND)})")
+    return rays
+
+
 def run_validate(args) -> int:
     seed = as_seed(args.seed, "--seed")
-    rays = as_positive_int(args.rays, "--rays")
+    rays = check_rays(args.rays)
     confidence = as_fraction(args.confidence, "--confidence", open_low=True)
     if confidence >= 1:
         raise InputError("--confidence: expected a number in (0, 1), got 1.0")

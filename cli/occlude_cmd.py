@@ -2,7 +2,8 @@
 
 Parse, one call (:func:`viscore.generators.level_occluders.occlude_level`),
 format. Every option is checked before any work and before ``DIR`` is made:
-the methods and their variants (:func:`viscore.generators.parse_method`),
+the methods and their variants (:func:`viscore.generators.check_method`: each
+option, and its generator's own rules across options),
 ``--budget`` against each method's ``min_budget``, ``--min-size`` in (0, 1],
 ``--jobs`` (at most :data:`viscore.cli.study.runner.JOBS_PER_CORE` per core),
 ``--up``, ``-o`` (its parent must exist and be writable), ``--scheduler`` (by
@@ -26,7 +27,7 @@ from __future__ import annotations
 import logging
 import os
 
-from viscore.generators import REGISTRY, parse_method
+from viscore.generators import REGISTRY, check_method, parse_method
 from viscore.generators.level_objects import MIN_SIZE, UP_AXES, default_methods, level_objects
 from viscore.generators.level_occluders import occlude_level
 
@@ -80,7 +81,7 @@ def _methods(text: str | None) -> list[str]:
     if not names:
         raise InputError(f"--methods: expected comma-separated methods, got {text!r} "
                          f"(registered: {', '.join(REGISTRY)})")
-    return list(dict.fromkeys(parse_method(m, "--methods").label for m in names))
+    return list(dict.fromkeys(check_method(m, "--methods").label for m in names))
 
 
 def _check_budget(budget: int | None, methods: list[str]) -> int | None:

@@ -20,6 +20,7 @@ from .planar_hierarchy import (
     build_hierarchy,
     cut_hierarchy,
     generate_planar_hierarchy,
+    hierarchy_files,
     hierarchy_from_json,
     hierarchy_to_json,
     index_hierarchy,
@@ -32,6 +33,7 @@ from .registry import (
     GeneratorSpec,
     MethodVariant,
     PluginError,
+    check_method,
     generate,
     get_generator,
     parse_method,
@@ -49,13 +51,13 @@ from .surface_patches import generate_surface_patches
 from .testing import check_generator
 
 __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOption",
-           "generate", "get_generator", "parse_method", "MethodVariant", "generate_aabb_skins",
-           "boxes_mesh", "generate_qem",
+           "generate", "get_generator", "parse_method", "check_method", "MethodVariant",
+           "generate_aabb_skins", "boxes_mesh", "generate_qem",
            "generate_bbox", "generate_original", "generate_godot", "generate_planar_sections",
            "generate_solid_frusta", "generate_surface_patches", "build_hierarchy", "cut_hierarchy",
            "index_hierarchy",
            "HierarchyIndex", "generate_planar_hierarchy", "hierarchy_to_json",
-           "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify",
+           "hierarchy_files", "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify",
            "occluder_objects", "scene_occluders", "file_occluder", "culling_runtimes",
            "frusta_method",
            "PluginError", "PLUGIN_GROUP", "plugin_versions", "check_generator"]

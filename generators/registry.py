@@ -73,14 +73,14 @@ from .planar_sections.generator import use_hierarchy
 from .plugins import PLUGIN_GROUP, PluginError, _discover_plugins, _run_plugin
 from .solid_frusta import generate_solid_frusta
 from .solid_frusta.generator import use_box_source
-from .specs import COMMON_OPTIONS, GeneratorOption, GeneratorSpec  # noqa: F401
+from .specs import COMMON_OPTIONS, GeneratorOption, GeneratorSpec, check_only  # noqa: F401
 from .surface_patches import generate_surface_patches
 from .surface_patches.generator import MIN_AREA as SURFACE_MIN_AREA
 from .surface_patches.generator import PLANE_TOLERANCE as SURFACE_PLANE_TOLERANCE
 
 __all__ = ["GeneratorOption", "GeneratorSpec", "REGISTRY", "get_generator", "generate",
-           "COMMON_OPTIONS", "MethodVariant", "parse_method", "PluginError", "PLUGIN_GROUP",
-           "plugin_versions"]
+           "COMMON_OPTIONS", "MethodVariant", "parse_method", "check_method", "PluginError",
+           "PLUGIN_GROUP", "plugin_versions"]
 
 _log = logging.getLogger(__name__)
 
@@ -147,8 +147,18 @@ class _Registry(MutableMapping):
             self._state = "pending"
 
 
+def _own(spec: GeneratorSpec) -> GeneratorSpec:
+    """One of the toolkit's methods: its rules across options checked by a check-only call.
+
+    Each of them checks every argument before it touches the mesh, so
+    :meth:`GeneratorSpec.check_options` runs those checks, and nothing else,
+    before any folder or work (:func:`viscore.generators.specs.check_only`).
+    """
+    return dataclasses.replace(spec, checker=check_only(spec.function))
+
+
 REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
-    spec.name: spec for spec in [
+    spec.name: _own(spec) for spec in [
         GeneratorSpec(
             "aabb-skins", generate_aabb_skins,
             "greedy maximal axis-aligned boxes inside the voxelized mesh (occluder skins)",
@@ -437,6 +447,51 @@ def parse_method(text: str, where: str = "method") -> MethodVariant:
     label = ":".join([head] + [f"{k.replace('_', '-')}={_option_text(options[k])}"
                                for k in sorted(options)])
     return MethodVariant(spec=spec, options=options, label=label)
+
+
+def check_method(text: str, where: str = "method") -> MethodVariant:
+    """:func:`parse_method`, then every check the method makes on the variant's options.
+
+    A command that runs methods later (``compare``, ``cull``, ``occlude``)
+    calls this on each one before it creates a folder or starts any work:
+    besides each option's type and range it runs the generator's own rules
+    across options (:meth:`GeneratorSpec.check_options`), so that
+    ``planar-sections:pixel-error=1`` (no distance) fails here with the
+    generator's message rather than inside a job.
+
+    Parameters
+    ----------
+    text : str
+        A method name or variant, as :func:`parse_method` takes.
+    where : str, optional
+        What the error messages name (``--methods``).
+
+    Returns
+    -------
+    MethodVariant
+
+    Raises
+    ------
+    InputError
+        As :func:`parse_method`, or one line naming ``where``, the variant
+        and the generator's refusal.
+
+    Examples
+    --------
+    >>> check_method("planar-sections:close=2").label
+    'planar-sections:close=2'
+    >>> try:
+    ...     check_method("planar-sections:close=2:conservative=true", "--methods")
+    ... except InputError as exc:
+    ...     print(exc)
+    --methods: planar-sections:close=2:conservative=true: close: not with conservative ...
+    """
+    variant = parse_method(text, where)
+    try:
+        variant.spec.check_options(dict(variant.options))
+    except InputError as exc:
+        raise InputError(f"{where}: {variant.label}: {exc}") from None
+    return variant
 
 
 def generate(name: str, mesh, **params) -> Occluder:

@@ -8,6 +8,15 @@ work. :meth:`GeneratorSpec.from_function` derives a spec from a plain function:
 its keyword-only parameters with defaults become the options, their types from
 the defaults or annotations and their help from the numpydoc ``Parameters``
 section. The table of methods is :data:`viscore.generators.REGISTRY`.
+
+:meth:`GeneratorSpec.check_options` runs a method's own argument checks (its
+cross-option rules: ``pixel_error`` needs ``distance``, ``close`` not with
+``conservative``) without doing any work, so that a command refuses a method
+variant before it creates a folder: the spec's :attr:`~GeneratorSpec.checker`.
+The toolkit's own methods have a check-only call of their generator
+(:func:`check_only`, :func:`check_only_call`), which runs the generator itself
+on a stand-in mesh that ends the call at its first use, so the generator's
+validation stays the one source of its rules.
 """
 
 from __future__ import annotations
@@ -210,6 +219,15 @@ class GeneratorSpec:
         ``(distribution, version)`` of the installed package that registered
         the method through the ``viscore.generators`` entry points (``None``:
         one of the toolkit's own). Set by discovery, not by the plugin.
+    checker : callable, optional
+        ``checker(**params)`` runs the method's own argument checks on
+        checked parameters without doing any work, raising
+        :class:`~viscore.InputError` on a conflict
+        (:meth:`check_options`). The toolkit's own methods have
+        :func:`check_only` of their function (a generator that checks its
+        arguments before it touches the mesh); default ``None``, no check
+        beyond :meth:`check_params` (a method of another package may set
+        its own).
     """
 
     name: str
@@ -223,6 +241,7 @@ class GeneratorSpec:
     min_budget: int = 1
     heavy: bool = False
     plugin: tuple[str, str] | None = None
+    checker: Callable[..., None] | None = None
 
     @classmethod
     def from_function(cls, function: Callable, name: str | None = None, *,
@@ -325,6 +344,143 @@ class GeneratorSpec:
                 valid = ", ".join(name(k) for k in (*COMMON_OPTIONS, *known))
                 raise InputError(f"{self.name}: unknown option {name(key)} (takes: {valid})")
         return out
+
+    def check_options(self, params: dict) -> dict:
+        """Every check the method makes on ``params`` before its work, without the work.
+
+        First :meth:`check_params` (types and ranges), then the method's own
+        rules across options, by :attr:`checker` when the spec has one (the
+        toolkit's own methods: a check-only call of the generator,
+        :func:`check_only`). Checks that need the mesh (its size against a
+        voxel grid's memory) are the generator's, when it runs.
+
+        Parameters
+        ----------
+        params : dict
+            Keyword parameters for :attr:`function` (``budget``, ``seed`` and
+            declared options); missing ones take the generator's defaults.
+
+        Returns
+        -------
+        dict
+            The parameters converted to their declared types.
+
+        Raises
+        ------
+        InputError
+            The first value out of type or range, or the method's own message
+            on options that conflict (``pixel_error: needs distance``).
+
+        Examples
+        --------
+        >>> from viscore.generators import REGISTRY
+        >>> spec = REGISTRY["planar-sections"]
+        >>> spec.check_options({"close": 2})
+        {'close': 2}
+        >>> try:
+        ...     spec.check_options({"voxels": 32, "voxel_size": 0.1})
+        ... except InputError as exc:
+        ...     print(exc)
+        voxels and voxel_size: give one way of sizing the voxels
+        """
+        params = self.check_params(params)
+        if self.checker is not None:
+            self.checker(**params)
+        return params
+
+
+class _ChecksPassed(BaseException):
+    """A generator under :func:`check_only_call` reached its mesh: its checks passed.
+
+    A :class:`BaseException`, so that no ``except Exception`` of a generator
+    takes it for a failure of its own and carries on working.
+    """
+
+
+class _CheckOnlyMesh(trimesh.Trimesh):
+    """A stand-in mesh that ends a check-only call at its first use.
+
+    It passes ``isinstance(mesh, trimesh.Trimesh)``; reading any of its
+    attributes (``faces``, ``vertices``, ``bounds``, ``metadata``, a method)
+    raises :class:`_ChecksPassed`, as do the special methods ``trimesh``
+    defines (they read attributes), so the generator stops where its work
+    would begin.
+    """
+
+    def __init__(self) -> None:  # no geometry, nothing of Trimesh's state
+        pass
+
+    def __getattribute__(self, name: str):
+        if name == "__class__":  # isinstance
+            return object.__getattribute__(self, name)
+        raise _ChecksPassed(name)
+
+
+def check_only(function: Callable) -> Callable[..., None]:
+    """A :attr:`GeneratorSpec.checker` that is a check-only call of ``function``.
+
+    For a generator that checks all its arguments before it first uses the
+    mesh, as the toolkit's own do (:func:`check_only_call`).
+    """
+    def checker(**params) -> None:
+        check_only_call(function, params)
+    checker.__name__ = f"check_only({getattr(function, '__name__', 'generator')})"
+    return checker
+
+
+def check_only_call(function: Callable, params: dict) -> bool:
+    """Run ``function(mesh, **params)`` up to its first use of the mesh: its checks, no work.
+
+    The generator gets a stand-in :class:`trimesh.Trimesh` whose first use
+    ends the call, so whatever it checks before it touches the mesh (every
+    rule across its options, for the toolkit's generators) runs exactly as
+    in a real call, and nothing after.
+
+    Parameters
+    ----------
+    function : callable
+        A generator ``function(mesh, *, budget, seed, **options)``.
+    params : dict
+        Its keyword parameters.
+
+    Returns
+    -------
+    bool
+        True when the call reached the mesh (every check before it passed);
+        False when it ended otherwise without an :class:`~viscore.InputError`
+        (returned, or failed on the stand-in in a way only a real mesh
+        avoids: the checks are then left to the real call).
+
+    Raises
+    ------
+    InputError
+        The generator's own refusal of ``params``.
+
+    Examples
+    --------
+    >>> from viscore import InputError
+    >>> def method(mesh, *, budget=None, seed=0, side=1.0):
+    ...     if side <= 0:
+    ...         raise InputError("side: expected a positive length")
+    ...     return mesh.copy()  # the work: never reached
+    >>> check_only_call(method, {"side": 2.0})
+    True
+    >>> try:
+    ...     check_only_call(method, {"side": -1.0})
+    ... except InputError as exc:
+    ...     print(exc)
+    side: expected a positive length
+    """
+    try:
+        function(_CheckOnlyMesh(), **params)
+    except _ChecksPassed:
+        return True
+    except InputError:
+        raise
+    except Exception:  # noqa: BLE001 - a use of the stand-in only a real mesh survives
+        _log.debug("check-only call of %r ended before the mesh", function, exc_info=True)
+        return False
+    return False
 
 
 

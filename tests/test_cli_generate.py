@@ -166,6 +166,84 @@ def test_generate_writes_hierarchy_and_lods_beside_the_output(monkeypatch, tmp_p
     assert "occ.hierarchy.json + 5 node meshes" in text and "occ.lod1.ply" in text
 
 
+@pytest.mark.parametrize("failing", [5, "last"])
+def test_generate_writes_the_output_and_its_parts_all_or_none(failing, monkeypatch, tmp_path,
+                                                              capfd):
+    """Issue 23: a failure on the 5th file, or on OUT after its parts, leaves no partial set.
+
+    A set written before (a previous run's) keeps its content.
+    """
+    from viscore._atomic import FileSet
+
+    monkeypatch.setitem(REGISTRY, "parts", GeneratorSpec("parts", _boxes_with_parts,
+                                                         "boxes with parts", budgeted=False))
+    out = tmp_path / "occ.ply"
+    assert main(["generate", "parts", "cow", "-o", str(out)]) == 0
+    capfd.readouterr()
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert len(before) == 9  # 5 node meshes, the tree JSON, 2 levels of detail, OUT
+    for p in tmp_path.iterdir():
+        p.unlink()
+    (tmp_path / "occ.node0000.ply").write_bytes(b"an older node")
+    (tmp_path / "notes.txt").write_bytes(b"the user's")
+    kept = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    real = FileSet.write
+    calls = []
+
+    def write(self, name, data):
+        calls.append(name)
+        if len(calls) == (len(before) if failing == "last" else failing):
+            raise OSError(28, "No space left on device", str(self.folder / name))
+        return real(self, name, data)
+
+    monkeypatch.setattr(FileSet, "write", write)
+    assert main(["generate", "parts", "cow", "-o", str(out)]) == 2
+    err = capfd.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("viscore: error: No space left"), err
+    assert calls[-1] == ("occ.ply" if failing == "last" else calls[4])
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == kept  # hidden files too
+
+
+def _warning_tree(mesh, *, budget=None, seed=0):
+    """A hierarchy whose node builder warns at every node and refuses the leaves."""
+    import logging
+
+    from viscore.generators.planar_hierarchy import build_hierarchy
+
+    from viscore import InputError
+
+    def builder(part, *, budget, seed):
+        logging.getLogger("viscore.generators.test_builder").warning("this node is open")
+        if part.extents.max() < 1.5:
+            raise InputError("nothing inside")
+        return trimesh.creation.box(bounds=part.bounds)
+
+    boxes = [trimesh.creation.box(bounds=[[2.0 * i, 0, 0], [2.0 * i + 1, 1, 1]])
+             for i in range(3)]
+    root = build_hierarchy(boxes, node_occluder=builder, voxels=4)
+    return Occluder(mesh=root["occluder"], method="tree", params={}, double_sided=True,
+                    seconds=0.0, parts={"hierarchy": root})
+
+
+def test_generate_hierarchy_says_each_node_warning_once(monkeypatch, tmp_path, capfd):
+    """Issue 23: the same warning printed once per node (29 lines on city-block)."""
+    monkeypatch.setitem(REGISTRY, "tree", GeneratorSpec("tree", _warning_tree, "a tree",
+                                                        budgeted=False))
+    assert main(["generate", "tree", "cow", "-o", str(tmp_path / "t.ply")]) == 0
+    err = capfd.readouterr().err.strip().splitlines()
+    assert err == ["viscore: hierarchy: 5 of 5 nodes: this node is open",
+                   "viscore: hierarchy: 3 of 5 nodes: no occluder: nothing inside"]
+
+
+def test_generate_solid_frusta_open_mesh_warns_once(tmp_path, capfd):
+    """Issue 23: "not closed" printed twice for one generate (aabb-skins', then its own)."""
+    assert main(["generate", "solid-frusta", "building-cottage", "-o", str(tmp_path / "s.ply"),
+                 "--voxels", "32"]) == 0
+    err = capfd.readouterr().err
+    assert err.count("not closed") == 1, err
+    assert "solid-frusta: building-cottage is not closed" in err, err
+
+
 def test_generate_without_parts_writes_only_the_output(tmp_path, capsys):
     out = tmp_path / "b.ply"
     assert main(["generate", "bbox", "cow", "-o", str(out), "--json"]) == 0

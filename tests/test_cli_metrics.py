@@ -146,7 +146,10 @@ def test_memory_message_reads_a_small_share_right(capsys, monkeypatch):
 
 
 def test_validate_hours_long_run_prints_an_estimate_first(capsys, monkeypatch):
-    """Issue 23: --rays 1e12 started silently; the estimate comes from a timed first batch."""
+    """Issue 23: --rays 1e12 started silently; the estimate comes from a timed first batch.
+
+    (10^12 is now over the cap: the largest count accepted, hours long, shows the estimate.)
+    """
     from viscore.cli import metrics_cmd
 
     real = metrics_cmd.check_conservative
@@ -159,12 +162,32 @@ def test_validate_hours_long_run_prints_an_estimate_first(capsys, monkeypatch):
         return real(mesh, occ, rays=rays, **kw)
 
     monkeypatch.setattr(metrics_cmd, "check_conservative", probe_only)
-    argv = ["validate", "fat-torus", "fat-torus", "--rays", str(10**12), "--json"]
+    rays = metrics_cmd.MAX_RAYS
+    argv = ["validate", "fat-torus", "fat-torus", "--rays", str(rays), "--json"]
     assert main(argv) == 130
     captured = capsys.readouterr()
     assert captured.out == ""  # --json stdout stays clean
-    assert "--rays 1000000000000: estimated" in captured.err, captured.err
-    assert calls == [metrics_cmd._ETA_PROBE_RAYS, 10**12]
+    assert f"--rays {rays}: estimated" in captured.err, captured.err
+    assert calls == [metrics_cmd._ETA_PROBE_RAYS, rays]
+
+
+@pytest.mark.parametrize("rays", [10**10 + 1, 10**12, 2**70])
+def test_validate_rays_over_the_cap_refused_with_its_time(rays, capfd, monkeypatch):
+    """Issue 23: --rays 1e12 (39 days at the measured rate) was accepted with a warning."""
+    from viscore.cli import metrics_cmd
+
+    def no_work(*a, **k):
+        raise AssertionError("nothing may be loaded or cast over the cap")
+
+    monkeypatch.setattr(metrics_cmd, "load_mesh", no_work)
+    monkeypatch.setattr(metrics_cmd, "check_conservative", no_work)
+    assert metrics_cmd.MAX_RAYS == 10**10
+    assert main(["validate", "fat-torus", "fat-torus", "--rays", str(rays)]) == 2
+    err = capfd.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        f"viscore: error: --rays {rays}: at most 10000000000 (it would take about "), err
+    assert "rays/s" in err[0] and "the cap about 9.3 h" in err[0]
+    assert metrics_cmd.check_rays(metrics_cmd.MAX_RAYS) == metrics_cmd.MAX_RAYS
 
 
 def test_validate_short_run_has_no_probe(capsys, monkeypatch):

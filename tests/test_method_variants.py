@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 from viscore.cli.main import main
-from viscore.generators import generate, parse_method
+from viscore.generators import check_method, generate, parse_method
 
 from viscore import InputError
 
@@ -76,3 +76,60 @@ def test_compare_runs_variants_as_methods_of_their_own(tmp_path, capsys):
                  "--out", str(bad)]) == 2
     assert "--methods: aabb-skins:max-boxes" in capsys.readouterr().err
     assert not bad.exists()
+
+
+#: Variants whose options conflict (issue 23): each option is valid, their pairing is not.
+CONFLICTING = [
+    ("planar-sections:pixel-error=1", "pixel_error: needs distance"),
+    ("planar-sections:voxels=32:voxel-size=0.1", "voxels and voxel_size: give one way"),
+    ("planar-sections:close=2:conservative=true", "close: not with conservative"),
+    ("planar-sections:hierarchy=true:voxel-size=0.1", "voxel_size: not with a hierarchy"),
+]
+
+
+@pytest.mark.parametrize("text, message", CONFLICTING)
+def test_check_method_runs_the_generators_rules_across_options(text, message):
+    assert parse_method(text).options  # each option alone is fine
+    with pytest.raises(InputError, match=f"^--methods: {parse_method(text).label}: {message}"):
+        check_method(text, "--methods")
+    assert check_method("planar-sections:pixel-error=1:distance=20").options == {
+        "pixel_error": 1.0, "distance": 20.0}
+
+
+def _no_work(*args, **kwargs):
+    raise AssertionError("nothing may be loaded or generated before the methods are checked")
+
+
+@pytest.mark.parametrize("command", ["compare", "cull", "occlude"])
+@pytest.mark.parametrize("text, message", CONFLICTING[:3])
+def test_conflicting_variants_refused_before_any_folder_or_work(command, text, message,
+                                                                tmp_path, monkeypatch, capfd):
+    """Issue 23: the rule fired inside the job, after the study folder, lock and store."""
+    from viscore.cli import compare_cmd, cull_cmd, occlude_cmd
+
+    for module in (compare_cmd, cull_cmd, occlude_cmd):
+        for name in ("load_mesh", "load_scene_objects", "level_objects", "run_study",
+                     "culling_runtimes", "occlude_level"):
+            if hasattr(module, name):
+                monkeypatch.setattr(module, name, _no_work)
+    out = tmp_path / "out"
+    argv = {"compare": ["compare", "fat-torus", "--out", str(out)],
+            "cull": ["cull", "city", "--out", str(out)],
+            "occlude": ["occlude", "building-house", "-o", str(out)]}[command]
+    assert main([*argv, "--methods", f"bbox,{text}"]) == 2
+    err = capfd.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("viscore: error: --methods: planar-sections"), err
+    assert message in err[0]
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_compare_checks_culling_methods_and_cull_its_frusta_method(tmp_path, capfd):
+    out = tmp_path / "out"
+    assert main(["compare", "fat-torus", "--out", str(out), "--methods", "bbox",
+                 "--culling-methods", "planar-sections:pixel-error=1"]) == 2
+    assert "--culling-methods: planar-sections" in capfd.readouterr().err
+    assert main(["cull", "city", "--out", str(out),
+                 "--frusta-method", "planar-sections:close=1:conservative=yes"]) == 2
+    err = capfd.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--frusta-method: planar-sections" in err[0], err
+    assert not out.exists()

@@ -6,6 +6,7 @@ depend on which builder makes each node's occluder.
 """
 
 import json
+import logging
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from viscore.generators.planar_hierarchy import (
     cut_hierarchy,
     dilated_voxel_mesh,
     generate_planar_hierarchy,
+    hierarchy_files,
     hierarchy_from_json,
     hierarchy_to_json,
     index_hierarchy,
@@ -226,6 +228,34 @@ def test_hierarchy_json_round_trip(city, tmp_path):
                 == [n["id"] for n in cut_hierarchy(back, cam)])
 
 
+def test_hierarchy_files_are_the_written_set_json_last(boxes_row, tmp_path):
+    _, root = boxes_row
+    files = hierarchy_files(root, "row")
+    assert list(files)[-1] == "row.hierarchy.json"
+    assert list(files)[:-1] == [f"row.node{i:04d}.ply" for i in range(len(_walk(root)))]
+    hierarchy_to_json(root, tmp_path, "row")
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == files
+
+
+def test_hierarchy_json_is_written_all_or_none(boxes_row, tmp_path, monkeypatch):
+    """Issue 23: a disk error on the 5th file left the first four beside no JSON."""
+    from viscore._atomic import FileSet
+
+    _, root = boxes_row
+    real, calls = FileSet.write, []
+
+    def write(self, name, data):
+        calls.append(name)
+        if len(calls) == 5:
+            raise OSError(28, "No space left on device", str(self.folder / name))
+        return real(self, name, data)
+
+    monkeypatch.setattr(FileSet, "write", write)
+    with pytest.raises(OSError, match="No space"):
+        hierarchy_to_json(root, tmp_path, "row")
+    assert len(calls) == 5 and list(tmp_path.iterdir()) == []
+
+
 def test_generate_planar_hierarchy_returns_the_root(boxes_row):
     boxes, _ = boxes_row
     occ = generate_planar_hierarchy(boxes, budget=12, voxels=8, node_occluder="qem")
@@ -353,6 +383,40 @@ def test_build_hierarchy_builder_refusals():
     root = build_hierarchy(pair, node_occluder=refuse_small, voxels=4)
     assert root["triangles"] == 12 and not root["note"]
     assert all(leaf["triangles"] == 0 and leaf["note"] == "too small" for leaf in _leaves(root))
+
+
+def _open_node_builder(mesh, *, budget, seed):
+    """A builder that warns at every node and refuses the small ones."""
+    logging.getLogger("viscore.generators.test_node_builder").warning("the node is open")
+    if mesh.extents.max() < 1.5:
+        raise InputError("too small")
+    return trimesh.creation.box(bounds=mesh.bounds)
+
+
+def _three_boxes():
+    return [trimesh.creation.box(bounds=[[2.0 * i, 0, 0], [2.0 * i + 1, 1, 1]])
+            for i in range(3)]
+
+
+def test_build_hierarchy_says_each_builder_line_once(caplog):
+    """Issue 23: a warning per node (29 times on city-block) is one line with its count."""
+    caplog.set_level(logging.INFO, logger="viscore")
+    root = build_hierarchy(_three_boxes(), node_occluder=_open_node_builder, voxels=4)
+    assert len(_walk(root)) == 5
+    said = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    assert said == ["hierarchy: 5 of 5 nodes: the node is open",
+                    "hierarchy: 3 of 5 nodes: no occluder: too small"]
+    assert [leaf["note"] for leaf in _leaves(root)] == ["too small"] * 3
+
+
+def test_build_hierarchy_every_node_refused_is_the_error_alone(caplog):
+    def refuse_all(mesh, *, budget, seed):
+        raise InputError("alpha: expected a percentage >= 0")
+
+    caplog.set_level(logging.INFO, logger="viscore")
+    with pytest.raises(InputError, match="every node failed"):
+        build_hierarchy(_three_boxes(), node_occluder=refuse_all, voxels=4)
+    assert [r.getMessage() for r in caplog.records] == []
 
 
 def test_build_hierarchy_small_object_beside_a_large_one_keeps_its_faces():

@@ -1,5 +1,7 @@
 """Solid-frusta generator: convex solids inside the mesh, conservative, volume share."""
 
+import logging
+
 import numpy as np
 import pytest
 import trimesh
@@ -91,6 +93,20 @@ def test_solid_frusta_boxes_only_and_budget():
 def test_solid_frusta_open_mesh_not_guaranteed(open_cube):
     occ = generate_solid_frusta(open_cube, voxels=16, pieces="boxes-only")
     assert not occ.info["conservative_guaranteed"]
+
+
+def test_solid_frusta_open_mesh_warns_once(open_cube, caplog):
+    """Issue 23: its box source's "not closed" warning came first, then its own."""
+    caplog.set_level(logging.INFO, logger="viscore")
+    generate_solid_frusta(open_cube, voxels=16)
+    warnings = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    assert len(warnings) == 1 and warnings[0].startswith("solid-frusta: ")
+    assert "not closed" in warnings[0]
+    infos = [r.getMessage() for r in caplog.records if r.levelno == logging.INFO]
+    assert any(m.startswith("aabb-skins: ") for m in infos)  # its other lines are kept
+    caplog.clear()
+    generate_aabb_skins(open_cube, voxels=16)  # alone, aabb-skins says it itself
+    assert any("not closed" in r.getMessage() for r in caplog.records)
 
 
 def test_containment_rejects_crossing_and_accepts_inner():

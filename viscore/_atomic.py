@@ -7,19 +7,21 @@ The core's shared set (STYLE rule 3: private to the package, imported by
 ``viscore.metrics``, ``viscore.generators`` and ``viscore.cli`` alike):
 :func:`write_atomic`, :func:`check_output_path`, :func:`file_mode` (the
 mode a new file gets, for writers that make their own temporary files, such
-as the command line's all-or-none output folders) and :func:`swap_folder`
-(a whole folder of files replaced in one step).
+as the command line's all-or-none output folders), :func:`swap_folder`
+(a whole folder of files replaced in one step) and :class:`FileSet` (files
+written beside others in a folder, all or none).
 """
 
 from __future__ import annotations
 
 import errno
 import os
+import shutil
 import stat
 import tempfile
 from pathlib import Path
 
-__all__ = ["write_atomic", "check_output_path", "file_mode", "swap_folder"]
+__all__ = ["write_atomic", "check_output_path", "file_mode", "swap_folder", "FileSet"]
 
 #: ``renameat2`` arguments (Linux ``<fcntl.h>``, ``<linux/fs.h>``).
 _AT_FDCWD, _RENAME_EXCHANGE = -100, 2
@@ -209,3 +211,143 @@ def swap_folder(new: str | os.PathLike, target: str | os.PathLike) -> None:
     finally:
         if old.is_dir() and not any(old.iterdir()):
             old.rmdir()
+
+
+class FileSet:
+    """Files written into one folder as a set, all or none: ``with FileSet(folder) as fs:``.
+
+    Each :meth:`write` lands in a hidden temporary folder inside ``folder``
+    (``.viscore-set-*.tmp``, on the same filesystem); when the ``with`` block
+    ends without an exception, every file is moved into place, and if a move
+    fails the ones already moved are undone (a file they replaced is put
+    back). On any exception, in the block or while moving, none of the new
+    files is left in ``folder`` and files it held before keep their content.
+    The temporary folder is always removed. Use it where a set of files sits
+    beside the user's own (a hierarchy's JSON and node meshes beside OUT);
+    a folder of our own is swapped whole (:func:`swap_folder`).
+
+    Parameters
+    ----------
+    folder : path
+        An existing folder (it is not created).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     with FileSet(d) as files:
+    ...         _ = files.write("a.txt", b"1")
+    ...         _ = files.write("b.txt", b"2")
+    ...     print(sorted(p.name for p in Path(d).iterdir()))
+    ['a.txt', 'b.txt']
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     try:
+    ...         with FileSet(d) as files:
+    ...             _ = files.write("a.txt", b"1")
+    ...             raise OSError("disk full")
+    ...     except OSError:
+    ...         pass
+    ...     print(list(Path(d).iterdir()))
+    []
+    """
+
+    def __init__(self, folder: str | os.PathLike) -> None:
+        self.folder = Path(folder)
+        self._names: list[str] = []
+        self._tmp: Path | None = None
+
+    def __enter__(self) -> FileSet:
+        try:
+            self._tmp = Path(tempfile.mkdtemp(prefix=".viscore-set-", suffix=".tmp",
+                                              dir=self.folder))
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(self.folder)) from None
+        return self
+
+    def write(self, name: str, data: bytes) -> Path:
+        """Stage ``data`` as the file ``name`` of the folder; returns the path it will have.
+
+        Raises
+        ------
+        ValueError
+            ``name`` is not a plain file name, or was written already.
+        OSError
+            Writing fails; its ``filename`` is the final path.
+        """
+        if self._tmp is None:
+            raise RuntimeError("FileSet.write outside its with block")
+        if not name or Path(name).name != name or name in (".", "..") or name in self._names:
+            raise ValueError(f"expected a new file name without a folder, got {name!r}")
+        target = self.folder / name
+        try:
+            mode = stat.S_IMODE(os.stat(target).st_mode)  # an existing file keeps its mode
+        except OSError:
+            mode = file_mode()
+        try:
+            with open(self._tmp / name, "wb") as fh:
+                os.fchmod(fh.fileno(), mode)
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from None
+        self._names.append(name)
+        return target
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        try:
+            if exc_type is None:
+                self._commit()
+        finally:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+            self._tmp = None
+
+    def _commit(self) -> None:
+        """Move every staged file into place; on a failure, undo the moves made."""
+        moved: list[tuple[Path, Path | None]] = []  # (target, its old file kept aside)
+        for name in self._names:
+            target = self.folder / name
+            try:
+                old = self._keep_old(target)
+                os.replace(self._tmp / name, target)
+            except OSError as exc:
+                self._undo(moved)
+                raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from None
+            moved.append((target, old))
+        _fsync_folder(self.folder)
+
+    def _keep_old(self, target: Path) -> Path | None:
+        """A hard link to the file at ``target`` in the temporary folder, or None."""
+        if not os.path.isfile(target) or os.path.islink(target):
+            return None
+        old = self._tmp / f".old-{target.name}"
+        try:
+            os.link(target, old)
+        except OSError:  # a filesystem without hard links: the undo removes the new file
+            return None
+        return old
+
+    @staticmethod
+    def _undo(moved: list[tuple[Path, Path | None]]) -> None:
+        for target, old in reversed(moved):
+            try:
+                if old is not None:
+                    os.replace(old, target)
+                else:
+                    target.unlink(missing_ok=True)
+            except OSError:
+                pass
+
+
+def _fsync_folder(folder: Path) -> None:
+    """Make renames in ``folder`` durable where the filesystem allows."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

@@ -82,6 +82,7 @@ from viscore.voxels import (
     voxel_grid,
 )
 
+from .._held_logs import held_records, report_parts
 from ..occluder import Occluder
 
 __all__ = ["build_hierarchy", "dilated_voxel_mesh", "NODE_OCCLUDERS", "register_node_occluder",
@@ -352,6 +353,12 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
         unless the builder refused the node with an :class:`InputError`: the
         node then has an empty occluder, and a warning is logged).
 
+    What the builder logs at the nodes is held back while they are built and
+    said once per distinct line at the end, with how many nodes gave it
+    (``hierarchy: 29 of 57 nodes: ...``; one node: ``hierarchy node 12:
+    ...``; :func:`viscore.generators._held_logs.report_parts`), refusals
+    included (``no occluder: ...``).
+
     Raises
     ------
     InputError
@@ -426,10 +433,35 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
                               / n["voxel_size"] + 3 + 2 * n["dilation"] + 4)) for n in nodes)
     check_memory(worst * VOXELIZE_BYTES_PER_CELL, "hierarchy: the largest node's voxel grid")
 
+    faces_of = [np.concatenate([objects[i] for i in n["objects"]]) for n in nodes]
+    held: list = []  # (node id, log record): the builder's lines, said once each at the end
+    failures = []
+    try:
+        failures = _build_nodes(nodes, mesh, faces_of, builder, held, budget=budget,
+                                seed=seed, node_options=node_options)
+    finally:
+        if len(failures) == len(nodes):  # said once below, as the error
+            held = [(i, r) for i, r in held if not getattr(r, "node_refusal", False)]
+        report_parts(held, len(nodes))
+    if len(failures) == len(nodes):  # bad builder options, most likely: say so once
+        raise InputError(f"node_occluder {builder_name}: every node failed; the first: "
+                         f"{failures[0]}")
+    root["builder"] = builder_name
+    return root
+
+
+def _build_nodes(nodes: list, mesh: trimesh.Trimesh, faces_of: list, builder: Callable,
+                 held: list, *, budget, seed, node_options: dict) -> list[InputError]:
+    """Each node's occluder, children first; returns the builder's refusals.
+
+    A builder's log lines are held back (:func:`held_records`) and added to
+    ``held`` with their node's id, for :func:`report_parts` to say each once;
+    a refusal (:class:`InputError`) leaves the node an empty occluder and is
+    added as a warning of its own (marked ``node_refusal``).
+    """
     names = _keywords(builder)
     dilate_kw = next((k for k in ("dilation", "dilate") if k in names), None)
     size_kw = next((k for k in ("voxel_size", "pitch") if k in names), None)
-    faces_of = [np.concatenate([objects[i] for i in n["objects"]]) for n in nodes]
     failures = []
     for n in reversed(nodes):
         geometry = _submesh(mesh, faces_of[n["id"]])
@@ -451,11 +483,17 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
         start = time.perf_counter()
         note = ""
         try:
-            made = builder(given, budget=budget, seed=seed, **kw)
+            with held_records() as records:
+                made = builder(given, budget=budget, seed=seed, **kw)
         except InputError as exc:  # e.g. nothing to build at this node
             made, note = _empty_mesh(), str(exc)
             failures.append(exc)
-            _log.warning("hierarchy node %d: %s", n["id"], exc)
+            refusal = _log.makeRecord(_log.name, logging.WARNING, __file__, 0,
+                                      "no occluder: %s", (exc,), None)
+            refusal.node_refusal = True
+            records.append(refusal)
+        finally:
+            held.extend((n["id"], r) for r in records)
         occ_mesh = made.mesh if isinstance(made, Occluder) else made
         if not isinstance(occ_mesh, trimesh.Trimesh):
             raise TypeError(f"node_occluder returned {type(made).__name__}, "
@@ -478,11 +516,7 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
         n["note"] = note
         n["objects"] = np.asarray(n["objects"], dtype=np.int64)
         del n["_diag"]
-    if len(failures) == len(nodes):  # bad builder options, most likely: say so once
-        raise InputError(f"node_occluder {builder_name}: every node failed; the first: "
-                         f"{failures[0]}")
-    root["builder"] = builder_name
-    return root
+    return failures
 
 
 def _walk(root: dict) -> list[dict]:

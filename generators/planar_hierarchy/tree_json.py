@@ -1,8 +1,10 @@
 """An occluder hierarchy on disk: ``STEM.hierarchy.json`` and one PLY per node.
 
 :func:`hierarchy_to_json` writes the tree of
-:func:`viscore.generators.planar_hierarchy.build_hierarchy`,
-:func:`hierarchy_from_json` reads and checks it back.
+:func:`viscore.generators.planar_hierarchy.build_hierarchy`, every file or none
+(:class:`viscore._atomic.FileSet`); :func:`hierarchy_files` gives the same files
+as names and bytes, for a writer of a larger set (``viscore generate`` writes
+them and OUT as one set); :func:`hierarchy_from_json` reads and checks it back.
 """
 
 from __future__ import annotations
@@ -15,13 +17,13 @@ import numpy as np
 import trimesh
 
 from viscore import InputError
-from viscore._atomic import check_output_path, write_atomic
+from viscore._atomic import FileSet, check_output_path
 from viscore.mesh_io import ply_bytes
 
 from .cut import index_hierarchy
 from .tree import _empty_mesh, _walk
 
-__all__ = ["hierarchy_to_json", "hierarchy_from_json"]
+__all__ = ["hierarchy_to_json", "hierarchy_files", "hierarchy_from_json"]
 
 #: Format name and version written into, and required from, the tree JSON.
 _FORMAT = "viscore-occluder-hierarchy"
@@ -57,12 +59,14 @@ def hierarchy_to_json(tree: dict, folder: str | os.PathLike, stem: str) -> Path:
         A missing folder, a stem with a folder in it, or a tree
         :func:`index_hierarchy` refuses; before any file is written.
     OSError
-        If writing fails.
+        If writing fails; then none of the files is left (earlier files of
+        those names keep their content).
 
     Notes
     -----
-    Every file is written atomically (temporary file and rename), meshes
-    first and the JSON last, so a JSON never names a mesh not yet written.
+    The files are one set, written all or none (:class:`viscore._atomic.FileSet`:
+    into a temporary folder beside them, then moved into place, meshes first
+    and the JSON last), so a JSON never names a mesh not written.
 
     Examples
     --------
@@ -75,20 +79,61 @@ def hierarchy_to_json(tree: dict, folder: str | os.PathLike, stem: str) -> Path:
     ...     print(path.name, len(back["occluder"].faces))
     box.hierarchy.json 12
     """
-    if not isinstance(stem, str) or not stem or Path(stem).name != stem or stem in (".", ".."):
-        raise InputError(f"stem: expected a file name without a folder, got {stem!r}")
+    _check_stem(stem)
     folder = Path(folder)
     json_path = check_output_path(folder / f"{stem}.hierarchy.json")
+    files = hierarchy_files(tree, stem)
+    with FileSet(folder) as out:
+        for name, data in files.items():
+            out.write(name, data)
+    return json_path
+
+
+def _check_stem(stem: object) -> None:
+    if not isinstance(stem, str) or not stem or Path(stem).name != stem or stem in (".", ".."):
+        raise InputError(f"stem: expected a file name without a folder, got {stem!r}")
+
+
+def hierarchy_files(tree: dict, stem: str) -> dict[str, bytes]:
+    """The files :func:`hierarchy_to_json` writes, as names and bytes, without writing.
+
+    Parameters
+    ----------
+    tree : dict
+        The root node (:func:`build_hierarchy`).
+    stem : str
+        File name stem, without any folder.
+
+    Returns
+    -------
+    dict of str -> bytes
+        ``STEM.nodeNNNN.ply`` per node with faces, in node order, then
+        ``STEM.hierarchy.json`` (last); the names are relative to one folder.
+
+    Raises
+    ------
+    InputError
+        A stem with a folder in it, or a tree :func:`index_hierarchy` refuses.
+
+    Examples
+    --------
+    >>> from viscore.generators import build_hierarchy
+    >>> root = build_hierarchy(trimesh.creation.box(), node_occluder="qem", budget=12)
+    >>> list(hierarchy_files(root, "box"))
+    ['box.node0000.ply', 'box.hierarchy.json']
+    """
+    _check_stem(stem)
     index = index_hierarchy(tree)
     nodes = list(index.nodes)
     ids = {id(n): i for i, n in enumerate(nodes)}
     records = []
+    files: dict[str, bytes] = {}
     for i, n in enumerate(nodes):
         occ = n.get("occluder")
         name = None
         if isinstance(occ, trimesh.Trimesh) and len(occ.faces):
             name = f"{stem}.node{i:04d}.ply"
-            write_atomic(folder / name, ply_bytes(occ))
+            files[name] = ply_bytes(occ)
         gb = n.get("geometry_bounds", n["bounds"])
         records.append({
             "id": i, "bounds": np.asarray(n["bounds"], dtype=float).tolist(),
@@ -102,8 +147,8 @@ def hierarchy_to_json(tree: dict, folder: str | os.PathLike, stem: str) -> Path:
             "note": str(n.get("note", ""))})
     doc = {"format": _FORMAT, "version": _VERSION, "builder": str(tree.get("builder", "")),
            "nodes": records}
-    write_atomic(json_path, json.dumps(doc, indent=1).encode())
-    return json_path
+    files[f"{stem}.hierarchy.json"] = json.dumps(doc, indent=1).encode()
+    return files
 
 
 def _load_ply(path: Path, label: str) -> trimesh.Trimesh:

@@ -57,6 +57,7 @@ from viscore._validate import as_positive_int, as_seed, check_memory
 from viscore.voxels import inside_voxels_winding
 
 from .._boxes import boxes_mesh
+from .._held_logs import held_records, release
 from ..occluder import Occluder
 
 __all__ = ["generate_solid_frusta", "PIECES"]
@@ -346,8 +347,10 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
     oriented meshes: boxes by the aabb-skins argument, hulls by the
     containment tests of the module docstring (up to float rounding, with a
     margin of :data:`MARGIN_PITCH` voxels). On other meshes nothing is
-    guaranteed (``conservative_guaranteed`` False). May return fewer solids
-    than asked, or none on thin input.
+    guaranteed (``conservative_guaranteed`` False), and one warning says so
+    (the box source's own warnings on such a mesh, about the same openness,
+    are not repeated). May return fewer solids than asked, or none on thin
+    input.
 
     References
     ----------
@@ -382,9 +385,11 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
                  f"solid-frusta: voxels={voxels} ({grid.shape[0]} x {grid.shape[1]} x "
                  f"{grid.shape[2]} voxels)")
 
-    skins = source["generate"](mesh, voxels=voxels, max_boxes=solids, fill=1.0)
+    with held_records() as said:  # the box source's lines: its warning on openness is ours
+        skins = source["generate"](mesh, voxels=voxels, max_boxes=solids, fill=1.0)
     boxes = np.asarray(skins.parts["boxes"], dtype=np.float64)
     closed = bool(skins.info["closed_oriented"])
+    release([r for r in said if closed or r.levelno < logging.WARNING])
     vox = voxelize(mesh, resolution=voxels)
     pitch = vox.grid.pitch
     inner = inside_voxels_winding(mesh.vertices, mesh.faces, vox.grid, vox.surface,
