@@ -24,6 +24,7 @@ import numpy as np
 import trimesh
 
 from viscore import InputError, load_mesh
+from viscore.ground import UP_AXES, guess_up
 from viscore.scene_graph import SceneObjects, load_scene_objects
 
 from .registry import REGISTRY
@@ -48,15 +49,6 @@ FLAT_RATIO = 0.1
 #: threshold against the non-flat objects' own box: non-flat objects at least
 #: this share of the largest non-flat object's diagonal are chosen.
 FALLBACK_SHARE = 0.5
-#: Up guess: the level is clearly thinnest along an axis when its extent
-#: there is under this fraction of the next smallest extent.
-_THIN_LEVEL = 0.5
-#: Up guess: net face area (signed normal component) along an axis, as a
-#: share of the total area, from which that axis is taken as up.
-_NET_AREA_SHARE = 0.05
-
-#: The axes ``--up`` names.
-UP_AXES = ("x", "y", "z")
 #: Rotations from a level's frame to Godot's +Y up (right-handed, det +1).
 _TO_GODOT = {
     "y": np.eye(4),
@@ -132,58 +124,6 @@ def _up_name(up: object) -> str | None:
     if text not in UP_AXES:
         raise InputError(f"up: expected one of {', '.join(UP_AXES)}, got {up!r}")
     return text
-
-
-def guess_up(mesh: trimesh.Trimesh) -> tuple[str, str]:
-    """Guess the up axis of a mesh without a convention (OBJ, PLY, OFF, STL).
-
-    Parameters
-    ----------
-    mesh : trimesh.Trimesh
-        The level, in its own frame.
-
-    Returns
-    -------
-    axis : str
-        ``'x'``, ``'y'`` or ``'z'``.
-    reason : str
-        One line saying which rule decided.
-
-    Notes
-    -----
-    Rules in order: (1) the axis along which the level's bounding box is
-    thinnest, when that extent is under half the next smallest (a map is
-    wider than tall); (2) the axis of the largest net face area (area times
-    the signed normal component, summed), when it is at least 5 % of the
-    total area: open game geometry has roofs and ground facing up and no
-    floor facing down (a closed mesh has no net area along any axis); (3)
-    the axis most face area faces (absolute normal components). A guess, not
-    a guarantee: pass ``up`` when the file's convention is known.
-
-    Examples
-    --------
-    >>> import trimesh
-    >>> guess_up(trimesh.creation.box(extents=(10, 1, 10)))[0]
-    'y'
-    """
-    ext = np.asarray(mesh.extents, dtype=np.float64)
-    order = np.argsort(ext, kind="stable")
-    dims = " x ".join(f"{e:.3g}" for e in ext)
-    if ext[order[0]] < _THIN_LEVEL * ext[order[1]]:
-        axis = UP_AXES[int(order[0])]
-        return axis, f"the level is thinnest along {axis} ({dims} world units)"
-    area = np.asarray(mesh.area_faces, dtype=np.float64)
-    normals = np.asarray(mesh.face_normals, dtype=np.float64)
-    net = np.abs(area @ normals)
-    total = float(area.sum()) or 1.0
-    k = int(np.argmax(net))
-    if net[k] >= _NET_AREA_SHARE * total:
-        axis = UP_AXES[k]
-        return axis, (f"most net face area faces along {axis} ({net[k] / total:.0%} of the "
-                      "area: open geometry facing up)")
-    k = int(np.argmax(area @ np.abs(normals)))
-    axis = UP_AXES[k]
-    return axis, f"most face area faces along {axis} (level {dims} world units)"
 
 
 def _box_gaps(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray,

@@ -250,6 +250,16 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                                 "default size); 0 turns it off", low=0, high=1, nullable=True,
                                 default_text="0.995 unless --voxels, --voxel-size, "
                                 "--pixel-error, --conservative or --lod-distances"),
+                GeneratorOption("ground", str, "auto",
+                                "a ground plane under the mesh: 'auto', 'off' or its height "
+                                "along --up (world units); the space between it and the surface "
+                                "joins the solid where the mesh hides it (terrain, open-bottomed "
+                                "buildings)",
+                                default_text="auto: the mesh's lowest point, tried beside the "
+                                "closings and kept when it passes the precision floor with "
+                                "more recall"),
+                GeneratorOption("up", str, "auto", "the up axis of --ground",
+                                choices=("auto", "x", "y", "z")),
             ),
             min_budget=1),
         GeneratorSpec(

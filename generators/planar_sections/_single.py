@@ -83,8 +83,14 @@ def _resolution(mesh: trimesh.Trimesh, voxels, voxel_size, what: str) -> dict:
 
 def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, depth_bins,
                   alpha, measure, reduce, rdp_tolerance, chain, conservative, dilate,
-                  close, warn_interior: bool = True, orbit: tuple | None = None):
+                  close, ground: dict | None = None, up: str = "z",
+                  warn_interior: bool = True, orbit: tuple | None = None):
     """One level of detail: (mesh, polygons, info).
+
+    ``ground``: None, or ``{"height", "misses", "grazing"}`` for
+    :func:`._slices.section_solid`'s ``ground``, ``ground_misses`` and
+    ``ground_grazing``; ``up``
+    its up axis (also the axis of ``info["footprint_share"]``).
 
     ``orbit`` is the mesh's :func:`~viscore.metrics.orbit_frame` when the caller
     already has it (the precision floor generates up to seven times per mesh; the
@@ -92,7 +98,10 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
     """
     timing = {}
     t0 = time.perf_counter()
-    sec = section_solid(mesh, conservative=conservative, dilate=dilate, close=close, **size)
+    g = {} if ground is None else {"ground": ground["height"], "ground_misses": ground["misses"],
+                                   "ground_grazing": ground.get("grazing", 0.0)}
+    sec = section_solid(mesh, conservative=conservative, dilate=dilate, close=close, up=up,
+                        **g, **size)
     pitch = sec.grid.pitch
     extent = float(np.max(mesh.extents))
     info = {"voxel_size": pitch, "voxels": int(math.ceil(extent / pitch - 1e-9)),
@@ -100,11 +109,14 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
             "depth_bins": depth_bins, "solid_voxels": sec.solid_voxels,
             "surface_voxels": sec.surface_voxels, "interior_voxels": sec.interior_voxels,
             "closed_oriented": sec.closed_oriented,
-            "conservative_guaranteed": bool(conservative and sec.closed_oriented)}
+            "conservative_guaranteed": bool(conservative and sec.closed_oriented),
+            "footprint_share": sec.footprint_share,
+            "ground": None if ground is None else dict(ground)}
     if conservative and not sec.closed_oriented:
         _log.warning("planar-sections: the mesh is not closed and consistently oriented; "
                      "--conservative cannot guarantee anything (run 'viscore validate')")
-    if warn_interior and not conservative and not close and _no_interior(info):
+    if warn_interior and not conservative and not close and ground is None and _no_interior(
+            info):
         _log.warning("planar-sections: the voxel solid has (almost) no interior at %d voxels "
                      "(an open sheet, or a surface with openings), so the slices are thin "
                      "strips; for an object with holes, close them with --close 3 (or more "

@@ -39,19 +39,22 @@ References
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
 import trimesh
 from scipy import ndimage
 
-from viscore import camera_basis, directions_fibonacci, voxelize
+from viscore import Scene, camera_basis, directions_fibonacci, voxelize
 from viscore._jit import njit_cached
+from viscore.coverage_hull import exposure, hull_directions
+from viscore.ground import ground_fill, ground_share
 from viscore.voxels import VoxelGrid, inside_voxels_winding
 from viscore.winding import is_closed_oriented
 
-__all__ = ["SectionSolid", "Slice", "section_solid", "closed_solid", "slice_directions",
-           "best_slices", "make_slice", "slice_image", "PIXELS_PER_VOXEL"]
+__all__ = ["SectionSolid", "GroundFill", "Slice", "section_solid", "closed_solid",
+           "slice_directions", "best_slices", "make_slice", "slice_image", "PIXELS_PER_VOXEL"]
 
 #: Pixels per voxel side of the slice images (sec. 4.2: every voxel covers >= 1 pixel).
 PIXELS_PER_VOXEL = 1
@@ -81,6 +84,10 @@ class SectionSolid:
     interior_voxels : int
         Solid voxels whose six face neighbours are solid too (a one-voxel
         erosion): few for open sheets and thin-walled shells.
+    footprint_share : float
+        Share of its footprint across the up axis that the surface covers
+        from above (:func:`viscore.ground.ground_share`): near 1 for a
+        height field or a building, low for a pole or a strand.
     """
 
     solid: np.ndarray
@@ -89,6 +96,62 @@ class SectionSolid:
     surface_voxels: int
     solid_voxels: int
     interior_voxels: int = 0
+    footprint_share: float = 0.0
+    fill: GroundFill | None = None
+
+    def solid_along(self, normal: np.ndarray) -> np.ndarray:
+        """The solid a plane of unit normal ``normal`` is sliced through.
+
+        Without a ground fill, :attr:`solid`. With one, the solid without the
+        fill plus the fill's voxels that the mesh covers from every line
+        direction the plane is not grazed by (:meth:`GroundFill.allowed`).
+        """
+        if self.fill is None:
+            return self.solid
+        out = self.solid.copy()
+        cells = self.fill.cells[~self.fill.allowed(normal)]
+        out[tuple(cells.T)] = False
+        return out
+
+
+#: Set bits of each byte value.
+_POPCOUNT = np.array([bin(i).count("1") for i in range(256)], dtype=np.int64)
+
+
+@dataclass(frozen=True, eq=False)
+class GroundFill:
+    """The voxels a ground plane adds to a solid, and the directions that expose each.
+
+    Attributes
+    ----------
+    cells : (m, 3) int
+        Voxels between the ground and the surface above
+        (:func:`viscore.ground.ground_fill`), not in the flood-fill solid.
+    exposure : (m, ceil(k / 8)) uint8
+        :func:`viscore.coverage_hull.exposure` of each, over ``directions``.
+    directions : (k, 3) float
+        The coverage hull's line directions.
+    misses : float
+        Share of the directions that see a plane (below) that may expose a
+        cell sliced by it.
+    grazing : float
+        A direction sees a plane of normal n when ``|d . n| >=`` this: under
+        it, the plane's polygons are seen nearly edge-on and cover almost
+        nothing in that view.
+    """
+
+    cells: np.ndarray
+    exposure: np.ndarray
+    directions: np.ndarray
+    misses: float
+    grazing: float = 0.0
+
+    def allowed(self, normal: np.ndarray) -> np.ndarray:
+        """``(m,) bool``: the cells that at most ``misses`` of the directions that see a
+        plane of unit ``normal`` expose."""
+        seen = np.abs(self.directions @ np.asarray(normal, np.float64)) >= self.grazing
+        exposed = _POPCOUNT[self.exposure & np.packbits(seen)].sum(axis=1)
+        return exposed <= np.floor(self.misses * int(seen.sum()))
 
 
 @dataclass(frozen=True)
@@ -134,7 +197,9 @@ class Slice:
 
 def section_solid(mesh: trimesh.Trimesh, *, resolution: int | None = None,
                   pitch: float | None = None, conservative: bool = False,
-                  dilate: int = 0, close: int = 0) -> SectionSolid:
+                  dilate: int = 0, close: int = 0, ground: float | None = None,
+                  up: str = "z", ground_misses: float = 0.0,
+                  ground_grazing: float = 0.0) -> SectionSolid:
     """Voxel solid of sec. 4.1, or its conservative (wholly inside, eroded) variant.
 
     ``dilate`` marks every empty voxel next to a solid one as solid that many
@@ -143,7 +208,15 @@ def section_solid(mesh: trimesh.Trimesh, *, resolution: int | None = None,
     before the flood fill: the surface voxels are dilated ``close`` times,
     the enclosed space filled, and the filled solid eroded as many times
     (a morphological closing, united with the plain solid, so it never
-    loses a voxel of it). Sizes as :func:`viscore.voxelize`.
+    loses a voxel of it). ``ground`` (beyond the paper; not with
+    ``conservative``), the height of a ground plane along ``up``: the voxels
+    between it and the highest surface voxel of their column
+    (:func:`viscore.ground.ground_fill`, the space under a height field or
+    inside an open-bottomed building) join the solid where the mesh covers
+    them (:func:`viscore.coverage_hull.exposure`): for each plane normal n,
+    from all but ``ground_misses`` of the line directions d that see the
+    plane, ``|d . n| >= ground_grazing`` (:class:`GroundFill`,
+    :meth:`SectionSolid.solid_along`). Sizes as :func:`viscore.voxelize`.
     """
     vox = voxelize(mesh, resolution=resolution, pitch=pitch)
     closed = is_closed_oriented(mesh.vertices, mesh.faces)
@@ -156,12 +229,41 @@ def section_solid(mesh: trimesh.Trimesh, *, resolution: int | None = None,
         solid = vox.solid
     if close:
         solid = solid | closed_solid(vox.surface, int(close))
+    fill = None
+    if ground is not None:
+        cells = np.argwhere(ground_fill(vox.surface, vox.grid, up=up, height=ground) & ~solid)
+        fill = GroundFill(cells=cells, exposure=_exposure(mesh, vox.grid, cells,
+                                                          (up, float(ground))),
+                          directions=hull_directions(), misses=float(ground_misses),
+                          grazing=float(ground_grazing))
+        solid = solid.copy()
+        solid[tuple(cells.T)] = True
     if dilate:
         solid = ndimage.binary_dilation(solid, iterations=int(dilate))
     return SectionSolid(solid=np.ascontiguousarray(solid), grid=vox.grid,
                         closed_oriented=bool(closed), surface_voxels=int(vox.surface.sum()),
                         solid_voxels=int(solid.sum()),
-                        interior_voxels=int(ndimage.binary_erosion(solid).sum()))
+                        interior_voxels=int(ndimage.binary_erosion(solid).sum()),
+                        footprint_share=ground_share(vox.surface, up), fill=fill)
+
+
+#: The last ground fill's exposure (:func:`_exposure`): the precision floor tries several
+#: grazing thresholds on one voxel size, and the exposure does not depend on them.
+_EXPOSED_CACHE: dict = {}
+
+
+def _exposure(mesh: trimesh.Trimesh, grid: VoxelGrid, cells: np.ndarray, key: tuple
+              ) -> np.ndarray:
+    """:func:`viscore.coverage_hull.exposure` of ``cells``, from a one-entry cache keyed by
+    the mesh's bytes, the grid and ``key`` (the fill's axis and height)."""
+    digest = hashlib.blake2b(np.ascontiguousarray(mesh.vertices).tobytes(), digest_size=16)
+    digest.update(np.ascontiguousarray(mesh.faces).tobytes())
+    full = (digest.hexdigest(), tuple(np.asarray(grid.origin).tolist()), grid.pitch,
+            tuple(grid.shape), key, cells.shape)
+    if full not in _EXPOSED_CACHE:
+        _EXPOSED_CACHE.clear()
+        _EXPOSED_CACHE[full] = exposure(Scene(mesh), grid, cells)
+    return _EXPOSED_CACHE[full]
 
 
 def closed_solid(surface: np.ndarray, steps: int) -> np.ndarray:
@@ -288,8 +390,8 @@ def best_slices(sec: SectionSolid, direction_bins: int, depth_bins: int) -> list
         dt = sec.grid.pitch / DEPTH_SAMPLES_PER_VOXEL
         nt = max(1, int(np.ceil((tmax - tmin) / dt)))
         t = tmin + (np.arange(nt) + 0.5) * (tmax - tmin) / nt
-        counts = _slice_counts(sec.solid, origin, sec.grid.pitch, corner, r * pixel, u * pixel,
-                               f, nx, ny, t[0], t[1] - t[0] if nt > 1 else 0.0, nt)
+        counts = _slice_counts(sec.solid_along(f), origin, sec.grid.pitch, corner, r * pixel,
+                               u * pixel, f, nx, ny, t[0], t[1] - t[0] if nt > 1 else 0.0, nt)
         zbin = np.minimum((np.arange(nt) * depth_bins) // nt, depth_bins - 1)
         for z in range(depth_bins):
             sel = np.flatnonzero(zbin == z)
@@ -310,8 +412,8 @@ def make_slice(sec: SectionSolid, direction, depth: float | None = None) -> Slic
     middle of the solid's extent), with its area."""
     f, r, u, corner, pixel, nx, ny, tmin, tmax = _frame(sec, np.asarray(direction, float))
     t = 0.5 * (tmin + tmax) if depth is None else float(depth)
-    count = _slice_counts(sec.solid, sec.grid.origin, sec.grid.pitch, corner, r * pixel,
-                          u * pixel, f, nx, ny, t, 0.0, 1)[0]
+    count = _slice_counts(sec.solid_along(f), sec.grid.origin, sec.grid.pitch, corner,
+                          r * pixel, u * pixel, f, nx, ny, t, 0.0, 1)[0]
     return Slice(direction=f, right=r, up=u, corner=corner, depth=t, pixel=pixel,
                  shape=(ny, nx), area=float(count * pixel * pixel), bin=(-1, -1))
 
@@ -319,5 +421,5 @@ def make_slice(sec: SectionSolid, direction, depth: float | None = None) -> Slic
 def slice_image(sec: SectionSolid, s: Slice) -> np.ndarray:
     """``s.shape`` bool: the solid at the pixel centres of the slice's plane (row i, column j)."""
     ny, nx = s.shape
-    return _slice_pixels(sec.solid, sec.grid.origin, sec.grid.pitch, s.corner,
-                         s.right * s.pixel, s.up * s.pixel, s.direction, nx, ny, s.depth)
+    return _slice_pixels(sec.solid_along(s.direction), sec.grid.origin, sec.grid.pitch,
+                         s.corner, s.right * s.pixel, s.up * s.pixel, s.direction, nx, ny, s.depth)

@@ -78,6 +78,7 @@ from viscore._validate import (
     as_positive_int,
     as_seed,
 )
+from viscore.ground import guess_up
 
 from ..occluder import Occluder
 from ._single import MAX_VOXELS, _generate_one, _resolution
@@ -113,6 +114,10 @@ DEFAULT_ALPHA = 1.0
 DEFAULT_FOV = 60.0
 DEFAULT_SCREEN = 1920
 
+#: The ground fill of a ground height given with the precision floor off (one of
+#: :data:`~.floor.GROUND_FILLS`).
+DEFAULT_GROUND_FILL = {"grazing": 0.0, "misses": 0.05}
+
 _MEASURES = ("om", "area")
 _REDUCTIONS = ("area", "projected-area", "om")
 _CHAINS = ("optimal", "greedy")
@@ -144,6 +149,29 @@ def _as_fov(fov: object) -> float:
     if isinstance(fov, bool) or not isinstance(fov, numbers.Real) or not (0 < fov < 180):
         raise InputError(f"fov: expected degrees in (0, 180), got {fov!r}")
     return float(fov)
+
+
+def _as_ground(value: object) -> str | float | None:
+    """``'auto'``, None (off) or a finite height, from an option value or its CLI text."""
+    if value is None or (isinstance(value, str) and value.strip().lower() in ("off", "none")):
+        return None
+    if isinstance(value, str) and value.strip().lower() == "auto":
+        return "auto"
+    try:
+        height = float(value) if not isinstance(value, bool) else math.nan
+    except (TypeError, ValueError):
+        height = math.nan
+    if not math.isfinite(height):
+        raise InputError(f"ground: expected 'auto', 'off' or a finite height, got {value!r}")
+    return height
+
+
+def _as_up(value: object) -> str:
+    """``'auto'`` or an axis name ``'x'``, ``'y'``, ``'z'``."""
+    text = str(value).strip().lower().lstrip("+")
+    if text not in ("auto", "x", "y", "z"):
+        raise InputError(f"up: expected auto, x, y or z, got {value!r}")
+    return text
 
 
 def _as_distances(value: object) -> tuple[float, ...]:
@@ -197,7 +225,8 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
                              screen: int = DEFAULT_SCREEN, lod_distances=None,
                              hierarchy: bool = False, dilate: int = 0,
                              close: int | None = None,
-                             min_precision: float | None = None) -> Occluder:
+                             min_precision: float | None = None, ground: object = "auto",
+                             up: str = "auto") -> Occluder:
     """Occluder of double-sided planar polygons (Silvennoinen et al. 2014, sec. 4).
 
     Parameters
@@ -299,6 +328,27 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         ``pixel_error``) and not ``conservative`` nor levels of detail, else
         off; 0 turns it off; a value given with an explicit size starts the
         refinement there (and never coarsens).
+    ground : {'auto', 'off'} or float, optional
+        A ground plane under the mesh (beyond the paper; not with
+        ``conservative``): the space between it and the surface above
+        (:func:`viscore.ground.ground_fill`: under a height field, inside an
+        open-bottomed building) joins the voxel solid where the mesh hides
+        it: a plane slices a voxel of it when all but a share of the line
+        directions that see the plane are covered there
+        (:func:`viscore.coverage_hull.exposure`, :class:`._slices.GroundFill`),
+        each of :data:`~.floor.GROUND_FILLS` tried under the precision
+        floor. A number is the plane's height along ``up`` (world units;
+        with the floor off, :data:`DEFAULT_GROUND_FILL`). ``'auto'``
+        (default): the mesh's lowest point, tried beside the closings, on a
+        mesh whose closings are tried and whose surface covers at least
+        :data:`~.floor.GROUND_SHARE` of its footprint from above, kept only
+        when it passes the floor with more check recall; nothing without the
+        floor. ``'off'``: never. At 64 triangles (orbit, 256 views) the
+        built-in warehouse goes from R 0.344 to 0.907 (P 0.9969), the terrain
+        from 0.009 to 0.493 (P 0.9987).
+    up : {'auto', 'x', 'y', 'z'}, optional
+        The up axis of ``ground``. Default ``'auto'``:
+        :func:`viscore.ground.guess_up` of an object (``info["up"]``).
 
     Returns
     -------
@@ -318,7 +368,8 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         ``close``, ``triangles``, ``precision``, ``precision_se``, ``recall``,
         ``seconds``); with the default ``close``, ``close_gain`` (the share of
         voxels the largest closing adds) and, when closings were tried,
-        ``closings`` (one step each).
+        ``closings`` (one step each); ``ground`` (the fill used:
+        ``height``, ``misses``, ``grazing``; or None), ``up``, ``footprint_share``.
 
     Raises
     ------
@@ -381,6 +432,11 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         raise InputError(f"close: expected an integer from 0 to 8, got {close!r}")
     if close and conservative:
         raise InputError("close: not with conservative (closing adds voxels outside the mesh)")
+    ground = _as_ground(ground)
+    if ground is not None and ground != "auto" and conservative:
+        raise InputError("ground: not with conservative (the ground fill adds voxels outside "
+                         "the mesh)")
+    up = _as_up(up)
     fov = _as_fov(fov)
     screen = as_positive_int(screen, "screen")
     if voxels is not None:
@@ -420,15 +476,27 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
               "pixel_error": pixel_error, "distance": distance, "fov": fov, "screen": screen,
               "lod_distances": None if distances is None else list(distances),
               "hierarchy": bool(hierarchy), "dilate": int(dilate),
-              "close": None if close is None else int(close), "min_precision": min_precision}
+              "close": None if close is None else int(close), "min_precision": min_precision,
+              "ground": "off" if ground is None else ground, "up": up}
     if hierarchy:  # sec. 5: a BVH over the objects, this generator at every node
         return build(mesh, **{k: v for k, v in params.items() if k != "hierarchy"})
     mesh = validate_mesh(mesh)
+    if up == "auto":
+        up, up_reason = guess_up(mesh, level=False)
+    else:
+        up_reason = "given"
+    if ground == "auto":
+        ground_plane = None if conservative else {
+            "height": float(mesh.bounds[0]["xyz".index(up)]), "auto": True}
+    elif ground is None:
+        ground_plane = None
+    else:
+        ground_plane = {"height": float(ground), "auto": False}
 
     options = dict(budget=budget, direction_bins=direction_bins, depth_bins=depth_bins,
                    alpha=alpha, measure=measure, reduce=reduce,
                    rdp_tolerance=rdp_tolerance, chain=chain, conservative=bool(conservative),
-                   dilate=int(dilate), close=int(close or 0))
+                   dilate=int(dilate), close=int(close or 0), up=up)
     if distances is None:
         if pixel_error is not None:
             size = _resolution(mesh, None, screen_space_voxel_size(
@@ -446,9 +514,12 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         if floor:
             out_mesh, polygons, info = _with_precision_floor(
                 mesh, size, floor, seed, options,
-                auto_close=close is None and not conservative, coarsen=not given)
+                auto_close=close is None and not conservative, coarsen=not given,
+                ground=ground_plane)
         else:
-            out_mesh, polygons, info = _generate_one(mesh, size, **options)
+            fill = None if ground_plane is None or ground_plane["auto"] else {
+                "height": ground_plane["height"], **DEFAULT_GROUND_FILL}
+            out_mesh, polygons, info = _generate_one(mesh, size, ground=fill, **options)
         parts = {"polygons": polygons}
     else:
         sizes = [_resolution(mesh, None, screen_space_voxel_size(
@@ -463,7 +534,7 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
             if len(lods) == 1:
                 out_mesh, polygons, info = m, polys, inf
         parts = {"polygons": polygons, "lods": lods}
-    info = {"close": options["close"], **info,
+    info = {"close": options["close"], **info, "up": up, "up_reason": up_reason,
             "triangles_single_sided": 2 * len(out_mesh.faces)}
     return Occluder(mesh=out_mesh, method="planar-sections", params=params, double_sided=True,
                     seconds=time.perf_counter() - start, parts=parts, info=info)

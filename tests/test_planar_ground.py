@@ -1,0 +1,88 @@
+"""Planar sections on open ground: ``ground`` and ``up`` (viscore.ground, viscore.coverage_hull)."""
+
+import numpy as np
+import pytest
+import trimesh
+from viscore.generators.planar_sections import generate_planar_sections
+from viscore.generators.planar_sections._slices import section_solid
+from viscore.metrics import ReferenceViews
+
+from viscore import InputError
+
+#: Few bins: the generator's speed is a benchmark figure, not a test's.
+FAST = {"direction_bins": 6, "depth_bins": 2}
+
+
+def _open_bottom_box(up: int = 2) -> trimesh.Trimesh:
+    """A 4 x 4 x 2 box without its bottom face (the face facing -up), turned by 30 degrees
+    about the up axis: its walls lie across the voxels, so no slice runs along one."""
+    box = trimesh.creation.box(extents=(4, 4, 2))
+    mesh = trimesh.Trimesh(box.vertices, box.faces[box.face_normals[:, 2] > -0.5],
+                           process=False)
+    mesh.apply_transform(trimesh.transformations.rotation_matrix(np.radians(30), [0, 0, 1]))
+    if up == 1:  # z up -> y up
+        mesh.apply_transform(trimesh.transformations.rotation_matrix(-np.pi / 2, [1, 0, 0]))
+    return mesh
+
+
+@pytest.fixture(scope="module")
+def views():
+    return ReferenceViews(_open_bottom_box(), protocol="orbit", views=48, seed=3)
+
+
+def test_the_ground_fills_an_open_bottomed_box_that_the_flood_fill_leaves_a_shell(views):
+    box = _open_bottom_box()
+    shell = section_solid(box, resolution=24)
+    filled = section_solid(box, resolution=24, ground=-1.0, up="z")
+    assert filled.solid_voxels > 2 * shell.solid_voxels  # the inside, about 18 x 18 x 8
+    assert filled.interior_voxels > 0.5 * filled.solid_voxels > shell.interior_voxels
+    plain = generate_planar_sections(box, budget=16, voxels=24, ground="off", **FAST)
+    grounded = generate_planar_sections(box, budget=16, voxels=24, ground=-1.0, up="z",
+                                        **FAST)
+    assert grounded.info["ground"] == {"height": -1.0, "grazing": 0.0, "misses": 0.05}
+    assert plain.info["ground"] is None
+    p, g = views.score(plain.mesh), views.score(grounded.mesh)
+    assert g.precision >= 0.995
+    assert g.recall > 0.8 > 0.5 > p.recall
+
+
+def test_the_ground_follows_the_up_axis(views):
+    box = _open_bottom_box(up=1)  # the same box, +Y up: its opening faces -y
+    filled = section_solid(box, resolution=24, ground=-1.0, up="y")
+    shell = section_solid(box, resolution=24)
+    same = section_solid(_open_bottom_box(), resolution=24, ground=-1.0, up="z")
+    assert filled.solid_voxels > 2 * shell.solid_voxels
+    assert abs(filled.solid_voxels - same.solid_voxels) < 0.05 * same.solid_voxels
+    assert filled.footprint_share > 0.9
+
+
+def test_ground_auto_keeps_the_fill_only_where_it_passes_the_floor():
+    box = _open_bottom_box()
+    occ = generate_planar_sections(box, budget=16, **FAST)
+    assert occ.info["up"] == "z"
+    assert occ.info["ground"]["height"] == pytest.approx(-1.0)
+    floor = occ.info["precision_floor"]
+    assert floor["met"]
+    def key(fill):
+        return None if fill is None else (fill["grazing"], fill["misses"])
+
+    tried = {(s["close"], key(s["ground"])): s["recall"] for s in floor["closings"]}
+    assert (0, None) in tried and (0, (0.2, 0.1)) in tried
+    assert len(tried) == 8  # as it is, closed by 2, 3 and 4, and 4 ground fills
+    kept = occ.info["ground"]
+    assert tried[(0, (kept["grazing"], kept["misses"]))] > tried[(0, None)] + 0.2
+    closed = generate_planar_sections(trimesh.creation.box(extents=(4, 4, 2)), budget=16,
+                                      **FAST)
+    assert closed.info["ground"] is None  # a closed solid: no closing, no ground tried
+    assert "closings" not in closed.info["precision_floor"]
+
+
+@pytest.mark.parametrize("options, match", [
+    ({"ground": "sideways"}, "ground: expected 'auto', 'off' or a finite height"),
+    ({"ground": float("nan")}, "ground: expected"),
+    ({"ground": 0.0, "conservative": True}, "ground: not with conservative"),
+    ({"up": "w"}, "up: expected auto, x, y or z"),
+])
+def test_bad_ground_options_are_refused_before_any_work(options, match):
+    with pytest.raises(InputError, match=match):
+        generate_planar_sections(_open_bottom_box(), **options)
