@@ -79,6 +79,8 @@ FLOOR_MIN_VOXELS = 16
 #: the terrain at 23 triangles 0.9993 / 0.417 with 0.2 and 0.05, 0.9988 / 0.408 with 0;
 #: the tower passes with none (0.9954 +- 0.0021 / 0.579 at 0.2 and 0.05): its doors and
 #: stair well let a few views straight through.
+#: Tried in this order; a fill is skipped when the one before it with the same
+#: ``grazing`` fails the floor.
 GROUND_FILLS = ({"grazing": 0.0, "misses": 0.05}, {"grazing": 0.0, "misses": 0.1},
                 {"grazing": 0.2, "misses": 0.05}, {"grazing": 0.2, "misses": 0.1})
 
@@ -147,10 +149,22 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     def passes(step: dict) -> bool:
         return step["precision"] - FLOOR_Z * step["precision_se"] >= floor
 
+    def fills(size: dict, close: int) -> list:
+        """The ground fills of :data:`GROUND_FILLS`, a fill skipped when the one before it
+        with the same ``grazing`` (fewer misses: a subset of its voxels) fails the floor."""
+        out, failed = [], set()
+        for kind in GROUND_FILLS:
+            if kind["grazing"] in failed:
+                continue
+            out.append(run(size, close, kind))
+            if not passes(out[-1][1]):
+                failed.add(kind["grazing"])
+        return out
+
     close, kind = options["close"], None
     forced = ground is not None and not ground["auto"]
     if forced:
-        tried = [run(size, close, k) for k in GROUND_FILLS]
+        tried = fills(size, close)
         result, step = _best(tried, passes)
     else:
         result, step = run(size, close)
@@ -166,7 +180,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     if gain is not None and (gain >= AUTO_CLOSE_GAIN or _no_interior(result[2])):
         tried += [run(size, k) for k in AUTO_CLOSINGS]
         if ground is not None and not forced and result[2]["footprint_share"] >= GROUND_SHARE:
-            tried += [run(size, 0, k) for k in GROUND_FILLS]
+            tried += fills(size, 0)
         result, step = _best(tried, passes)
         closings = [t[1] for t in tried]
         _log.info("planar-sections: closing adds %.0f%% to the voxel solid at %d voxels; "
