@@ -70,8 +70,6 @@ import json
 import logging
 import os
 import re
-import signal
-import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -85,6 +83,7 @@ from viscore._atomic import write_atomic
 from viscore._validate import as_positive_int, as_seed
 from viscore.mesh_io import ply_bytes
 
+from ._pool import worker_init as _worker_init
 from .level_objects import LevelObjects, default_methods
 from .registry import generate, parse_method
 from .scene_occluders import _guaranteed
@@ -233,29 +232,6 @@ def _run_job(vertices: np.ndarray, faces: np.ndarray, name: str, method: str,
     """A job as a process pool or a dask worker runs it (arrays in, no trimesh pickled)."""
     mesh = trimesh.Trimesh(vertices, faces, process=False)
     return occluder_of_mesh(mesh, method, name=name, budget=budget, seed=seed)
-
-
-def _worker_init(parent: int, threads: int) -> None:
-    """In a pool worker: ignore SIGINT, die with the parent, use ``threads`` ray threads."""
-    from viscore import set_workers
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    set_workers(threads)
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        if libc.prctl(1, signal.SIGKILL, 0, 0, 0) != 0:  # 1 = PR_SET_PDEATHSIG
-            raise OSError(ctypes.get_errno(), "prctl")
-    except (OSError, AttributeError):  # pragma: no cover - not Linux: watch the parent
-        def watch() -> None:
-            while os.getppid() == parent:
-                time.sleep(0.5)
-            os._exit(1)
-
-        threading.Thread(target=watch, daemon=True).start()
-    if os.getppid() != parent:
-        os._exit(1)
 
 
 def _stem(name: str) -> str:

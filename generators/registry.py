@@ -233,6 +233,9 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                 GeneratorOption("hierarchy", bool, False,
                                 "occluder hierarchy over the mesh's parts, with a tree cut per "
                                 "camera (sec. 5); writes the tree beside the output"),
+                GeneratorOption("jobs", int, 1,
+                                "processes building the hierarchy's nodes (with --hierarchy; "
+                                "the same tree with any number)", low=1, high=256),
                 GeneratorOption("dilate", int, 0,
                                 "dilation steps of the voxel solid (sec. 5's gluing step)", low=0,
                                 high=8),

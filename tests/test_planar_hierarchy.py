@@ -434,3 +434,35 @@ def test_build_hierarchy_default_builder_is_planar_sections():
     from viscore.generators.planar_sections import generate_planar_sections
 
     assert _resolve_builder(None) == (generate_planar_sections, "planar-sections")
+
+
+def test_build_hierarchy_in_two_processes_builds_the_same_tree(caplog):
+    boxes = [trimesh.creation.box(bounds=[[1.5 * i, 0, 0], [1.5 * i + 1, 1, 1]])
+             for i in range(4)]
+    sheet = trimesh.Trimesh([[0, 3, 0], [4, 3, 0], [4, 4, 0]], [[0, 1, 2]])  # nothing to slice
+    kw = dict(node_occluder="planar-sections", budget=8, voxels=8, direction_bins=4,
+              depth_bins=1, min_precision=0)
+    with caplog.at_level(logging.WARNING):
+        one = build_hierarchy(boxes + [sheet], jobs=1, **kw)
+        said_one = [r.getMessage() for r in caplog.records]
+        caplog.clear()
+        two = build_hierarchy(boxes + [sheet], jobs=2, **kw)
+        said_two = [r.getMessage() for r in caplog.records]
+    a, b = _walk(one), _walk(two)
+    assert len(a) == len(b) == 9
+    for x, y in zip(a, b, strict=True):
+        assert np.array_equal(x["occluder"].vertices, y["occluder"].vertices)
+        assert np.array_equal(x["occluder"].faces, y["occluder"].faces)
+        assert np.array_equal(x["bounds"], y["bounds"]) and x["error"] == y["error"]
+        assert x["note"] == y["note"]
+    assert any(n["triangles"] for n in a)
+    assert said_one == said_two and said_one  # the workers' log lines come back, once each
+
+
+def test_hierarchy_jobs_refused_out_of_range_or_without_a_hierarchy():
+    with pytest.raises(InputError, match="jobs"):
+        build_hierarchy([trimesh.creation.box()], node_occluder="qem", jobs=0)
+    from viscore.generators import generate_planar_sections
+
+    with pytest.raises(InputError, match="jobs: only with hierarchy"):
+        generate_planar_sections(trimesh.creation.box(), jobs=2)

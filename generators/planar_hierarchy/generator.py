@@ -34,7 +34,7 @@ def generate_planar_hierarchy(mesh, *, budget: int | None = 64, seed: int = 0,
                               voxel_size: float | None = None, pixel_error: float | None = None,
                               distance: float | None = None, lod_distances=None, dilate: int = 0,
                               fov: float | None = None, screen: int | None = None,
-                              **node_options) -> Occluder:
+                              jobs: int = 1, **node_options) -> Occluder:
     """Hierarchical planar-section occluder: the generator entry of sec. 5.
 
     Builds the tree with :func:`build_hierarchy` and returns the root's
@@ -68,6 +68,8 @@ def generate_planar_hierarchy(mesh, *, budget: int | None = 64, seed: int = 0,
     fov, screen : optional
         Accepted for the common option set and unused: the viewing
         parameters belong to the cut.
+    jobs : int, optional
+        Processes building the nodes (:func:`build_hierarchy`); default 1.
     **node_options
         Passed to every node's builder (planar sections: ``direction_bins``,
         ``depth_bins``, ``alpha``, ``measure``, ``reduce``).
@@ -125,7 +127,7 @@ def generate_planar_hierarchy(mesh, *, budget: int | None = 64, seed: int = 0,
     root = build_hierarchy(mesh, node_occluder=node_occluder, budget=budget, voxels=voxels,
                            leaf_objects=leaf_objects, max_leaves=max_leaves,
                            inner_dilation=0 if conservative else INNER_DILATION, seed=seed,
-                           **node_options)
+                           jobs=jobs, **node_options)
     nodes = _walk(root)
     leaves = [n for n in nodes if not n["children"]]
     params = {"budget": budget, "seed": seed, "voxels": voxels, "hierarchy": True,

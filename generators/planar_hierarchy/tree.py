@@ -295,7 +295,7 @@ def _empty_mesh() -> trimesh.Trimesh:
 def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 64,
                     voxels: int = 64, leaf_objects: int = 1,
                     max_leaves: int = DEFAULT_MAX_LEAVES, inner_dilation: int = INNER_DILATION,
-                    seed: int = 0, **node_options) -> dict:
+                    seed: int = 0, jobs: int = 1, **node_options) -> dict:
     """Occluder hierarchy of a scene: a BVH over its objects, an occluder per node.
 
     Silvennoinen et al. 2014 [1]_, sec. 5: "we build a bounding volume
@@ -337,6 +337,9 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
         step); leaves get none.
     seed : int, optional
         Passed to every node's builder.
+    jobs : int, optional
+        Processes building the nodes, 1 to 256 (default 1): the nodes are
+        independent, and the tree is the same with any number.
     **node_options
         Passed to the builder at every node.
 
@@ -397,6 +400,7 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
     leaf_objects = as_positive_int(leaf_objects, "leaf_objects")
     max_leaves = as_positive_int(max_leaves, "max_leaves")
     seed = as_seed(seed, "seed")
+    jobs = as_positive_int(jobs, "jobs", maximum=256)
     builder, builder_name = _resolve_builder(node_occluder)
     reserved = sorted(set(node_options) & {"voxel_size", "pitch", "dilation", "dilate"})
     if reserved:
@@ -438,7 +442,7 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
     failures = []
     try:
         failures = _build_nodes(nodes, mesh, faces_of, builder, held, budget=budget,
-                                seed=seed, node_options=node_options)
+                                seed=seed, node_options=node_options, jobs=jobs)
     finally:
         if len(failures) == len(nodes):  # said once below, as the error
             held = [(i, r) for i, r in held if not getattr(r, "node_refusal", False)]
@@ -450,55 +454,97 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
     return root
 
 
-def _build_nodes(nodes: list, mesh: trimesh.Trimesh, faces_of: list, builder: Callable,
-                 held: list, *, budget, seed, node_options: dict) -> list[InputError]:
-    """Each node's occluder, children first; returns the builder's refusals.
+def _build_one(builder: Callable, geometry: trimesh.Trimesh, pitch: float, dilation: int,
+               keys: tuple, budget, seed, node_options: dict) -> dict:
+    """One node's occluder: what :func:`_build_nodes` needs of it, picklable.
 
-    A builder's log lines are held back (:func:`held_records`) and added to
-    ``held`` with their node's id, for :func:`report_parts` to say each once;
-    a refusal (:class:`InputError`) leaves the node an empty occluder and is
-    added as a warning of its own (marked ``node_refusal``).
+    ``keys``: the builder's dilation keyword, voxel-size keyword and whether
+    it takes ``voxels`` (:func:`_build_nodes`). The builder's log lines come
+    back as ``records`` (dicts of :func:`logging.makeLogRecord`, their
+    message formatted); a refusal (:class:`InputError`) as ``failure``, with
+    an empty occluder.
+    """
+    dilate_kw, size_kw, takes_voxels = keys
+    kw = dict(node_options)
+    revoxelized = False
+    if dilate_kw:
+        kw[dilate_kw] = dilation
+        given = geometry
+    elif dilation:
+        given = dilated_voxel_mesh(geometry, voxel_size=pitch, dilation=dilation)
+        revoxelized = True
+    else:
+        given = geometry
+    if size_kw:
+        kw[size_kw] = pitch
+    elif takes_voxels:
+        kw["voxels"] = max(1, round(float(np.ptp(given.vertices, axis=0).max()) / pitch))
+    start = time.perf_counter()
+    note, failure = "", None
+    try:
+        with held_records() as records:
+            made = builder(given, budget=budget, seed=seed, **kw)
+    except InputError as exc:  # e.g. nothing to build at this node
+        made, note, failure = _empty_mesh(), str(exc), exc
+        refusal = _log.makeRecord(_log.name, logging.WARNING, __file__, 0,
+                                  "no occluder: %s", (exc,), None)
+        refusal.node_refusal = True
+        records.append(refusal)
+    occ_mesh = made.mesh if isinstance(made, Occluder) else made
+    if not isinstance(occ_mesh, trimesh.Trimesh):
+        raise TypeError(f"node_occluder returned {type(made).__name__}, "
+                        "expected an Occluder or a trimesh.Trimesh")
+    said = [{"name": r.name, "levelno": r.levelno, "levelname": r.levelname,
+             "msg": r.getMessage(), "args": None,
+             "node_refusal": bool(getattr(r, "node_refusal", False))} for r in records]
+    return {"vertices": np.asarray(occ_mesh.vertices, dtype=np.float64),
+            "faces": np.asarray(occ_mesh.faces, dtype=np.int64), "records": said,
+            "double_sided": bool(made.double_sided) if isinstance(made, Occluder) else True,
+            "revoxelized": revoxelized, "note": note, "failure": failure,
+            "seconds": time.perf_counter() - start}
+
+
+def _build_nodes(nodes: list, mesh: trimesh.Trimesh, faces_of: list, builder: Callable,
+                 held: list, *, budget, seed, node_options: dict, jobs: int = 1
+                 ) -> list[InputError]:
+    """Each node's occluder (:func:`_build_one`), then its error and bounds, children first;
+    returns the builder's refusals.
+
+    The nodes are independent (sec. 5: "apply our algorithm independently for
+    each node"): with ``jobs`` > 1 they are built in that many processes, the
+    same occluders as in one. A builder's log lines are held back
+    (:func:`held_records`) and added to ``held`` with their node's id, for
+    :func:`report_parts` to say each once; a refusal leaves the node an empty
+    occluder and is added as a warning of its own (marked ``node_refusal``).
     """
     names = _keywords(builder)
-    dilate_kw = next((k for k in ("dilation", "dilate") if k in names), None)
-    size_kw = next((k for k in ("voxel_size", "pitch") if k in names), None)
+    keys = (next((k for k in ("dilation", "dilate") if k in names), None),
+            next((k for k in ("voxel_size", "pitch") if k in names), None), "voxels" in names)
+    calls = [(builder, _submesh(mesh, faces_of[n["id"]]), n["voxel_size"], n["dilation"], keys,
+              budget, seed, node_options) for n in reversed(nodes)]
+    if jobs > 1 and len(calls) > 1:
+        import os
+        from concurrent.futures import ProcessPoolExecutor
+
+        from viscore import cpu_cores
+
+        from .._pool import worker_init
+
+        workers = min(jobs, len(calls))
+        with ProcessPoolExecutor(max_workers=workers, initializer=worker_init,
+                                 initargs=(os.getpid(), max(1, cpu_cores() // workers))) as pool:
+            built = list(pool.map(_build_one, *zip(*calls, strict=True)))
+    else:
+        built = [_build_one(*call) for call in calls]
     failures = []
-    for n in reversed(nodes):
-        geometry = _submesh(mesh, faces_of[n["id"]])
+    for n, b in zip(reversed(nodes), built, strict=True):
+        records = [logging.makeLogRecord(r) for r in b["records"]]
+        held.extend((n["id"], r) for r in records)
+        if b["failure"] is not None:
+            failures.append(b["failure"])
+        occ_mesh = trimesh.Trimesh(b["vertices"], b["faces"], process=False)
         pitch, dilation = n["voxel_size"], n["dilation"]
-        kw = dict(node_options)
-        revoxelized = False
-        if dilate_kw:
-            kw[dilate_kw] = dilation
-            given = geometry
-        elif dilation:
-            given = dilated_voxel_mesh(geometry, voxel_size=pitch, dilation=dilation)
-            revoxelized = True
-        else:
-            given = geometry
-        if size_kw:
-            kw[size_kw] = pitch
-        elif "voxels" in names:
-            kw["voxels"] = max(1, round(float(np.ptp(given.vertices, axis=0).max()) / pitch))
-        start = time.perf_counter()
-        note = ""
-        try:
-            with held_records() as records:
-                made = builder(given, budget=budget, seed=seed, **kw)
-        except InputError as exc:  # e.g. nothing to build at this node
-            made, note = _empty_mesh(), str(exc)
-            failures.append(exc)
-            refusal = _log.makeRecord(_log.name, logging.WARNING, __file__, 0,
-                                      "no occluder: %s", (exc,), None)
-            refusal.node_refusal = True
-            records.append(refusal)
-        finally:
-            held.extend((n["id"], r) for r in records)
-        occ_mesh = made.mesh if isinstance(made, Occluder) else made
-        if not isinstance(occ_mesh, trimesh.Trimesh):
-            raise TypeError(f"node_occluder returned {type(made).__name__}, "
-                            "expected an Occluder or a trimesh.Trimesh")
-        own_error = pitch * (1 + dilation + (0.5 if revoxelized else 0.0))
+        own_error = pitch * (1 + dilation + (0.5 if b["revoxelized"] else 0.0))
         n["error"] = max([own_error] + [c["error"] for c in n["children"]])
         gb = n["geometry_bounds"]
         # the geometry grown by the error, the occluder (slices may reach past the voxel
@@ -507,13 +553,13 @@ def _build_nodes(nodes: list, mesh: trimesh.Trimesh, faces_of: list, builder: Ca
         if len(occ_mesh.vertices):
             boxes += [np.asarray(occ_mesh.vertices, dtype=np.float64)]
         boxes += [c["bounds"] for c in n["children"]]
-        stacked = np.concatenate([np.atleast_2d(b) for b in boxes])
+        stacked = np.concatenate([np.atleast_2d(x) for x in boxes])
         n["bounds"] = np.stack([stacked.min(axis=0), stacked.max(axis=0)])
         n["occluder"] = occ_mesh
         n["triangles"] = len(occ_mesh.faces)
-        n["double_sided"] = bool(made.double_sided) if isinstance(made, Occluder) else True
-        n["seconds"] = time.perf_counter() - start
-        n["note"] = note
+        n["double_sided"] = b["double_sided"]
+        n["seconds"] = b["seconds"]
+        n["note"] = b["note"]
         n["objects"] = np.asarray(n["objects"], dtype=np.int64)
         del n["_diag"]
     return failures
