@@ -73,7 +73,7 @@ from viscore.metrics.culling import (
 )
 
 from viscore import InputError, provenance
-from viscore._atomic import swap_folder
+from viscore._atomic import fsync_path, swap_folder
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
 from viscore.scene_graph import load_scene_objects
 
@@ -286,26 +286,12 @@ class _OutFolder:
                 else:
                     target.write_bytes(content)
                 os.chmod(target, mode)
-                _fsync(target)
+                fsync_path(target)
             os.chmod(staging, stat.S_IMODE(os.stat(self.path).st_mode))
-            _fsync(staging)
+            fsync_path(staging)
             swap_folder(staging, self.path)  # staging now holds the old set
         finally:
             self._settle(staging)
-
-
-def _fsync(path: Path) -> None:
-    """Flush a file or folder to disk where the filesystem allows."""
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
 
 
 def _table(doc: dict) -> str:

@@ -21,7 +21,8 @@ import stat
 import tempfile
 from pathlib import Path
 
-__all__ = ["write_atomic", "check_output_path", "file_mode", "swap_folder", "FileSet"]
+__all__ = ["write_atomic", "check_output_path", "file_mode", "swap_folder", "FileSet",
+           "fsync_path"]
 
 #: ``renameat2`` arguments (Linux ``<fcntl.h>``, ``<linux/fs.h>``).
 _AT_FDCWD, _RENAME_EXCHANGE = -100, 2
@@ -314,7 +315,7 @@ class FileSet:
                 self._undo(moved)
                 raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from None
             moved.append((target, old))
-        _fsync_folder(self.folder)
+        fsync_path(self.folder)
 
     def _keep_old(self, target: Path) -> Path | None:
         """A hard link to the file at ``target`` in the temporary folder, or None."""
@@ -339,10 +340,10 @@ class FileSet:
                 pass
 
 
-def _fsync_folder(folder: Path) -> None:
-    """Make renames in ``folder`` durable where the filesystem allows."""
+def fsync_path(path: str | os.PathLike) -> None:
+    """Flush a file, or the renames in a folder, to disk where the filesystem allows."""
     try:
-        fd = os.open(folder, os.O_RDONLY)
+        fd = os.open(path, os.O_RDONLY)
     except OSError:
         return
     try:
