@@ -55,7 +55,7 @@ from .godot_binary import (
     _read_file,
 )
 
-__all__ = ["OccluderInstance", "tres_text", "tscn_text"]
+__all__ = ["OccluderInstance", "tres_text", "tscn_text", "text_sections", "text_transform"]
 
 #: Godot's text resource format versions read here (Godot 4 writes 3; 4 once a
 #: PackedVector4Array is present).
@@ -647,3 +647,40 @@ def tscn_text(instances: Sequence[OccluderInstance],
             out.append(f"transform = {_transform_text(mat32)}")
         out += [f'occluder = SubResource("{ids[inst.mesh_key]}")', ""]
     return "\n".join(out[:-1]) + "\n"
+
+
+def text_sections(data: bytes, label: str = "file") -> list[tuple[str, dict, dict]]:
+    r"""The ``[tag attr=value ...]`` sections of a Godot text scene or resource.
+
+    Returns
+    -------
+    list of (str, dict, dict)
+        Per section in file order: its tag (``node``, ``ext_resource``, ...),
+        its header attributes (strings unquoted) and its properties (raw text
+        values, as ``Transform3D(...)``).
+
+    Raises
+    ------
+    InputError
+        On text that is not a Godot text file (one line naming ``label``).
+
+    Examples
+    --------
+    >>> text_sections(b'[gd_scene format=3]\n[node name="A" type="Node3D"]\nlayers = 2\n')[1]
+    ('node', {'name': 'A', 'type': 'Node3D'}, {'layers': '2'})
+    """
+    return [(s.tag, dict(s.attrs), dict(s.props)) for s in _parse_godot_text(data, label)]
+
+
+def text_transform(value: str, label: str = "file", what: str = "transform") -> np.ndarray:
+    """A ``Transform3D(basis rows, origin)`` text value as a (4, 4) float64 matrix.
+
+    Godot writes the basis row by row, then the origin (``p -> B p + o``); the
+    values are rounded to float32, Godot's ``real_t``.
+
+    Examples
+    --------
+    >>> text_transform("Transform3D(1, 0, 0, 0, 1, 0, 0, 0, 1, 2, 3, 4)")[:3, 3].tolist()
+    [2.0, 3.0, 4.0]
+    """
+    return _transform(value, label, what)

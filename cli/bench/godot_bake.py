@@ -74,7 +74,7 @@ from scipy.spatial import cKDTree
 
 from viscore import InputError, load_mesh, load_occluder, load_scene_objects
 from viscore._validate import as_positive_int, as_seed
-from viscore.godot_text import _parse_godot_text, _transform
+from viscore.godot_text import text_sections, text_transform
 
 from .models import MODELS_ENV
 
@@ -136,20 +136,19 @@ def scene_instances(text: str, resource: str) -> dict:
         scene placing children of its own is fine: ``Rooms/Room/RedSphere``),
         or a malformed transform.
     """
-    sections = _parse_godot_text(text.encode("utf-8"), "scene")
-    ext_ids = {sec.attrs.get("id", "") for sec in sections if sec.tag == "ext_resource"
-               and sec.attrs.get("path", "").endswith(resource)}
+    sections = text_sections(text.encode("utf-8"), "scene")
+    ext_ids = {attrs.get("id", "") for tag, attrs, _ in sections if tag == "ext_resource"
+               and attrs.get("path", "").endswith(resource)}
     local: dict[str, np.ndarray] = {}
     parent_of: dict[str, str | None] = {}
     order = []
-    for sec in sections:
-        if sec.tag != "node":
+    for tag, attrs, body in sections:
+        if tag != "node":
             continue
-        attrs, body = sec.attrs, sec.props
         name, parent = attrs.get("name", ""), attrs.get("parent")
         path = "." if parent is None else name if parent == "." else f"{parent}/{name}"
         value = body.get("transform")
-        local[path] = np.eye(4) if value is None else _transform(value, "scene", path)
+        local[path] = np.eye(4) if value is None else text_transform(value, "scene", path)
         parent_of[path] = None if parent is None else parent
         order.append((path, attrs, body))
     world: dict[str, np.ndarray] = {}
