@@ -71,7 +71,7 @@ def held_records() -> Iterator[list[logging.LogRecord]]:
 
     Examples
     --------
-    >>> log = logging.getLogger("viscore.example")
+    >>> log = logging.getLogger("viscore.example"); log.setLevel(logging.INFO)
     >>> with held_records() as records:
     ...     log.warning("said later")
     >>> [r.getMessage() for r in records]
@@ -117,7 +117,7 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
 
     Examples
     --------
-    >>> log = logging.getLogger("viscore.example")
+    >>> log = logging.getLogger("viscore.example"); log.setLevel(logging.INFO)
     >>> with held_records() as records:
     ...     log.warning("open mesh")
     ...     log.warning("open mesh")
