@@ -56,3 +56,12 @@ def test_table1_terrain_row_runs_all_three_methods_at_its_budget():
     assert row["planar-sections"]["triangles"] <= 23 and row["qem"]["triangles"] <= 23
     assert row["godot"] is None or row["godot"]["triangles"] <= 23
     assert row["planar-sections"]["precision"] >= 0.99
+
+
+def test_table1_flag_is_for_planar_sections_only(capsys):
+    from viscore.cli.main import main
+
+    rc = main(["bench", "generate", "aabb-skins", "--table1"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "--table1: only for planar-sections" in err
+    assert "Traceback" not in err

@@ -1,4 +1,4 @@
-"""``viscore bench rays|voxels|evaluate|generate|cull``: figures, never assertions.
+"""``viscore bench rays|voxels|evaluate|generate|cull|godot-bake``: figures, never assertions.
 
 The parser and the formatting of the bench command; each benchmark lives in
 its own module of :mod:`viscore.cli.bench`.
@@ -56,6 +56,10 @@ def add_parser(sub, common) -> None:
     g.add_argument("--models", default=None, metavar="DIR",
                    help=f"folder of extra benchmark meshes (spot.obj, fandisk.obj, ...); default "
                    f"${MODELS_ENV}, else only the built-in scenes")
+    g.add_argument("--table1", action="store_true",
+                   help="planar-sections: the paper's Table 1 instead, its five rows beside "
+                        "ours, qem's and godot's on stand-ins made here (million-triangle ones "
+                        "included: minutes)")
     g.set_defaults(run=run_generate)
     k = bsub.add_parser("cull", parents=[common],
                         help="culling runtimes per frame on one core (targets: frusta < 2 ms, "
@@ -68,6 +72,15 @@ def add_parser(sub, common) -> None:
     k.add_argument("--method", default=None,
                    help="generator of the occluders (default solid-frusta)")
     k.set_defaults(run=run_cull)
+    gb = bsub.add_parser("godot-bake", parents=[common],
+                         help="our godot baseline against Godot's own bake of its occlusion "
+                              "demo, triangle for triangle")
+    gb.add_argument("--models", default=None, metavar="DIR",
+                    help=f"folder holding godot-occlusion-demo/ (or that folder itself); "
+                         f"default ${MODELS_ENV}, else ../shared/models beside the repository")
+    gb.add_argument("--views", type=int, default=128,
+                    help="orbit views of the precision/recall evaluation (default 128)")
+    gb.set_defaults(run=run_godot_bake)
 
 
 def run_rays(args) -> int:
@@ -118,7 +131,28 @@ def run_evaluate(args) -> int:
     return 0
 
 
+def run_godot_bake(args) -> int:
+    from .godot_bake import bench_godot_bake, bench_godot_bake_text
+
+    views = as_positive_int(args.views, "--views", maximum=100_000)
+    r = bench_godot_bake(args.models, seed=args.seed, views=views)
+    emit({**r, "provenance": provenance()}, args.json, bench_godot_bake_text(r))
+    return 0
+
+
+def run_table1(args) -> int:
+    from .table1 import bench_table1, table1_lines
+
+    rows = bench_table1(seed=args.seed)
+    emit({"rows": rows, "provenance": provenance()}, args.json, "\n".join(table1_lines(rows)))
+    return 0
+
+
 def run_generate(args) -> int:
+    if args.table1:
+        if args.method != "planar-sections":
+            raise InputError("--table1: only for planar-sections (the paper's Table 1)")
+        return run_table1(args)
     if args.method == "planar-sections":
         return _run_generate_planar(args)
     if args.method == "hybrid":
