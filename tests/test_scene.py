@@ -170,3 +170,144 @@ def test_integers_beyond_float64_are_refused_in_one_line():
         as_vector([10**400, 0, 0], "up")
     with pytest.raises(InputError, match="beyond float64's range"):
         as_points([[0, 0, -(10**400)]], "origins")
+
+
+# --------------------------------------------------------------------------- bit identity
+def _bare_reference(scene, o, d, max_distance=None, occluded=False):
+    """What Scene promises, computed the plain numpy way with one bare Embree call.
+
+    Origins to the unit frame in float64 then float32; directions to float32,
+    those whose float32 squared norm is off 1 by more than 1e-6 normalised in
+    float64 first; distances back as float64(tfar) * scale, inf on a miss.
+    """
+    o = np.broadcast_to(np.asarray(o, dtype=np.float64), np.shape(d))
+    d = np.asarray(d, dtype=np.float64)
+    o32 = ((o - scene._offset) / scene._scale).astype(np.float32)
+    d32 = d.astype(np.float32)
+    sq = d32 * d32
+    norm2 = (sq[:, 0] + sq[:, 1]) + sq[:, 2]
+    off = np.abs(norm2 - np.float32(1)) > np.float32(1e-6)
+    d32[off] = d[off] / np.sqrt(np.einsum("ij,ij->i", d[off], d[off]))[:, None]
+    dists = None
+    if max_distance is not None:
+        t64 = np.broadcast_to(np.asarray(max_distance, dtype=np.float64), (len(d),))
+        dists = np.minimum(t64 / scene._scale, 1e30).astype(np.float32)
+    if occluded:
+        return scene._embree.run(o32, d32, dists=dists, query="OCCLUDED") >= 0
+    res = scene._embree.run(o32, d32, dists=dists, output=1)
+    tri = res["primID"].astype(np.int64)
+    return np.where(tri >= 0, res["tfar"].astype(np.float64) * scene._scale, np.inf), tri
+
+
+def _ray_batches(mesh, rng, n=40_000):
+    """Ray batches in the layouts Scene meets: contiguous, broadcast, strided, read-only."""
+    lo, hi = mesh.bounds
+    r = float(np.linalg.norm(hi - lo))
+    o = rng.uniform(lo - 0.3 * r, hi + 0.3 * r, (n, 3))
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    # off unit: within the 1e-6 tolerance (kept), just beyond it and far (normalised)
+    d_off = d * rng.choice([1.0, 1 + 2e-7, 1 + 3e-6, 1e-3, 7.0], n)[:, None]
+    wide = np.empty((2 * n, 3))
+    wide[::2] = o
+    frozen = o.copy()
+    frozen.flags.writeable = False
+    raw = np.zeros(n * 24 + 1, np.uint8)
+    unaligned = np.frombuffer(raw.data, np.float64, 3 * n, offset=1).reshape(n, 3)
+    unaligned.flags.writeable = True
+    unaligned[:] = o
+    return {"contiguous": (o, d), "off-unit": (o, d_off), "one origin": (o[:1], d),
+            "strided": (wide[::2], np.asfortranarray(d)), "read-only": (frozen, d_off),
+            "unaligned": (unaligned, d)}
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_scene_matches_bare_embree_bit_for_bit(unit_sphere, rng, workers):
+    # a regression guard for the compiled per-chunk passes: every distance,
+    # triangle and hit/miss as the plain numpy conversion and one Embree call give
+    box = trimesh.creation.box(extents=(2.0, 3.0, 1.0))
+    far = trimesh.Trimesh(box.vertices * 3e5 + 1e6, box.faces, process=False)  # scale != 1
+    for mesh in (unit_sphere, far):
+        scene = Scene(mesh, workers=workers)
+        for name, (o, d) in _ray_batches(mesh, rng).items():
+            t, tri = scene.first_hit(o, d)
+            t_ref, tri_ref = _bare_reference(scene, o, d)
+            assert (tri >= 0).any() and (tri < 0).any(), name
+            np.testing.assert_array_equal(tri, tri_ref, err_msg=name)
+            assert t.tobytes() == t_ref.tobytes(), name
+            md = rng.uniform(0, scene.diagonal, len(d))
+            md[::5] = np.inf
+            t, tri = scene.first_hit(o, d, max_distance=md)
+            t_ref, tri_ref = _bare_reference(scene, o, d, max_distance=md)
+            np.testing.assert_array_equal(tri, tri_ref, err_msg=name)
+            assert t.tobytes() == t_ref.tobytes(), name
+            for limit in (md, 0.3 * scene.diagonal, None):
+                occ = scene.any_hit(o, d, max_distance=limit)
+                np.testing.assert_array_equal(occ, _bare_reference(scene, o, d, limit, True),
+                                              err_msg=name)
+
+
+def test_all_hits_first_layer_is_first_hit(unit_sphere, rng):
+    o = rng.uniform(-2, 2, (40_000, 3))
+    d = rng.normal(size=(40_000, 3))
+    scene = Scene(unit_sphere, workers=2)
+    hits = scene.all_hits(o, d)
+    t, tri = scene.first_hit(o, d)
+    starts = np.cumsum(hits.count) - hits.count
+    first = hits.count > 0
+    np.testing.assert_array_equal(first, tri >= 0)
+    assert hits.t[starts[first]].tobytes() == t[first].tobytes()
+    np.testing.assert_array_equal(hits.triangle[starts[first]], tri[first])
+
+
+def test_unit_frame_kernel_matches_numpy(rng):
+    from viscore.scene import _BAD_RAY, _OFF_UNIT, _ready_kernels, _unit_frame
+
+    _ready_kernels()
+    n = 50_000
+    o = rng.normal(size=(n, 3)) * 10.0 ** rng.integers(-30, 30, (n, 1))
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    d *= rng.choice([1.0, 1 + 1e-7, 1 - 4e-7, 1 + 6e-7, 1e-20, 1e20], (n, 1))
+    d[:7] = [[0, 0, 0], [np.nan, 0, 1], [np.inf, 0, 0], [1e-30, 0, 0], [1e30, 1, 1],
+             [-0.0, 0, 0], [3e-23, 0, 0]]  # zero, NaN, inf, underflow to 0, overflow to inf
+    offset = np.array([0.25, -3.0, 1e-3])
+    o32, d32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
+    norm2 = np.empty(n, np.float32)
+    for scale, exact in ((2.0**-7, True), (2.0**-7, False), (3.0, False)):
+        for rows in (slice(0, n), slice(7, n), slice(7, 20), slice(7, 8)):
+            for one in (False, True):
+                oo = np.broadcast_to(o[rows][:1], o[rows].shape) if one else o[rows]
+                k = rows.stop - rows.start
+                flags = _unit_frame(oo[0].copy() if one else oo.reshape(-1),
+                                    d[rows].reshape(-1), offset, 1 / scale, scale, exact, one,
+                                    o32[:k].reshape(-1), d32[:k].reshape(-1), norm2[:k])
+                with np.errstate(over="ignore", invalid="ignore", under="ignore"):
+                    shifted = oo - offset
+                    ref_o = (shifted * (1 / scale) if exact else shifted / scale).astype(
+                        np.float32)
+                    ref_d = d[rows].astype(np.float32)
+                    sq = ref_d * ref_d
+                    ref_n = (sq[:, 0] + sq[:, 1]) + sq[:, 2]
+                    off = np.abs(ref_n - 1.0) > 1e-6
+                assert o32[:k].tobytes() == ref_o.tobytes()
+                assert d32[:k].tobytes() == ref_d.tobytes()
+                assert norm2[:k].tobytes() == ref_n.tobytes()
+                ok = np.isfinite(ref_o).all(axis=1) & np.isfinite(ref_n) & (ref_n > 0)
+                assert bool(flags & _BAD_RAY) == (not ok.all())
+                if off[ok].any():  # never misses a direction numpy would normalise
+                    assert flags & _OFF_UNIT
+
+
+def test_bad_ray_in_a_later_chunk_is_named(unit_sphere, rng):
+    o = rng.uniform(-2, 2, (100_000, 3))
+    d = rng.normal(size=(100_000, 3))
+    o[70_123, 2] = np.inf
+    d[90_000] = 0
+    for workers in (1, 2):
+        with pytest.raises(InputError, match=r"origins: contains NaN or infinite values "
+                                             r"\(first at ray 70123\)"):
+            Scene(unit_sphere, workers=workers).first_hit(o, d)
+        with pytest.raises(InputError, match=r"zero-length direction vectors "
+                                             r"\(first at ray 90000\)"):
+            Scene(unit_sphere, workers=workers).any_hit(np.zeros_like(o), d)

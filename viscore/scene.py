@@ -10,15 +10,24 @@ units: ray origins are mapped into the unit frame, distances mapped back.
 Batches are cut into equal chunks of 16384 to 65536 rays that a pool of
 threads (one per core by default, the calling thread among them) claims in
 order, converting, checking and tracing each chunk in its own reused
-float32 buffers: embreex releases the GIL inside ``EmbreeScene.run``, and
-the dozen numpy calls per chunk, which release it in their loops, hold it
-for a few per cent of the time in all.
+float32 buffers. A chunk costs three calls that hold the GIL only while
+they start: one compiled pass (:func:`_unit_frame`) that maps the float64
+rays to the float32 unit frame and checks them on the way, embreex's
+``EmbreeScene.run`` (which releases the GIL while it traces), and one
+compiled pass (:func:`_store_hits`) that writes the float64 distances and
+int64 triangles; numpy is left for the rare chunk with a bad or non-unit
+ray. The dozen numpy passes these replace cost 17-22 ns a ray on one
+thread, where the two compiled ones cost 7-8 (against 106 ns of tracing a
+coherent ray and 240 an incoherent one on the 56k-triangle bunny), most of
+it reading the float64 rays and writing the float64 hits. Two threads get
+1.9-2.1x of one.
 """
 
 from __future__ import annotations
 
 import itertools
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import cached_property
@@ -27,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
+from ._jit import njit_cached
 from ._validate import InputError, as_points, as_positive_int, as_unit_vectors
 from .constants import MAX_HITS, MIN_RAYS_PER_TASK, RAY_STEP_RELATIVE
 
@@ -46,11 +56,11 @@ _EMBREE_MISS_T = 1e30
 #: stays large (see ``_MAX_RAYS_PER_CHUNK``).
 _CHUNKS_PER_WORKER = 4
 
-#: Most rays per Embree call, rays. Each numpy operation on a chunk costs a few
-#: microseconds however small the chunk, about 1 ns a ray at this size (against
-#: 80-300 ns a ray of tracing); larger chunks gain nothing and cost memory:
-#: about 110 bytes a ray of per-thread buffers (float64 and float32 copies,
-#: Embree's outputs), 7 MiB a thread here.
+#: Most rays per Embree call, rays. Each call on a chunk costs a few
+#: microseconds however small the chunk, well under 1 ns a ray at this size
+#: (against 80-300 ns a ray of tracing); larger chunks gain nothing and cost
+#: memory: about 60 bytes a ray of per-thread buffers (float32 copies, Embree's
+#: outputs), 4 MiB a thread here.
 _MAX_RAYS_PER_CHUNK = 65536
 
 _workers: int | None = None
@@ -67,6 +77,156 @@ def _unit_scale(diagonal: float) -> float:
         return 1.0
     _, exponent = np.frexp(diagonal)  # diagonal = m * 2**exponent, 0.5 <= m < 1
     return float(np.ldexp(1.0, int(exponent)))
+
+
+#: A direction whose float32 squared norm is off 1 by more than this is looked at
+#: closer (numpy decides, with ``_UNIT_TOLERANCE_F32``): a margin below the
+#: tolerance, so that :func:`_unit_frame` never misses one numpy would normalise.
+_NEAR_UNIT = 0.9 * _UNIT_TOLERANCE_F32
+
+#: Flags :func:`_unit_frame` returns.
+_BAD_RAY, _OFF_UNIT = 1, 2
+
+
+@njit_cached(nogil=True)
+def _unit_frame(o, d, offset, inverse, scale, exact_inverse, one_origin, o32, d32,
+                norm2):  # pragma: no cover - compiled; run by every query
+    """Map one chunk of rays to the float32 unit frame, checking them on the way.
+
+    ``o`` and ``d`` are the chunk's float64 origins and directions as flat
+    ``(3m,)`` arrays, or ``o`` the ``(3,)`` origin of every ray when
+    ``one_origin``. Writes the flat float32 ``o32 = float32((o - offset) *
+    inverse)`` (``/ scale`` where ``inverse`` is not exact) and ``d32 =
+    float32(d)``, and ``norm2``, the float32 squared norms of ``d32`` summed
+    as ``(x*x + y*y) + z*z``: each operation rounded once, as numpy rounds
+    it. Returns ``_BAD_RAY`` if an origin is not finite in float32 or a
+    squared norm is not finite and positive, plus ``_OFF_UNIT`` if a squared
+    norm is off 1 by more than ``_NEAR_UNIT``. Branch-free loops over whole
+    rows, which LLVM vectorises: one read of each ray.
+    """
+    m = norm2.shape[0]
+    ox, oy, oz = offset[0], offset[1], offset[2]
+    nonfinite = False
+    if one_origin:
+        if exact_inverse:
+            x, y, z = (np.float32((o[0] - ox) * inverse), np.float32((o[1] - oy) * inverse),
+                       np.float32((o[2] - oz) * inverse))
+        else:
+            x, y, z = (np.float32((o[0] - ox) / scale), np.float32((o[1] - oy) / scale),
+                       np.float32((o[2] - oz) / scale))
+        nonfinite = not (abs(x) < np.inf and abs(y) < np.inf and abs(z) < np.inf)
+        for i in range(m):
+            o32[3 * i] = x
+            o32[3 * i + 1] = y
+            o32[3 * i + 2] = z
+    elif exact_inverse:
+        for i in range(m):
+            x = np.float32((o[3 * i] - ox) * inverse)
+            y = np.float32((o[3 * i + 1] - oy) * inverse)
+            z = np.float32((o[3 * i + 2] - oz) * inverse)
+            o32[3 * i] = x
+            o32[3 * i + 1] = y
+            o32[3 * i + 2] = z
+            nonfinite |= ((not abs(x) < np.inf) | (not abs(y) < np.inf)
+                          | (not abs(z) < np.inf))
+    else:
+        for i in range(m):
+            x = np.float32((o[3 * i] - ox) / scale)
+            y = np.float32((o[3 * i + 1] - oy) / scale)
+            z = np.float32((o[3 * i + 2] - oz) / scale)
+            o32[3 * i] = x
+            o32[3 * i + 1] = y
+            o32[3 * i + 2] = z
+            nonfinite |= ((not abs(x) < np.inf) | (not abs(y) < np.inf)
+                          | (not abs(z) < np.inf))
+    off = False
+    for i in range(m):
+        dx = np.float32(d[3 * i])
+        dy = np.float32(d[3 * i + 1])
+        dz = np.float32(d[3 * i + 2])
+        d32[3 * i] = dx
+        d32[3 * i + 1] = dy
+        d32[3 * i + 2] = dz
+        n2 = (dx * dx + dy * dy) + dz * dz
+        norm2[i] = n2
+        nonfinite |= (not n2 > 0) | (not n2 < np.inf)
+        off |= abs(np.float64(n2) - 1.0) > _NEAR_UNIT
+    return _BAD_RAY * nonfinite + _OFF_UNIT * off
+
+
+@njit_cached(nogil=True)
+def _unit_tfar(tfar, scale, longest, dists):  # pragma: no cover - compiled
+    """``dists = float32(min(tfar / scale, longest))``: segment lengths in the unit frame."""
+    for i in range(tfar.shape[0]):
+        dists[i] = np.float32(min(tfar[i] / scale, longest))
+
+
+@njit_cached(nogil=True)
+def _store_hits(tfar, prim, scale, t, tri):  # pragma: no cover - compiled
+    """World distances and int64 triangles of one chunk: ``t = tfar * scale``, inf on a miss.
+
+    float32 -> float64 is exact, and so is the power-of-two scale.
+    """
+    for i in range(prim.shape[0]):
+        p = prim[i]
+        tri[i] = p
+        t[i] = np.inf if p < 0 else np.float64(tfar[i]) * scale
+
+
+_kernels_lock = threading.Lock()
+_kernels_ready = False
+
+
+def _kernel_signatures() -> dict:
+    """Kernel -> the only signatures it is compiled for (see :func:`_ready_kernels`)."""
+    from numba import types
+
+    def array(dtype, ndim: int = 1, layout: str = "C", readonly: bool = False,
+              aligned: bool = True):
+        return types.Array(dtype, ndim, layout, readonly=readonly, aligned=aligned)
+
+    f64, f32 = types.float64, types.float32
+    rays = array(f64, readonly=True)  # a writable array converts to it
+    return {
+        _unit_frame: [types.int64(rays, rays, rays, f64, f64, types.boolean, types.boolean,
+                                  array(f32), array(f32), array(f32))],
+        # any layout, writeability and alignment (max_distance is broadcast, read-only)
+        _unit_tfar: [types.void(array(f64, 1, "A", readonly=True, aligned=False), f64, f64,
+                                array(f32))],
+        _store_hits: [types.void(array(f32), array(types.int32), f64, array(f64),
+                                 array(types.int64))],
+    }
+
+
+def _flat(rows: np.ndarray) -> np.ndarray:
+    """``(m, 3)`` rows as one flat C-contiguous, aligned array (a view where they are one)."""
+    if not (rows.flags.c_contiguous and rows.flags.aligned):
+        rows = np.array(rows, order="C")  # a copy: strided, broadcast or unaligned rows
+    return rows.reshape(-1)
+
+
+def _ready_kernels() -> None:
+    """Compile (or load from numba's cache) the kernels once, for fixed signatures only.
+
+    Left to compile for the argument types of each call, numba would build a
+    new version for every layout and writeability the arrays come in (a
+    second or so each where it has no cache folder to keep them in); pinned,
+    each kernel has one version, which the arrays are converted to (the rays
+    are handed over flat and C-contiguous, see :func:`_flat`). The first query
+    of a process pays numba's own start-up (some 0.4 s, once, shared with
+    viscore's other compiled kernels).
+    """
+    global _kernels_ready
+    if _kernels_ready:
+        return
+    with _kernels_lock:
+        if not _kernels_ready:
+            for kernel, signatures in _kernel_signatures().items():
+                if hasattr(kernel, "disable_compile"):  # not under NUMBA_DISABLE_JIT
+                    for signature in signatures:
+                        kernel.compile(signature)
+                    kernel.disable_compile()
+            _kernels_ready = True
 
 
 def _as_max_distance(value: npt.ArrayLike | None, n: int) -> np.ndarray | None:
@@ -93,7 +253,7 @@ def _raise_first_bad_ray(o: np.ndarray, o32: np.ndarray, norm2: np.ndarray,
     ``o`` are the chunk's float64 origins, ``o32`` their float32 unit-frame
     copies, ``norm2`` the float32 squared norms of its directions. Of one
     ray, its origin is reported before its direction. Returns when every ray
-    is good (a float32 sum of the origins overflowed, none of them did).
+    is good.
     """
     problems = (
         (~np.isfinite(o).all(axis=1), "origins: contains NaN or infinite values"),
@@ -310,6 +470,7 @@ class Scene:
         if n == 0:
             return (np.zeros(0), np.zeros(0, dtype=np.int64)) if intersect else np.zeros(0, bool)
         scene = self._embree
+        _ready_kernels()
         offset, scale = self._offset, self._scale
         inverse = 1.0 / scale
         # multiplying by an exact inverse of a power of two rounds as dividing does
@@ -323,22 +484,18 @@ class Scene:
         n_chunks = self._chunk_count(n, workers)
         size = -(-n // n_chunks)  # rays in the largest chunk
         workers = min(workers, n_chunks)
+        # one origin broadcast to every ray (as _prepare does it): handed over once
+        one_origin = n > 1 and o.strides[0] == 0
+        o_one = _flat(o[:1]) if one_origin else None
         claim = itertools.count().__next__  # atomic under the GIL: chunks go out in order
         errors: dict[int, Exception] = {}  # chunk index -> what it raised
 
         def work() -> None:
-            # per-thread buffers; the offset as whole rows, so that the subtraction
-            # is one flat loop rather than a broadcast over rows of 3
-            offset_rows = np.tile(offset, (size, 1))
-            o64 = np.empty((size, 3))
+            # per-thread buffers, reused by every chunk the thread claims
             o32 = np.empty((size, 3), dtype=np.float32)
             d32 = np.empty((size, 3), dtype=np.float32)
-            if check_values:
-                squares = np.empty((size, 3), dtype=np.float32)
-                norm2 = np.empty(size, dtype=np.float32)
-            if tfar is not None:
-                t64 = np.empty(size)
-                dists = np.empty(size, dtype=np.float32)
+            norm2 = np.empty(size, dtype=np.float32)
+            dists = None if tfar is None else np.empty(size, dtype=np.float32)
             # one errstate per thread (it is per thread, and costly to enter per
             # chunk): float32 overflow to inf, and NaN from it, are refused by the checks
             with np.errstate(over="ignore", invalid="ignore"):
@@ -351,32 +508,22 @@ class Scene:
                     m = b - a
                     try:
                         # unit frame: (o - offset) / scale in float64, then rounded once
-                        # to float32, in place (a cast inside a ufunc is slower)
-                        np.subtract(o[a:b], offset_rows[:m], out=o64[:m])
-                        if exact_inverse:
-                            np.multiply(o64[:m], inverse, out=o64[:m])
-                        else:  # pragma: no cover - diagonal near float64's limits
-                            np.divide(o64[:m], scale, out=o64[:m])
-                        np.copyto(o32[:m], o64[:m], casting="same_kind")
-                        np.copyto(d32[:m], d[a:b], casting="same_kind")
-                        if check_values:
-                            self._check_chunk(o[a:b], d[a:b], o32[:m], d32[:m], squares[:m],
-                                              norm2[:m], first_ray=a)
-                        if tfar is None:
-                            tfar32 = None
-                        else:
-                            np.divide(tfar[a:b], scale, out=t64[:m])
-                            np.minimum(t64[:m], _EMBREE_MISS_T, out=t64[:m])
-                            np.copyto(dists[:m], t64[:m], casting="same_kind")
+                        # to float32; checked in the same pass
+                        flags = _unit_frame(o_one if one_origin else _flat(o[a:b]),
+                                            _flat(d[a:b]), offset, inverse, scale,
+                                            exact_inverse, one_origin, o32[:m].reshape(-1),
+                                            d32[:m].reshape(-1), norm2[:m])
+                        if check_values and flags:
+                            self._check_chunk(o[a:b], d[a:b], o32[:m], d32[:m], norm2[:m],
+                                              flags, first_ray=a)
+                        tfar32 = None
+                        if tfar is not None:
                             tfar32 = dists[:m]
+                            _unit_tfar(tfar[a:b], scale, _EMBREE_MISS_T, tfar32)
                         if intersect:
                             res = scene.run(o32[:m], d32[:m], dists=tfar32, output=1)
-                            tri = res["primID"]
-                            t_world = t_out[a:b]
-                            # float32 -> float64 is exact, and so is the power-of-two scale
-                            np.multiply(res["tfar"], scale, out=t_world, dtype=np.float64)
-                            np.putmask(t_world, tri < 0, np.inf)
-                            tri_out[a:b] = tri
+                            _store_hits(res["tfar"], res["primID"], scale, t_out[a:b],
+                                        tri_out[a:b])
                         else:
                             hit_out[a:b] = scene.run(o32[:m], d32[:m], dists=tfar32,
                                                      query="OCCLUDED") >= 0
@@ -418,33 +565,27 @@ class Scene:
 
     @staticmethod
     def _check_chunk(o: np.ndarray, d: np.ndarray, o32: np.ndarray, d32: np.ndarray,
-                     squares: np.ndarray, norm2: np.ndarray, *, first_ray: int) -> None:
+                     norm2: np.ndarray, flags: int, *, first_ray: int) -> None:
         """Check one converted chunk; normalise the directions that are not unit.
 
         ``o``, ``d`` are the chunk's float64 rays, ``o32``, ``d32`` their float32
-        unit-frame copies (``d32`` is fixed in place); ``squares`` and ``norm2``
-        are scratch of the chunk's size; ``first_ray`` is the chunk's offset in
-        the batch. Origins must be finite and within float32's range of the
-        unit frame, directions finite and non-zero in float32; a direction
-        whose float32 squared norm is off 1 by more than
-        ``_UNIT_TOLERANCE_F32`` is normalised in float64 first. On bad input the
-        :class:`InputError` names the first bad ray. The caller ignores float
-        overflow and invalid-value warnings: what overflows is refused here.
+        unit-frame copies (``d32`` is fixed in place), ``norm2`` the float32
+        squared norms of ``d32`` and ``flags`` what :func:`_unit_frame`
+        returned; ``first_ray`` is the chunk's offset in the batch. Origins must
+        be finite and within float32's range of the unit frame, directions
+        finite and non-zero in float32; a direction whose float32 squared norm
+        is off 1 by more than ``_UNIT_TOLERANCE_F32`` is normalised in float64
+        first. On bad input the :class:`InputError` names the first bad ray.
+        The caller ignores float overflow and invalid-value warnings: what
+        overflows is refused here.
         """
-        # float32 squared norms, (x*x + y*y) + z*z as einsum("ij,ij->i") sums them
-        np.multiply(d32, d32, out=squares)
-        np.add(squares[:, 0], squares[:, 1], out=norm2)
-        np.add(norm2, squares[:, 2], out=norm2)
-        lo, hi = norm2.min(), norm2.max()  # NaN propagates into both
-        # a finite sum has only finite terms; a sum that overflowed is looked at closer
-        if not (np.isfinite(np.add.reduce(o32.reshape(-1))) and np.isfinite(lo)
-                and np.isfinite(hi) and lo > 0):
+        if flags & _BAD_RAY:
             _raise_first_bad_ray(o, o32, norm2, first_ray)
-        # rounding is monotonic, so the extremes bound every |norm2 - 1|
-        if max(abs(hi - 1.0), abs(lo - 1.0)) > _UNIT_TOLERANCE_F32:
+        if flags & _OFF_UNIT:
             off = np.flatnonzero(np.abs(norm2 - 1.0) > _UNIT_TOLERANCE_F32)
-            dc = d[off]
-            d32[off] = dc / np.sqrt(np.einsum("ij,ij->i", dc, dc))[:, None]
+            if len(off):
+                dc = d[off]
+                d32[off] = dc / np.sqrt(np.einsum("ij,ij->i", dc, dc))[:, None]
 
     # ------------------------------------------------------------------ queries
     def first_hit(self, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
