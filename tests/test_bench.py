@@ -7,9 +7,16 @@ consistency (ratios are the quotients of the figures printed beside them).
 import json
 import math
 
+import numpy as np
 import pytest
 from viscore.cli.bench.aabb_skins import bench_generate_aabb_skins
-from viscore.cli.bench.core import bench_rays, bench_voxels
+from viscore.cli.bench.core import (
+    RAY_SETS,
+    RAY_VARIANTS,
+    bench_ray_sets,
+    bench_rays,
+    bench_voxels,
+)
 from viscore.cli.bench.models import MODELS_ENV, models_folder
 from viscore.cli.main import main
 
@@ -22,24 +29,83 @@ def _run(capsys, argv):
     return code, out, err
 
 
+_TINY_RAYS = ["bench", "rays", "--mesh", "fat-torus", "--rays", "500", "--res", "16",
+              "--repeats", "2"]
+
+
 def test_bench_rays_json_tiny(capsys):
-    code, out, _ = _run(capsys, ["bench", "rays", "--mesh", "fat-torus", "--rays", "500",
-                                 "--repeats", "1", "--json"])
+    code, out, _ = _run(capsys, [*_TINY_RAYS, "--json"])
     assert code == 0
     doc = json.loads(out)
-    assert doc["rays"] == 500 and doc["repeats"] == 1 and doc["workers"] >= 1
-    for key in ("bare_mrays_1", "scene_mrays_1", "scene_mrays_all", "ratio_vs_bare", "scaling"):
-        assert math.isfinite(doc[key]) and doc[key] > 0
+    assert doc["rays"] == 500 and doc["repeats"] == 2 and doc["workers"] >= 1
+    assert doc["views"] == 4 and doc["resolution"] == 16 and doc["faces"] > 0
+    assert set(doc["sets"]) == set(RAY_SETS)
+    assert doc["sets"]["coherent"]["rays"] == 4 * 16 * 16
+    assert doc["sets"]["incoherent"]["rays"] == 500
+    for name, s in doc["sets"].items():
+        assert 0 < s["hit_share"] < 1, name
+        expected = set(RAY_VARIANTS) if "open3d_1" in s["mrays"] else set(RAY_VARIANTS[:4])
+        assert set(s["mrays"]) == set(s["best_mrays"]) == expected
+        for key, value in s["mrays"].items():
+            assert math.isfinite(value) and 0 < value <= s["best_mrays"][key]
+        r, mr = s["ratios"], s["mrays"]
+        assert r["scene_1_vs_bare_1"] == pytest.approx(mr["scene_1"] / mr["bare_1"])
+        assert r["scene_1_vs_bare_chunked_1"] == pytest.approx(mr["scene_1"] / mr["bare_chunked_1"])
+        assert r["scene_all_vs_scene_1"] == pytest.approx(mr["scene_all"] / mr["scene_1"])
+        if "open3d_all" in mr:
+            assert r["scene_all_vs_open3d_all"] == pytest.approx(mr["scene_all"] / mr["open3d_all"])
+        # bare embreex on the same float32 unit-frame rays: the same hits, bit for bit
+        assert s["agreement"]["bare"] == {"max_abs_t": 0.0, "hit_miss": 0, "triangle": 0}
+    coherent = doc["sets"]["coherent"]
+    assert doc["scene_mrays_all"] == coherent["mrays"]["scene_all"]
     assert doc["ratio_vs_bare"] == pytest.approx(doc["scene_mrays_1"] / doc["bare_mrays_1"])
     assert doc["scaling"] == pytest.approx(doc["scene_mrays_all"] / doc["scene_mrays_1"])
     assert "embree" in doc["provenance"]
 
 
 def test_bench_rays_text_names_targets(capsys):
-    code, out, _ = _run(capsys, ["bench", "rays", "--mesh", "fat-torus", "--rays", "200",
-                                 "--repeats", "1"])
+    code, out, _ = _run(capsys, _TINY_RAYS)
     assert code == 0
-    assert "200 first-hit rays" in out and "target >= 0.90" in out
+    assert "coherent: 1,024 rays (4 orthographic views of 16 x 16 px" in out
+    assert "incoherent: 500 rays" in out
+    assert out.count("target >= 0.95") == 2
+    assert out.count("Scene vs bare: max |dt| 0, 0 hit/miss and 0 triangle differences") == 2
+
+
+def test_bench_rays_without_open3d_says_so(capsys, monkeypatch):
+    from viscore.cli.bench import core
+
+    monkeypatch.setattr(core, "_open3d", lambda: "not installed")
+    code, out, _ = _run(capsys, [*_TINY_RAYS, "--repeats", "1"])
+    assert code == 0
+    assert out.count("open3d: not installed") == 2 and "Open3D" not in out
+    r = bench_rays("fat-torus", rays=300, views=1, resolution=8, repeats=1)
+    assert r["open3d"] == "not installed"
+    for s in r["sets"].values():
+        assert "open3d_all" not in s["mrays"] and "scene_all_vs_open3d_all" not in s["ratios"]
+        assert set(s["agreement"]) == {"bare"}
+
+
+def test_bench_ray_sets_are_the_promised_rays():
+    from viscore.metrics import orbit_frame
+
+    from viscore import OrthoCamera, directions_uniform, load_mesh
+
+    mesh = load_mesh("fat-torus")
+    sets = bench_ray_sets(mesh, views=3, resolution=8, rays=100, seed=5)
+    o, d = sets["coherent"]
+    center, extent = orbit_frame(mesh)
+    first = OrthoCamera(directions_uniform(3, seed=5)[0], center, extent, 8).rays()
+    np.testing.assert_array_equal(o[:64], first[0])
+    np.testing.assert_array_equal(d[:64], first[1])
+    assert o.shape == d.shape == (3 * 64, 3)
+    o, d = sets["incoherent"]
+    lo, hi = mesh.bounds
+    assert o.shape == d.shape == (100, 3)
+    assert ((o >= lo) & (o <= hi)).all()
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1.0)
+    again = bench_ray_sets(mesh, views=3, resolution=8, rays=100, seed=5)["incoherent"]
+    np.testing.assert_array_equal(again[0], o)
 
 
 def test_bench_rays_invalid_input():
@@ -47,6 +113,10 @@ def test_bench_rays_invalid_input():
         bench_rays("fat-torus", rays=0)
     with pytest.raises(InputError, match="repeats"):
         bench_rays("fat-torus", rays=10, repeats=0)
+    with pytest.raises(InputError, match="views"):
+        bench_rays("fat-torus", rays=10, views=0)
+    with pytest.raises(InputError, match="resolution"):
+        bench_rays("fat-torus", rays=10, resolution=16385)
 
 
 def test_bench_voxels_tiny_counts():

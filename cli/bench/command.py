@@ -22,11 +22,17 @@ def add_parser(sub, common) -> None:
     p = sub.add_parser("bench", help="print speed figures against same-run references")
     bsub = p.add_subparsers(dest="bench_command", metavar="TARGET")
     bsub.required = True
-    r = bsub.add_parser("rays", parents=[common], help="first-hit rays/s vs bare embreex")
-    r.add_argument("--mesh", default="bunny")
-    r.add_argument("--rays", type=int, default=1_000_000, help="rays per call (default 1000000)")
+    r = bsub.add_parser("rays", parents=[common],
+                        help="first-hit rays/s of Scene vs bare embreex and Open3D, same rays")
+    r.add_argument("--mesh", default="bunny",
+                   help="mesh file or built-in scene (default bunny: pymeshlab's, 56k triangles)")
+    r.add_argument("--rays", type=int, default=1_000_000,
+                   help="incoherent rays, from inside the bounding box (default 1000000)")
+    r.add_argument("--res", type=int, default=1024,
+                   help="pixels per side of each of the 4 orthographic views of the coherent "
+                        "rays (default 1024)")
     r.add_argument("--repeats", type=int, default=7,
-                   help="interleaved repeats, best of each counts (default 7)")
+                   help="interleaved repeats, the median of each counts (default 7)")
     r.set_defaults(run=run_rays)
     v = bsub.add_parser("voxels", parents=[common], help="voxelization time at 64^3 and 128^3")
     v.add_argument("--mesh", default="bunny")
@@ -83,15 +89,64 @@ def add_parser(sub, common) -> None:
     gb.set_defaults(run=run_godot_bake)
 
 
+#: Labels of the timed variants of ``bench rays``, by key of its ``mrays``.
+_RAY_LABELS = {"bare_1": "bare embreex, 1 thread, one run",
+               "bare_chunked_1": "bare embreex, 1 thread, {chunk}-ray runs",
+               "scene_1": "Scene, 1 worker",
+               "scene_all": "Scene, {workers} workers",
+               "open3d_1": "Open3D {version}, 1 thread",
+               "open3d_all": "Open3D {version}, {workers} threads"}
+
+
+def _agreement_text(name: str, a: dict) -> str:
+    """One tracer's agreement with Scene (see ``viscore.cli.bench.core._agreement``)."""
+    return (f"{name}: max |dt| {a['max_abs_t']:.3g}, {a['hit_miss']:,} hit/miss and "
+            f"{a['triangle']:,} triangle differences")
+
+
+def rays_text(r: dict) -> str:
+    """The human-readable report of :func:`viscore.cli.bench.core.bench_rays`."""
+    from .core import BARE_CHUNK_RAYS, RAY_SETS
+
+    w = r["workers"]
+    lines = [f"{r['mesh']}: {r['faces']:,} triangles, {w} workers; first-hit Mrays/s, median of "
+             f"{r['repeats']} interleaved repeats (fastest in brackets), on the same rays"]
+    what = {"coherent": f"{r['views']} orthographic views of {r['resolution']} x "
+                        f"{r['resolution']} px, orbit framing",
+            "incoherent": "uniform points in the bounding box, uniform directions"}
+    for name in RAY_SETS:
+        s = r["sets"][name]
+        mr, best, ratio = s["mrays"], s["best_mrays"], s["ratios"]
+        notes = {
+            "scene_1": f"x{ratio['scene_1_vs_bare_1']:.2f} of bare one run (target >= 0.95)"
+                       + (f", x{ratio['scene_1_vs_bare_chunked_1']:.2f} of chunked runs"
+                          if "scene_1_vs_bare_chunked_1" in ratio else ""),
+            "scene_all": f"x{ratio['scene_all_vs_scene_1']:.2f} of 1 worker",
+        }
+        if "open3d_all" in mr:
+            notes["open3d_all"] = (f"x{ratio['open3d_all_vs_open3d_1']:.2f} of 1 thread; Scene "
+                                   f"x{ratio['scene_all_vs_open3d_all']:.2f} of it (target "
+                                   f">= 1.00 on 2 cores)")
+        lines.append(f"{name}: {s['rays']:,} rays ({what[name]}, seed {r['seed']}), "
+                     f"{s['hit_share']:.1%} hit")
+        for key, value in mr.items():
+            label = _RAY_LABELS[key].format(chunk=BARE_CHUNK_RAYS, workers=w,
+                                            version=r["open3d"])
+            note = f"  {notes[key]}" if key in notes else ""
+            lines.append(f"  {label:<40} {value:6.2f}  ({best[key]:.2f}){note}")
+        if "open3d_1" not in mr:
+            lines.append(f"  open3d: {r['open3d']}")
+        agree = s["agreement"]
+        lines.append("  same hits? " + "; ".join(
+            _agreement_text(f"Scene vs {'bare' if k == 'bare' else 'Open3D'}", a)
+            for k, a in agree.items()))
+    return "\n".join(lines)
+
+
 def run_rays(args) -> int:
-    r = bench_rays(args.mesh, rays=args.rays, repeats=args.repeats, seed=args.seed)
-    text = (f"{r['mesh']}, {r['rays']:,} first-hit rays\n"
-            f"  bare embreex, 1 thread : {r['bare_mrays_1']:.2f} Mrays/s\n"
-            f"  Scene, 1 worker        : {r['scene_mrays_1']:.2f} Mrays/s  "
-            f"(x{r['ratio_vs_bare']:.2f} of bare, target >= 0.90)\n"
-            f"  Scene, {r['workers']} workers       : {r['scene_mrays_all']:.2f} Mrays/s  "
-            f"(x{r['scaling']:.2f} of 1 worker, target >= 1.8 on 2 cores)")
-    emit({**r, "provenance": provenance()}, args.json, text)
+    r = bench_rays(args.mesh, rays=args.rays, resolution=args.res, repeats=args.repeats,
+                   seed=args.seed)
+    emit({**r, "provenance": provenance()}, args.json, rays_text(r))
     return 0
 
 

@@ -18,6 +18,7 @@ References
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Callable
 
@@ -32,12 +33,13 @@ from viscore import (
     voxelize,
 )
 
-__all__ = ["bench_rays", "bench_voxels", "bench_evaluate", "best_of", "bare_embree",
-           "MAX_REPEATS"]
+__all__ = ["bench_rays", "bench_ray_sets", "bench_voxels", "bench_evaluate", "best_of",
+           "bare_embree", "MAX_REPEATS", "BARE_CHUNK_RAYS", "RAY_SETS", "RAY_VARIANTS"]
 
 _log = logging.getLogger(__name__)
 
 def best_of(fn: Callable[[], object], repeats: int) -> float:
+    """Fewest seconds of ``repeats`` calls of ``fn``."""
     best = np.inf
     for _ in range(repeats):
         start = time.perf_counter()
@@ -62,79 +64,260 @@ def bare_embree(mesh):
 #: Timed repeats a benchmark accepts (best-of-n figures settle well before this).
 MAX_REPEATS = 100
 
-def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, repeats: int = 7,
-               seed: int = 0) -> dict:
-    """First-hit throughput of :class:`viscore.Scene` against a bare embreex call.
+#: Rays per call of the chunked bare reference: the largest chunk :class:`Scene`
+#: hands Embree (``viscore.scene._MAX_RAYS_PER_CHUNK``).
+BARE_CHUNK_RAYS = 65536
 
-    Rays start on a sphere of twice the bounding radius around the mesh and
-    aim at uniform points in its bounding box, so most of them hit.
+#: Peak bytes per ray of ``bench rays``: the float64 rays (48), their float32
+#: unit-frame copies (24) and Open3D's (24), the results kept for the
+#: agreement check (32), one call's transient outputs (up to 40) and the
+#: cameras' temporaries.
+BENCH_RAYS_BYTES_PER_RAY = 200
+
+#: The two ray sets of ``bench rays``, in the order they are printed.
+RAY_SETS = ("coherent", "incoherent")
+
+#: Timed variants of ``bench rays`` (keys of ``mrays``), in the order they run.
+RAY_VARIANTS = ("bare_1", "bare_chunked_1", "scene_1", "scene_all", "open3d_1", "open3d_all")
+
+
+def bench_ray_sets(mesh, *, views: int = 4, resolution: int = 1024, rays: int = 1_000_000,
+                   seed: int = 0) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The coherent and the incoherent rays of ``bench rays``, float64 world units.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        The mesh the rays are cast at.
+    views, resolution : int, optional
+        Coherent set: ``views`` orthographic images of ``resolution`` squared
+        pixels, one ray per pixel centre, along ``directions_uniform(views,
+        seed=seed)`` in the orbit framing (:func:`viscore.metrics.orbit_frame`),
+        as the orbit protocol casts them. Defaults 4 and 1024 (4,194,304 rays).
+    rays : int, optional
+        Incoherent set: rays from uniform points in the bounding box along
+        uniform directions (seeded apart from the views). Default 1,000,000.
+    seed : int, optional
+        Default 0.
+
+    Returns
+    -------
+    sets : dict
+        ``'coherent'`` and ``'incoherent'``: (origins, unit directions), each
+        ``(n, 3) float64``.
+    """
+    from viscore.metrics import orbit_frame
+
+    from viscore import OrthoCamera, stream_seed
+
+    center, extent = orbit_frame(mesh)
+    cams = [OrthoCamera(f, center, extent, resolution)
+            for f in directions_uniform(views, seed=seed)]
+    o, d = zip(*(cam.rays() for cam in cams), strict=True)
+    rng = np.random.default_rng(stream_seed(seed, "bench rays origins"))
+    lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
+    return {"coherent": (np.concatenate(o), np.concatenate(d)),
+            "incoherent": (rng.uniform(lo, hi, (rays, 3)),
+                           directions_uniform(rays, seed=stream_seed(seed, "bench rays")))}
+
+
+def _open3d():
+    """The ``open3d`` module, or the reason it cannot be used (a str)."""
+    try:
+        import open3d
+    except ImportError:
+        return "not installed"
+    except Exception as exc:  # noqa: BLE001 - a broken optional peer is reported, not fatal
+        return f"not importable ({type(exc).__name__}: {exc})"
+    return open3d
+
+
+def _agreement(t: np.ndarray, tri: np.ndarray, t_other: np.ndarray,
+               tri_other: np.ndarray) -> dict:
+    """How far another tracer's first hits are from :class:`Scene`'s on the same rays.
+
+    ``t`` world distances (inf on a miss), ``tri`` triangles (-1 on a miss) of
+    both. Returns ``max_abs_t`` (world units, over the rays both hit; 0.0 when
+    none), ``hit_miss`` (rays one hits and the other misses) and
+    ``triangle`` (rays both hit on different triangles: a ray through a shared
+    edge may take either).
+    """
+    hit, hit_other = tri >= 0, tri_other >= 0
+    both = hit & hit_other
+    gap = np.abs(t[both] - t_other[both])
+    return {"max_abs_t": float(gap.max()) if len(gap) else 0.0,
+            "hit_miss": int((hit != hit_other).sum()),
+            "triangle": int((tri[both] != tri_other[both]).sum())}
+
+
+def _ray_set_calls(scene: Scene, all_workers: Scene, o: np.ndarray, d: np.ndarray,
+                   o3d_scene, o3d_module, workers: int, peers: bool) -> tuple[dict, dict]:
+    """The timed calls on one ray set, and the first hits of each tracer (world units).
+
+    Every tracer traces the same float32 unit-frame rays at the same float32
+    unit-frame triangles: bare embreex and Open3D get them converted
+    beforehand, :class:`Scene` the float64 world rays it converts itself.
+    """
+    offset, scale = scene._offset, scene._scale
+    o32 = np.ascontiguousarray((o - offset) / scale, dtype=np.float32)
+    d32 = np.ascontiguousarray(d, dtype=np.float32)
+    bare = scene._embree
+    n = len(o)
+
+    def bare_chunked():
+        for a in range(0, n, BARE_CHUNK_RAYS):
+            bare.run(o32[a:a + BARE_CHUNK_RAYS], d32[a:a + BARE_CHUNK_RAYS], output=1)
+
+    calls = {"bare_1": lambda: bare.run(o32, d32, output=1),
+             "scene_1": lambda: scene.first_hit(o, d),
+             "scene_all": lambda: all_workers.first_hit(o, d)}
+    if peers:
+        calls["bare_chunked_1"] = bare_chunked
+    if peers and o3d_scene is not None:
+        rays6 = o3d_module.core.Tensor(np.ascontiguousarray(np.hstack([o32, d32])))
+        calls["open3d_1"] = lambda: o3d_scene.cast_rays(rays6, nthreads=1)
+        calls["open3d_all"] = lambda: o3d_scene.cast_rays(rays6, nthreads=workers)
+    calls = {key: calls[key] for key in RAY_VARIANTS if key in calls}
+    # one untimed call of each (warm caches, lazy builds) gives the hits compared
+    hits = {"scene": scene.first_hit(o, d)}
+    res = calls["bare_1"]()
+    prim = res["primID"].astype(np.int64)
+    hits["bare"] = (np.where(prim >= 0, res["tfar"].astype(np.float64) * scale, np.inf), prim)
+    if "open3d_1" in calls:
+        out = calls["open3d_1"]()
+        prim = out["primitive_ids"].numpy().astype(np.int64)
+        prim[prim == np.iinfo(np.uint32).max] = -1  # Open3D's INVALID_ID
+        hits["open3d"] = (np.where(prim >= 0, out["t_hit"].numpy().astype(np.float64) * scale,
+                                   np.inf), prim)
+    for key in calls:
+        if key not in ("bare_1", "open3d_1"):
+            calls[key]()
+    return calls, hits
+
+
+def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, views: int = 4,
+               resolution: int = 1024, repeats: int = 7, seed: int = 0,
+               peers: bool = True) -> dict:
+    """First-hit throughput of :class:`viscore.Scene` against bare embreex and Open3D.
+
+    Two ray sets (:func:`bench_ray_sets`): coherent orthographic views in the
+    orbit framing, and incoherent rays from inside the bounding box. On each,
+    the same rays are traced by a bare embreex ``EmbreeScene.run`` on one
+    thread (float32 prepared beforehand; one call over all rays, and calls of
+    :data:`BARE_CHUNK_RAYS`), by :class:`Scene` with one worker and with all
+    workers (:func:`viscore.get_workers`), and by Open3D's
+    ``RaycastingScene.cast_rays`` on one thread and on all when ``open3d``
+    can be imported (an optional peer). All of them trace the mesh centred and
+    scaled as :class:`Scene` does, so they do the same work; the hits are
+    compared to say so. The calls are interleaved, ``repeats`` times each.
 
     Parameters
     ----------
     mesh : str, optional
-        Mesh file or built-in scene. Default ``'bunny'``.
+        Mesh file or built-in scene. Default ``'bunny'`` (pymeshlab's, 56k faces).
     rays : int, optional
-        Rays per call. Default 1,000,000.
+        Rays of the incoherent set. Default 1,000,000.
+    views, resolution : int, optional
+        Orthographic views and pixels per side of the coherent set. Defaults
+        4 and 1024 (4,194,304 rays).
     repeats : int, optional
-        Interleaved repeats; the best time of each call counts. Default 7.
+        Interleaved repeats; the median time of each call counts. Default 7.
     seed : int, optional
-        Seed of the ray origins and targets. Default 0.
+        Seed of the view directions and the incoherent rays. Default 0.
+    peers : bool, optional
+        Also time the chunked bare calls and Open3D. Default True (False: the
+        bare single call and the two :class:`Scene` figures only, as a cheap
+        reference for other benchmarks).
 
     Returns
     -------
     result : dict
-        ``scene_mrays_1`` and ``scene_mrays_all`` (million rays per second
-        with one worker and with all workers), ``bare_mrays_1`` (one bare
-        ``EmbreeScene.run`` on the same rays, float32 prepared beforehand),
-        ``ratio_vs_bare`` (scene_1 / bare_1, target >= 0.9), ``scaling``
-        (scene_all / scene_1, target >= 1.8 on 2 cores), ``workers``, ``rays``,
-        ``repeats``, ``mesh``.
+        ``mesh``, ``faces``, ``workers``, ``repeats``, ``seed``, ``rays``,
+        ``views``, ``resolution``, ``open3d`` (its version, or why it is not
+        used) and ``sets``: per set (``'coherent'``, ``'incoherent'``) its
+        ``rays``, ``hit_share``, ``mrays`` (million rays per second, median
+        of the repeats, of each of :data:`RAY_VARIANTS` that ran),
+        ``best_mrays`` (the fastest repeat), ``ratios`` (of the medians:
+        ``scene_1_vs_bare_1`` (target >= 0.95), ``scene_1_vs_bare_chunked_1``,
+        ``scene_all_vs_scene_1``, ``open3d_all_vs_open3d_1``,
+        ``scene_all_vs_open3d_all`` (target >= 1 on 2 cores), those whose
+        figures exist) and ``agreement`` (``bare`` and ``open3d`` against
+        Scene's hits: ``max_abs_t``, ``hit_miss``, ``triangle``; see
+        :func:`_agreement`). The coherent set's figures are repeated at the
+        top as ``bare_mrays_1``, ``scene_mrays_1``, ``scene_mrays_all``,
+        ``ratio_vs_bare`` and ``scaling``.
 
     Raises
     ------
     InputError
-        If ``rays`` or ``repeats`` is not a positive integer, or the mesh
-        cannot be loaded.
+        If ``rays``, ``views``, ``resolution`` or ``repeats`` is not a
+        positive integer (``resolution`` at most 16384), the rays would not
+        fit in memory, or the mesh cannot be loaded.
     """
-    from viscore.metrics.estimates import ray_bench_bytes
-
     from viscore._validate import as_positive_int, as_seed, check_memory
 
     rays = as_positive_int(rays, "rays")
+    views = as_positive_int(views, "views")
+    resolution = as_positive_int(resolution, "resolution", maximum=16384)
     repeats = as_positive_int(repeats, "repeats", maximum=MAX_REPEATS)
     seed = as_seed(seed, "seed")
-    # origins, targets, directions in float64 and their float32 copies
-    check_memory(ray_bench_bytes(rays), f"rays={rays}")
+    total = rays + views * resolution**2
+    check_memory(float(total) * BENCH_RAYS_BYTES_PER_RAY,
+                 f"rays={rays}, views={views}, resolution={resolution}")
     m = load_mesh(mesh)
-    rng = np.random.default_rng(seed)
-    lo, hi = m.bounds
-    centre, radius = 0.5 * (lo + hi), float(np.linalg.norm(hi - lo))
-    origins = centre + radius * directions_uniform(rays, seed=seed)
-    targets = rng.uniform(lo, hi, (rays, 3))
-    dirs = targets - origins
-    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
-    bare, offset = bare_embree(m)  # built outside the timings, like the scenes below
-    o32 = np.ascontiguousarray(origins - offset, dtype=np.float32)
-    d32 = np.ascontiguousarray(dirs, dtype=np.float32)
+    ray_sets = bench_ray_sets(m, views=views, resolution=resolution, rays=rays, seed=seed)
     workers = get_workers()
     one = Scene(m, workers=1).build()
     allw = Scene(m, workers=workers).build()
-    # interleaved, best of each: drift on a shared machine hits all three alike
-    calls = {"bare": lambda: bare.run(o32, d32, output=1),
-             "one": lambda: one.first_hit(origins, dirs),
-             "all": lambda: allw.first_hit(origins, dirs)}
-    best = {k: np.inf for k in calls}
+    o3d = _open3d() if peers else "not timed"
+    o3d_scene = None
+    if not isinstance(o3d, str):
+        # the same float32 unit-frame triangles as Scene's
+        unit = np.ascontiguousarray((one.vertices - one._offset) / one._scale, dtype=np.float32)
+        o3d_scene = o3d.t.geometry.RaycastingScene()
+        o3d_scene.add_triangles(o3d.core.Tensor(unit),
+                                o3d.core.Tensor(np.ascontiguousarray(one.faces, dtype=np.uint32)))
+    calls, hits = {}, {}
+    for name in RAY_SETS:
+        calls[name], hits[name] = _ray_set_calls(one, allw, *ray_sets[name], o3d_scene, o3d,
+                                                 workers, peers)
+    # interleaved: drift on a shared machine hits every call alike
+    seconds = {name: {key: [] for key in calls[name]} for name in RAY_SETS}
     for _ in range(repeats):
-        for key, fn in calls.items():
-            best[key] = min(best[key], best_of(fn, 1))
-    t_bare, t1, ta = best["bare"], best["one"], best["all"]
+        for name in RAY_SETS:
+            for key, fn in calls[name].items():
+                start = time.perf_counter()
+                fn()
+                seconds[name][key].append(time.perf_counter() - start)
+    sets = {}
+    for name in RAY_SETS:
+        n = len(ray_sets[name][0])
+        mrays = {key: n / float(np.median(ts)) / 1e6 for key, ts in seconds[name].items()}
+        ratios = {f"{a}_vs_{b}": mrays[a] / mrays[b]
+                  for a, b in (("scene_1", "bare_1"), ("scene_1", "bare_chunked_1"),
+                               ("scene_all", "scene_1"), ("open3d_all", "open3d_1"),
+                               ("scene_all", "open3d_all"))
+                  if a in mrays and b in mrays}
+        t, tri = hits[name]["scene"]
+        sets[name] = {
+            "rays": n, "hit_share": float((tri >= 0).mean()),
+            "mrays": mrays,
+            "best_mrays": {key: n / min(ts) / 1e6 for key, ts in seconds[name].items()},
+            "ratios": ratios,
+            "agreement": {other: _agreement(t, tri, *hits[name][other])
+                          for other in ("bare", "open3d") if other in hits[name]},
+        }
+    coherent = sets["coherent"]
     return {
-        "mesh": mesh, "rays": rays, "repeats": repeats, "workers": workers,
-        "bare_mrays_1": rays / t_bare / 1e6,
-        "scene_mrays_1": rays / t1 / 1e6,
-        "scene_mrays_all": rays / ta / 1e6,
-        "ratio_vs_bare": t_bare / t1,
-        "scaling": t1 / ta,
+        "mesh": mesh, "faces": len(m.faces), "rays": rays, "views": views,
+        "resolution": resolution, "repeats": repeats, "seed": seed, "workers": workers,
+        "open3d": o3d if isinstance(o3d, str) else o3d.__version__,
+        "sets": sets,
+        "bare_mrays_1": coherent["mrays"]["bare_1"],
+        "scene_mrays_1": coherent["mrays"]["scene_1"],
+        "scene_mrays_all": coherent["mrays"]["scene_all"],
+        "ratio_vs_bare": coherent["ratios"]["scene_1_vs_bare_1"],
+        "scaling": coherent["ratios"]["scene_all_vs_scene_1"],
     }
 
 
@@ -229,7 +412,9 @@ def bench_evaluate(*, mesh: str = "bunny", views: int = 256, quads: int = 32000,
         Triangles of the first QEM occluder; the second has ``4 * budget``.
         Default 64.
     reference_rays : int, optional
-        Rays of the same-run ``bench rays`` reference. Default 500,000.
+        Rays of the same-run ``bench rays`` reference: one orthographic view of
+        about this many pixels (coherent) and this many incoherent rays, no
+        peers. Default 500,000.
     seed : int, optional
         Default 0.
 
@@ -238,7 +423,8 @@ def bench_evaluate(*, mesh: str = "bunny", views: int = 256, quads: int = 32000,
     result : dict
         ``seconds`` (wall of the first evaluation), ``seconds_rays``,
         ``seconds_quads``, ``rays``, ``mrays_per_second`` of that evaluation
-        and ``bench_rays_mrays_all`` (the ``bench rays`` figure of this run),
+        and ``bench_rays_mrays_all`` (``Scene`` on all workers on that
+        reference's coherent rays, this run),
         ``precision``, ``recall``, ``occluder_triangles``; ``seconds_first``
         (the original's views plus the first occluder), ``seconds_next`` (one
         more occluder, ``next_occluder_triangles``, against the same views)
@@ -264,7 +450,10 @@ def bench_evaluate(*, mesh: str = "bunny", views: int = 256, quads: int = 32000,
     occ, nxt = generate_qem(m, budget=budget), generate_qem(m, budget=4 * budget)
     (r, r_next), (first, following), timing = _score_occluders(
         m, [occ.mesh, nxt.mesh], views=views, quads=quads, resolution=resolution, seed=seed)
-    ref = bench_rays(mesh, rays=reference_rays, repeats=2, seed=seed)
+    # coherent reference rays, one orthographic view of about reference_rays pixels
+    ref = bench_rays(mesh, rays=reference_rays, views=1,
+                     resolution=min(16384, max(1, math.isqrt(reference_rays))), repeats=2,
+                     seed=seed, peers=False)
     return {"mesh": mesh, "views": views, "quads": quads, "resolution": resolution,
             "occluder_triangles": occ.triangles, "seconds": first,
             "seconds_rays": timing["seconds_rays"], "seconds_quads": timing["seconds_quads"],
