@@ -43,7 +43,7 @@ from .cameras import camera_basis
 from .samplers import directions_fibonacci
 from .voxels import VoxelGrid
 
-__all__ = ["covered_voxels", "exposed_directions", "exposure", "hull_directions", "HULL_DIRECTIONS",
+__all__ = ["covered_voxels", "exposure", "exposed_count", "hull_directions", "HULL_DIRECTIONS",
            "PIXELS_PER_VOXEL", "MARGIN"]
 
 #: Line directions tested by default (a half sphere of Fibonacci points plus the axes).
@@ -99,7 +99,7 @@ def covered_voxels(scene, grid: VoxelGrid, index: np.ndarray, *,
     -------
     (n,) bool
         True where at most ``floor(misses * k)`` directions expose the voxel
-        (:func:`exposed_directions`).
+        (:func:`exposure`).
 
     Examples
     --------
@@ -114,30 +114,8 @@ def covered_voxels(scene, grid: VoxelGrid, index: np.ndarray, *,
     if not 0 <= misses < 1:
         raise InputError(f"misses: expected a share in [0, 1), got {misses!r}")
     dirs = hull_directions() if directions is None else np.asarray(directions, np.float64)
-    allowed = int(math.floor(misses * len(dirs)))
-    return exposed_directions(scene, grid, index, directions=dirs, margin=margin,
-                              stop=allowed) <= allowed
-
-
-def exposed_directions(scene, grid: VoxelGrid, index: np.ndarray, *,
-                       directions: np.ndarray | None = None, margin: float = MARGIN,
-                       stop: int | None = None) -> np.ndarray:
-    """In how many line directions the mesh of ``scene`` leaves each voxel exposed.
-
-    Parameters as :func:`exposure`; ``stop``: a voxel exposed in more than
-    that many directions is not tested further (its count is then
-    ``stop + 1``). Default: every voxel in every direction.
-
-    Returns
-    -------
-    (n,) int64
-    """
-    dirs = hull_directions() if directions is None else np.asarray(directions, np.float64)
-    stop = len(dirs) if stop is None else int(stop)
-    exposed = np.zeros(len(np.asarray(index)), np.int64)
-    for live, out in _exposures(scene, grid, index, dirs, margin, lambda: exposed <= stop):
-        exposed[live[out]] += 1
-    return exposed
+    bits = exposure(scene, grid, index, directions=dirs, margin=margin)
+    return exposed_count(bits, np.ones(len(dirs), bool)) <= math.floor(misses * len(dirs))
 
 
 def exposure(scene, grid: VoxelGrid, index: np.ndarray, *,
@@ -167,24 +145,10 @@ def exposure(scene, grid: VoxelGrid, index: np.ndarray, *,
         Bit j of row i (:func:`numpy.packbits` order) is set when direction j
         exposes voxel i.
     """
-    dirs = hull_directions() if directions is None else np.asarray(directions, np.float64)
-    n = len(np.asarray(index))
-    bits = np.zeros((n, len(dirs)), bool)
-    for j, (live, out) in enumerate(_exposures(scene, grid, index, dirs, margin, None)):
-        bits[live[out], j] = True
-    return np.packbits(bits, axis=1)
-
-
-def _exposures(scene, grid: VoxelGrid, index: np.ndarray, dirs: np.ndarray, margin: float,
-               alive):
-    """Per direction: the voxels still tested and which of them that direction exposes.
-
-    ``alive``: None (every voxel in every direction), or a callable giving the
-    (n,) bool mask of the voxels still worth testing.
-    """
     index = np.asarray(index)
     if index.ndim != 2 or index.shape[1] != 3:
         raise InputError(f"index: expected (n, 3) voxel indices, got shape {index.shape}")
+    dirs = hull_directions() if directions is None else np.asarray(directions, np.float64)
     centers = grid.centers(index)
     shape = np.asarray(grid.shape, dtype=np.float64)
     middle = np.asarray(grid.origin, dtype=np.float64) + 0.5 * shape * grid.pitch
@@ -195,22 +159,48 @@ def _exposures(scene, grid: VoxelGrid, index: np.ndarray, dirs: np.ndarray, marg
     structure = np.ones((2 * erosion + 1, 2 * erosion + 1), bool)
     steps = (np.arange(side) - 0.5 * (side - 1)) * pixel
     rows, cols = np.meshgrid(steps, steps, indexing="ij")
-    everyone = np.arange(len(index))
-    for d in dirs:
-        live = everyone if alive is None else np.flatnonzero(alive())
-        if len(live) == 0:
-            yield live, np.zeros(0, bool)
-            continue
+    bits = np.zeros((len(index), len(dirs)), bool)
+    for k, d in enumerate(dirs):
+        if len(index) == 0:
+            break
         f, right, up = camera_basis(d)
         origins = (middle - f * radius) + cols.reshape(-1, 1) * right + rows.reshape(-1, 1) * up
         hit = scene.any_hit(origins, np.broadcast_to(f, origins.shape),
                             max_distance=2 * radius).reshape(side, side)
         inner = ndimage.binary_erosion(hit, structure=structure, border_value=0) if (
             erosion) else hit
-        rel = centers[live] - middle
+        rel = centers - middle
         j = np.rint(rel @ right / pixel + 0.5 * (side - 1)).astype(np.int64)
         i = np.rint(rel @ up / pixel + 0.5 * (side - 1)).astype(np.int64)
         inside = (i >= 0) & (i < side) & (j >= 0) & (j < side)
-        ok = np.zeros(len(live), bool)
+        ok = np.zeros(len(index), bool)
         ok[inside] = inner[i[inside], j[inside]]
-        yield live, ~ok
+        bits[~ok, k] = True
+    return np.packbits(bits, axis=1)
+
+
+#: Set bits of each byte value.
+_POPCOUNT = np.array([bin(i).count("1") for i in range(256)], dtype=np.int64)
+
+
+def exposed_count(bits: np.ndarray, among: np.ndarray) -> np.ndarray:
+    """How many of the directions flagged in ``among`` expose each voxel.
+
+    Parameters
+    ----------
+    bits : (n, ceil(k / 8)) uint8
+        :func:`exposure` of n voxels over k directions.
+    among : (k,) bool
+        The directions to count.
+
+    Returns
+    -------
+    (n,) int64
+
+    Examples
+    --------
+    >>> bits = np.packbits(np.array([[True, False, True], [False, False, True]]), axis=1)
+    >>> exposed_count(bits, np.array([True, True, False])).tolist()
+    [1, 0]
+    """
+    return _POPCOUNT[bits & np.packbits(np.asarray(among, bool))].sum(axis=1)

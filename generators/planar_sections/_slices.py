@@ -48,7 +48,7 @@ from scipy import ndimage
 
 from viscore import Scene, camera_basis, directions_fibonacci, voxelize
 from viscore._jit import njit_cached
-from viscore.coverage_hull import exposure, hull_directions
+from viscore.coverage_hull import exposed_count, exposure, hull_directions
 from viscore.ground import ground_fill, ground_share
 from viscore.voxels import VoxelGrid, inside_voxels_winding
 from viscore.winding import is_closed_oriented
@@ -114,10 +114,6 @@ class SectionSolid:
         return out
 
 
-#: Set bits of each byte value.
-_POPCOUNT = np.array([bin(i).count("1") for i in range(256)], dtype=np.int64)
-
-
 @dataclass(frozen=True, eq=False)
 class GroundFill:
     """The voxels a ground plane adds to a solid, and the directions that expose each.
@@ -150,8 +146,7 @@ class GroundFill:
         """``(m,) bool``: the cells that at most ``misses`` of the directions that see a
         plane of unit ``normal`` expose."""
         seen = np.abs(self.directions @ np.asarray(normal, np.float64)) >= self.grazing
-        exposed = _POPCOUNT[self.exposure & np.packbits(seen)].sum(axis=1)
-        return exposed <= np.floor(self.misses * int(seen.sum()))
+        return exposed_count(self.exposure, seen) <= np.floor(self.misses * int(seen.sum()))
 
 
 @dataclass(frozen=True)
