@@ -28,6 +28,7 @@ from viscore.ground import UP_AXES, guess_up
 from viscore.scene_graph import SceneObjects, load_scene_objects
 
 from .registry import REGISTRY
+from .scene_occluders import occluder_objects
 
 __all__ = ["LevelObjects", "level_objects", "guess_up", "default_methods", "MIN_SIZE",
            "PART_FRACTION", "FLAT_RATIO", "FALLBACK_SHARE", "UP_AXES"]
@@ -233,13 +234,7 @@ def _choose(objects: SceneObjects, up: str, min_size: float | None,
     for arr in (sizes, flat):
         arr.flags.writeable = False
     if names is not None:
-        index = {n: i for i, n in enumerate(objects.names)}
-        unknown = [n for n in names if n not in index]
-        if unknown or not names:
-            some = ", ".join(objects.names[:5]) + (", ..." if len(objects) > 5 else "")
-            raise InputError(f"occluders: no object named {', '.join(unknown) or '(none given)'}"
-                             f" in {objects.source} (objects: {some})")
-        chosen = np.array(sorted({index[n] for n in names}), dtype=np.int64)
+        chosen = occluder_objects(objects, names=names)
         refused = {objects.names[i]: "not named in --occluders"
                    for i in range(len(objects)) if i not in set(chosen.tolist())}
         return sizes, flat, chosen, refused
