@@ -391,3 +391,123 @@ def test_depth_buffer_from_generated_solids_hidden_by_the_mesh(rng):
         assert _hidden_samples(Scene(cow), eye, (centre - half)[culled], (centre + half)[culled],
                                rng, 16, camera=cam).all()
     assert total > 0
+
+
+def _rect(x0, x1, z0, z1, y=0.0):
+    """A quad in the plane Y = y over [x0, x1] x [z0, z1], as its own trimesh."""
+    v = np.array([[x0, y, z0], [x1, y, z0], [x1, y, z1], [x0, y, z1]], float)
+    return trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]], process=False)
+
+
+def _inside_pixels(cam, shape, inside):
+    """(H, W) bool: every point of the pixel's footprint on the plane Y = 0 satisfies
+    ``inside(x, z)`` (checked on a dense grid of the pixel, corners included), for a camera
+    looking along +Y."""
+    h, w = shape
+    k = 9
+    g = np.linspace(0, 1, k)
+    rows = (np.arange(h)[:, None] + g[None]).reshape(-1)
+    cols = (np.arange(w)[:, None] + g[None]).reshape(-1)
+    hx = np.tan(np.radians(cam.fov) / 2)
+    hy = hx * cam.shape[0] / cam.shape[1]
+    x = (cols / w - 0.5) * 2 * hx
+    y = (0.5 - rows / h) * 2 * hy
+    dist = -cam.position[1]
+    ok = inside(cam.position[0] + dist * x[None, :], cam.position[2] + dist * y[:, None])
+    return ok.reshape(h, k, w, k).all(axis=(1, 3))
+
+
+def test_coplanar_region_covers_seams_of_separate_pieces():
+    """A wall of 5 abutting rectangles from 5 separate occluders, one L-shaped: the pixels
+    wholly on the wall are covered, seams included (the convex-piece rule alone leaves
+    every seam open), and none reaching past its outline."""
+    pieces = [_rect(-6, -2, -4, 0), _rect(-2, 1, -4, 0), _rect(1, 6, -4, 0),
+              _rect(-6, 0, 0, 4), _rect(0, 3, 0, 2)]  # the top row ends at x = 3 above z = 2
+
+    def inside(x, z):
+        return (x >= -6) & (x <= 6) & (z >= -4) & (z <= 0) | \
+            (x >= -6) & (x <= 0) & (z >= 0) & (z <= 4) | (x >= 0) & (x <= 3) & (z >= 0) & (z <= 2)
+
+    cam = PerspectiveCamera((0.37, -10.0, 0.21), (0, 1, 0), fov=90, resolution=256, height=256)
+    occ = OccluderScene(pieces)
+    buf = ConservativeDepthBuffer.from_occluders(occ, cam, width=64, height=64)
+    truth = _inside_pixels(cam, buf.shape, inside)
+    assert (buf.covered <= truth).all()  # nothing past the outline
+    assert buf.covered.sum() == truth.sum() > 500
+    # depth: the wall's distance along the farthest corner ray, never nearer
+    _assert_conservative(occ, buf, np.random.default_rng(1), n=12)
+    # the convex-piece reference leaves the seams open
+    full = _full_corner_depth(occ, cam, 64, 64)
+    assert np.isfinite(full).sum() < truth.sum() - 30
+    # a box behind the seam x = -2 is culled; one behind the notch (x in 3..6, z > 2) not
+    assert buf.occluded([[-2.2, 3, -2.2], [3.6, 3, 2.6]],
+                        [[-1.8, 4, -1.8], [5.0, 4, 3.5]]).tolist() == [True, False]
+
+
+@pytest.mark.parametrize("offset", [0.0, 0.37, 0.81])
+def test_coplanar_region_keeps_holes_and_gaps_open(offset):
+    """A wall of 4 rectangles framing a hole 0.3 buffer pixel wide, and beside it two
+    rectangles with a gap 0.3 pixel wide: a thin pole behind the hole, and one behind the
+    gap, are never culled; boxes behind the solid wall, one across a seam, are."""
+    eye = np.array([0.0, -10.0, 0.0])
+    cam = PerspectiveCamera(eye, (0, 1, 0), fov=60, resolution=128, height=128)
+    pixel = 2 * np.tan(np.radians(30)) * 10.0 / 32  # one buffer pixel at the wall
+    a = (offset - 0.5) * pixel
+    b = a + 0.3 * pixel
+    frame = [_rect(-8, a, -8, 8), _rect(b, 1.5, -8, 8), _rect(a, b, -8, a), _rect(a, b, b, 8)]
+    zg = 2.0 + offset * pixel
+    gap = [_rect(1.5, 8, -8, zg), _rect(1.5, 8, zg + 0.3 * pixel, 8)]
+    occ = OccluderScene(frame + gap)
+    buf = ConservativeDepthBuffer.from_occluders(occ, cam, width=32, height=32)
+    mid = (a + b)  # the hole's centre, seen at Y = 10
+    z_gap = (zg + 0.15 * pixel) * 2
+    lo = np.array([[mid - 0.01 * pixel, 9.9, mid - 0.01 * pixel], [6, 9.9, z_gap - 1e-3],
+                   [-3, 9.9, -3], [2.6, 9.9, -3]])
+    hi = np.array([[mid + 0.01 * pixel, 10.1, mid + 0.01 * pixel], [6.4, 10.1, z_gap + 1e-3],
+                   [-2, 10.1, -2], [3.4, 10.1, -2]])
+    # the hole, the gap: open; the wall, and across the seam x = 1.5: culled
+    assert buf.occluded(lo, hi).tolist() == [False, False, True, True]
+    _assert_conservative(occ, buf, np.random.default_rng(2), n=12)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_coplanar_regions_conservative_against_dense_rays(seed):
+    """Random soups of coplanar rectangles (abutting, overlapping, with slits) in three
+    planes, some turned, seen from random eyes, one close to a region's edge: every ray
+    through a covered pixel meets an occluder no farther than the stored depth."""
+    rng = np.random.default_rng(seed)
+    items = []
+    for plane in range(3):
+        rot = trimesh.transformations.rotation_matrix(rng.uniform(-0.6, 0.6), [0, 0, 1]) @ \
+            trimesh.transformations.translation_matrix([0, 4.0 * plane, 0])
+        for _ in range(12):
+            x0, z0 = rng.uniform(-8, 6, 2)
+            m = _rect(x0, x0 + rng.uniform(0.5, 4), z0, z0 + rng.uniform(0.5, 4))
+            m.apply_transform(rot)
+            items.append(m)
+    occ = OccluderScene(items)
+    assert len(occ._region_plane) >= 3
+    edge = items[0].vertices[0] + [1e-7, -1e-3, 0]
+    for eye in (np.array([rng.uniform(-3, 3), -12.0, rng.uniform(-2, 2)]), edge):
+        cam = PerspectiveCamera(eye, (rng.uniform(-0.3, 0.3), 1, rng.uniform(-0.2, 0.2)),
+                                fov=80, resolution=192, height=108)
+        buf = ConservativeDepthBuffer.from_occluders(occ, cam, width=96, height=54)
+        if buf.covered.any():
+            _assert_conservative(occ, buf, rng, n=16)
+
+
+def test_coplanar_region_with_boundary_at_the_eye_is_not_used():
+    """The eye 1.2e-5 in front of a wall 10 wide with a hole 3e-6 wide (half a pixel of a
+    4 x 4 buffer, inside one pixel): the hole's edges are nearer than the clipping
+    distance of the boundary (1e-6 of the scene, 1.4e-5), so the region is not used this
+    frame, and a box seen through the hole is never culled."""
+    h, gap = 1.5e-6, 1.2e-5
+    frame = [_rect(-5, -h, -5, 5), _rect(h, 5, -5, 5), _rect(-h, h, -5, -h), _rect(-h, h, h, 5)]
+    occ = OccluderScene(frame)
+    eye = np.array([-0.25 * gap, -gap, -0.25 * gap])  # the hole in the middle of a pixel
+    cam = PerspectiveCamera(eye, (0, 1, 0), fov=90, resolution=128, height=128)
+    buf = ConservativeDepthBuffer.from_occluders(occ, cam, width=4, height=4)
+    through = (np.array([[0.23, 1.0, 0.23]]), np.array([[0.27, 1.001, 0.27]]))
+    assert not _hidden_samples(occ.scene, eye, *through, np.random.default_rng(0), 16).all()
+    assert not buf.occluded(*through)[0]
+    assert buf.occluded([[0.6, 1.0, 0.6]], [[0.9, 1.001, 0.9]])[0]  # behind the wall

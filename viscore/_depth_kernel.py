@@ -66,12 +66,13 @@ def _outside(k, solid_plane, solid_ok, eye, tol, outside):
 
 
 @njit_cached()
-def store_hits(need, tri, tri_facet, tri_solid, n_facets, solid_plane, solid_ok, eye, tol,
-               outside, facet, piece):
+def store_hits(need, tri, tri_facet, tri_solid, tri_region, n_facets, solid_plane, solid_ok,
+               eye, tol, outside, facet, piece, region):
     """Label corners ``need`` by the triangle ``tri`` their ray first hit (-1: miss):
     ``facet`` its planar facet, ``piece`` its convex piece (the solid, numbered from
-    ``n_facets``, when the eye is outside it (:func:`_outside`); else the facet); -1 on
-    a miss. Returns the number of hits."""
+    ``n_facets``, when the eye is outside it (:func:`_outside`); else the facet),
+    ``region`` its coplanar region (-1: none); -1 on a miss. Returns the number of
+    hits."""
     hits = 0
     for k in range(need.shape[0]):
         c = need[k]
@@ -79,11 +80,13 @@ def store_hits(need, tri, tri_facet, tri_solid, n_facets, solid_plane, solid_ok,
         if t < 0:
             facet[c] = -1
             piece[c] = -1
+            region[c] = -1
             continue
         hits += 1
         fa = tri_facet[t]
         sd = tri_solid[t]
         facet[c] = fa
+        region[c] = tri_region[t]
         if sd >= 0 and _outside(sd, solid_plane, solid_ok, eye, tol, outside):
             piece[c] = n_facets + sd
         else:
@@ -130,14 +133,55 @@ def _fill(depth, i0, j0, s, coef, planes, xs, ys, margin, corner):
 
 
 @njit_cached()
-def settle_tiles(ti, tj, s, stride, facet, piece, n_facets, facet_plane, solid_plane,
-                 solid_ok, eye, r, u, f, tol, xs, ys, margin, thin, depth, corner, coef,
-                 child_i, child_j):
+def _clip(p, q, t0, t1):
+    """One Liang-Barsky step: the parameter range (t0, t1) of a segment kept by the
+    half-plane p t <= q; (1, 0) when nothing is left."""
+    if p == 0.0:
+        return (t0, t1) if q >= 0.0 else (1.0, 0.0)
+    t = q / p
+    if p < 0.0:
+        return max(t0, t), t1
+    return t0, min(t1, t)
+
+
+@njit_cached()
+def _crosses(segments, a, b, r0, r1, c0, c1):
+    """Whether one of ``segments[a:b]`` (row, column of both ends, screen pixels; NaN:
+    not in front of the eye) meets the closed rectangle rows ``r0..r1``, columns
+    ``c0..c1`` (Liang-Barsky clipping)."""
+    for k in range(a, b):
+        ra = segments[k, 0]
+        ca = segments[k, 1]
+        rb = segments[k, 2]
+        cb = segments[k, 3]
+        if not (ra == ra):
+            continue
+        if max(ra, rb) < r0 or min(ra, rb) > r1 or max(ca, cb) < c0 or min(ca, cb) > c1:
+            continue
+        dr = rb - ra
+        dc = cb - ca
+        t0, t1 = _clip(-dc, ca - c0, 0.0, 1.0)
+        t0, t1 = _clip(dc, c1 - ca, t0, t1)
+        t0, t1 = _clip(-dr, ra - r0, t0, t1)
+        t0, t1 = _clip(dr, r1 - ra, t0, t1)
+        if t0 <= t1:
+            return True
+    return False
+
+
+@njit_cached()
+def settle_tiles(ti, tj, s, stride, facet, piece, region, n_facets, facet_plane, solid_plane,
+                 solid_ok, region_plane, segments, seg_start, region_ok, seg_slack, eye, r, u,
+                 f, tol, xs, ys, margin, thin, depth, corner, coef, child_i, child_j):
     """Settle the tiles of side ``s`` whose corners are labelled.
 
     A tile whose four corners hit one planar facet, or one convex solid, is
     filled (:func:`_fill`: the facet's plane, or the solid's planes facing the
-    eye); otherwise, when ``s > 1``, it is split if some corner hits, or if
+    eye); so is a tile whose four corners hit one coplanar region (``region_ok``
+    this frame) when no boundary segment of the region's union (``segments``, screen
+    rows and columns of the ends, from ``seg_start``) crosses the tile widened by
+    ``seg_slack`` pixels (:func:`_crosses`: the region's plane). Otherwise,
+    when ``s > 1``, it is split if some corner hits, or if
     none does and a rectangle of ``thin`` (k, 5: row_min, row_max, col_min,
     col_max, smaller side; pixels) narrower than ``s`` overlaps it. Children
     (top-left pixel inside ``depth``) are written to ``child_i``, ``child_j``.
@@ -176,6 +220,17 @@ def settle_tiles(ti, tj, s, stride, facet, piece, n_facets, facet_plane, solid_p
                 _fill(depth, i0, j0, s, coef, planes, xs, ys, margin, corner)
                 tiles += 1
             continue
+        g0 = region[c00]
+        if g0 >= 0 and region[c01] == g0 and region[c10] == g0 and region[c11] == g0 \
+                and region_ok[g0] and not _crosses(segments, seg_start[g0], seg_start[g0 + 1],
+                                                   i0 - seg_slack, i0 + s + seg_slack,
+                                                   j0 - seg_slack, j0 + s + seg_slack):
+            pl = region_plane[g0]
+            if abs(pl[3] - (pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2])) > tol:
+                _coefficient(pl, eye, r, u, f, coef, 0)
+                _fill(depth, i0, j0, s, coef, 1, xs, ys, margin, corner)
+                tiles += 1
+                continue
         if s == 1:
             continue
         split = p0 >= 0 or piece[c01] >= 0 or piece[c10] >= 0 or piece[c11] >= 0

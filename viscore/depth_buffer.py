@@ -38,6 +38,28 @@ every direction through the rectangle (a rectangle on the image plane is the
 convex hull of its corners). So each of those rays meets ``K_T``: it enters
 ``K`` within distance ``T``, and its first occluder is no farther.
 
+Coplanar regions
+----------------
+Convex pieces leave a seam open wherever two of them meet: the triangles of
+a wall with a door, the roofs of two rooms side by side, a level's floor
+tiles. So triangles lying in one plane (up to float64 rounding, either
+orientation, from any occluder) also form a *region* ``R``, whose union is
+taken in the plane once (shapely, exact noding) and whose boundary (outer
+rings and holes) is kept. Each frame the boundary segments are clipped to
+the half-space a millionth of the scene's size in front of the eye and
+projected to the buffer; a region whose boundary passes nearer the eye than
+that is not used in the frame. The rule: when the four corner rays of a
+rectangle first hit triangles of ``R`` and no boundary segment of ``R``
+meets the rectangle (widened by :data:`_SEGMENT_SLACK` pixel), every ray
+through the rectangle meets ``R`` no farther than the largest of the
+corners' distances to ``R``'s plane. Proof: the rectangle's rays meet the
+plane in a convex quadrilateral whose corners lie in ``R``; a point of it
+outside ``R`` would put a boundary point of ``R`` on the segment from a
+corner to it, inside the quadrilateral, whose projection lies in the
+rectangle; and the distance to a plane over a convex set of directions is
+largest at a corner. The rule never replaces the convex-piece rule, it is
+tried after it.
+
 How a pixel gets a depth
 ------------------------
 Hierarchically, by area subdivision (Warnock [4]_, and the pyramid of
@@ -53,8 +75,10 @@ four, down to single pixels, only where its corners disagree:
   occluder no farther). When the four corners hit one planar facet ``F`` (a
   face of a solid, or a facet), the lemma is applied to ``F`` itself, a
   convex piece too: ``F``'s plane gives the distances;
-- a tile whose corners hit different pieces, or some hit and some miss, is
-  split; at pixel size it is left without depth (``inf``);
+- a tile whose corners hit different pieces of one coplanar region, with no
+  boundary of the region crossing it, is covered by the region;
+- a tile whose corners hit different pieces otherwise, or some hit and some
+  miss, is split; at pixel size it is left without depth (``inf``);
 - a tile whose four corners all miss is split only if a piece's screen
   rectangle (the projection of its bounding box) overlaps it and is narrower
   than the tile yet at least one pixel wide and high (a thin pole seen between
@@ -211,6 +235,104 @@ def _facet_labels(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 
+#: Planes of coplanar regions agree to this fraction of the scene's size (normal
+#: components and offsets rounded to it): exactly coplanar up to float64 rounding, so
+#: a region's triangles leave no crack between them along any ray.
+_REGION_TOLERANCE = 1e-11
+
+#: Widening of a tile, in buffer pixels, when testing whether a region's boundary
+#: crosses it (the boundary is projected in float64).
+_SEGMENT_SLACK = 1e-3
+
+
+def _plane_regions(vertices: np.ndarray, faces: np.ndarray, facet: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Coplanar regions of occluder triangles and the boundaries of their unions.
+
+    Triangles lying in one plane (up to :data:`_REGION_TOLERANCE` of the scene's
+    size, either orientation), whatever their connectivity or the occluder they
+    come from, form a region when they span more than one planar facet. Its
+    union is taken in the plane (shapely ``union_all``, exact noding) and its
+    boundary (outer rings and holes) kept as 3D segments.
+
+    Returns
+    -------
+    region : (f,) int64
+        Region of each triangle, -1 for none.
+    plane : (R, 5) float64
+        Each region's unit normal, offset (n.x = offset) and slack (largest
+        distance of its vertices from the plane).
+    segments : (S, 2, 3) float64
+        Boundary segments of the regions' unions, world units.
+    start : (R + 1,) int64
+        Region ``k``'s segments are ``segments[start[k]:start[k + 1]]``.
+    """
+    import shapely
+
+    n_tri = len(faces)
+    region = np.full(n_tri, -1, dtype=np.int64)
+    empty = (region, np.zeros((0, 5)), np.zeros((0, 2, 3)), np.zeros(1, np.int64))
+    if n_tri < 2:
+        return empty
+    tri = vertices[faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    twice = np.linalg.norm(cross, axis=1)
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    size = float(np.linalg.norm(hi - lo)) or 1.0
+    ok = twice > 1e-24 * size * size
+    normal = cross / np.where(ok, twice, 1.0)[:, None]
+    # one orientation per plane: the largest component positive
+    big = np.argmax(np.abs(normal), axis=1)
+    normal *= np.where(normal[np.arange(n_tri), big] < 0, -1.0, 1.0)[:, None]
+    offset = np.einsum("ij,ij->i", normal, tri[:, 0] - lo)
+    key = np.round(np.concatenate([normal, offset[:, None] / size], axis=1)
+                   / _REGION_TOLERANCE).astype(np.int64)
+    idx = np.flatnonzero(ok)
+    if len(idx) < 2:
+        return empty
+    _, group = np.unique(key[idx], axis=0, return_inverse=True)
+    group = group.reshape(-1)
+    order = np.argsort(group, kind="stable")
+    bounds = np.flatnonzero(np.r_[True, group[order][1:] != group[order][:-1], True])
+    planes, segs, start = [], [], [0]
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):  # a loop over planes
+        members = idx[order[a:b]]
+        if len(members) < 2 or len(np.unique(facet[members])) < 2:
+            continue  # one facet: the convex-piece rule covers it already
+        seed = members[np.argmax(twice[members])]
+        n = normal[seed]
+        o = tri[seed, 0]
+        slack = float(np.abs((tri[members] - o) @ n).max())
+        helper = np.eye(3)[int(np.argmin(np.abs(n)))]
+        u = np.cross(n, helper)
+        u /= np.linalg.norm(u)
+        w = np.cross(n, u)
+        local = tri[members] - o
+        xy = np.stack([local @ u, local @ w], axis=2)
+        polys = shapely.polygons(xy)
+        polys = polys[shapely.area(polys) > 0]
+        if len(polys) < 2:
+            continue
+        union = shapely.union_all(polys)
+        rings = []
+        for poly in getattr(union, "geoms", [union]):
+            if poly.is_empty or poly.geom_type != "Polygon":
+                continue
+            rings.append(np.asarray(poly.exterior.coords))
+            rings.extend(np.asarray(r.coords) for r in poly.interiors)
+        if not rings:
+            continue
+        pts2 = np.concatenate([np.stack([r[:-1], r[1:]], axis=1) for r in rings])
+        seg = o + pts2[..., :1] * u + pts2[..., 1:] * w  # (k, 2, 3)
+        region[members] = len(planes)
+        planes.append(np.r_[n, n @ o, slack])
+        segs.append(seg)
+        start.append(start[-1] + len(seg))
+    if not planes:
+        return empty
+    return region, np.array(planes), np.concatenate(segs), np.array(start, np.int64)
+
+
 class OccluderScene:
     """Occluder triangles in one Embree scene, labelled by convex piece; reused every frame.
 
@@ -342,6 +464,11 @@ class OccluderScene:
         #: (k, 2, 3) bounding box of each added piece: its screen rectangle
         self._bounds = np.stack(bounds)
         self._grids: dict = {}
+        # coplanar regions across facets and occluders, and their unions' boundaries
+        self._region, self._region_plane, self._segments, self._segment_start = \
+            _plane_regions(v, f, self._facet)
+        self._segment_region = np.repeat(np.arange(len(self._region_plane)),
+                                         np.diff(self._segment_start))
 
     def _grid(self, w: int, h: int, hx: float, hy: float, cols: int, rows: int,
               tile: int) -> tuple:
@@ -381,6 +508,50 @@ class OccluderScene:
         out = hit & (sid >= 0)
         out[out] = outside[sid[out]]
         return fac, np.where(out, self._n_facets + sid, fac)
+
+    def _screen_segments(self, eye: np.ndarray, basis, hx: float, hy: float, w: int,
+                         h: int) -> tuple[np.ndarray, np.ndarray]:
+        """The regions' boundary segments on the buffer this frame, and which regions may
+        cover tiles.
+
+        Returns ``(S, 4)`` float64 row, column of both ends (buffer pixels) of
+        each segment clipped to the half-space ``z >= z0`` in front of the eye
+        (``z0`` a millionth of the scene's size plus its distance; NaN when
+        nothing is left), and ``(R,)`` bool, False for a region whose boundary
+        passes within ``3 z0`` (times the padded screen's slope) of the eye: the
+        part cut off could then project onto a tile.
+        """
+        segs = self._segments
+        ok = np.ones(len(self._region_plane), dtype=bool)
+        if len(segs) == 0:
+            return np.zeros((0, 4)), ok
+        f, r, u = basis
+        rel = segs - eye
+        z, x, y = rel @ f, rel @ r, rel @ u  # (S, 2) each
+        z0 = 1e-6 * (self.scene.diagonal + float(np.linalg.norm(eye - self._center)))
+        # a tile of the padded buffer lies within 3 hx, 3 hy of the axis: points of its
+        # rays with z < z0 are within this distance of the eye
+        reach = 3 * z0 * np.sqrt(1 + 9 * hx * hx + 9 * hy * hy)
+        d = rel[:, 1] - rel[:, 0]
+        dd = np.einsum("ij,ij->i", d, d)
+        t = np.clip(-np.einsum("ij,ij->i", rel[:, 0], d) / np.where(dd > 0, dd, 1.0), 0, 1)
+        closest = np.linalg.norm(rel[:, 0] + t[:, None] * d, axis=1)
+        ok[self._segment_region[closest <= reach]] = False
+        za, zb = z[:, 0], z[:, 1]
+        keep = (za >= z0) | (zb >= z0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cut = (z0 - za) / (zb - za)
+        cut = np.where(keep & np.isfinite(cut), cut, 0.0)
+        ta = np.where(za >= z0, 0.0, cut)
+        tb = np.where(zb >= z0, 1.0, cut)
+        out = np.full((len(segs), 4), np.nan)
+        for k, tt in enumerate((ta, tb)):
+            px = x[:, 0] + tt * (x[:, 1] - x[:, 0])
+            py = y[:, 0] + tt * (y[:, 1] - y[:, 0])
+            pz = np.maximum(za + tt * (zb - za), z0)
+            out[keep, 2 * k] = ((0.5 - py / pz * (0.5 / hy)) * h)[keep]
+            out[keep, 2 * k + 1] = ((px / pz * (0.5 / hx) + 0.5) * w)[keep]
+        return out, ok
 
     def labels(self, eye: np.ndarray) -> np.ndarray:
         """(f,) int64 convex-piece label of each triangle for this eye: the solid's label
@@ -567,6 +738,8 @@ class ConservativeDepthBuffer:
         stride = cols + 1
         facet = np.full((rows + 1) * stride, -2, dtype=np.int64)  # -2: not cast, -1: miss
         piece = np.empty_like(facet)
+        region = np.empty_like(facet)
+        segments, region_ok = occ._screen_segments(eye, basis, hx, hy, w, h)
         outside = np.full(occ._n_solids, -1, dtype=np.int8)
         depth = np.full((h, w), np.inf)
         corner = np.empty((tile + 1, tile + 1))
@@ -582,15 +755,16 @@ class ConservativeDepthBuffer:
             n = tile_corners(ti, tj, s, stride, facet, xs, ys, r, u, f, need, d32)
             if n:
                 tri = _first_triangles(occ.scene, eye, d32[:n])
-                hits += store_hits(need[:n], tri, occ._facet, occ._solid, occ._n_facets,
-                                   occ._solid_plane, occ._solid_plane_ok, eye, tol, outside,
-                                   facet, piece)
+                hits += store_hits(need[:n], tri, occ._facet, occ._solid, occ._region,
+                                   occ._n_facets, occ._solid_plane, occ._solid_plane_ok, eye,
+                                   tol, outside, facet, piece, region)
                 rays += n
             child_i = np.empty(4 * len(ti), dtype=np.int64)
             child_j = np.empty(4 * len(ti), dtype=np.int64)
-            n, _ = settle_tiles(ti, tj, s, stride, facet, piece, occ._n_facets,
-                                occ._facet_plane, occ._solid_plane, occ._solid_plane_ok, eye,
-                                r, u, f, tol, xs, ys, margin, thin, depth,
+            n, _ = settle_tiles(ti, tj, s, stride, facet, piece, region, occ._n_facets,
+                                occ._facet_plane, occ._solid_plane, occ._solid_plane_ok,
+                                occ._region_plane, segments, occ._segment_start, region_ok,
+                                _SEGMENT_SLACK, eye, r, u, f, tol, xs, ys, margin, thin, depth,
                                 corner, coef, child_i, child_j)
             ti, tj = child_i[:n], child_j[:n]
             s //= 2
