@@ -53,6 +53,7 @@ import tempfile
 from pathlib import Path
 
 from viscore.generators import (
+    JOINED_METHODS,
     REGISTRY,
     check_method,
     culling_runtimes,
@@ -159,6 +160,11 @@ def add_parser(sub, common) -> None:
     c.add_argument("--rank", choices=["faces", "eq4"], default="faces",
                    help="ranking of the solids: as their best face by eq. 3 (default) or the "
                         "paper's f_solid of eq. 4")
+    c.add_argument("--per-object", action="store_true",
+                   help="make every method's occluders object by object; by default "
+                        f"{', '.join(JOINED_METHODS)} is made once over the occluder objects "
+                        "together, so that a roof or wall continuing across objects is one "
+                        "planar region, not one per object with a gap at every seam")
     c.add_argument("--out", default="viscore-cull",
                    help="output folder, created if missing; its parent must exist "
                         "(default ./viscore-cull)")
@@ -431,7 +437,8 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
         runtimes, info = culling_runtimes(objects, indices, methods, active=active,
                                           reduction=reduction, seed=seed,
                                           frusta_source=source, cap=args.cap,
-                                          rank=args.rank, progress=tick, files=files)
+                                          rank=args.rank, progress=tick, files=files,
+                                          joined=() if args.per_object else None)
     with tqdm(total=len(path), desc="frames", unit="frame", disable=not progress,
               leave=False) as bar:
         tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)
@@ -440,7 +447,7 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
     doc = {"scene": args.scene, "occluder_objects": len(indices),
            "frusta_method": source, "methods": methods,
            "occluder_files": {name: occ.params["file"] for name, occ in (files or {}).items()},
-           "seed": seed,
+           "seed": seed, "per_object": bool(args.per_object),
            "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
            **result.to_json(),
            "runtimes": info, "provenance": provenance()}

@@ -40,9 +40,11 @@ from .registry import (
     plugin_versions,
 )
 from .scene_occluders import (
+    JOINED_METHODS,
     culling_runtimes,
     file_occluder,
     frusta_method,
+    joined_occluder,
     occluder_objects,
     scene_occluders,
 )
@@ -59,5 +61,5 @@ __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOpt
            "HierarchyIndex", "generate_planar_hierarchy", "hierarchy_to_json",
            "hierarchy_files", "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify",
            "occluder_objects", "scene_occluders", "file_occluder", "culling_runtimes",
-           "frusta_method",
+           "frusta_method", "JOINED_METHODS", "joined_occluder",
            "PluginError", "PLUGIN_GROUP", "plugin_versions", "check_generator"]

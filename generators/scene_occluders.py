@@ -13,6 +13,17 @@ occlusion culling, shadow frusta of convex solids and of their faces
 (occluder skins [2]_, sec. 5-6), fed per frame by the cut of a hierarchy
 (Silvennoinen et al. 2014 [3]_, sec. 5) when the method makes one.
 
+A method of :data:`JOINED_METHODS` (``surface-patches``) is run for the
+culling runtime once on all the occluder objects together, in world space
+(:func:`joined_occluder`), unless per-object occluders are asked for: its
+occluder is cut from planar regions, and a roof or wall that continues
+across neighbouring objects (the rooms of a level) is then one region. Cut
+object by object, each piece is eroded inside its own object's surface, and
+the sliver between two neighbours' pieces is a real gap in the occluders
+that the conservative depth buffer must keep open along every seam. The
+joined occluder is conservative for the union of the objects' surfaces,
+which is what the scene draws.
+
 References
 ----------
 .. [1] Papaioannou, G., Gaitatzes, A., Christopoulos, D. "Efficient Occlusion
@@ -55,7 +66,7 @@ from .registry import REGISTRY, generate, get_generator, parse_method
 
 __all__ = ["occluder_objects", "scene_occluders", "scene_hierarchy", "transform_occluder",
            "culling_runtimes", "frusta_method", "file_occluder", "SIZE_FACTOR",
-           "OCCLUDE_MANIFEST"]
+           "OCCLUDE_MANIFEST", "JOINED_METHODS", "joined_occluder"]
 
 _log = logging.getLogger(__name__)
 
@@ -240,6 +251,75 @@ def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, 
         for i in indices[objects.mesh_ids[indices] == mesh_id]:
             out[int(i)] = transform_occluder(local, objects.transforms[i])
     return dict(sorted(out.items()))
+
+
+#: Methods whose culling runtime is generated once over the occluder objects together
+#: (:func:`joined_occluder`), with the method's default budget times the objects.
+JOINED_METHODS = ("surface-patches",)
+
+#: Key of the joined occluder among a runtime's occluders (objects are >= 0, a
+#: scene's hierarchy -1).
+_JOINED = -2
+
+
+def joined_occluder(objects: SceneObjects, indices: Sequence[int], method: str, *,
+                    seed: int = 0, **params) -> Occluder:
+    """One world-space occluder of the union of some objects, by one registered method.
+
+    The objects' world-space triangles form one mesh (vertices are not
+    merged), generated once. Without a ``budget`` in ``params`` the budget is
+    the method's default times the number of objects, so that the level gets
+    what its objects would get one by one.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+    indices : sequence of int
+        The objects (:func:`occluder_objects`).
+    method : str
+        A registered generator.
+    seed : int, optional
+        Passed to the generator (default 0).
+    **params
+        Options of the generator.
+
+    Returns
+    -------
+    Occluder
+        In world units; ``info["joined_objects"]`` is the number of objects.
+
+    Examples
+    --------
+    >>> from viscore.scene_graph import load_scene_objects
+    >>> level = trimesh.Scene()
+    >>> for k in range(2):   # two unit cubes side by side: their tops are one region
+    ...     _ = level.add_geometry(trimesh.creation.box(bounds=[[k, 0, 0], [k + 1, 1, 1]]),
+    ...                            node_name=f"cube{k}")
+    >>> occ = joined_occluder(load_scene_objects(level), [0, 1], "surface-patches")
+    >>> occ.info["joined_objects"], bool(occ.info["conservative_guaranteed"])
+    (2, True)
+    """
+    import inspect
+
+    spec = get_generator(method)
+    seed = as_seed(seed)
+    indices = np.asarray(indices, dtype=np.int64)
+    params = dict(params)
+    if "budget" not in params and spec.budgeted:
+        default = inspect.signature(spec.function).parameters.get("budget")
+        if default is not None and isinstance(default.default, int):
+            params["budget"] = default.default * len(indices)
+    spec.check_params({**params, "seed": seed})
+    verts, faces, offset = [], [], 0
+    for i in indices:
+        v = objects.object_vertices(int(i))
+        verts.append(v)
+        faces.append(np.asarray(objects.meshes[objects.mesh_ids[i]].faces) + offset)
+        offset += len(v)
+    mesh = trimesh.Trimesh(np.concatenate(verts), np.concatenate(faces), process=False)
+    occ = generate(method, mesh, seed=seed, **params)
+    occ.info["joined_objects"] = len(indices)
+    return occ
 
 
 def scene_hierarchy(objects: SceneObjects, indices: Sequence[int], method: str, *,
@@ -454,7 +534,8 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
                      cap: str = "front-faces", rank: str = "faces",
                      params: dict[str, dict] | None = None,
                      progress: Callable[[int], None] | None = None,
-                     files: Mapping[str, Occluder] | None = None
+                     files: Mapping[str, Occluder] | None = None,
+                     joined: Sequence[str] | None = None
                      ) -> tuple[dict[str, Runtime], dict]:
     """The runtimes of the culling simulation for a scene's occluder objects.
 
@@ -493,6 +574,10 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
         one occluder set in world space, prepared once as a method's
         occluders are; its guarantee is the file's
         ``info["conservative_guaranteed"]`` (False unless the file says so).
+    joined : sequence of str, optional
+        Methods generated once over all the objects together
+        (:func:`joined_occluder`) instead of mesh by mesh; default those of
+        :data:`JOINED_METHODS` among ``methods``; ``()`` for none.
 
     Returns
     -------
@@ -500,6 +585,7 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
         ``none``, then ``planar-frusta`` and ``solid-frusta``, then
         ``depth-buffer:<method>`` per method, then ``depth-buffer:<name>``
         per file. A method whose occluders carry
+        a joined method has one occluder over all the objects; one that carries
         a hierarchy (probed on the first mesh) gets one tree over all the
         objects (:func:`scene_hierarchy`), cut for each frame's camera
         (``cut_hierarchy`` with the camera's horizontal field of view and
@@ -535,6 +621,11 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
                              f"{type(occ).__name__}")
     source = (frusta_method() if frusta_source is None
               else parse_method(frusta_source, "frusta_source").label)
+    joined = set(m for m in methods if m in JOINED_METHODS) if joined is None \
+        else set(joined)
+    for m in joined:
+        if m not in methods:
+            raise InputError(f"joined: {m!r} is not one of the methods")
     cache: dict[str, dict[int, Occluder]] = {}
 
     indices = np.asarray(indices, dtype=np.int64)
@@ -543,6 +634,12 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
         if method not in cache:
             _log.debug("generating %s occluders for %d objects", method, len(indices))
             options = params.get(method, {})
+            if method in joined and len(indices):
+                occ = joined_occluder(objects, indices, method, seed=seed, **options)
+                if progress is not None:
+                    progress(len(set(objects.mesh_ids[indices].tolist())))
+                cache[method] = {_JOINED: occ} if occ.triangles else {}
+                return cache[method]
             # a probe on the first distinct mesh: a hierarchical method gets one
             # tree over all the occluder objects instead of one per mesh
             first = indices[objects.mesh_ids[indices] == objects.mesh_ids[indices[0]]]
@@ -590,7 +687,8 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
                                                   conservative=conservative)
         info[name] = {"method": m, "occluders": len(occ), "conservative": conservative,
                       "not_guaranteed": _unsure_names(objects, unsure),
-                      "hierarchy": any("hierarchy" in o.parts for o in occ)}
+                      "hierarchy": any("hierarchy" in o.parts for o in occ),
+                      "joined": m in joined}
     for name, occ in files.items():
         runtime = f"depth-buffer:{name}"
         conservative = bool(occ.info.get("conservative_guaranteed", False))
@@ -606,6 +704,7 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
 
 
 def _unsure_names(objects: SceneObjects, indices: Sequence[int]) -> list[str]:
-    """Names of the objects whose occluders lack the guarantee (-1: a scene's hierarchy)."""
+    """Names of the objects whose occluders lack the guarantee (-1: a scene's hierarchy,
+    -2: the joined occluder)."""
     return [objects.names[i] if i >= 0 else "(hierarchy over the occluder objects)"
-            for i in indices]
+            if i == -1 else "(the occluder objects joined)" for i in indices]

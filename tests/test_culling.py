@@ -8,6 +8,7 @@ import trimesh
 from viscore.generators import generate
 from viscore.generators.scene_occluders import (
     culling_runtimes,
+    joined_occluder,
     occluder_objects,
     scene_occluders,
     transform_occluder,
@@ -401,3 +402,35 @@ def test_camera_path_never_inside_an_object(scene):
     np.add.at(counts, (hits.ray, owner[hits.triangle]), 1)
     odd = (counts % 2 == 1).reshape(len(eyes), len(rays), -1).all(axis=1)
     assert not odd.any(), [(int(c), objects.names[o]) for c, o in np.argwhere(odd)[:5]]
+
+
+def test_surface_patches_joined_over_objects_closes_the_seams():
+    """Two rooms side by side, each a closed box: cut object by object, surface-patches'
+    roofs are eroded inside each box and leave a real gap over the shared wall, which the
+    depth buffer keeps open; joined (the default of culling_runtimes) the two roofs are one
+    region and one polygon, and a box under the seam is culled from above."""
+    from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
+
+    scene = trimesh.Scene()
+    for k in range(2):
+        scene.add_geometry(trimesh.creation.box(bounds=[[4 * k, 0, 0], [4 * k + 4, 3, 4]]),
+                           geom_name=f"room{k}", node_name=f"room{k}")
+    objects = load_scene_objects(scene)
+    both = occluder_objects(objects, names=["room0", "room1"])
+    _, info = culling_runtimes(objects, both, ["surface-patches"], frusta=False)
+    entry = info["depth-buffer:surface-patches"]
+    assert entry["joined"] is True and entry["occluders"] == 1 and entry["conservative"]
+    _, apart = culling_runtimes(objects, both, ["surface-patches"], frusta=False, joined=())
+    assert apart["depth-buffer:surface-patches"]["occluders"] == 2
+    with pytest.raises(InputError, match="joined"):
+        culling_runtimes(objects, both, ["surface-patches"], frusta=False, joined=["qem"])
+
+    cam = PerspectiveCamera((4.0, 12.0, 2.0), (0, -1, 0), up=(0, 0, 1), fov=60,
+                            resolution=128, height=128)
+    under_seam = ([[3.8, 1.0, 1.5]], [[4.2, 1.5, 2.5]])
+    joined = joined_occluder(objects, both, "surface-patches")
+    separate = list(scene_occluders(objects, both, "surface-patches").values())
+    culled = [ConservativeDepthBuffer.from_occluders(OccluderScene(occ), cam, width=64,
+                                                     height=64).occluded(*under_seam)[0]
+              for occ in ([joined], separate)]
+    assert culled == [True, False]
