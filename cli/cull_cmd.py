@@ -1,8 +1,11 @@
 """``viscore cull [SCENE]``: how many objects each occluder set culls along a walk, and is it safe.
 
-Parse, call the library, format: the scene's objects
-(:func:`viscore.scene_graph.load_scene_objects`), the objects that get
-occluders (:func:`viscore.generators.occluder_objects`), the
+Parse, call the library, format: the scene's objects and the ones that get
+occluders as ``viscore occlude`` reads a level
+(:func:`viscore.generators.level_objects.level_objects`: glTF nodes, a single
+mesh split into parts, objects from 2% of the level's diagonal, never the
+flat ground alone), or those above ``--size-threshold`` world units
+(:func:`viscore.generators.occluder_objects`), the
 runtimes (:func:`viscore.generators.culling_runtimes`: ``none``,
 ``planar-frusta``, ``solid-frusta``, ``depth-buffer:<method>``, and
 ``depth-buffer:<stem>`` per ``--occluder-files`` file, read by
@@ -47,6 +50,7 @@ from __future__ import annotations
 
 import contextlib
 import glob
+import logging
 import os
 import stat
 import tempfile
@@ -60,6 +64,7 @@ from viscore.generators import (
     frusta_method,
     occluder_objects,
 )
+from viscore.generators.level_objects import level_objects
 from viscore.generators.scene_occluders import file_occluder
 from viscore.metrics.culling import (
     DEFAULT_HEIGHT,
@@ -76,7 +81,6 @@ from viscore.metrics.culling import (
 from viscore import InputError, provenance
 from viscore._atomic import fsync_path, swap_folder
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
-from viscore.scene_graph import load_scene_objects
 
 from ._common import RateEstimate, check_output_folder, dumps, emit, file_mode
 from .study.store import lock_exclusive
@@ -86,6 +90,8 @@ DEFAULT_FRAMES = 100
 
 #: Largest image side accepted by ``--width`` and ``--height``, pixels.
 MAX_SIDE = 8192
+
+_log = logging.getLogger(__name__)
 
 #: Most cameras of a walk, ``--frames`` and ``--path`` alike.
 MAX_FRAMES = 100_000
@@ -126,8 +132,8 @@ def add_parser(sub, common) -> None:
                         "comma-separated (default: the conservative ones, "
                         f"{_default_methods()})")
     c.add_argument("--occluders", default=None,
-                   help="comma-separated object names that get occluders (default: the "
-                        "objects above --size-threshold)")
+                   help="comma-separated object names that get occluders (default: those "
+                        "from 2%% of the level's diagonal, as 'viscore occlude' chooses them)")
     c.add_argument("--occluder-files", default=None, metavar="PATH[,PATH...]",
                    help="occluders made by other tools, each a runtime "
                         "depth-buffer:<file stem> beside the methods': a file "
@@ -137,7 +143,8 @@ def add_parser(sub, common) -> None:
                         "its *.tscn); not conservative unless the file says so")
     c.add_argument("--size-threshold", type=float, default=None,
                    help="bounding-box diagonal, world units, from which an object gets "
-                        "occluders (default 2.5 x the median object's)")
+                        "occluders (default: 2%% of the level's diagonal, never the flat "
+                        "ground alone)")
     c.add_argument("--path", default=None, metavar="CAMERAS.JSON",
                    help='camera path: a JSON list of {"position": [x,y,z], "forward": '
                         '[x,y,z], "up"?: [x,y,z], "fov"?: horizontal degrees} (default: '
@@ -352,7 +359,12 @@ def run_cull(args) -> int:
     check_culling_memory(width, height)
     if args.path is None:
         _check_frames_memory(frames or DEFAULT_FRAMES, f"--frames {frames or DEFAULT_FRAMES}")
-    objects = load_scene_objects(args.scene)
+    level = level_objects(args.scene, names=names if threshold is None else None)
+    objects = level.objects
+    if level.kind != "gltf":
+        _log.info("%s: %s split into %d parts (%d connected components), %s up (%s)",
+                  args.scene, "its one mesh" if level.kind == "gltf-mesh" else "the mesh",
+                  len(objects), level.components, level.up, level.up_reason)
     if args.path is not None:
         # capped before any camera is checked: checking one takes about 0.5 ms
         path = read_camera_path(args.path, up=objects.up, frames=frames, maximum=MAX_FRAMES)
@@ -360,12 +372,10 @@ def run_cull(args) -> int:
         check_camera_path(objects, path)
     else:
         path = None
-    try:
+    if threshold is not None:
         indices = occluder_objects(objects, size_threshold=threshold, names=names)
-    except InputError as exc:
-        if names is not None or threshold is not None:
-            raise
-        raise InputError(f"{exc}; give --size-threshold or --occluders") from None
+    else:
+        indices = level.chosen
     progress = not (args.quiet or args.json)
     with _OutFolder(out) as folder:  # this process alone, from here to the files
         doc = _simulate(args, objects, indices, path, folder, progress=progress, seed=seed,

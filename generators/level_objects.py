@@ -4,7 +4,10 @@ A level is a glTF/GLB scene, every mesh node one object with instancing
 honoured (glTF 2.0 [1]_, sec. 3.5 and 3.7), or a single mesh (OBJ, PLY, OFF,
 STL) such as an exported game map, split here into objects; which objects
 get occluders is chosen by size, never the flat ground alone. The rules are
-in :mod:`viscore.generators.level_occluders`, which makes the occluders.
+in :mod:`viscore.generators.level_occluders`, which makes the occluders; a
+glTF of a single object is split as a single mesh is, and a flat object far
+larger than the rest of the level (:data:`LEVEL_SPAN`: an outer ground
+plane around a town) does not set the scale of the size threshold.
 
 References
 ----------
@@ -25,13 +28,13 @@ import trimesh
 
 from viscore import InputError, load_mesh
 from viscore.ground import UP_AXES, guess_up
-from viscore.scene_graph import SceneObjects, load_scene_objects
+from viscore.scene_graph import SceneObjects, culling_scene_names, load_scene_objects
 
 from .registry import REGISTRY
 from .scene_occluders import occluder_objects
 
 __all__ = ["LevelObjects", "level_objects", "guess_up", "default_methods", "MIN_SIZE",
-           "PART_FRACTION", "FLAT_RATIO", "FALLBACK_SHARE", "UP_AXES"]
+           "PART_FRACTION", "FLAT_RATIO", "FALLBACK_SHARE", "LEVEL_SPAN", "UP_AXES"]
 
 _log = logging.getLogger(__name__)
 
@@ -50,6 +53,10 @@ FLAT_RATIO = 0.1
 #: threshold against the non-flat objects' own box: non-flat objects at least
 #: this share of the largest non-flat object's diagonal are chosen.
 FALLBACK_SHARE = 0.5
+#: A flat object whose box makes the level's diagonal more than this many times that of
+#: the non-flat objects' box (an outer ground plane, a sea around a town) does not set
+#: the level's scale: sizes are then fractions of the non-flat objects' diagonal.
+LEVEL_SPAN = 2.0
 #: Rotations from a level's frame to Godot's +Y up (right-handed, det +1).
 _TO_GODOT = {
     "y": np.eye(4),
@@ -81,7 +88,9 @@ class LevelObjects:
     to_godot : (4, 4) float64
         Rotation from the level's frame to Godot's +Y-up frame.
     kind : str
-        ``'gltf'`` or ``'mesh'`` (a single mesh split into parts).
+        ``'gltf'``, ``'mesh'`` (a single mesh split into parts) or
+        ``'gltf-mesh'`` (a glTF of one object, a map exported as one mesh: split
+        into parts as a single mesh is, in world space).
     components : int
         Connected components of a single mesh before merging (0 for glTF).
     sizes : (n,) float64
@@ -227,10 +236,17 @@ def _choose(objects: SceneObjects, up: str, min_size: float | None,
     level = float(np.linalg.norm(objects.bounds[1] - objects.bounds[0])) or 1.0
     extent = objects.upper - objects.lower
     diag = np.linalg.norm(extent, axis=1)
-    sizes = diag / level
     k = UP_AXES.index(up)
     horizontal = np.delete(extent, k, axis=1).max(axis=1)
     flat = extent[:, k] < FLAT_RATIO * horizontal
+    if (~flat).any():
+        built = float(np.linalg.norm(objects.upper[~flat].max(axis=0)
+                                     - objects.lower[~flat].min(axis=0)))
+        if built > 0 and level > LEVEL_SPAN * built:
+            _log.info("%s: flat objects span %.4g world units around non-flat ones of %.4g; "
+                      "object sizes are fractions of the latter", objects.source, level, built)
+            level = built
+    sizes = diag / level
     for arr in (sizes, flat):
         arr.flags.writeable = False
     if names is not None:
@@ -321,14 +337,19 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
             raise InputError(f"min_size: expected a fraction of the level's bounding-box "
                              f"diagonal in (0, 1], got {min_size!r}")
     gltf = isinstance(source, trimesh.Scene) or (
-        not isinstance(source, trimesh.Trimesh) and Path(os.fspath(source)).suffix.lower()
-        in _GLTF)
+        not isinstance(source, trimesh.Trimesh) and (
+            Path(os.fspath(source)).suffix.lower() in _GLTF
+            or (not Path(os.fspath(source)).exists()
+                and os.fspath(source) in culling_scene_names())))
     if gltf:
         if up not in (None, "y"):
             raise InputError(f"up: {source} is glTF, +Y up by its specification; "
                              f"--up {up} is refused for it")
         objects = load_scene_objects(source)
         kind, components, up, guessed, reason = "gltf", 0, "y", False, "glTF is +Y up"
+        if len(objects) == 1 and names is None:  # a map exported as one mesh: its parts
+            objects, components = _mesh_level(objects.object_mesh(0), objects.source, up)
+            kind = "gltf-mesh"
     else:
         label = (str(source.metadata.get("name", "mesh")) if isinstance(source, trimesh.Trimesh)
                  else str(source))

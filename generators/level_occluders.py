@@ -42,7 +42,11 @@ never the only kind chosen: when every object above the threshold is flat,
 the non-flat objects whose diagonal is at least the threshold fraction of the
 diagonal of the non-flat objects' own bounding box are chosen too (or, when
 none is, those at least :data:`FALLBACK_SHARE` of the largest non-flat
-object's diagonal).
+object's diagonal). When flat objects make the level's diagonal more than
+:data:`LEVEL_SPAN` times the non-flat objects' (an outer ground plane 2 km
+across around a town 180 m across), the threshold is a fraction of the
+latter. A glTF holding a single object (a map exported as one mesh) is split
+into parts as a single mesh is.
 
 Resumption (:func:`occlude_level`). Each (mesh, method) job's result is
 written as soon as it finishes, atomically, under ``DIR/occluders/<method>/``:

@@ -160,16 +160,47 @@ def test_bench_cull_and_culling_column_on_a_small_scene(street):
     assert 0 <= column["bbox"]["culled_share"] <= 1
 
 
-def test_cull_default_threshold_names_the_options(run, tmp_path, capsys, monkeypatch):
+def test_cull_default_chooses_objects_as_occlude_does(run, tmp_path, capsys, monkeypatch):
+    """Three equal boxes (none 2.5 x the median, the former default's refusal) all get
+    occluders: each is over 2% of the level's diagonal."""
     monkeypatch.chdir(tmp_path)
     scene = trimesh.Scene()
-    for k in range(3):  # equal objects: none is 2.5 x the median
+    for k in range(3):
         scene.add_geometry(trimesh.creation.box(), geom_name=f"b{k}", node_name=f"b{k}",
                            transform=trimesh.transformations.translation_matrix((3 * k, 0, 0)))
     (tmp_path / "same.glb").write_bytes(scene.export(file_type="glb"))
-    assert run("same.glb", "--frames", 3, "--width", 32, "--height", 18) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "--size-threshold or --occluders" in err
+    assert run("same.glb", "--frames", 3, "--width", 32, "--height", 18, "--methods",
+               "aabb-skins", "--json") == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["occluder_objects"] == 3 and doc["settings"]["objects"] == 3
+
+
+def test_cull_splits_a_level_of_one_mesh(run, tmp_path, capsys, monkeypatch):
+    """A glTF holding one mesh (a map exported whole) and the same level as a PLY: split
+    into its parts, a floor, a wall and the box hidden behind it, which the wall's occluder
+    culls from a camera in front of the wall (the PLY's up axis guessed: the floor's)."""
+    monkeypatch.chdir(tmp_path)
+    floor = trimesh.creation.box(bounds=[[-12, -0.2, -12], [12, 0, 12]])
+    wall = trimesh.creation.box(bounds=[[-5, 0, -0.5], [5, 6, 0.5]])
+    box = trimesh.creation.box(bounds=[[-0.5, 0, 4.5], [0.5, 1, 5.5]])
+    level = trimesh.util.concatenate([floor, wall, box])
+    scene = trimesh.Scene()
+    scene.add_geometry(level, geom_name="map", node_name="map")
+    (tmp_path / "map.glb").write_bytes(scene.export(file_type="glb"))
+    level.export(tmp_path / "map.ply")
+    cameras = tmp_path / "cameras.json"
+    cameras.write_text(json.dumps([{"position": [0, 1.5, -10], "forward": [0, 0, 1]}]))
+    for name in ("map.glb", "map.ply"):
+        code = run(name, "--path", cameras, "--methods", "aabb-skins", "--frusta-method",
+                   "aabb-skins", "--width", 256, "--height", 144, "--json", "--out",
+                   f"o-{name}")
+        captured = capsys.readouterr()
+        assert code == 0, captured.err
+        doc = json.loads(captured.out)
+        assert doc["settings"]["objects"] == 3 and doc["occluder_objects"] == 3
+        assert doc["ground_truth"]["visible"] == 2
+        assert doc["totals"]["depth-buffer:aabb-skins"]["culled"] == 1
+        assert doc["totals"]["depth-buffer:aabb-skins"]["false_culls"] == 0
 
 
 @pytest.mark.parametrize("fail", [KeyboardInterrupt, OSError(28, "No space left on device")])

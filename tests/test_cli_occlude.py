@@ -346,3 +346,30 @@ def test_occlude_dask_local_cluster_same_files(tmp_path):
         assert _run(glb, "-o", tmp_path / "dask", "--methods", "aabb-skins,bbox",
                     "--scheduler", cluster.scheduler_address, "--quiet") == 0
     _same_files(tmp_path / "local", tmp_path / "dask")
+
+
+def test_level_scale_ignores_an_outer_ground_far_larger_than_the_town(monkeypatch):
+    """Truck town's layout: 20 houses 9 x 4 x 9 and a grassy hill 120 x 16 x 100 on 200 x 200,
+    inside a ground plane 2,000 across. Against the ground's diagonal the houses are 0.5%
+    and get no occluder (the hill, not flat, passes: no fallback); the ground does not set
+    the scale (its box is over LEVEL_SPAN x the others'), so they are 5% and get one."""
+    import viscore.generators.level_objects as lo
+
+    rng = np.random.default_rng(0)
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.creation.box(bounds=[[-1000, -0.2, -1000], [1000, 0, 1000]]),
+                       geom_name="ground", node_name="ground")
+    scene.add_geometry(trimesh.creation.box(bounds=[[-60, 0, -50], [60, 16, 50]]),
+                       geom_name="hill", node_name="hill")
+    for k in range(20):
+        x, z = rng.uniform(-95, 85, 2)
+        scene.add_geometry(trimesh.creation.box(bounds=[[x, 0, z], [x + 9, 4, z + 9]]),
+                           geom_name=f"house{k}", node_name=f"house{k}")
+    level = level_objects(scene)
+    assert len(level.chosen) == 22
+    built = np.linalg.norm(level.objects.upper[1:].max(0) - level.objects.lower[1:].min(0))
+    house = level.objects.names.index("house0")
+    assert level.sizes[house] == pytest.approx(np.sqrt(9**2 + 4**2 + 9**2) / built)
+    monkeypatch.setattr(lo, "LEVEL_SPAN", np.inf)
+    assert {level_objects(scene).objects.names[i] for i in level_objects(scene).chosen} \
+        == {"ground", "hill"}
