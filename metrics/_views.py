@@ -20,7 +20,9 @@ def scene_of(mesh: trimesh.Trimesh | Scene | None, name: str) -> Scene | None:
         if name == "mesh":
             raise InputError("mesh: the original mesh is empty")
         return None
-    return Scene(validate_mesh(mesh, name=name))
+    checked = validate_mesh(mesh, name=name)
+    # the original is scored against every occluder of a job: its BVH is built once
+    return Scene.shared(checked) if name == "mesh" else Scene(checked)
 
 
 def cast_depths(scene: Scene | None, origins: np.ndarray, directions: np.ndarray, images: int,

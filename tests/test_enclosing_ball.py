@@ -65,3 +65,17 @@ def test_minimum_enclosing_ball_invalid_input():
         minimum_enclosing_ball(np.zeros((0, 3)))
     with pytest.raises(InputError):
         minimum_enclosing_ball([[0, 0, np.nan]])
+
+
+def test_enclosing_ball_kept_by_content_returns_fresh_centres():
+    """A second call on equal points gives an equal ball whose centre is a new array (the
+    caller may edit it); moved points give the new ball."""
+    from viscore.enclosing_ball import minimum_enclosing_ball
+
+    pts = np.array([[0.0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2]])
+    c1, r1 = minimum_enclosing_ball(pts)
+    c1 += 100.0
+    c2, r2 = minimum_enclosing_ball(pts.copy())
+    assert r2 == r1 and np.all(np.abs(c2) < 2)
+    pts[1, 0] = 10.0
+    assert minimum_enclosing_ball(pts)[1] > r1 + 3

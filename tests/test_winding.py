@@ -186,3 +186,20 @@ def test_winding_numbers_do_not_depend_on_scale(scale):
     points = np.array([[0.0, 0.0, 0.0], [0.2, -0.3, 0.1], [2.0, 0.0, 0.0], [0.0, 0.0, -5.0]])
     w = winding_numbers(box.vertices * scale, box.faces, points * scale)
     np.testing.assert_allclose(w, [1.0, 1.0, 0.0, 0.0], atol=0.01)
+
+
+def test_closed_oriented_answer_follows_the_content_not_the_array():
+    """The answers are kept by content: the same arrays edited in place (one face flipped,
+    then flipped back) give the new answer each time."""
+    import trimesh
+    from viscore.winding import is_closed_oriented
+
+    box = trimesh.creation.box()
+    v, f = np.array(box.vertices), np.array(box.faces)
+    assert is_closed_oriented(v, f)
+    f[0] = f[0, ::-1]
+    assert not is_closed_oriented(v, f)
+    f[0] = f[0, ::-1]
+    assert is_closed_oriented(v, f)
+    v[0] += 0.5  # moved off its twins at the same position: the edges no longer pair
+    assert is_closed_oriented(v, f) == is_closed_oriented(v.copy(), f.copy())

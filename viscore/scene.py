@@ -36,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
+from ._content_cache import ContentCache
 from ._jit import njit_cached
 from ._validate import InputError, as_points, as_positive_int, as_unit_vectors
 from .constants import MAX_HITS, MIN_RAYS_PER_TASK, RAY_STEP_RELATIVE
@@ -62,6 +63,9 @@ _CHUNKS_PER_WORKER = 4
 #: memory: about 60 bytes a ray of per-thread buffers (float32 copies, Embree's
 #: outputs), 4 MiB a thread here.
 _MAX_RAYS_PER_CHUNK = 65536
+
+#: The Scene of :meth:`Scene.shared` (one: the original mesh of the job at hand).
+_SHARED = ContentCache(1)
 
 _workers: int | None = None
 
@@ -392,6 +396,22 @@ class Scene:
         half = 0.5 * hi - 0.5 * lo
         self.diagonal = 2.0 * float(np.linalg.norm(half))
         self._scale = _unit_scale(self.diagonal)
+
+    @classmethod
+    def shared(cls, mesh: trimesh.Trimesh) -> Scene:
+        """The Scene of ``mesh``, shared with the last caller that asked for the same content.
+
+        One Scene is kept (by a digest of the vertices and faces, not the
+        mesh's identity): the original mesh of a job, asked for by its
+        generation, its checks and its scoring, is built into Embree once
+        (a second on a million triangles) instead of once per caller. The
+        Scene kept holds the mesh's arrays and BVH until another mesh's
+        replaces it. Default workers.
+        """
+        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+            raise InputError("mesh: expected a non-empty trimesh.Trimesh")
+        return _SHARED.get((np.asarray(mesh.vertices), np.asarray(mesh.faces)),
+                           lambda: cls(mesh))
 
     @property
     def vertices(self) -> np.ndarray:

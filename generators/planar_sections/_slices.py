@@ -39,7 +39,6 @@ References
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +46,7 @@ import trimesh
 from scipy import ndimage
 
 from viscore import Scene, camera_basis, directions_fibonacci, voxelize
+from viscore._content_cache import ContentCache
 from viscore._jit import njit_cached
 from viscore.coverage_hull import exposed_count, exposure, hull_directions
 from viscore.ground import ground_fill, ground_share
@@ -242,23 +242,18 @@ def section_solid(mesh: trimesh.Trimesh, *, resolution: int | None = None,
                         footprint_share=ground_share(vox.surface, up), fill=fill)
 
 
-#: The last ground fill's exposure (:func:`_exposure`): the precision floor tries several
+#: The last ground fills' exposures (:func:`_exposure`): the precision floor tries several
 #: grazing thresholds on one voxel size, and the exposure does not depend on them.
-_EXPOSED_CACHE: dict = {}
+_EXPOSED = ContentCache(2)
 
 
 def _exposure(mesh: trimesh.Trimesh, grid: VoxelGrid, cells: np.ndarray, key: tuple
               ) -> np.ndarray:
-    """:func:`viscore.coverage_hull.exposure` of ``cells``, from a one-entry cache keyed by
-    the mesh's bytes, the grid and ``key`` (the fill's axis and height)."""
-    digest = hashlib.blake2b(np.ascontiguousarray(mesh.vertices).tobytes(), digest_size=16)
-    digest.update(np.ascontiguousarray(mesh.faces).tobytes())
-    full = (digest.hexdigest(), tuple(np.asarray(grid.origin).tolist()), grid.pitch,
-            tuple(grid.shape), key, cells.shape)
-    if full not in _EXPOSED_CACHE:
-        _EXPOSED_CACHE.clear()
-        _EXPOSED_CACHE[full] = exposure(Scene(mesh), grid, cells)
-    return _EXPOSED_CACHE[full]
+    """:func:`viscore.coverage_hull.exposure` of ``cells``, kept by the content of the mesh,
+    the grid, the cells and ``key`` (the fill's axis and height)."""
+    parts = (np.asarray(mesh.vertices), np.asarray(mesh.faces), cells,
+             tuple(np.asarray(grid.origin).tolist()), grid.pitch, tuple(grid.shape), key)
+    return _EXPOSED.get(parts, lambda: exposure(Scene.shared(mesh), grid, cells))
 
 
 def closed_solid(surface: np.ndarray, steps: int) -> np.ndarray:

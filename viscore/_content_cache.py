@@ -1,0 +1,70 @@
+"""Results of pure functions of large arrays, kept by the arrays' content.
+
+The precision floor of planar sections generates up to eight times per mesh,
+and each generation and each scoring used to recompute what depends on the
+mesh alone: whether it is closed and oriented (seconds on a million
+triangles), its smallest enclosing ball, the coverage of a ground fill. A
+:class:`ContentCache` keeps the last few results of one function by a
+BLAKE2b digest of its array arguments (16 bytes; tens of milliseconds on a
+million triangles, against seconds for the results kept), so a caller gets
+the same answer without holding the mesh's identity.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections import OrderedDict
+from collections.abc import Callable, Hashable
+
+import numpy as np
+
+__all__ = ["content_key", "ContentCache"]
+
+
+def content_key(*parts) -> tuple:
+    """A hashable key of arrays (by dtype, shape and bytes) and plain values (as given)."""
+    digest = hashlib.blake2b(digest_size=16)
+    plain = []
+    for p in parts:
+        if isinstance(p, np.ndarray):
+            a = np.ascontiguousarray(p)
+            digest.update(str((a.dtype.str, a.shape)).encode())
+            digest.update(a.tobytes())
+        else:
+            plain.append(p)
+    return (digest.hexdigest(), *plain)
+
+
+class ContentCache:
+    """The last ``size`` results of a function, by :func:`content_key` of the arguments.
+
+    Examples
+    --------
+    >>> calls = []
+    >>> def total(a):
+    ...     calls.append(1)
+    ...     return float(a.sum())
+    >>> cache = ContentCache(2)
+    >>> a = np.arange(5.0)
+    >>> cache.get((a,), lambda: total(a)), cache.get((a.copy(),), lambda: total(a)), len(calls)
+    (10.0, 10.0, 1)
+    """
+
+    def __init__(self, size: int = 4) -> None:
+        self.size = int(size)
+        self._items: OrderedDict[Hashable, object] = OrderedDict()
+
+    def get(self, parts: tuple, compute: Callable[[], object]):
+        """The result kept for ``parts``, else ``compute()`` (kept, the oldest dropped)."""
+        key = content_key(*parts)
+        if key in self._items:
+            self._items.move_to_end(key)
+            return self._items[key]
+        value = compute()
+        self._items[key] = value
+        while len(self._items) > self.size:
+            self._items.popitem(last=False)
+        return value
+
+    def clear(self) -> None:
+        self._items.clear()
