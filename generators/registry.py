@@ -75,8 +75,10 @@ from .solid_frusta import generate_solid_frusta
 from .solid_frusta.generator import use_box_source
 from .specs import COMMON_OPTIONS, GeneratorOption, GeneratorSpec, check_only  # noqa: F401
 from .surface_patches import generate_surface_patches
+from .surface_patches.generator import BOXES as SURFACE_BOXES
 from .surface_patches.generator import MIN_AREA as SURFACE_MIN_AREA
 from .surface_patches.generator import PLANE_TOLERANCE as SURFACE_PLANE_TOLERANCE
+from .surface_patches.generator import use_box_source as use_surface_box_source
 
 __all__ = ["GeneratorOption", "GeneratorSpec", "REGISTRY", "get_generator", "generate",
            "COMMON_OPTIONS", "MethodVariant", "parse_method", "check_method", "PluginError",
@@ -342,6 +344,10 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                 GeneratorOption("chain", str, "optimal",
                                 "stages of at most 12 triangles: largest inscribed polygons or "
                                 "the paper's greedy chain", choices=("optimal", "greedy")),
+                GeneratorOption("boxes", str, "auto",
+                                "also offer aabb-skins boxes inside the closed parts (curved "
+                                "solids) to the selection, 12 triangles each, or patches only",
+                                choices=SURFACE_BOXES),
             ),
             conservative=True, min_budget=1),
         GeneratorSpec("qem", generate_qem, "quadric edge-collapse decimation to the budget",
@@ -631,3 +637,5 @@ use_hierarchy(generate_planar_hierarchy)
 # solid-frusta's candidate boxes are aabb-skins' boxes
 use_box_source(generate_aabb_skins, max_voxels=AABB_MAX_VOXELS,
                bytes_per_cell=AABB_BYTES_PER_CELL["max-volume"])
+# surface-patches' boxes in the closed parts are aabb-skins' boxes too
+use_surface_box_source(generate_aabb_skins)

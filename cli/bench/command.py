@@ -52,7 +52,8 @@ def add_parser(sub, common) -> None:
                    help="rays of the same-run bench rays reference (default 500000)")
     e.set_defaults(run=run_evaluate)
     g = bsub.add_parser("generate", parents=[common], help="generator speed and coverage")
-    g.add_argument("method", choices=["aabb-skins", "planar-sections", "hybrid"])
+    g.add_argument("method", choices=["aabb-skins", "planar-sections", "hybrid",
+                                      "surface-patches"])
     g.add_argument("--ablation", default=None, metavar="DIR",
                    help="also run the method's ablations and write their PNGs into this "
                         "existing folder: planar-sections, occlusion measure vs surface area "
@@ -214,6 +215,8 @@ def run_generate(args) -> int:
         return _run_generate_hybrid(args)
     if args.ablation is not None:
         raise InputError("--ablation: only for planar-sections and hybrid")
+    if args.method == "surface-patches":
+        return _run_generate_surface_patches(args)
     folder = models_folder(args.models)  # a folder named but missing: InputError, exit 2
     if folder is None and not args.quiet:
         print(f"viscore: no --models and no ${MODELS_ENV}: benchmarking the built-in scenes "
@@ -338,4 +341,14 @@ def _run_generate_hybrid(args) -> int:
         r["ablation"], more = hybrid_ablation(ablation, args.seed + 1)
         lines += more
     emit({**r, "provenance": provenance()}, args.json, "\n".join(lines))
+    return 0
+
+
+def _run_generate_surface_patches(args) -> int:
+    from .surface_patches import bench_generate_surface_patches, bench_surface_patches_text
+
+    folder = models_folder(args.models)  # a folder named but missing: InputError, exit 2
+    # scored on views of seed --seed + 1, as bench generate hybrid
+    r = bench_generate_surface_patches(folder, seed=args.seed + 1)
+    emit({**r, "provenance": provenance()}, args.json, bench_surface_patches_text(r))
     return 0

@@ -25,7 +25,16 @@ single-sided sheets, open rooms) where the volume methods find no inside:
    the one candidate whose next stage adds the most measure per added
    triangle within the budget. This is simpler than the paper's sec. 4.5: the
    candidates' measures are taken one by one, without the overlap of their
-   projections (two faces of a thick wall both count).
+   projections (two faces of a thick wall both count);
+5. boxes where thick parts hold them (``boxes='auto'``, :mod:`._inner_boxes`):
+   curved regions give no patch, so the closed, consistently oriented parts
+   of the input (a sphere, a column, a solid block) are also filled with the
+   axis-aligned boxes of the occluder-skins method of Leone et al. [3]_,
+   sec. 4 (the ``aabb-skins`` generator, with the box filling of Naaji
+   [4]_), run on the union of those parts alone; each box is a candidate of
+   12 triangles in the same selection, valued as the patches are: the
+   head-on measure of its six faces, counting only the pixels whose ray out
+   of the face meets no patch candidate (a box behind patches adds nothing).
 
 References
 ----------
@@ -36,6 +45,14 @@ References
    Simplification using Planar Sections". Computer Graphics Forum 33(1),
    2014, pp. 235-245. :DOI:`10.1111/cgf.12271` (sec. 3, the occlusion
    measure; sec. 4.4, the simplification chain; sec. 4.5, the selection)
+.. [3] Leone, M. N., Barbagallo, L. R., Banquiero, M. M., Agromayor, D.,
+   Bursztyn, A. P. M. "Implementing software occlusion culling for real-time
+   applications". XVIII Congreso Argentino de Ciencias de la Computacion
+   (CACIC 2012), Workshop de Computacion Grafica, Imagenes y Visualizacion,
+   2012. http://sedici.unlp.edu.ar/handle/10915/23640 (sec. 4, occluder
+   skins: boxes inside the solid)
+.. [4] Naaji, K. "Automatic Occluder Generation". A Graphics Diary (blog),
+   15 November 2019. http://karim.naaji.fr/automatic_occluder_geneneration.html
 """
 
 from __future__ import annotations
@@ -50,16 +67,26 @@ import trimesh
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
-from viscore import InputError
+from viscore import InputError, Scene
 from viscore._validate import as_fraction, as_positive, as_positive_int, as_seed
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 
+from .._boxes import boxes_mesh
 from .._polygon_chain import refine_chain, simplification_chain
 from ..occluder import Occluder
+from ._inner_boxes import (
+    TRIANGLES_PER_BOX,
+    box_faces,
+    box_source,
+    candidate_boxes,
+    closed_parts,
+    unshadowed_measures,
+    use_box_source,
+)
 from ._regions import plane_regions
 
-__all__ = ["generate_surface_patches", "DEFAULT_BUDGET", "PLANE_TOLERANCE", "GRID", "EROSION",
-           "MIN_AREA"]
+__all__ = ["generate_surface_patches", "use_box_source", "DEFAULT_BUDGET", "PLANE_TOLERANCE",
+           "GRID", "EROSION", "MIN_AREA", "BOXES"]
 
 _log = logging.getLogger(__name__)
 
@@ -91,6 +118,9 @@ MIN_FACES = 2
 
 #: Default smallest region or piece kept, fraction of the input's total face area.
 MIN_AREA = 1e-4
+
+#: Choices of ``boxes``: aabb-skins boxes in the closed parts where they fit, or none.
+BOXES = ("auto", "off")
 
 #: Candidate pieces kept for the chains and the selection, largest first.
 MAX_CANDIDATES = 400
@@ -194,7 +224,8 @@ def _select(values: list[np.ndarray], counts: list[np.ndarray], budget: int) -> 
 
 def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFAULT_BUDGET,
                              seed: int = 0, plane_tolerance: float = PLANE_TOLERANCE,
-                             min_area: float = MIN_AREA, chain: str = "optimal") -> Occluder:
+                             min_area: float = MIN_AREA, chain: str = "optimal",
+                             boxes: str = "auto") -> Occluder:
     """Double-sided occluder in the input's own planar surface, conservative on any input.
 
     Parameters
@@ -221,19 +252,35 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         Stages of at most 12 triangles are the largest inscribed polygons
         (``'optimal'``, default, for the :data:`MAX_SEARCH` largest pieces)
         or the paper's greedy ones.
+    boxes : {'auto', 'off'}, optional
+        ``'auto'`` (default): where the input has closed, consistently
+        oriented parts, also offer the aabb-skins boxes inside them
+        (Leone et al. [3]_, sec. 4; module docstring, step 5) to the same
+        selection, 12 triangles each, so that curved solids (a sphere, a
+        column) get an occluder; needs a budget of at least 12 (or None).
+        ``'off'``: patches only.
 
     Returns
     -------
     Occluder
         ``double_sided`` True; ``parts["polygons"]``: the kept stages as
-        ``(m, 3)`` world loops. ``info``: ``conservative_guaranteed`` (True),
+        ``(m, 3)`` world loops, then the six faces of each kept box as
+        ``(4, 3)`` loops (the boxes are in the mesh and the polygons, never
+        under ``parts["boxes"]``, which runtimes take as the whole
+        occluder). ``info``: ``conservative_guaranteed`` (True, and with
+        boxes kept only while the box source says its boxes are),
         ``regions`` (planar regions found), ``regions_used`` (at least
         ``min_area`` and two faces),
-        ``candidates`` (hole-free pieces), ``polygons`` (kept),
-        ``area_kept`` (the occluder's area over the input's total face area),
+        ``candidates`` (hole-free pieces), ``polygons`` (patch polygons kept),
+        ``area_kept`` (the patches' area over the input's total face area),
         ``dropped_triangles`` (chain triangles the final containment check
         refused; expected 0), ``plane_tolerance``, ``erosion``, ``grid`` and
-        ``eps`` in world units, ``seconds_steps``.
+        ``eps`` in world units; ``closed_faces`` (input faces in closed
+        parts), ``box_candidates`` (boxes offered), ``boxes`` (kept),
+        ``boxes_guaranteed`` (the box source's ``conservative_guaranteed``,
+        None when it did not run), ``box_pitch`` (its voxel side, world
+        units, or None), ``empty_reason`` (why there is no triangle, or
+        None); ``seconds_steps``.
 
     Raises
     ------
@@ -246,8 +293,13 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     plane with no other face (a facet of a curved surface, or a lone
     triangle) is skipped (:data:`MIN_FACES`); a flat facet of two or more
     faces (a cylinder's quads) is a region like any other. Holes in a region (windows,
-    doors) stay open; nothing is filled. May end under the budget, or empty
-    (no planar region large enough).
+    doors) stay open; nothing is filled. Curved solids are covered by the
+    boxes instead (``boxes='auto'``), where a closed part holds inner voxels
+    at the box source's resolution (64 voxels along the longest side of the
+    closed parts' bounding box): a curved open surface (a sphere with a hole,
+    a dome) gets neither. May end under the budget, or empty (no planar
+    region large enough and no box); an empty result logs one warning line
+    saying why (``info["empty_reason"]``).
 
     The guarantee. Every occluder triangle lies in the plane of a region,
     inside the union of the region's triangles projected into that plane,
@@ -276,6 +328,18 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     ``plane_tolerance`` is capped at eps; ``info["conservative_guaranteed"]``
     is True on every input in this sense.
 
+    The boxes' guarantee is aabb-skins' own on a closed input: they are
+    grown in the union of the closed, consistently oriented parts alone
+    (a closed input by construction, whatever else the input holds), inside
+    it by the winding number and touching none of its triangles, so a ray
+    from a point outside those parts crosses one of their triangles (an
+    input triangle) before any box. The claim is the box source's
+    ``conservative_guaranteed`` on that union, and ``info`` keeps it.
+    Points outside the whole input (the volume domain: generalized winding
+    number under 1/2) are outside its closed parts unless open parts wrap
+    a closed one with the opposite orientation (their own winding number at
+    least 1/2 there); the guarantee does not cover that case.
+
     References
     ----------
     .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for
@@ -285,6 +349,12 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
        "Occluder Simplification Using Planar Sections". Computer Graphics
        Forum 33(1), 2014, pp. 235-245. :DOI:`10.1111/cgf.12271` (secs. 3, 4.4,
        4.5)
+    .. [3] Leone, M. N., Barbagallo, L. R., Banquiero, M. M., Agromayor, D.,
+       Bursztyn, A. P. M. "Implementing software occlusion culling for
+       real-time applications". CACIC 2012, WCGIV, 2012.
+       http://sedici.unlp.edu.ar/handle/10915/23640 (sec. 4)
+    .. [4] Naaji, K. "Automatic Occluder Generation". A Graphics Diary, 2019.
+       http://karim.naaji.fr/automatic_occluder_geneneration.html
 
     Examples
     --------
@@ -293,10 +363,12 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     >>> occ = generate_surface_patches(quad)
     >>> occ.triangles, round(float(occ.mesh.area), 4), occ.info["conservative_guaranteed"]
     (2, 1.0, True)
+    >>> ball = generate_surface_patches(trimesh.creation.icosphere(subdivisions=2), budget=24)
+    >>> ball.info["polygons"], ball.info["boxes"], ball.triangles
+    (0, 2, 24)
     """
     start = time.perf_counter()
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-        raise InputError("mesh: expected a non-empty trimesh.Trimesh")
+    # the options first, the mesh last: a check-only call (specs.check_only) ends at the mesh
     if budget is not None:
         budget = as_positive_int(budget, "budget")
     seed = as_seed(seed, "seed")
@@ -307,6 +379,10 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     min_area = as_fraction(min_area, "min_area")
     if chain not in ("optimal", "greedy"):
         raise InputError(f"chain: expected 'optimal' or 'greedy', got {chain!r}")
+    if boxes not in BOXES:
+        raise InputError(f"boxes: expected one of {', '.join(BOXES)}, got {boxes!r}")
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise InputError("mesh: expected a non-empty trimesh.Trimesh")
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if not np.isfinite(vertices).all():
@@ -315,7 +391,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     if diag == 0:
         raise InputError("mesh: zero extent")
     params = {"budget": budget, "seed": seed, "plane_tolerance": plane_tolerance,
-              "min_area": min_area, "chain": chain}
+              "min_area": min_area, "chain": chain, "boxes": boxes}
     timing = {}
 
     t0 = time.perf_counter()
@@ -375,11 +451,22 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     timing["chains"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
+    corners, box_values, box_info, box_reason = _box_candidates(
+        vertices, faces, cands, chains, grid, boxes=boxes, budget=budget)
+    for value in box_values:  # one stage of 12 triangles each, after the patches (ties)
+        values.append(np.array([value]))
+        counts.append(np.array([TRIANGLES_PER_BOX], dtype=np.int64))
+    timing["boxes"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
     if budget is None:
-        stages = np.array([0 if int(c[0]) > 0 else -1 for c in counts], dtype=np.int64)
+        stages = np.array([0 if int(c[0]) > 0 and float(x[0]) > 0 else -1
+                           for c, x in zip(counts, values, strict=True)], dtype=np.int64)
     else:
         stages = _select(values, counts, budget)
     timing["selection"] = time.perf_counter() - t0
+    kept_boxes = corners[stages[len(cands):] >= 0]
+    stages = stages[:len(cands)]
 
     out_v, out_f, polygons = [], [], []
     offset = dropped = 0
@@ -405,6 +492,12 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         loop = ch.stage_ring(int(s)) * grid
         polygons.append(o + loop[:, :1] * u + loop[:, 1:2] * v)
         area += float(shapely.area(shapely.polygons(xy[tri])).sum())
+    patch_polygons = len(polygons)
+    if len(kept_boxes):
+        box_mesh = boxes_mesh(kept_boxes)
+        out_v.append(np.asarray(box_mesh.vertices))
+        out_f.append(np.asarray(box_mesh.faces) + offset)
+        polygons.extend(box_faces(kept_boxes))
     if out_f:
         occ_mesh = trimesh.Trimesh(np.concatenate(out_v), np.concatenate(out_f), process=False)
     else:
@@ -413,11 +506,66 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     if dropped:
         _log.warning("surface-patches: %d chain triangles left their region and were dropped",
                      dropped)
-    info = {"conservative_guaranteed": True, "regions": len(regions), "regions_used": used,
-            "candidates": found, "polygons": len(polygons),
+    boxes_claim = box_info.get("conservative_guaranteed") if box_info else None
+    empty_reason = None
+    if not out_f:
+        planar = ("no planar region of two or more faces and at least min_area of the face "
+                  "area (curved regions contribute nothing)" if not found else
+                  f"no patch fits a budget of {budget}")
+        empty_reason = f"{planar}, and {box_reason}"
+        _log.warning("surface-patches: no occluder for %s: %s",
+                     mesh.metadata.get("name", "the mesh"), empty_reason)
+    info = {"conservative_guaranteed": bool(not len(kept_boxes) or boxes_claim is True),
+            "regions": len(regions), "regions_used": used,
+            "candidates": found, "polygons": patch_polygons,
             "area_kept": area / total if total > 0 else 0.0, "dropped_triangles": dropped,
             "plane_tolerance": plane_tolerance * diag, "erosion": EROSION * diag,
-            "grid": grid, "eps": CONSERVATIVE_EPS_RELATIVE * diag, "seconds_steps": timing}
+            "grid": grid, "eps": CONSERVATIVE_EPS_RELATIVE * diag,
+            "closed_faces": int(box_info.get("closed_faces", 0)),
+            "box_candidates": len(corners), "boxes": len(kept_boxes),
+            "boxes_guaranteed": None if boxes_claim is None else bool(boxes_claim),
+            "box_pitch": box_info.get("pitch"), "empty_reason": empty_reason,
+            "seconds_steps": timing}
     return Occluder(mesh=occ_mesh, method="surface-patches", params=params, double_sided=True,
                     seconds=time.perf_counter() - start, parts={"polygons": polygons},
                     info=info)
+
+
+def _box_candidates(vertices: np.ndarray, faces: np.ndarray, cands: list, chains: list,
+                    grid: float, *, boxes: str, budget: int | None
+                    ) -> tuple[np.ndarray, np.ndarray, dict, str]:
+    """Step 5: the boxes offered to the selection, their values, the source's info (with
+    ``closed_faces``) and, when there is none, why (one clause for the empty-output line)."""
+    none = np.zeros((0, 2, 3))
+    if boxes == "off":
+        return none, np.zeros(0), {}, "boxes are off"
+    if budget is not None and budget < TRIANGLES_PER_BOX:
+        return none, np.zeros(0), {}, f"a budget of {budget} holds no box (12 triangles)"
+    closed = closed_parts(vertices, faces)
+    counted = {"closed_faces": int(closed.sum())}
+    if not closed.any():
+        why = "no part of it is closed and consistently oriented (boxes need one)"
+        return none, np.zeros(0), counted, why
+    if box_source() is None:
+        _log.warning("surface-patches: no box source registered (the registry registers "
+                     "aabb-skins when viscore.generators is imported); patches only")
+        return none, np.zeros(0), counted, "no box source is registered"
+    max_boxes = None if budget is None else budget // TRIANGLES_PER_BOX
+    corners, info = candidate_boxes(vertices, faces, closed, max_boxes=max_boxes)
+    info["closed_faces"] = int(closed.sum())
+    if not len(corners):
+        return none, np.zeros(0), info, (f"its closed parts have no inner voxel at a pitch of "
+                                         f"{info.get('pitch', float('nan')):.3g}")
+    # the patch candidates, whole (stage 0), shadow the box faces behind them
+    tri_v = []
+    for (frame, _, _), ch in zip(cands, chains, strict=True):
+        tri = ch.stage_triangles(0)
+        if len(tri):
+            xy = ch.ring[tri].reshape(-1, 2) * grid
+            tri_v.append(frame[0] + xy[:, :1] * frame[1] + xy[:, 1:2] * frame[2])
+    shadow = None
+    if tri_v:
+        pts = np.concatenate(tri_v)
+        shadow = Scene(trimesh.Trimesh(pts, np.arange(len(pts)).reshape(-1, 3),
+                                       process=False))
+    return corners, unshadowed_measures(corners, shadow), info, "no box"
