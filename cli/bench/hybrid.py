@@ -31,9 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
-from viscore import InputError, load_mesh
+from viscore import load_mesh
 
 from ._plot import figure, save
+from .models import building_sources
 
 __all__ = ["bench_generate_hybrid", "hybrid_ablation", "PAPER_FIGURES", "HYBRID_ABLATION",
            "HYBRID_ABLATION_MESHES"]
@@ -43,21 +44,6 @@ _log = logging.getLogger(__name__)
 #: The paper's averages over 77 buildings (Table 2, Fig. 11): faces, precision, recall.
 PAPER_FIGURES = {"hybrid": (260, 0.994, 0.780), "simplygon": (300, 0.962, 0.743),
                  "planar-sections": (127, 0.923, 0.397)}
-
-
-def _sources(models: str | os.PathLike | None) -> dict:
-    from viscore.builtin_scenes import scene_group
-
-    sources = {name: name for name in scene_group("buildings")}
-    if models is not None:
-        folder = Path(models)
-        if not folder.is_dir():
-            raise InputError(f"models {folder}: no such folder of benchmark meshes")
-        found = sorted((folder / "kenney").glob("*.glb")) + sorted(folder.glob("building*.glb"))
-        if not found:
-            raise InputError(f"models {folder}: holds no kenney/*.glb or building*.glb")
-        sources |= {f"kenney/{p.stem}": p for p in found}
-    return sources
 
 
 def bench_generate_hybrid(models: str | os.PathLike | None = None, *,
@@ -105,7 +91,7 @@ def bench_generate_hybrid(models: str | os.PathLike | None = None, *,
     from viscore.generators import generate_godot, generate_hybrid, generate_qem
     from viscore.metrics import ReferenceViews
 
-    sources = _sources(models)
+    sources = building_sources(models)
     if names is not None:
         sources = {k: v for k, v in sources.items() if k in set(names)}
     rows = []

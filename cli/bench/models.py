@@ -61,3 +61,30 @@ def models_folder(option: str | os.PathLike | None,
     if not folder.is_dir():
         raise InputError(f"{where} {value}: no such folder of benchmark meshes")
     return folder
+
+
+def building_sources(models: str | os.PathLike | None, *, demo_room: bool = False) -> dict:
+    """Benchmark buildings by name: the built-in ones, and those in ``models``.
+
+    From ``models``: ``kenney/*.glb`` as ``kenney/<stem>``, ``building*.glb`` by
+    stem and, with ``demo_room``, ``godot-occlusion-demo/room.glb`` as
+    ``godot-demo/room``. A folder that is missing or holds none of them is
+    refused.
+    """
+    from viscore.builtin_scenes import scene_group
+
+    sources: dict = {name: name for name in scene_group("buildings")}
+    if models is None:
+        return sources
+    folder = Path(models)
+    if not folder.is_dir():
+        raise InputError(f"models {folder}: no such folder of benchmark meshes")
+    found = {f"kenney/{p.stem}": p for p in sorted((folder / "kenney").glob("*.glb"))}
+    found |= {p.stem: p for p in sorted(folder.glob("building*.glb"))}
+    room = folder / "godot-occlusion-demo" / "room.glb"
+    if demo_room and room.is_file():
+        found["godot-demo/room"] = room
+    if not found:
+        extra = ", godot-occlusion-demo/room.glb" if demo_room else ""
+        raise InputError(f"models {folder}: holds no kenney/*.glb, building*.glb{extra}")
+    return sources | found

@@ -35,12 +35,13 @@ from __future__ import annotations
 import logging
 import os
 import time
-from pathlib import Path
 
 import numpy as np
 import trimesh
 
 from viscore import InputError, get_workers, load_mesh
+
+from .models import building_sources
 
 __all__ = ["bench_generate_surface_patches", "bench_surface_patches_text", "speed_building",
            "SPEED_TRIANGLES", "SPEED_BASE", "TARGET_RECALL", "TARGET_SECONDS", "BUDGET"]
@@ -66,26 +67,6 @@ SPEED_BASE = "building-warehouse"
 #: Rays of the conservativeness check per domain and mesh (the issue's target
 #: is 0 violations in 10^6 orbit plus 10^6 volume-domain rays).
 RAYS = 1_000_000
-
-
-def _sources(models: str | os.PathLike | None) -> dict:
-    from viscore.builtin_scenes import scene_group
-
-    sources = {name: name for name in scene_group("buildings")}
-    if models is not None:
-        folder = Path(models)
-        if not folder.is_dir():
-            raise InputError(f"models {folder}: no such folder of benchmark meshes")
-        found = {f"kenney/{p.stem}": p for p in sorted((folder / "kenney").glob("*.glb"))}
-        found |= {p.stem: p for p in sorted(folder.glob("building*.glb"))}
-        room = folder / "godot-occlusion-demo" / "room.glb"
-        if room.is_file():
-            found["godot-demo/room"] = room
-        if not found:
-            raise InputError(f"models {folder}: holds no kenney/*.glb, building*.glb or "
-                             "godot-occlusion-demo/room.glb")
-        sources |= found
-    return sources
 
 
 def speed_building(triangles: int = SPEED_TRIANGLES, base: str = SPEED_BASE
@@ -191,7 +172,7 @@ def bench_generate_surface_patches(models: str | os.PathLike | None = None, *,
 
     from viscore.builtin_scenes import scene_group
 
-    sources = _sources(models)
+    sources = building_sources(models, demo_room=True)
     if names is not None:
         sources = {k: v for k, v in sources.items() if k in set(names)}
     rows, views_settings = [], None
