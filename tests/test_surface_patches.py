@@ -187,3 +187,25 @@ def test_generate_surface_patches_conservative_buildings(name):
     for domain in ("orbit", "volume"):
         report = check_conservative(mesh, occ.mesh, rays=1_000_000, domain=domain, seed=5)
         assert report.violations == 0, report.summary()
+
+
+def test_bands_cover_a_wall_with_windows_edge_to_edge():
+    """A wall 100 x 60 (grid units) with two windows side by side and a door: convex
+    pieces whose union is the wall exactly, overlapping nowhere: the band under the
+    windows is not merged with the piers above it (their union is not convex), the top
+    band is one piece."""
+    import shapely
+    from viscore.generators.surface_patches.generator import _bands
+
+    wall = shapely.box(0, 0, 100, 60)
+    holes = [shapely.box(10, 20, 30, 40), shapely.box(60, 20, 80, 40), shapely.box(40, 0, 50, 30)]
+    part = shapely.difference(wall, shapely.union_all(holes))
+    pieces = _bands(part)
+    assert all(abs(p.convex_hull.area - p.area) < 1e-9 for p in pieces)
+    assert abs(shapely.union_all(pieces).area - part.area) < 1e-9
+    assert abs(sum(p.area for p in pieces) - part.area) < 1e-9  # no overlaps
+    assert shapely.union_all(pieces).equals(part)
+    # rows 0-20: left of the door, right of it; 20-30: 4 piers; 30-40: 3 piers; 40-60: top
+    tops = sorted(round(p.bounds[3]) for p in pieces)
+    assert tops.count(60) == 1 and len(pieces) <= 10
+    assert _bands(wall) == [wall]

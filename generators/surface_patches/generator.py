@@ -10,10 +10,18 @@ single-sided sheets, open rooms) where the volume methods find no inside:
 2. each region's triangles projected into its plane and joined (shapely
    ``union_all``), eroded inward by :data:`EROSION` (mitred, so the result is
    a subset of the true erosion), snapped to the integer grid of
-   :data:`GRID` (``shapely.set_precision``) and split into hole-free pieces
-   by cutting a slit one grid step wide from every hole leftwards out of the
-   piece (each hole then opens to the outside: the pieces have no holes and
-   the slits lose a strip of 1e-6 of the diagonal);
+   :data:`GRID` (``shapely.set_precision``); a part with holes (a wall and its
+   windows) is split into convex *bands* (:func:`_bands`): cut along the grid
+   rows through every vertex, each piece merged with the one below it where
+   their union is convex (the wall between two rows of windows, the piers
+   between windows). Bands meet edge to edge, with no gap between them, so a
+   depth buffer covers a wall of bands without a seam. (Until this version a
+   slit one grid step wide was cut from each hole leftwards out of the part,
+   giving one hole-free piece per part: a real gap along every slit, and a
+   chain of at most 12 triangles covers little of a wall of many windows: the
+   volume recall of the eight built-in buildings at 260 faces went from a mean
+   of 0.850 with slits to 0.860 with bands.) Beyond the paper, which slices
+   solids into hole-free polygons;
 3. each piece's simplification chain of Silvennoinen et al. [2]_, sec. 4.4,
    every stage inside the piece (:mod:`viscore.generators._polygon_chain`:
    greedy smallest-ear collapse, strict ear test, then the largest inscribed
@@ -148,21 +156,36 @@ def _polygons_of(geometry) -> list[Polygon]:
     return [p for g in getattr(geometry, "geoms", []) for p in _polygons_of(g)]
 
 
-def _hole_free(piece: Polygon) -> list[Polygon]:
-    """``piece`` (integer coordinates) minus a slit one unit wide from each hole's lowest
-    leftmost vertex leftwards out of the piece: hole-free pieces on the integer grid."""
-    if not piece.interiors:
-        return [piece]
-    x0 = float(piece.bounds[0]) - 1.0
-    slits = []
-    for ring in piece.interiors:
-        xy = np.asarray(ring.coords)[:-1]
-        k = np.lexsort((xy[:, 1], xy[:, 0]))[0]
-        x, y = xy[k]
-        slits.append(shapely.box(x0, y, x + 0.5, y + 1.0))
-    cut = shapely.difference(piece, shapely.union_all(slits))
-    cut = shapely.set_precision(cut, 1.0)
-    return [p for p in _polygons_of(cut) if not p.interiors and p.area > 0]
+def _bands(part: Polygon) -> list[Polygon]:
+    """Convex pieces covering ``part`` (integer coordinates; holes allowed): ``part`` cut
+    along the rows through every vertex, each piece then merged with the one below it whose
+    union with it is convex. Snapped to the integer grid: inside ``part`` up to half a
+    grid step; a part without holes is returned whole."""
+    if not part.interiors:
+        return [part]
+    ys = np.unique(np.concatenate([np.asarray(r.coords)[:, 1]
+                                   for r in (part.exterior, *part.interiors)]))
+    x0, x1 = float(part.bounds[0]) - 1.0, float(part.bounds[2]) + 1.0
+    done, below = [], []
+    for a, b in zip(ys[:-1], ys[1:], strict=True):  # a loop over rows, not over points
+        cut = shapely.set_precision(shapely.intersection(part, shapely.box(x0, a, x1, b)), 1.0)
+        row = []
+        for piece in _polygons_of(cut):
+            if piece.interiors or piece.area <= 0:
+                continue
+            for k, lower in enumerate(below):
+                if lower is None:
+                    continue
+                joined = shapely.union(lower, piece)
+                if joined.geom_type == "Polygon" and not joined.interiors and \
+                        joined.convex_hull.area - joined.area <= 1e-9 * joined.area:
+                    piece = shapely.set_precision(joined, 1.0)
+                    below[k] = None
+                    break
+            row.append(piece)
+        done += [q for q in below if q is not None]
+        below = row
+    return [q for q in done + below if q.area > 0 and not q.interiors]
 
 
 def _loop(piece: Polygon) -> np.ndarray:
@@ -303,10 +326,11 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
 
     The guarantee. Every occluder triangle lies in the plane of a region,
     inside the union of the region's triangles projected into that plane,
-    at least :data:`EROSION` minus one :data:`GRID` step (3e-6 of the
-    diagonal) from its rim: the union is eroded by a mitred negative buffer
-    (a subset of the erosion), snapped by under one grid step, the slits and
-    the chain's stages only remove area, and a last shapely ``covers`` test
+    at least :data:`EROSION` minus one and a half :data:`GRID` steps (2.5e-6
+    of the diagonal) from its rim: the union is eroded by a mitred negative
+    buffer (a subset of the erosion), snapped by under one grid step, the
+    bands' cuts (snapped by half a step more) and the chain's stages only
+    remove area, and a last shapely ``covers`` test
     against the exact union drops any triangle that would leave it. The
     occluder point p where a ray meets the occluder therefore lies over a
     point q of an input triangle of the region with ``|p - q| <= tol`` along
@@ -319,7 +343,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     first vertex exactly and axis-aligned planes get axis-aligned in-plane
     axes, so their occluder vertices keep the input's coordinate exactly;
     Embree's float32 hit points are off by ~1e-7 of the coordinates, far
-    under the 3e-6 margin and the check's eps (1e-5 of the diagonal,
+    under the 2.5e-6 margin and the check's eps (1e-5 of the diagonal,
     :func:`viscore.metrics.check_conservative`). When a region face lies off
     the plane by d <= tol, a ray meeting the occluder first by more than eps
     must be within arccos(d / eps) of grazing the plane: with the default
@@ -425,7 +449,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         used += 1
         shapely.prepare(union)
         for part in _polygons_of(snapped):
-            for piece in _hole_free(part):
+            for piece in _bands(part):
                 if piece.area * grid * grid >= max(floor, 0.0) and piece.area > 0:
                     cands.append((frame, union, piece))
     timing["pieces"] = time.perf_counter() - t0
