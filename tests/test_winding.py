@@ -191,9 +191,6 @@ def test_winding_numbers_do_not_depend_on_scale(scale):
 def test_closed_oriented_answer_follows_the_content_not_the_array():
     """The answers are kept by content: the same arrays edited in place (one face flipped,
     then flipped back) give the new answer each time."""
-    import trimesh
-    from viscore.winding import is_closed_oriented
-
     box = trimesh.creation.box()
     v, f = np.array(box.vertices), np.array(box.faces)
     assert is_closed_oriented(v, f)
