@@ -159,17 +159,27 @@ def _own(spec: GeneratorSpec) -> GeneratorSpec:
     return dataclasses.replace(spec, checker=check_only(spec.function))
 
 
+#: aabb-skins' and solid-frusta's voxel size when neither --voxels nor --voxel-size is given.
+_VOXEL_SIZING = GeneratorOption(
+    "voxel_sizing", str, "extent",
+    "without --voxels: 64 voxels along the longest side, or 'auto': finer where walls are "
+    "thinner (measured by rays along the inward normals, within the memory guard; 10-70 s "
+    "on an open building instead of under a second)",
+    choices=("auto", "extent"))
+_VOXELS_BY_SIZING = "by --voxel-sizing: 64, or finer for thin walls with auto"
+
 REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
     spec.name: _own(spec) for spec in [
         GeneratorSpec(
             "aabb-skins", generate_aabb_skins,
             "greedy maximal axis-aligned boxes inside the voxelized mesh (occluder skins)",
             options=(
-                GeneratorOption("voxels", int, 64, "voxels along the longest bounding-box side",
-                                low=1),
+                GeneratorOption("voxels", int, None, "voxels along the longest bounding-box side",
+                                low=1, nullable=True, default_text=_VOXELS_BY_SIZING),
                 GeneratorOption("voxel_size", float, None,
                                 "voxel side in world units; overrides --voxels",
                                 low=0, low_open=True, nullable=True),
+                _VOXEL_SIZING,
                 GeneratorOption("max_boxes", int, 16, "stop after this many boxes", low=1,
                                 nullable=True),
                 GeneratorOption("fill", float, 0.9,
@@ -316,8 +326,10 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
             "a few convex solids inside the mesh (aabb-skins boxes, shrunk voxel-cluster "
             "hulls) for shadow-frustum culling",
             options=(
-                GeneratorOption("voxels", int, 64, "voxels along the longest bounding-box side",
-                                low=1, high=2048),
+                GeneratorOption("voxels", int, None, "voxels along the longest bounding-box side",
+                                low=1, high=2048, nullable=True,
+                                default_text=_VOXELS_BY_SIZING),
+                _VOXEL_SIZING,
                 GeneratorOption("solids", int, 8, "at most this many convex solids", low=1),
                 GeneratorOption("pieces", str, "voxel-hulls",
                                 "candidates: aabb-skins boxes and shrunk convex hulls of "

@@ -34,6 +34,20 @@ Nothing is guaranteed then: a box can reach through a hole, and a gap
 narrower than a voxel (a teapot's lid on its body) hides from the surface
 voxels while rays still pass through it.
 
+Voxel size: a voxel is inner only when its closed cube touches no triangle,
+so a wall of thickness ``t`` holds one wherever the grid falls only when
+the voxel side ``p`` satisfies ``p < t / 2`` for a wall along the axes
+(``p < t / sqrt(6)``, about ``t / 2.45``, at worst;
+:mod:`viscore.wall_thickness`). With ``voxel_sizing="auto"`` (and no
+``voxels`` or ``voxel_size`` given) the side is the extent-based one
+(longest side / 64), or finer where the mesh's walls, measured by rays along
+the inward normals (:func:`viscore.wall_thickness.wall_thickness`), ask for
+it: 0.9 x that bound at the area-weighted 20% quantile of the walls
+(:func:`viscore.wall_thickness.wall_voxel_size`), so that walls above it
+hold inner voxels. Where that grid would not fit the memory guard, the
+finest grid that fits is taken and one log line says how much wall area
+then gets no occluder.
+
 References
 ----------
 .. [1] Leone, M. N., Barbagallo, L. R., Banquiero, M. M., Agromayor, D.,
@@ -60,6 +74,7 @@ import trimesh
 from viscore import InputError, Scene, inside_voxels_parity, voxel_grid, voxelize
 from viscore._validate import as_fraction, as_positive, as_positive_int, check_memory
 from viscore.voxels import inside_voxels_winding
+from viscore.wall_thickness import WALL_QUANTILE, wall_voxel_size
 from viscore.winding import is_closed_oriented
 
 from .._boxes import boxes_mesh
@@ -73,8 +88,19 @@ _log = logging.getLogger(__name__)
 #: Triangles per box (12 outward faces).
 TRIANGLES_PER_BOX = 12
 
-#: Largest ``voxels`` accepted (the memory check refuses most grids below it).
+#: Largest ``voxels`` accepted (the memory check refuses most grids below it); also
+#: the most voxels along the longest side that ``voxel_sizing="auto"`` chooses.
 MAX_VOXELS = 2048
+
+#: ``voxels`` when none is given: the extent-based size, and the coarsest of
+#: ``voxel_sizing="auto"``.
+DEFAULT_VOXELS = 64
+
+#: Ways of choosing the voxel size when neither ``voxels`` nor ``voxel_size`` is
+#: given: from the thinnest walls that matter within the memory guard, or
+#: from the extent alone (``DEFAULT_VOXELS`` along the longest side, as before).
+VOXEL_SIZINGS = ("auto", "extent")
+
 
 #: Peak bytes of working memory per voxel cell of :func:`generate_aabb_skins`,
 #: by ``seed_voxel``, measured (peak resident set over the mesh and numba's
@@ -126,11 +152,12 @@ def _densest_order(enclosed: np.ndarray, surface: np.ndarray) -> np.ndarray:
     return order
 
 
-def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
+def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int | None = None,
                         voxel_size: float | None = None, max_boxes: int | None = 16,
                         budget: int | None = None, fill: float = 0.9,
                         min_volume: float = 0.0, seed: int = 0,
-                        seed_voxel: str = "max-volume") -> Occluder:
+                        seed_voxel: str = "max-volume",
+                        voxel_sizing: str = "extent") -> Occluder:
     """Box occluder by greedy maximal-box growth, conservative on closed meshes.
 
     Parameters
@@ -139,7 +166,8 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
         Any triangle soup; the boxes are guaranteed conservative when it is
         closed and consistently oriented (see Notes).
     voxels : int, optional
-        Voxels along the longest bounding-box side, 1 to 2048 (default 64).
+        Voxels along the longest bounding-box side, 1 to 2048. Default: by
+        ``voxel_sizing``.
     voxel_size : float, optional
         Voxel side in world units; overrides ``voxels`` (as the melt library does).
     max_boxes : int, optional
@@ -158,6 +186,12 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
         'max-volume' (default): each step takes the largest box over all
         inner voxels ([2]_). 'densest': grow from the densest untaken
         voxel ([1]_).
+    voxel_sizing : {'auto', 'extent'}, optional
+        The voxel size when neither ``voxels`` nor ``voxel_size`` is given.
+        'auto': 64 voxels along the longest side, or finer where the walls
+        are thinner (module docstring), within the memory guard; seconds to
+        a minute on an open building instead of a fraction of a second.
+        'extent' (default): 64 voxels along the longest side.
 
     Returns
     -------
@@ -179,19 +213,31 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
         - ``fill``: covered share of the inner voxels;
         - ``volume_share``: box volume / mesh volume (/ inner-voxel volume
           when the mesh is not closed);
-        - ``boxes``, ``pitch`` (world units).
+        - ``boxes``, ``pitch`` (world units);
+        - ``voxel_sizing``: how the pitch was chosen: ``'voxel_size'``,
+          ``'voxels'``, ``'extent'`` or ``'auto'``; with 'auto' also
+          ``wall_sizing``: ``wall_quantile`` (the 20% area quantile of the
+          wall thickness, world units, None when no wall), ``wall_pitch``
+          (the voxel those walls ask for), ``extent_pitch``,
+          ``wall_share`` (area share whose inward ray found a wall),
+          ``resolved_share`` (share of the wall area that surely holds inner
+          voxels at ``pitch``) and ``limited`` (the memory guard made the
+          voxels coarser than the walls ask).
 
     Raises
     ------
     InputError
-        On bad thresholds, an empty mesh, or a voxel grid whose estimated
-        memory (:data:`BYTES_PER_CELL` per cell) exceeds the limit of
-        :func:`viscore._validate.check_memory`; checked before any work.
+        On bad thresholds, an empty mesh, or a voxel grid from ``voxels`` or
+        ``voxel_size`` whose estimated memory (:data:`BYTES_PER_CELL` per
+        cell) exceeds the limit of :func:`viscore._validate.check_memory`;
+        checked before any work. The 'auto' size falls back to the finest
+        grid that fits instead (one warning says so).
 
     Notes
     -----
     Deterministic. May end with fewer boxes than allowed, or none when the
-    mesh has no inner voxel at this resolution (thin or flat input).
+    mesh has no inner voxel at this resolution (thin or flat input, walls
+    thinner than the memory guard lets the voxels be).
 
     ``conservative_guaranteed`` is True exactly when the mesh is closed and
     consistently oriented: after merging vertices at equal positions, every
@@ -241,12 +287,26 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
             raise InputError(f"budget: at least {TRIANGLES_PER_BOX} triangles (one box), "
                              f"got {budget}")
         cap = min(cap, budget // TRIANGLES_PER_BOX)
+    if voxel_sizing not in VOXEL_SIZINGS:
+        raise InputError(f"voxel_sizing: expected one of {', '.join(VOXEL_SIZINGS)}, got "
+                         f"{voxel_sizing!r}")
+    wall_sizing = None
     if voxel_size is not None:
         voxel_size = as_positive(voxel_size, "voxel_size")
-        size, what = {"pitch": voxel_size}, f"voxel_size={voxel_size:g}"
-    else:
-        voxels = as_positive_int(voxels, "voxels", maximum=MAX_VOXELS)
+        size, what, sizing = {"pitch": voxel_size}, f"voxel_size={voxel_size:g}", "voxel_size"
+    elif voxels is not None or voxel_sizing == "extent":
+        sizing = "voxels" if voxels is not None else "extent"
+        voxels = as_positive_int(DEFAULT_VOXELS if voxels is None else voxels, "voxels",
+                                 maximum=MAX_VOXELS)
         size, what = {"resolution": voxels}, f"voxels={voxels}"
+    else:
+        sizing = "auto"
+        chosen = wall_voxel_size(mesh, bytes_per_cell=BYTES_PER_CELL[seed_voxel],
+                                 resolution=DEFAULT_VOXELS, quantile=WALL_QUANTILE,
+                                 max_resolution=MAX_VOXELS, what="aabb-skins")
+        _log.log(chosen.log_level, "%s", chosen.reason)
+        wall_sizing = chosen.info
+        size, what = {"pitch": chosen.pitch}, f"voxel_size={chosen.pitch:g} (auto)"
     grid = voxel_grid(np.asarray(mesh.bounds), **size)
     cells = float(np.prod(np.array(grid.shape, dtype=np.float64)))
     check_memory(cells * BYTES_PER_CELL[seed_voxel], f"aabb-skins: {what} "
@@ -304,9 +364,11 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int = 64,
         mesh=out, method="aabb-skins", double_sided=False, seconds=time.perf_counter() - start,
         params={"voxels": voxels if voxel_size is None else None, "voxel_size": voxel_size,
                 "max_boxes": max_boxes, "budget": budget, "fill": fill,
-                "min_volume": min_volume, "seed_voxel": seed_voxel},
+                "min_volume": min_volume, "seed_voxel": seed_voxel,
+                "voxel_sizing": voxel_sizing},
         parts={"boxes": corners},
         info={"inside": inside, "closed_oriented": closed, "conservative_guaranteed": closed,
               "inner_voxels": inner, "covered_voxels": covered, "cavity_voxels": cavity,
               "fill": covered / inner if inner else 0.0, "volume_share": volume_share,
-              "boxes": len(raw), "pitch": pitch})
+              "boxes": len(raw), "pitch": pitch, "voxel_sizing": sizing,
+              **({"wall_sizing": wall_sizing} if wall_sizing is not None else {})})
