@@ -42,7 +42,10 @@ def test_generate_solid_frusta_grid_that_does_not_fit_falls_back_with_one_line(m
     # twice aabb-skins' 40 bytes a cell: 375,000 cells fit, the extent-based grid
     # (176,000) does, the walls' (3.1M) does not
     monkeypatch.setattr(validate_module, "available_memory", lambda: 4 * 10**7)
-    with caplog.at_level(logging.DEBUG):
+    # both loggers' own levels: an earlier --quiet command in this worker may have left the
+    # toolkit's loggers at ERROR
+    with caplog.at_level(logging.DEBUG, logger=LOGGER), \
+            caplog.at_level(logging.DEBUG, logger=BOX_LOGGER):
         occ = generate_solid_frusta(room, voxel_sizing="auto")
     lines = [r for r in caplog.records if r.name in (LOGGER, BOX_LOGGER)
              and r.levelno >= logging.WARNING]
