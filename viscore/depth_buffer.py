@@ -245,9 +245,13 @@ _REGION_TOLERANCE = 1e-11
 _SEGMENT_SLACK = 1e-3
 
 
-def _plane_regions(vertices: np.ndarray, faces: np.ndarray, facet: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _plane_regions(tri: np.ndarray, unit: np.ndarray, twice: np.ndarray, facet: np.ndarray,
+                   bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Coplanar regions of occluder triangles and the boundaries of their unions.
+
+    ``tri`` (f, 3, 3) the triangles, ``unit`` their unit normals and ``twice``
+    twice their areas (as :class:`OccluderScene` has them), ``facet`` their
+    planar facets, ``bounds`` (2, 3) the box of the occluders' vertices.
 
     Triangles lying in one plane (up to :data:`_REGION_TOLERANCE` of the scene's
     size, either orientation), whatever their connectivity or the occluder they
@@ -269,18 +273,15 @@ def _plane_regions(vertices: np.ndarray, faces: np.ndarray, facet: np.ndarray
     """
     import shapely
 
-    n_tri = len(faces)
+    n_tri = len(tri)
     region = np.full(n_tri, -1, dtype=np.int64)
     empty = (region, np.zeros((0, 5)), np.zeros((0, 2, 3)), np.zeros(1, np.int64))
     if n_tri < 2:
         return empty
-    tri = vertices[faces]
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    twice = np.linalg.norm(cross, axis=1)
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    lo, hi = bounds
     size = float(np.linalg.norm(hi - lo)) or 1.0
     ok = twice > 1e-24 * size * size
-    normal = cross / np.where(ok, twice, 1.0)[:, None]
+    normal = unit.copy()
     # one orientation per plane: the largest component positive
     big = np.argmax(np.abs(normal), axis=1)
     normal *= np.where(normal[np.arange(n_tri), big] < 0, -1.0, 1.0)[:, None]
@@ -466,7 +467,7 @@ class OccluderScene:
         self._grids: dict = {}
         # coplanar regions across facets and occluders, and their unions' boundaries
         self._region, self._region_plane, self._segments, self._segment_start = \
-            _plane_regions(v, f, self._facet)
+            _plane_regions(tri, n, norm, self._facet, self.scene.bounds)
         self._segment_region = np.repeat(np.arange(len(self._region_plane)),
                                          np.diff(self._segment_start))
 
