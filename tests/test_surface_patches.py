@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+from viscore.generators._plane_regions import plane_regions
 from viscore.generators.surface_patches import generate_surface_patches
-from viscore.generators.surface_patches._regions import plane_regions
 from viscore.metrics import check_conservative
 
 import viscore
@@ -82,6 +82,20 @@ def test_plane_regions_panelled_wall_one_region_per_side():
     both = trimesh.util.concatenate([quad, flipped])
     assert len(plane_regions(np.asarray(both.vertices), np.asarray(both.faces),
                              tolerance=1e-9)) == 1
+    # ... unless asked to keep the sides apart (the hybrid's planar patches)
+    apart = plane_regions(np.asarray(both.vertices), np.asarray(both.faces), tolerance=1e-9,
+                          both_sides=False)
+    assert sorted(len(r.faces) for r in apart) == [2, 2]
+    assert apart[0].normal @ apart[1].normal == pytest.approx(-1.0)
+    # a slab's top and the bottom of a wall standing on it: one plane, two sides
+    slab = trimesh.creation.box(bounds=[[0, 0, 0], [4, 4, 0.2]])
+    wall = trimesh.creation.box(bounds=[[0, 0, 0.2], [4, 0.2, 2.0]])
+    both = trimesh.util.concatenate([slab, wall])
+    v, f = np.asarray(both.vertices), np.asarray(both.faces)
+    at = np.abs(v[f][:, :, 2] - 0.2).max(axis=1) < 1e-12
+    for sides, count in ((True, 1), (False, 2)):
+        regions = plane_regions(v, f, tolerance=1e-9, both_sides=sides)
+        assert len([r for r in regions if at[r.faces].all()]) == count
 
 
 def test_generate_surface_patches_panelled_wall_front_is_one_polygon():
@@ -195,12 +209,12 @@ def test_bands_cover_a_wall_with_windows_edge_to_edge():
     windows is not merged with the piers above it (their union is not convex), the top
     band is one piece."""
     import shapely
-    from viscore.generators.surface_patches.generator import _bands
+    from viscore.generators._convex_bands import convex_bands
 
     wall = shapely.box(0, 0, 100, 60)
     holes = [shapely.box(10, 20, 30, 40), shapely.box(60, 20, 80, 40), shapely.box(40, 0, 50, 30)]
     part = shapely.difference(wall, shapely.union_all(holes))
-    pieces = _bands(part)
+    pieces = convex_bands(part)
     assert all(abs(p.convex_hull.area - p.area) < 1e-9 for p in pieces)
     assert abs(shapely.union_all(pieces).area - part.area) < 1e-9
     assert abs(sum(p.area for p in pieces) - part.area) < 1e-9  # no overlaps
@@ -208,4 +222,4 @@ def test_bands_cover_a_wall_with_windows_edge_to_edge():
     # rows 0-20: left of the door, right of it; 20-30: 4 piers; 30-40: 3 piers; 40-60: top
     tops = sorted(round(p.bounds[3]) for p in pieces)
     assert tops.count(60) == 1 and len(pieces) <= 10
-    assert _bands(wall) == [wall]
+    assert convex_bands(wall) == [wall]

@@ -3,7 +3,7 @@
 For thin, open game geometry (walls thinner than a voxel, loose panels,
 single-sided sheets, open rooms) where the volume methods find no inside:
 
-1. planar regions (:mod:`._regions`): the input's faces grouped by plane
+1. planar regions (:mod:`.._plane_regions`): the input's faces grouped by plane
    within ``plane_tolerance`` across loose parts and duplicated faces, both
    orientations of a plane being one plane (after the planar patches of Wu
    et al. [1]_, sec. 3.1.1, without their connectivity);
@@ -11,7 +11,8 @@ single-sided sheets, open rooms) where the volume methods find no inside:
    ``union_all``), eroded inward by :data:`EROSION` (mitred, so the result is
    a subset of the true erosion), snapped to the integer grid of
    :data:`GRID` (``shapely.set_precision``); a part with holes (a wall and its
-   windows) is split into convex *bands* (:func:`_bands`): cut along the grid
+   windows) is split into convex *bands*
+   (:func:`viscore.generators._convex_bands.convex_bands`): cut along the grid
    rows through every vertex, each piece merged with the one below it where
    their union is convex (the wall between two rows of windows, the piers
    between windows). Bands meet edge to edge, with no gap between them, so a
@@ -80,6 +81,8 @@ from viscore._validate import as_fraction, as_positive, as_positive_int, as_seed
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 
 from .._boxes import boxes_mesh
+from .._convex_bands import convex_bands, polygons_of
+from .._plane_regions import plane_regions
 from .._polygon_chain import refine_chain, simplification_chain
 from ..occluder import Occluder
 from ._inner_boxes import (
@@ -91,7 +94,6 @@ from ._inner_boxes import (
     unshadowed_measures,
     use_box_source,
 )
-from ._regions import plane_regions
 
 __all__ = ["generate_surface_patches", "use_box_source", "DEFAULT_BUDGET", "PLANE_TOLERANCE",
            "GRID", "EROSION", "MIN_AREA", "BOXES"]
@@ -145,47 +147,6 @@ MEASURE_MIN_ACROSS = 6
 
 #: Largest pixel count along a side of that rasterization.
 MEASURE_MAX_PIXELS = 512
-
-
-def _polygons_of(geometry) -> list[Polygon]:
-    """The non-empty polygons of a shapely geometry."""
-    if geometry.is_empty:
-        return []
-    if geometry.geom_type == "Polygon":
-        return [geometry]
-    return [p for g in getattr(geometry, "geoms", []) for p in _polygons_of(g)]
-
-
-def _bands(part: Polygon) -> list[Polygon]:
-    """Convex pieces covering ``part`` (integer coordinates; holes allowed): ``part`` cut
-    along the rows through every vertex, each piece then merged with the one below it whose
-    union with it is convex. Snapped to the integer grid: inside ``part`` up to half a
-    grid step; a part without holes is returned whole."""
-    if not part.interiors:
-        return [part]
-    ys = np.unique(np.concatenate([np.asarray(r.coords)[:, 1]
-                                   for r in (part.exterior, *part.interiors)]))
-    x0, x1 = float(part.bounds[0]) - 1.0, float(part.bounds[2]) + 1.0
-    done, below = [], []
-    for a, b in zip(ys[:-1], ys[1:], strict=True):  # a loop over rows, not over points
-        cut = shapely.set_precision(shapely.intersection(part, shapely.box(x0, a, x1, b)), 1.0)
-        row = []
-        for piece in _polygons_of(cut):
-            if piece.interiors or piece.area <= 0:
-                continue
-            for k, lower in enumerate(below):
-                if lower is None:
-                    continue
-                joined = shapely.union(lower, piece)
-                if joined.geom_type == "Polygon" and not joined.interiors and \
-                        joined.convex_hull.area - joined.area <= 1e-9 * joined.area:
-                    piece = shapely.set_precision(joined, 1.0)
-                    below[k] = None
-                    break
-            row.append(piece)
-        done += [q for q in below if q is not None]
-        below = row
-    return [q for q in done + below if q.area > 0 and not q.interiors]
 
 
 def _loop(piece: Polygon) -> np.ndarray:
@@ -448,8 +409,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
             shapely.affinity.scale(eroded, 1.0 / grid, 1.0 / grid, origin=(0, 0)), 1.0)
         used += 1
         shapely.prepare(union)
-        for part in _polygons_of(snapped):
-            for piece in _bands(part):
+        for part in polygons_of(snapped):
+            for piece in convex_bands(part):
                 if piece.area * grid * grid >= max(floor, 0.0) and piece.area > 0:
                     cands.append((frame, union, piece))
     timing["pieces"] = time.perf_counter() - t0

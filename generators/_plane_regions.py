@@ -1,4 +1,8 @@
-"""Surface patches, step 1: the input's faces grouped by plane, across loose parts.
+"""The input's faces grouped by plane, across loose parts.
+
+Shared by the surface-patches generator (its step 1) and the hybrid
+generator's planar patches (a panelled wall becomes one patch, so that its
+openings and recesses are holes the hole test can judge).
 
 The planar-patch grouping of Wu et al. 2022 [1]_ (sec. 3.1.1, step 1) joins
 faces across shared edges whose dihedral angle is small; game geometry is
@@ -72,8 +76,8 @@ class PlaneRegion:
         return np.stack([self.origin, u, v, n])
 
 
-def plane_regions(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float
-                  ) -> list[PlaneRegion]:
+def plane_regions(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float,
+                  both_sides: bool = True) -> list[PlaneRegion]:
     """Group faces by plane within ``tolerance`` (world units), largest region seed first.
 
     Parameters
@@ -83,6 +87,10 @@ def plane_regions(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float
     tolerance : float
         Largest distance, world units, of a region face's vertex from the
         region's plane.
+    both_sides : bool, optional
+        True (default): both orientations of a plane are one plane; False:
+        a face joins only faces that face its way (a slab's top and the
+        bottoms of the walls standing on it stay apart).
 
     Returns
     -------
@@ -115,7 +123,7 @@ def plane_regions(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float
     taken = np.zeros(len(idx), dtype=bool)
     # every face's neighbours in plane space, both signs, in two batched queries
     near_pos = tree.query_ball_point(points, radius)
-    near_neg = tree.query_ball_point(-points, radius)
+    near_neg = tree.query_ball_point(-points, radius) if both_sides else [[]] * len(points)
     regions = []
     for s in order:
         if taken[s]:
@@ -126,7 +134,9 @@ def plane_regions(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float
         cand = cand[~taken[cand]]
         if len(cand) > 1:
             dist = np.abs((tri[idx[cand]] - origin) @ n).max(axis=1)
-            members = cand[(np.abs(normals[cand] @ n) >= cos_max) & (dist <= tolerance)]
+            facing = normals[cand] @ n
+            members = cand[((np.abs(facing) if both_sides else facing) >= cos_max)
+                           & (dist <= tolerance)]
             members = np.sort(np.append(members[members != s], s))  # the seed joins always
         else:  # a face alone near its plane (curved surfaces, mostly)
             members = np.array([s], dtype=np.int64)

@@ -1,0 +1,60 @@
+"""Convex bands: a polygon with holes cut into convex pieces that meet edge to edge.
+
+A wall and its windows, as a planar polygon with holes, cannot be drawn as one
+simple polygon; cut along the rows through every vertex and merged upward
+where the union stays convex, it becomes the bands between rows of windows and
+the piers between windows: pieces with no gap between them, each a convex
+polygon that a fan of ``n - 2`` triangles draws, and each a candidate that an
+occluder's selection can take or leave on its own. Shared by the
+surface-patches generator (its step 2) and the hybrid generator's planar
+patches (a perforated wall is ranked band by band).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+
+__all__ = ["convex_bands", "polygons_of"]
+
+
+def polygons_of(geometry) -> list[Polygon]:
+    """The non-empty polygons of a shapely geometry."""
+    if geometry.is_empty:
+        return []
+    if geometry.geom_type == "Polygon":
+        return [geometry]
+    return [p for g in getattr(geometry, "geoms", []) for p in polygons_of(g)]
+
+
+def convex_bands(part: Polygon) -> list[Polygon]:
+    """Convex pieces covering ``part`` (integer coordinates; holes allowed): ``part`` cut
+    along the rows through every vertex, each piece then merged with the one below it whose
+    union with it is convex. Snapped to the integer grid: inside ``part`` up to half a
+    grid step; a part without holes is returned whole."""
+    if not part.interiors:
+        return [part]
+    ys = np.unique(np.concatenate([np.asarray(r.coords)[:, 1]
+                                   for r in (part.exterior, *part.interiors)]))
+    x0, x1 = float(part.bounds[0]) - 1.0, float(part.bounds[2]) + 1.0
+    done, below = [], []
+    for a, b in zip(ys[:-1], ys[1:], strict=True):  # a loop over rows, not over points
+        cut = shapely.set_precision(shapely.intersection(part, shapely.box(x0, a, x1, b)), 1.0)
+        row = []
+        for piece in polygons_of(cut):
+            if piece.interiors or piece.area <= 0:
+                continue
+            for k, lower in enumerate(below):
+                if lower is None:
+                    continue
+                joined = shapely.union(lower, piece)
+                if joined.geom_type == "Polygon" and not joined.interiors and \
+                        joined.convex_hull.area - joined.area <= 1e-9 * joined.area:
+                    piece = shapely.set_precision(joined, 1.0)
+                    below[k] = None
+                    break
+            row.append(piece)
+        done += [q for q in below if q is not None]
+        below = row
+    return [q for q in done + below if q.area > 0 and not q.interiors]
