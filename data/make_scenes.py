@@ -190,7 +190,10 @@ def city_block() -> trimesh.Trimesh:
 # open at the bottom), walls are 0.5-2% of the building thick, doors and windows are real
 # openings, some framed; rooms, floors and stairs are reachable through the doors;
 # decorations (corner pillars, ledges, window frames, sills, railings) cover the seams
-# between panels, so removing one opens a hole; panels overlap and intersect, and every
+# between panels, so removing one opens a hole; blind windows, niches and vents are
+# recessed into walls with a back face, and plaques set into them (the wall's face then
+# has a hole with the input just behind it, the case of Wu et al. 2022 Fig. 6); panels
+# overlap and intersect, and every
 # building holds an exactly duplicated panel and a coincident decal. Units are metres,
 # +z is up, the ground is z = 0 and the footprint is centred on the origin.
 #
@@ -198,12 +201,19 @@ def city_block() -> trimesh.Trimesh:
 # ``metadata`` records, by construction: "doors" (every outside door as (centre, inward
 # unit direction, width): the centre lies in the wall's mid-plane), "rooms" (points at
 # standing height inside rooms, clear of every panel), "wall_thickness" (m),
-# "open_bottom" (no geometry on or under the ground) and "split_faces" (each flat side of
-# a part has its own vertices, as in exported game kits). The seed varies the details
+# "open_bottom" (no geometry on or under the ground), "split_faces" (each flat side of
+# a part has its own vertices, as in exported game kits) and "openings" (every opening,
+# recess and plaque of a wall: kind "through", "recess" or "plaque", centre in the wall's
+# mid-plane, outward unit normal, the wall's thickness, size along the run and up).
+# The seed varies the details
 # (window rhythm, which windows are framed, small dimensions); the defaults make the
 # shipped files.
 
 _EPS = 1e-9
+#: Depth of a recess's back face behind the wall's outer face, fraction of the wall's
+#: thickness; a plaque stands this far (m) proud of the outer face.
+RECESS_DEPTH = 0.4
+PLAQUE_PROUD = 0.03
 #: Corner indices of each box side (corner bit 0: x, bit 1: y, bit 2: z at the upper end).
 _BOX_SIDES = {"-x": (0, 2, 6, 4), "+x": (1, 3, 7, 5), "-y": (0, 1, 5, 4),
               "+y": (2, 3, 7, 6), "-z": (0, 1, 3, 2), "+z": (4, 5, 7, 6)}
@@ -247,6 +257,7 @@ class _Builder:
         self.parts: list[tuple[np.ndarray, np.ndarray]] = []
         self.doors: list[tuple[list[float], list[float], float]] = []
         self.rooms: list[list[float]] = []
+        self.openings: list[dict] = []
         self.split = split  # every flat side its own vertices, as exported game kits are
 
     def add(self, vertices: np.ndarray, faces: np.ndarray) -> int:
@@ -334,25 +345,47 @@ class _Builder:
     def wall(self, run: str, at: float, u0: float, u1: float, z0: float, z1: float, t: float,
              openings=(), *, out: int = 1, open_bottom: bool = False, gap: float = 0.05,
              frame: float = 0.12, depth: float = 0.04) -> list[int]:
-        """Wall of loose panels around openings (a0, a1, b0, b1, framed), a along the run.
+        """Wall of loose panels around openings (a0, a1, b0, b1, kind), a along the run.
 
-        A framed opening is cut ``gap`` wider than its frame's inside on every side but a
-        door's sill, so the frame bars (``frame`` wide, proud of both faces by ``depth``)
-        cover the slot and overlap the panels: removing a frame opens a hole. Framed
-        windows also get a sill on the outer side (``out``: +1 or -1 along the normal).
+        ``kind`` True: a framed opening, cut ``gap`` wider than its frame's inside on
+        every side but a door's sill, so the frame bars (``frame`` wide, proud of both
+        faces by ``depth``) cover the slot and overlap the panels: removing a frame opens
+        a hole. Framed windows also get a sill on the outer side (``out``: +1 or -1 along
+        the normal). False: an opening cut to size. "recess": a blind window, niche or
+        vent: the panels are cut round it and a back block fills the wall from
+        :data:`RECESS_DEPTH` x ``t`` behind the outer face to the inner face (the
+        outer face has a hole with the input just behind it, Wu et al. 2022 Fig. 6).
+        "plaque": a plaque set into the wall, through its thickness and
+        :data:`PLAQUE_PROUD` proud of the outer face. Every opening is recorded in
+        ``openings`` (kind "through" for True and False).
         """
         cuts = []
         for a0, a1, b0, b1, framed in openings:
-            g = gap if framed else 0.0
+            g = gap if framed is True else 0.0
             cuts.append((a0 - g, a1 + g, b0 - g if b0 > z0 + _EPS else z0 - 1.0, b1 + g))
         ids = []
         half = 0.5 * t
         for ua, ub, za, zb in _rect_minus(u0, u1, z0, z1, cuts):
             sides = "-z" if open_bottom and za <= z0 + _EPS else ""
             ids.append(self.wbox(run, (ua, ub), (at - half, at + half), (za, zb), sides))
+        face = at + out * half  # the outer face
+        normal = [0.0, float(out), 0.0] if run == "x" else [float(out), 0.0, 0.0]
+        for a0, a1, b0, b1, kind in openings:
+            if kind == "recess":
+                self.wbox(run, (a0, a1), sorted((face - out * RECESS_DEPTH * t, at - out * half)),
+                          (b0, b1))
+            elif kind == "plaque":
+                self.wbox(run, (a0, a1), sorted((at - out * half, face + out * PLAQUE_PROUD)),
+                          (b0, b1))
+            mid = 0.5 * (a0 + a1)
+            centre = [mid, at, 0.0] if run == "x" else [at, mid, 0.0]
+            centre[2] = 0.5 * (max(b0, z0) + b1)
+            self.openings.append({"kind": kind if isinstance(kind, str) else "through",
+                                  "centre": centre, "normal": normal, "thickness": t,
+                                  "size": [a1 - a0, b1 - max(b0, z0)]})
         w = (at - half - depth, at + half + depth)
         for a0, a1, b0, b1, framed in openings:
-            if not framed:
+            if framed is not True:
                 continue
             door = b0 <= z0 + _EPS
             zlo = b0 if door else b0 - frame
@@ -473,7 +506,8 @@ class _Builder:
         faces = np.concatenate([f + o for (_, f), o in zip(self.parts, offsets[:-1], strict=True)])
         mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
         mesh.metadata.update(doors=self.doors, rooms=self.rooms, wall_thickness=wall_thickness,
-                             open_bottom=open_bottom, split_faces=self.split)
+                             open_bottom=open_bottom, split_faces=self.split,
+                             openings=self.openings)
         return mesh
 
 
@@ -511,8 +545,12 @@ def building_house(seed: int = 1) -> trimesh.Trimesh:
         if level == 0:
             back[1] = (2.6, 3.5, z0, z0 + 2.05, False)  # back door, no frame
         side = _windows(rng, y0 + 1.0, y1 - 1.0, 1, 1.0, sill, head, 0.5)
+        if level == 0:
+            front.append((1.0, 1.5, z0 + 1.3, z0 + 1.7, "plaque"))  # name plate
+        left = side + [(1.8, 2.8, sill, head, "recess")]  # a blind window
+        right = side + [(2.0, 2.3, z0 + 2.3, z0 + 2.6, "recess")]  # a vent
         b.storey(x0, x1, y0, y1, z0, z1 if level == 0 else top, t,
-                 {"front": front, "back": back, "left": side, "right": side})
+                 {"front": front, "back": back, "left": left, "right": right})
         # partition with a door between the two rooms of the storey
         b.wall("y", 1.0, y0 + 0.1, y1 - 0.1, z0, z1 if level == 0 else top, 0.12,
                [(1.0, 1.9, z0, z0 + 2.0, False)])
@@ -559,8 +597,13 @@ def building_apartment(seed: int = 2) -> trimesh.Trimesh:
                 for s in (-1.25, 1.25):
                     b.railing((c + s, y1 + 0.2), (c + s, y1 + 1.35), z0)
         sides = _windows(rng, y0 + 1.0, y1 - 1.0, 2, 1.0, sill, head, 0.7)
-        b.storey(x0, x1, y0, y1, z0, z1, t, {"front": front, "back": back, "left": sides,
-                                             "right": sides}, corner="pillar", pillar=p)
+        if level == 0:
+            front.append((1.0, 1.5, 1.2, 1.7, "plaque"))  # bell plate by the entrance
+        b.storey(x0, x1, y0, y1, z0, z1, t,
+                 {"front": front, "back": back,
+                  "left": sides + [(-0.5, 0.5, sill, head, "recess")],
+                  "right": sides + [(-0.3, 0.3, z0 + 2.4, z0 + 2.7, "recess")]},
+                 corner="pillar", pillar=p)
         for x in (-1.8, 1.8):  # the stair hall between two flats
             b.wall("y", x, y0 + 0.12, y1 - 0.12, z0, z1, 0.12,
                    [(-2.5, -1.5, z0, z0 + 2.0, False)])
@@ -604,6 +647,8 @@ def building_tower(seed: int = 3) -> trimesh.Trimesh:
                  for s in ("front", "back", "left", "right")}
         if level == 0:
             walls["front"].append((-0.6, 0.6, z0, z0 + 2.3, True))
+        walls["left"].append((-0.4, 0.4, sill, head, "recess"))
+        walls["right"].append((-0.2, 0.2, z0 + 2.5, z0 + 2.8, "recess"))
         b.storey(x0, x1, y0, y1, z0, z1, t, walls, corner="pillar", pillar=p,
                  open_bottom=level == 0)
         b.rooms.append([-1.5, 0.0, z0 + 1.2])
@@ -645,7 +690,8 @@ def building_warehouse(seed: int = 4) -> trimesh.Trimesh:
     zt = 7.0
     high = (4.5, 6.0)
     front = [(-3.0, 3.0, 0.0, 5.0, True), (6.0, 7.0, 0.0, 2.2, True),
-             (-10.0, -7.0) + high + (False,)]
+             (-10.0, -7.0) + high + (False,), (8.5, 9.1, 1.5, 2.1, "recess"),
+             (-5.5, -4.5, 2.5, 3.2, "plaque")]
     back = [(-1.0, 1.0, 0.0, 2.2, False)]
     back += [(c - 1.5, c + 1.5) + high + (bool(f),)
              for c, f in zip((-8.0, -4.0, 4.0, 8.0), rng.random(4) < 0.5, strict=True)]
@@ -702,9 +748,11 @@ def building_church(seed: int = 5) -> trimesh.Trimesh:
     t = 0.4
     x0, x1, y0, y1 = -4.5, 4.5, -8.0, 10.0
     zt = 7.5
-    b.wall("x", y0, x0 - 0.2, x1 + 0.2, 0.0, zt, t, [(-1.0, 1.0, 0.0, 3.2, True)], out=-1,
-           open_bottom=True)
-    b.wall("x", y1, x0 - 0.2, x1 + 0.2, 0.0, zt, t, [(-1.0, 1.0, 4.0, 6.5, True)], out=1,
+    b.wall("x", y0, x0 - 0.2, x1 + 0.2, 0.0, zt, t,
+           [(-1.0, 1.0, 0.0, 3.2, True), (-3.0, -2.2, 2.0, 2.8, "plaque"),
+            (2.2, 3.0, 2.0, 2.8, "plaque")], out=-1, open_bottom=True)
+    b.wall("x", y1, x0 - 0.2, x1 + 0.2, 0.0, zt, t,
+           [(-1.0, 1.0, 4.0, 6.5, True), (-3.0, -2.0, 1.0, 3.0, "recess")], out=1,
            open_bottom=True)
     seams = [-6.0, -2.0, 2.0, 6.0]
     edges = [y0 + 0.2] + seams + [y1 - 0.2]
@@ -762,12 +810,14 @@ def building_shop(seed: int = 6) -> trimesh.Trimesh:
     b.slab(x0, x1, ys, y1, -0.15, 0.0)
     b.wall("x", ys, x0 - 0.125, x1 + 0.125, 0.0, h - 0.2, t,
            [(-6.0, -2.2, 0.5, 2.6, False), (2.2, 6.0, 0.5, 2.6, False),
-            (-0.8, 0.8, 0.0, 2.5, True)], out=-1)
+            (-0.8, 0.8, 0.0, 2.5, True), (-1.6, -1.1, 1.4, 1.9, "plaque")], out=-1)
     b.wall("x", y1, x0 - 0.125, x1 + 0.125, 0.0, h - 0.2, t,
-           [(-4.0, -2.6, 1.0, 2.4, True), (-0.5, 0.5, 0.0, 2.2, True)], out=1)
+           [(-4.0, -2.6, 1.0, 2.4, True), (-0.5, 0.5, 0.0, 2.2, True),
+            (2.0, 3.0, 1.0, 2.4, "recess")], out=1)
     for x, sign in ((x0, -1), (x1, 1)):
+        extra = [(2.8, 3.6, 1.2, 2.2, "recess")] if sign < 0 else []
         b.wall("y", x, ys + 0.125, y1 - 0.125, 0.0, h - 0.2, t,
-               [(0.5, 1.7, 1.0, 2.4, bool(rng.random() < 0.5))], out=sign)
+               [(0.5, 1.7, 1.0, 2.4, bool(rng.random() < 0.5))] + extra, out=sign)
     for x in (-6.5, -3.9, -1.3, 1.3, 3.9, 6.5):  # the arcade
         b.column(x, -4.6, 0.25, 0.0, h - 0.5, sides=8)
         b.box((x - 0.32, -4.92, h - 0.5), (x + 0.32, -4.28, h - 0.35))  # capital
@@ -829,9 +879,10 @@ def building_lshaped(seed: int = 7) -> trimesh.Trimesh:
         if level == 0:
             front[0] = (-6.5, -5.5, z0, z0 + 2.2, True)
         back = [(-2.4, 2.4, z0, z0 + 2.6, True), (-7.5, -6.3, sill, head, True)]
+        left = _windows(rng, ay0 + 1.0, ay1 - 1.0, 1, 1.2, sill, head, 0.5)
         b.storey(ax0, ax1, ay0, ay1, z0, z1, t,
                  {"front": front, "back": back,
-                  "left": _windows(rng, ay0 + 1.0, ay1 - 1.0, 1, 1.2, sill, head, 0.5),
+                  "left": left + [(-6.3, -5.5, sill, head, "recess")],
                   "right": _windows(rng, ay0 + 1.0, ay1 - 1.0, 1, 1.2, sill, head, 0.5)},
                  open_bottom=level == 0)
         b.wall("y", -3.0, ay0 + 0.125, ay1 - 0.125, z0, z1, 0.12,
@@ -851,6 +902,7 @@ def building_lshaped(seed: int = 7) -> trimesh.Trimesh:
                  "right": _windows(rng, by0 + 1.0, by1 - 1.0, 3, 1.2, sill, head, 0.6)}
         if level == 0:
             walls["back"][0] = (-1.8, -0.8, z0, z0 + 2.2, True)  # back door
+            walls["back"].append((0.0, 0.4, 1.3, 1.7, "plaque"))
         skip = ("front",) if level < 2 else ()
         if level == 2:
             walls["front"] = [(-0.6, 0.6, z0 + 1.4, head, True)]  # above wing A's roof
@@ -885,8 +937,8 @@ def building_cottage(seed: int = 8) -> trimesh.Trimesh:
              (1.4, 2.4, 0.9, 1.9, True)]
     walls = {"front": front,
              "back": [(-1.5, -0.5, 0.9, 1.9, bool(framed[0])), (1.2, 2.2, 0.9, 1.9, False)],
-             "left": [(-0.5, 0.5, 0.9, 1.9, bool(framed[1]))],
-             "right": [(-0.5, 0.5, 0.9, 1.9, bool(framed[2]))]}
+             "left": [(-0.5, 0.5, 0.9, 1.9, bool(framed[1])), (1.2, 1.8, 0.9, 1.9, "recess")],
+             "right": [(-0.5, 0.5, 0.9, 1.9, bool(framed[2])), (-1.8, -1.2, 1.2, 1.6, "plaque")]}
     b.storey(x0, x1, y0, y1, 0.0, h, t, walls, open_bottom=True, frame=0.08, depth=0.03)
     for a0, a1, *_ in front[1:]:  # shutters and flower boxes
         for u in (a0 - 0.08 - 0.45, a1 + 0.08):

@@ -224,3 +224,21 @@ def test_building_frames_cover_slots(make_scenes):
     assert np.isinf(t_whole[1]) and np.isinf(t_bare[1])  # the window itself
     assert np.isfinite(t_whole[2]) and np.isfinite(t_bare[2])  # the wall
     assert len(whole.split(only_watertight=False)) == len(whole.faces) // 12
+
+
+@pytest.mark.parametrize("name", BUILDINGS)
+def test_building_recesses_and_plaques_sit_in_their_walls(name, built, shipped, make_scenes):
+    # from 0.5 m outside, at a recess's centre the first hit is its back face, RECESS_DEPTH
+    # of the wall behind the outer face; at a plaque's, its face PLAQUE_PROUD in front
+    openings = built[name].metadata["openings"]
+    backed = [o for o in openings if o["kind"] != "through"]
+    assert len(backed) >= 2 and {o["kind"] for o in openings} >= {"through", "recess"}
+    centre = np.array([o["centre"] for o in backed])
+    normal = np.array([o["normal"] for o in backed])
+    t_wall = np.array([o["thickness"] for o in backed])
+    start = centre + (0.5 * t_wall + 0.5)[:, None] * normal
+    t, _ = shipped[name][1].first_hit(start, -normal)
+    recess = np.array([o["kind"] == "recess" for o in backed])
+    expected = np.where(recess, 0.5 + make_scenes.RECESS_DEPTH * t_wall,
+                        0.5 - make_scenes.PLAQUE_PROUD)
+    np.testing.assert_allclose(t, expected, atol=1e-5)
