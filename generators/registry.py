@@ -304,6 +304,12 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                                 "target faces of the simplified isosurface", low=1),
                 GeneratorOption("fill_holes", bool, True,
                                 "fill planar-patch holes whose test segments all hit the input"),
+                GeneratorOption("coplanar", bool, True,
+                                "join planar patches by plane across loose parts (a panelled "
+                                "wall is one patch, its recesses holes)"),
+                GeneratorOption("bands", bool, False,
+                                "cut planar patches with open holes into convex bands for "
+                                "the patch reduction"),
                 GeneratorOption("eps_p", float, HYBRID_EPS_P,
                                 "metric-guided step: precision gain that removes a face",
                                 low=0, high=1),

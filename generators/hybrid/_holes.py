@@ -31,7 +31,14 @@ import numpy as np
 
 from .._polygons import triangulate_polygon
 
-__all__ = ["holes_to_fill", "sample_polygon", "SEGMENT_LENGTH"]
+__all__ = ["holes_to_fill", "judge_holes", "sample_polygon", "SEGMENT_LENGTH", "OPEN_REASONS"]
+
+#: Why a hole stays open (:func:`judge_holes`): rays through it leave the input
+#: (an opening to the outside: a window, a door); the segments miss but full rays
+#: meet the input beyond ``l_s`` (a hollow: a room behind a doorway, a deep
+#: niche); or some segments hit and some miss (partly backed: a decoration that
+#: covers part of the hole, a frame's slot).
+OPEN_REASONS = ("opening", "hollow", "partly backed")
 
 #: l_s as a fraction of the input's bounding-box diagonal (Wu et al. 2022, sec. 4.2).
 SEGMENT_LENGTH = 0.01
@@ -65,7 +72,13 @@ def sample_polygon(polygon, count: int, rng: np.random.Generator) -> np.ndarray:
 
 def holes_to_fill(scene, holes: list, frame: np.ndarray, *, segment_length: float,
                   rng: np.random.Generator) -> np.ndarray:
-    """Which holes of one planar patch the segment test fills.
+    """Which holes of one planar patch the segment test fills (:func:`judge_holes`'s mask)."""
+    return judge_holes(scene, holes, frame, segment_length=segment_length, rng=rng)[0]
+
+
+def judge_holes(scene, holes: list, frame: np.ndarray, *, segment_length: float,
+                rng: np.random.Generator) -> tuple[np.ndarray, list]:
+    """Which holes of one planar patch the segment test fills, and why the others stay open.
 
     Parameters
     ----------
@@ -86,6 +99,11 @@ def holes_to_fill(scene, holes: list, frame: np.ndarray, *, segment_length: floa
     -------
     fill : (k,) bool
         True where every segment of the hole hits the input.
+    reasons : list of str or None
+        Per hole: None when filled, else one of :data:`OPEN_REASONS`: a
+        majority of its sample points see out of the input along ``+n`` or
+        ``-n`` (unbounded rays that meet nothing): "opening"; else a majority
+        of its segments miss: "hollow"; else "partly backed".
     """
     origin, u, v, n = frame
     points, owner = [], []
@@ -98,11 +116,29 @@ def holes_to_fill(scene, holes: list, frame: np.ndarray, *, segment_length: floa
         points.append(sample_polygon(inner, count, rng))
         owner.append(np.full(count, k))
     if not points:
-        return np.zeros(0, dtype=bool)
+        return np.zeros(0, dtype=bool), []
     xy = np.concatenate(points)
     owner = np.concatenate(owner)
     world = origin + xy[:, :1] * u + xy[:, 1:2] * v
     hit = scene.any_hit(world, np.broadcast_to(n, world.shape), max_distance=segment_length)
     hit |= scene.any_hit(world, np.broadcast_to(-n, world.shape), max_distance=segment_length)
-    missed = np.bincount(owner, weights=~hit, minlength=len(holes))
-    return missed == 0
+    k = len(holes)
+    samples = np.bincount(owner, minlength=k)
+    missed = np.bincount(owner, weights=~hit, minlength=k)
+    fill = missed == 0
+    reasons: list = [None] * k
+    open_points = ~fill[owner]
+    if open_points.any():
+        pts = world[open_points]
+        # unbounded rays both ways: a point that meets nothing along one of them sees out
+        out = ~scene.any_hit(pts, np.broadcast_to(n, pts.shape))
+        out |= ~scene.any_hit(pts, np.broadcast_to(-n, pts.shape))
+        escaped = np.bincount(owner[open_points], weights=out, minlength=k)
+        for i in np.flatnonzero(~fill):
+            if escaped[i] > 0.5 * samples[i]:
+                reasons[i] = OPEN_REASONS[0]
+            elif missed[i] > 0.5 * samples[i]:
+                reasons[i] = OPEN_REASONS[1]
+            else:
+                reasons[i] = OPEN_REASONS[2]
+    return fill, reasons

@@ -146,7 +146,8 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
                     voxels: int = VOXELS, eps_a: float = EPS_A, grouping: str = "dihedral",
                     candidates: str = "combined", enforce: bool = True, mgos: bool = True,
                     patch_faces: int = PATCH_FACES, voxel_faces: int = VOXEL_FACES,
-                    fill_holes: bool = True, eps_p: float = EPS_P,
+                    fill_holes: bool = True, coplanar: bool = True, bands: bool = False,
+                    eps_p: float = EPS_P,
                     eps_r: float = EPS_R, mgos_spacing: float | None = None,
                     mgos_resolution: int | None = None,
                     mgos_quads: int | None = None) -> Occluder:
@@ -187,6 +188,14 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
         Target faces of the simplified isosurface, default 60.
     fill_holes : bool, optional
         Run the hole test of the planar patches (default True).
+    coplanar : bool, optional
+        Join planar patches by plane across loose parts, so that a wall of
+        loose panels is one patch and its recesses are holes (default True);
+        False: the paper's edge-connected planar patches only.
+    bands : bool, optional
+        Cut planar patches whose holes stay open into convex bands, each a
+        candidate of its own in the patch reduction; default False: the
+        paper's whole patches, re-triangulated with their holes.
     eps_p, eps_r : float, optional
         Thresholds of the metric-guided step in [0, 1], default 1e-3 each
         (Table 1).
@@ -254,6 +263,8 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
     enforce = _check_flag(enforce, "enforce")
     mgos = _check_flag(mgos, "mgos")
     fill_holes = _check_flag(fill_holes, "fill_holes")
+    coplanar = _check_flag(coplanar, "coplanar")
+    bands = _check_flag(bands, "bands")
     patch_faces = as_positive_int(patch_faces, "patch_faces")
     voxel_faces = as_positive_int(voxel_faces, "voxel_faces")
     eps_p = as_fraction(eps_p, "eps_p")
@@ -267,6 +278,7 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
     params = {"budget": budget, "seed": seed, "voxels": voxels, "eps_a": eps_a,
               "grouping": grouping, "candidates": candidates, "enforce": enforce, "mgos": mgos,
               "patch_faces": patch_faces, "voxel_faces": voxel_faces, "fill_holes": fill_holes,
+              "coplanar": coplanar, "bands": bands,
               "eps_p": eps_p, "eps_r": eps_r, "mgos_spacing": mgos_spacing,
               "mgos_resolution": mgos_resolution, "mgos_quads": mgos_quads}
     use_patch = candidates in ("combined", "patch")
@@ -289,6 +301,7 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
     if use_patch:
         pc = patch_candidates(unit, scene, eps_a=eps_a, grouping=grouping,
                               patch_faces=patch_faces, fill_holes=fill_holes,
+                              coplanar=coplanar, bands=bands,
                               segment_length=SEGMENT_LENGTH * 1.0, seed=seed)
         patch_mesh = pc.mesh
         info["patch"] = pc.info
