@@ -5,7 +5,12 @@ and, when a models folder is given, each Kenney building (``kenney/*.glb``
 under it): the hybrid occluder's wall time (and per stage), faces, the
 single-sided triangle count, and its precision and recall on the volume
 protocol of Wu et al. 2022 (sec. 3.2), beside ``qem`` at the same face count
-and ``godot`` at its own. Figures are printed, never asserted in tests.
+and ``godot`` at its own; the holes its planar patches filled and kept open
+(and why: :data:`viscore.generators.hybrid._holes.OPEN_REASONS`); and the
+effect of hole filling (sec. 3.1.1 step 4, Fig. 6): the patch candidates alone
+at the reduction's N_P faces with and without filling (equal faces up to one
+patch), and the whole hybrid without filling at the filled run's face count
+as its budget. Figures are printed, never asserted in tests.
 
 The evaluation views are not the metric-guided step's own: another seed and a
 jittered position grid, so that the selection is not judged on the views it
@@ -48,7 +53,7 @@ PAPER_FIGURES = {"hybrid": (260, 0.994, 0.780), "simplygon": (300, 0.962, 0.743)
 
 def bench_generate_hybrid(models: str | os.PathLike | None = None, *,
                           spacing: float = 0.08, resolution: int = 64, quads: int = 1000,
-                          seed: int = 1, baselines: bool = True,
+                          seed: int = 1, baselines: bool = True, fill_effect: bool = True,
                           names: tuple[str, ...] | None = None, **options) -> dict:
     """Time and score the hybrid generator on the buildings, beside qem and godot.
 
@@ -68,6 +73,10 @@ def bench_generate_hybrid(models: str | os.PathLike | None = None, *,
         itself runs with seed 0.
     baselines : bool, optional
         Also score ``qem`` at the hybrid's face count and ``godot``.
+    fill_effect : bool, optional
+        Also score the patch candidates with and without hole filling, and
+        the hybrid without filling (default True; skipped when ``options``
+        turn filling off or leave the patches out).
     names : tuple of str, optional
         Only these rows (mesh names as in the result). Default: all.
     **options
@@ -79,7 +88,11 @@ def bench_generate_hybrid(models: str | os.PathLike | None = None, *,
         ``rows`` (one dict per mesh: ``mesh``, ``triangles_input``, ``seconds``
         and the per-stage seconds, ``faces``, ``triangles_single_sided``,
         ``faces_patch``, ``faces_voxel``, ``precision``, ``recall`` and their
-        ``_ci``, and with ``baselines`` ``qem_*`` and ``godot_*`` figures),
+        ``_ci``, ``holes_filled``, ``holes_open``, ``holes_open_why``, with
+        ``baselines`` ``qem_*`` and ``godot_*`` figures, and with
+        ``fill_effect`` ``patch_fill_*`` and ``patch_nofill_*`` (faces,
+        precision, recall of the patch candidates) and ``nofill_*`` (the
+        hybrid without filling)),
         ``means`` over the built-in buildings, ``settings`` of the evaluation,
         ``paper`` (:data:`PAPER_FIGURES`).
 
@@ -115,6 +128,13 @@ def bench_generate_hybrid(models: str | os.PathLike | None = None, *,
                "precision": score.precision, "recall": score.recall,
                "precision_ci": score.precision_ci, "recall_ci": score.recall_ci,
                "positions": len(views.weights)}
+        patch = occ.info.get("patch", {})
+        row |= {"holes_filled": patch.get("holes_filled", 0),
+                "holes_open": patch.get("holes_open", 0),
+                "holes_open_why": patch.get("holes_open_why", {})}
+        if (fill_effect and options.get("fill_holes", True)
+                and options.get("candidates", "combined") != "voxel"):
+            row |= _fill_effect(mesh, views, occ.triangles, options)
         if baselines:
             qem = generate_qem(mesh, budget=max(1, occ.triangles))
             godot = generate_godot(mesh)
@@ -130,11 +150,33 @@ def bench_generate_hybrid(models: str | os.PathLike | None = None, *,
     if baselines:
         keys += ["qem_faces", "qem_precision", "qem_recall", "godot_faces", "godot_precision",
                  "godot_recall"]
+    keys += ["holes_filled", "holes_open"]
+    keys += [k for k in ("patch_fill_faces", "patch_fill_precision", "patch_fill_recall",
+                         "patch_nofill_faces", "patch_nofill_precision", "patch_nofill_recall",
+                         "nofill_faces", "nofill_precision", "nofill_recall")
+             if builtin and all(k in r for r in builtin)]
     means = {k: float(np.nanmean([r[k] for r in builtin])) for k in keys} if builtin else {}
     return {"rows": rows, "means": means, "paper": PAPER_FIGURES,
             "settings": {"spacing_fraction": spacing, "resolution": resolution, "quads": quads,
                          "seed": seed, "jitter": True, "views": settings,
                          "options": dict(options)}}
+
+
+def _fill_effect(mesh, views, faces: int, options: dict) -> dict:
+    """Hole filling on and off: the patch candidates at N_P, the hybrid at ``faces``."""
+    from viscore.generators import generate_hybrid
+
+    out = {}
+    patch_only = {**options, "candidates": "patch", "mgos": False}
+    for label, fill in (("patch_fill", True), ("patch_nofill", False)):
+        occ = generate_hybrid(mesh, **{**patch_only, "fill_holes": fill})
+        s = views.score(occ.mesh if occ.triangles else None)
+        out |= {f"{label}_faces": occ.triangles, f"{label}_precision": s.precision,
+                f"{label}_recall": s.recall}
+    occ = generate_hybrid(mesh, **{**options, "fill_holes": False, "budget": max(1, faces)})
+    s = views.score(occ.mesh if occ.triangles else None)
+    return out | {"nofill_faces": occ.triangles, "nofill_precision": s.precision,
+                  "nofill_recall": s.recall}
 
 
 #: The configurations of Wu et al. 2022 Fig. 11 run by ``bench generate hybrid --ablation``:
