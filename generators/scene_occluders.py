@@ -61,6 +61,7 @@ from viscore import InputError
 from viscore._validate import as_positive, as_positive_int, as_seed
 from viscore.scene_graph import SceneObjects
 
+from ._held_logs import held_records, release, report_parts
 from .occluder import Occluder
 from .registry import REGISTRY, generate, get_generator, parse_method
 
@@ -241,8 +242,19 @@ def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, 
     spec.check_params({**params, "seed": seed})
     indices = np.asarray(indices, dtype=np.int64)
     out: dict[int, Occluder] = {}
-    for mesh_id in np.unique(objects.mesh_ids[indices]):
-        local = generate(method, objects.meshes[mesh_id], seed=seed, **params)
+    distinct = np.unique(objects.mesh_ids[indices])
+    # a warning every mesh gives (an open mesh for --conservative) is said once, with how
+    # many meshes gave it
+    said: list[tuple[int, logging.LogRecord]] = []
+    for mesh_id in distinct:
+        records: list[logging.LogRecord] = []
+        try:
+            with held_records() as records:
+                local = generate(method, objects.meshes[mesh_id], seed=seed, **params)
+        except BaseException:  # what was held is said as it was, before the error
+            release([r for _, r in said] + list(records))
+            raise
+        said += [(int(mesh_id), r) for r in records]
         if progress is not None:
             progress(1)
         if local.triangles == 0 and not any(len(v) if hasattr(v, "__len__") else 1
@@ -250,6 +262,7 @@ def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, 
             continue
         for i in indices[objects.mesh_ids[indices] == mesh_id]:
             out[int(i)] = transform_occluder(local, objects.transforms[i])
+    report_parts(said, len(distinct), what="meshes", label=method)
     return dict(sorted(out.items()))
 
 

@@ -1,6 +1,7 @@
 """Culling simulation (viscore.metrics.culling) and scene occluders (generators.scene_occluders)."""
 
 import json
+import logging
 
 import numpy as np
 import pytest
@@ -434,3 +435,21 @@ def test_surface_patches_joined_over_objects_closes_the_seams():
                                                      height=64).occluded(*under_seam)[0]
               for occ in ([joined], separate)]
     assert culled == [True, False]
+
+
+def test_scene_occluders_say_a_warning_every_mesh_gives_once(caplog):
+    # three distinct open meshes: planar-sections --conservative warns for each, said once
+    scene = trimesh.Scene()
+    for k in range(3):
+        box = trimesh.creation.box(bounds=[[4 * k, 0, 0], [4 * k + 3 + 0.1 * k, 3, 3]])
+        box.update_faces(np.arange(len(box.faces)) != 0)  # one triangle gone: open
+        scene.add_geometry(box, geom_name=f"shell{k}", node_name=f"shell{k}")
+    objects = load_scene_objects(scene)
+    picked = occluder_objects(objects, names=["shell0", "shell1", "shell2"])
+    logger = logging.getLogger("viscore")
+    with caplog.at_level(logging.WARNING, logger="viscore"):
+        logger.setLevel(logging.WARNING)
+        scene_occluders(objects, picked, "planar-sections", conservative=True, voxels=8,
+                        min_precision=0)
+    texts = [r.getMessage() for r in caplog.records if "closed" in r.getMessage()]
+    assert len(texts) == 1 and "3 of 3 meshes" in texts[0], texts
