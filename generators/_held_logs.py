@@ -96,7 +96,7 @@ def release(records: Sequence[logging.LogRecord]) -> None:
 
 
 def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
-                 what: str = "nodes", label: str = "hierarchy") -> None:
+                 what: str = "nodes", label: str = "hierarchy", one: str | None = None) -> None:
     """Say each distinct message of the held records once, with the parts that gave it.
 
     Parameters
@@ -107,6 +107,8 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
         How many parts there are.
     what, label : str, optional
         The parts' name and the prefix of each line.
+    one : str, optional
+        One part's name (default: ``what`` without its final "s").
 
     Notes
     -----
@@ -137,8 +139,8 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
     for text, (record, which) in groups.items():
         logger = logging.getLogger(record.name)
         if len(which) == 1:
-            logger.log(record.levelno, "%s %s %d: %s", label, what.rstrip("s"),
-                       next(iter(which)), text)
+            logger.log(record.levelno, "%s %s %d: %s", label,
+                       what.rstrip("s") if one is None else one, next(iter(which)), text)
         else:
             logger.log(record.levelno, "%s: %d of %d %s: %s", label, len(which), parts, what,
                        text)

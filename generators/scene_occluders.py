@@ -262,7 +262,7 @@ def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, 
             continue
         for i in indices[objects.mesh_ids[indices] == mesh_id]:
             out[int(i)] = transform_occluder(local, objects.transforms[i])
-    report_parts(said, len(distinct), what="meshes", label=method)
+    report_parts(said, len(distinct), what="meshes", label=method, one="mesh")
     return dict(sorted(out.items()))
 
 

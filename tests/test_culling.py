@@ -453,3 +453,10 @@ def test_scene_occluders_say_a_warning_every_mesh_gives_once(caplog):
                         min_precision=0)
     texts = [r.getMessage() for r in caplog.records if "closed" in r.getMessage()]
     assert len(texts) == 1 and "3 of 3 meshes" in texts[0], texts
+    # a message one mesh gives names that mesh
+    with caplog.at_level(logging.WARNING, logger="viscore"):
+        logger.setLevel(logging.WARNING)
+        scene_occluders(objects, picked[:1], "planar-sections", conservative=True, voxels=8,
+                        min_precision=0)
+    texts = [r.getMessage() for r in caplog.records if "closed" in r.getMessage()]
+    assert texts[-1].startswith("planar-sections mesh "), texts
