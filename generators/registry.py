@@ -366,6 +366,12 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                                 "also offer aabb-skins boxes inside the closed parts (curved "
                                 "solids) to the selection, 12 triangles each, or patches only",
                                 choices=SURFACE_BOXES),
+                GeneratorOption("ground", str, "off",
+                                "also offer vertical curtains in the space open ground seals "
+                                "(hills, terrain sheets): guaranteed for viewpoints not under "
+                                "the ground nor below its rim", choices=("off", "auto")),
+                GeneratorOption("up", str, "auto", "the up axis of --ground",
+                                choices=("auto", "x", "y", "z")),
             ),
             conservative=True, min_budget=1),
         GeneratorSpec("qem", generate_qem, "quadric edge-collapse decimation to the budget",

@@ -223,3 +223,82 @@ def test_bands_cover_a_wall_with_windows_edge_to_edge():
     tops = sorted(round(p.bounds[3]) for p in pieces)
     assert tops.count(60) == 1 and len(pieces) <= 10
     assert convex_bands(wall) == [wall]
+
+
+# ---------------------------------------------------------------------------- ground curtains
+def _hill(n: int = 40, size: float = 100.0, height: float = 20.0) -> trimesh.Trimesh:
+    """An open height field: a bump on a 100 x 100 sheet whose rim lies at z = 0."""
+    x = np.linspace(-size / 2, size / 2, n)
+    gx, gy = np.meshgrid(x, x)
+    gz = height * np.exp(-(gx**2 + gy**2) / (2 * (size / 6) ** 2))
+    gz -= gz[0, 0]
+    gz[[0, -1], :] = 0.0
+    gz[:, [0, -1]] = 0.0
+    v = np.stack([gx.ravel(), gy.ravel(), np.maximum(gz, 0.0).ravel()], axis=1)
+    i = np.arange(n * n).reshape(n, n)
+    a, b, c, d = i[:-1, :-1].ravel(), i[:-1, 1:].ravel(), i[1:, 1:].ravel(), i[1:, :-1].ravel()
+    return trimesh.Trimesh(v, np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)]),
+                           process=False)
+
+
+def _violations(mesh, occ, points, directions, eps):
+    t_mesh, _ = Scene(mesh).first_hit(points, directions)
+    t_occ, _ = Scene(occ.mesh).first_hit(points, directions)
+    return int((t_occ < t_mesh - eps).sum()), int(np.isfinite(t_occ).sum())
+
+
+def test_ground_curtains_hide_nothing_a_viewpoint_above_the_ground_sees():
+    hill = _hill()
+    curved = generate_surface_patches(hill, budget=64)
+    occ = generate_surface_patches(hill, budget=64, ground="auto", up="z")
+    assert curved.info["curtains"] == 0 and curved.info["guarantee"] == "every viewpoint"
+    assert occ.info["curtains"] >= 4 and occ.info["ground_parts"] == 1
+    assert occ.mesh.area > 10 * curved.mesh.area  # the sheet's flat crumbs only, without
+    assert occ.info["guarantee"].startswith("viewpoints not under")
+    # every curtain vertex lies in the sealed space: above the rim, under the surface
+    v = np.asarray(occ.mesh.vertices)
+    assert v[:, 2].min() >= -1e-9
+    assert Scene(hill).any_hit(v, np.tile([0.0, 0.0, 1.0], (len(v), 1))).all()
+    # 10^5 rays from viewpoints above the surface, in every direction: none meets a curtain
+    # before the hill
+    rng = np.random.default_rng(7)
+    p = np.column_stack([rng.uniform(-70, 70, 150_000), rng.uniform(-70, 70, 150_000),
+                         rng.uniform(0, 40, 150_000)])
+    p = p[~Scene(hill).any_hit(p, np.tile([0.0, 0.0, 1.0], (len(p), 1)))][:100_000]
+    d = rng.normal(size=p.shape)
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    eps = 1e-5 * float(np.linalg.norm(hill.extents))
+    bad, seen = _violations(hill, occ, p, d, eps)
+    assert len(p) == 100_000 and bad == 0 and seen > 1000
+    # the domain matters: from under the sheet, looking up, the curtains hide the underside
+    under = np.column_stack([rng.uniform(-10, 10, 500), rng.uniform(-10, 10, 500),
+                             np.full(500, -5.0)])
+    up = np.column_stack([rng.uniform(-1, 1, 500), rng.uniform(-1, 1, 500), np.ones(500)])
+    bad, _ = _violations(hill, occ, under, up / np.linalg.norm(up, axis=1)[:, None], eps)
+    assert bad > 100
+
+
+def test_ground_curtains_need_a_sealed_space():
+    # a closed box has no rim (its boxes are the boxes' business); a vertical panel's rim
+    # is as high as its surface; a sheet with a hole high in it seals nothing above the hole
+    box = generate_surface_patches(trimesh.creation.box(), ground="auto", up="z", boxes="off")
+    panel = trimesh.creation.box(bounds=[[0, 0, 0], [4, 0.1, 3]])
+    panel.update_faces(np.abs(panel.face_normals[:, 1]) > 0.5)  # the two big faces only
+    sheet = generate_surface_patches(panel, ground="auto", up="z")
+    hill = _hill()
+    centre = hill.triangles_center
+    flank = np.hypot(centre[:, 0] - 25.0, centre[:, 1]) < 4.0  # a hole in the slope
+    holed = hill.copy()
+    holed.update_faces(~flank)
+    rim = float(holed.vertices[np.unique(holed.edges[trimesh.grouping.group_rows(
+        holed.edges_sorted, require_count=1)])][:, 2].max())
+    assert 5.0 < rim < 15.0
+    cut = generate_surface_patches(holed, ground="auto", up="z", budget=64)
+    assert box.info["curtain_candidates"] == 0 and box.info["ground_parts"] == 0
+    assert sheet.info["curtain_candidates"] == 0
+    whole = generate_surface_patches(hill, ground="auto", up="z", budget=64)
+    assert cut.info["curtains"] >= 1
+    upright = np.abs(cut.mesh.face_normals[:, 2]) < 1e-9  # the curtains
+    assert upright.any()
+    assert cut.mesh.triangles[upright][:, :, 2].min() >= rim - 1e-6  # only above the rim
+    assert cut.mesh.area < 0.5 * whole.mesh.area

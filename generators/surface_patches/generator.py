@@ -43,7 +43,13 @@ single-sided sheets, open rooms) where the volume methods find no inside:
    [4]_), run on the union of those parts alone; each box is a candidate of
    12 triangles in the same selection, valued as the patches are: the
    head-on measure of its six faces, counting only the pixels whose ray out
-   of the face meets no patch candidate (a box behind patches adds nothing).
+   of the face meets no patch candidate (a box behind patches adds nothing);
+6. curtains under open ground (``ground='auto'``, :mod:`._ground_curtains`):
+   curved open ground (a hill) gives no patch and no box, but it seals the
+   space between its surface and its rim's height from every viewpoint on
+   or above the ground; vertical cuts of that space are offered as planar
+   regions to steps 2-4, and the claim narrows to such viewpoints
+   (``info["guarantee"]``).
 
 References
 ----------
@@ -79,12 +85,14 @@ from shapely.geometry.polygon import orient
 from viscore import InputError, Scene
 from viscore._validate import as_fraction, as_positive, as_positive_int, as_seed
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
+from viscore.ground import UP_AXES, guess_up
 
 from .._boxes import boxes_mesh
 from .._convex_bands import convex_bands, polygons_of
 from .._plane_regions import plane_regions
 from .._polygon_chain import refine_chain, simplification_chain
 from ..occluder import Occluder
+from ._ground_curtains import curtain_regions
 from ._inner_boxes import (
     TRIANGLES_PER_BOX,
     box_faces,
@@ -131,6 +139,9 @@ MIN_AREA = 1e-4
 
 #: Choices of ``boxes``: aabb-skins boxes in the closed parts where they fit, or none.
 BOXES = ("auto", "off")
+
+#: Values of ``ground``: curtains under open ground, or none.
+GROUNDS = ("off", "auto")
 
 #: Candidate pieces kept for the chains and the selection, largest first.
 MAX_CANDIDATES = 400
@@ -209,7 +220,8 @@ def _select(values: list[np.ndarray], counts: list[np.ndarray], budget: int) -> 
 def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFAULT_BUDGET,
                              seed: int = 0, plane_tolerance: float = PLANE_TOLERANCE,
                              min_area: float = MIN_AREA, chain: str = "optimal",
-                             boxes: str = "auto") -> Occluder:
+                             boxes: str = "auto", ground: str = "off",
+                             up: str = "auto") -> Occluder:
     """Double-sided occluder in the input's own planar surface, conservative on any input.
 
     Parameters
@@ -243,6 +255,17 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         selection, 12 triangles each, so that curved solids (a sphere, a
         column) get an occluder; needs a budget of at least 12 (or None).
         ``'off'``: patches only.
+    ground : {'off', 'auto'}, optional
+        ``'auto'``: also offer vertical curtains in the space each open part
+        of the input seals between its surface and the height of its rim
+        (:mod:`._ground_curtains`: a hill, a terrain sheet, an open-bottomed
+        shell without openings), so that curved open ground gets an
+        occluder; guaranteed for viewpoints neither under such a part's
+        surface nor below its rim's height (``info["guarantee"]``). Default
+        ``'off'``: the guarantee holds for every viewpoint.
+    up : {'auto', 'x', 'y', 'z'}, optional
+        The up axis of ``ground='auto'``; ``'auto'`` (default) guesses it
+        from the geometry (:func:`viscore.ground.guess_up`, as one object).
 
     Returns
     -------
@@ -264,7 +287,11 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         ``boxes_guaranteed`` (the box source's ``conservative_guaranteed``,
         None when it did not run), ``box_pitch`` (its voxel side, world
         units, or None), ``empty_reason`` (why there is no triangle, or
-        None); ``seconds_steps``.
+        None); ``curtain_candidates`` and ``curtains`` (offered and kept,
+        with ``ground='auto'``), ``ground_parts`` (open parts that sealed a
+        space), ``up``, ``guarantee`` (``'every viewpoint'``, or with a
+        curtain kept ``'viewpoints not under the surface of an open part
+        nor below its rim'``); ``seconds_steps``.
 
     Raises
     ------
@@ -366,6 +393,10 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         raise InputError(f"chain: expected 'optimal' or 'greedy', got {chain!r}")
     if boxes not in BOXES:
         raise InputError(f"boxes: expected one of {', '.join(BOXES)}, got {boxes!r}")
+    if ground not in GROUNDS:
+        raise InputError(f"ground: expected one of {', '.join(GROUNDS)}, got {ground!r}")
+    if up not in ("auto", *UP_AXES):
+        raise InputError(f"up: expected auto, x, y or z, got {up!r}")
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise InputError("mesh: expected a non-empty trimesh.Trimesh")
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
@@ -376,7 +407,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     if diag == 0:
         raise InputError("mesh: zero extent")
     params = {"budget": budget, "seed": seed, "plane_tolerance": plane_tolerance,
-              "min_area": min_area, "chain": chain, "boxes": boxes}
+              "min_area": min_area, "chain": chain, "boxes": boxes, "ground": ground,
+              "up": up}
     timing = {}
 
     t0 = time.perf_counter()
@@ -416,10 +448,35 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     timing["pieces"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
+    planar_cands = len(cands)
+    ground_info: dict = {"parts": 0}
+    if ground == "auto":
+        up_name = guess_up(mesh, level=False)[0] if up == "auto" else up
+        curtains, ground_info = curtain_regions(vertices, faces, up=UP_AXES.index(up_name))
+        ground_info["up"] = up_name
+        for frame, region in curtains:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                eroded = shapely.buffer(region, -EROSION * diag, join_style="mitre")
+            if eroded.is_empty:
+                continue
+            snapped = shapely.set_precision(
+                shapely.affinity.scale(eroded, 1.0 / grid, 1.0 / grid, origin=(0, 0)), 1.0)
+            shapely.prepare(region)
+            for part in polygons_of(snapped):
+                for piece in convex_bands(part):
+                    if piece.area * grid * grid >= max(floor, 0.0) and piece.area > 0:
+                        cands.append((frame, region, piece))
+    curtain_cands = len(cands) - planar_cands
+    is_curtain = np.arange(len(cands)) >= planar_cands
+    timing["curtains"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
     found = len(cands)
     if len(cands) > MAX_CANDIDATES:  # the largest pieces; crumbs cost time only
-        keep = np.argsort([-p.area for _, _, p in cands], kind="stable")[:MAX_CANDIDATES]
-        cands = [cands[i] for i in np.sort(keep)]
+        keep = np.sort(np.argsort([-p.area for _, _, p in cands],
+                                  kind="stable")[:MAX_CANDIDATES])
+        cands = [cands[i] for i in keep]
+        is_curtain = is_curtain[keep]
     chains, values, counts = [], [], []
     search_from = np.sort([-p.area for _, _, p in cands])[:MAX_SEARCH]
     search_from = -search_from[-1] if len(search_from) else 0.0
@@ -454,11 +511,12 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     stages = stages[:len(cands)]
 
     out_v, out_f, polygons = [], [], []
-    offset = dropped = 0
+    offset = dropped = curtains_kept = 0
     area = 0.0
-    for (frame, union, _), ch, s in zip(cands, chains, stages, strict=True):
+    for (frame, union, _), ch, s, curtain in zip(cands, chains, stages, is_curtain, strict=True):
         if s < 0:
             continue
+        curtains_kept += int(curtain)
         tri = ch.stage_triangles(int(s))
         if len(tri) == 0:
             continue
@@ -510,6 +568,10 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
             "box_candidates": len(corners), "boxes": len(kept_boxes),
             "boxes_guaranteed": None if boxes_claim is None else bool(boxes_claim),
             "box_pitch": box_info.get("pitch"), "empty_reason": empty_reason,
+            "curtain_candidates": curtain_cands, "curtains": curtains_kept,
+            "ground_parts": ground_info["parts"], "up": ground_info.get("up"),
+            "guarantee": ("viewpoints not under the surface of an open part nor below its rim"
+                          if curtains_kept else "every viewpoint"),
             "seconds_steps": timing}
     return Occluder(mesh=occ_mesh, method="surface-patches", params=params, double_sided=True,
                     seconds=time.perf_counter() - start, parts={"polygons": polygons},

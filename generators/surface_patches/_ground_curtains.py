@@ -1,0 +1,162 @@
+"""Surface patches under open ground: vertical curtains in the space a terrain seals.
+
+Curved open ground (a hill, a terrain sheet) has no planar region, so the
+surface patches give it nothing, and the voxel methods find no inside in an
+open sheet. Yet a viewer above the ground never sees below its surface: the
+space between a surface and the height of its rim is sealed. This module
+finds that space exactly, per connected open part of the input, and cuts it
+with vertical planes; each cut is a planar region (a "curtain" standing under
+the surface profile) that the surface patches' chain and selection treat like
+the input's own planar regions.
+
+For one part (faces joined by shared vertices) with a boundary (an open
+sheet): ``base`` is the highest point of its boundary edges along the up axis.
+The sealed space is ``S = {p : base <= p_up <= lowest surface point of the
+part above p's footprint position}``, where the part covers that position.
+Its border is the part's own surface and the horizontal plane at ``base``
+(where the part's rim lies at or below ``base``, ``S`` has no height), so a
+ray from a viewpoint at or above ``base`` and outside ``S`` enters ``S`` only
+through the part's surface: it meets an input triangle first. A curtain
+inside ``S`` therefore never hides what the input shows to such a viewpoint.
+A vertical plane meets the part in segments (:func:`trimesh.intersections.mesh_plane`,
+float64); ``S`` in that plane is exactly the columns the segments cover, from
+``base`` up to the lowest segment over each column: the covered strip minus
+the union of the areas above every segment. A part with no boundary (a closed
+solid, handled by the boxes) or whose region is empty gives nothing; so does
+a part whose rim is as high as its surface (a vertical panel).
+
+Beyond the papers, which make occluders from solids (Silvennoinen et al.
+2014) and from the surface of buildings (Wu et al. 2022); the guarantee holds
+for viewpoints that are neither under a part's surface nor below its base
+(the viewers of a game level: on or above the ground).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+import trimesh
+from shapely.geometry import Polygon
+
+__all__ = ["curtain_regions", "CURTAIN_PLANES", "MIN_FOOTPRINT"]
+
+#: Vertical planes per horizontal axis through each open part, evenly spread
+#: over its extent (the selection keeps the curtains worth their triangles).
+CURTAIN_PLANES = 12
+
+#: An open part gets curtains when its footprint (bounding box across the up
+#: axis) is at least this share of the whole input's footprint.
+MIN_FOOTPRINT = 0.01
+
+
+def _open_parts(vertices: np.ndarray, faces: np.ndarray) -> tuple[list, np.ndarray, np.ndarray]:
+    """``(faces of the part, its boundary vertices)`` per connected part with a boundary,
+    and the merged vertices and faces those index."""
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    mesh.merge_vertices()
+    merged = np.asarray(mesh.faces, dtype=np.int64)
+    labels = trimesh.graph.connected_component_labels(mesh.face_adjacency,
+                                                      node_count=len(merged))
+    edges = np.sort(np.concatenate([merged[:, [0, 1]], merged[:, [1, 2]], merged[:, [2, 0]]]),
+                    axis=1)
+    owner = np.tile(np.arange(len(merged)), 3)
+    _, inverse, counts = np.unique(edges, axis=0, return_inverse=True, return_counts=True)
+    single = counts[inverse.reshape(-1)] == 1
+    out = []
+    merged_v = np.asarray(mesh.vertices, dtype=np.float64)
+    for part in np.unique(labels[owner[single]]):
+        rim = np.unique(edges[single & (labels[owner] == part)])
+        out.append((np.flatnonzero(labels == part), merged_v[rim]))
+    return out, merged_v, merged
+
+
+def curtain_regions(vertices: np.ndarray, faces: np.ndarray, *, up: int,
+                    planes: int = CURTAIN_PLANES) -> tuple[list[tuple[np.ndarray, Polygon]], dict]:
+    """Vertical planar regions inside the space each open part of the input seals.
+
+    Parameters
+    ----------
+    vertices : (v, 3) float64
+    faces : (f, 3) int64
+    up : int
+        The up axis, 0-2.
+    planes : int, optional
+        Vertical planes per horizontal axis and part (default :data:`CURTAIN_PLANES`).
+
+    Returns
+    -------
+    regions : list of (frame, polygon)
+        ``frame`` (4, 3): origin, u, v, n of the plane (u x v = n, v the up
+        axis); ``polygon``: the sealed space in that plane, in (u, v)
+        coordinates from the origin (exact up to float64 rounding of the
+        plane-triangle intersections).
+    info : dict
+        ``parts`` (open parts with curtains), ``bases`` (their base heights).
+    """
+    up = int(up)
+    others = [a for a in range(3) if a != up]
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    footprint = float(np.prod(hi[others] - lo[others]))
+    parts, merged_v, merged_f = _open_parts(vertices, faces)
+    regions: list[tuple[np.ndarray, Polygon]] = []
+    bases = []
+    for part_faces, rim in parts:
+        tri = merged_v[merged_f[part_faces]]
+        plo, phi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
+        if np.prod(phi[others] - plo[others]) < MIN_FOOTPRINT * footprint:
+            continue
+        base = float(rim[:, up].max())
+        if base >= phi[up]:
+            continue  # the rim is as high as the surface: nothing sealed
+        part = trimesh.Trimesh(merged_v, merged_f[part_faces], process=False)
+        top = float(phi[up]) + 1.0 + (phi[up] - base)
+        made = 0
+        for cut in others:
+            along = [a for a in others if a != cut][0]
+            n = np.zeros(3)
+            n[cut] = 1.0
+            u = np.zeros(3)
+            u[along] = 1.0
+            v = np.zeros(3)
+            v[up] = 1.0
+            if np.cross(u, v) @ n < 0:
+                n = -n
+            span = phi[cut] - plo[cut]
+            for k in range(planes):
+                at = plo[cut] + span * (k + 0.5) / planes
+                origin = np.zeros(3)
+                origin[cut] = at
+                segs = trimesh.intersections.mesh_plane(part, n, origin)
+                if len(segs) == 0:
+                    continue
+                s = segs[:, :, along]
+                t = segs[:, :, up]
+                region = _sealed(s, t, base, top)
+                if region is not None:
+                    regions.append((np.stack([origin, u, v, n]), region))
+                    made += 1
+        if made:
+            bases.append(base)
+    return regions, {"parts": len(bases), "bases": bases}
+
+
+def _sealed(s: np.ndarray, t: np.ndarray, base: float, top: float) -> Polygon | None:
+    """In one plane: the columns the segments cover, from ``base`` up to the lowest segment."""
+    s0, s1 = s.min(axis=1), s.max(axis=1)
+    wide = s1 > s0
+    if not wide.any():
+        return None
+    covered = shapely.union_all(shapely.box(s0[wide], base, s1[wide], top))
+    quads = np.stack([np.stack([s[:, 0], t[:, 0]], axis=1), np.stack([s[:, 1], t[:, 1]], axis=1),
+                      np.stack([s[:, 1], np.full(len(s), top + 1.0)], axis=1),
+                      np.stack([s[:, 0], np.full(len(s), top + 1.0)], axis=1)], axis=1)
+    above = shapely.polygons(quads[wide])
+    above = above[shapely.area(above) > 0]
+    # vertical segments, and the areas above them, have no width: the sloped ones beside
+    # them bound the region
+    region = shapely.difference(covered, shapely.union_all(above))
+    region = shapely.intersection(region, shapely.box(s0.min() - 1.0, base, s1.max() + 1.0,
+                                                      top))
+    if region.is_empty or region.area <= 0:
+        return None
+    return region
