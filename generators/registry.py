@@ -56,6 +56,7 @@ from .hybrid.generator import EPS_A as HYBRID_EPS_A
 from .hybrid.generator import EPS_P as HYBRID_EPS_P
 from .hybrid.generator import EPS_R as HYBRID_EPS_R
 from .hybrid.generator import MAX_VOXELS as HYBRID_MAX_VOXELS
+from .hybrid.generator import MIN_PRECISION as HYBRID_MIN_PRECISION
 from .hybrid.generator import PATCH_FACES as HYBRID_PATCH_FACES
 from .hybrid.generator import VOXEL_FACES as HYBRID_VOXEL_FACES
 from .hybrid.generator import VOXELS as HYBRID_VOXELS
@@ -316,6 +317,10 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                 GeneratorOption("eps_r", float, HYBRID_EPS_R,
                                 "metric-guided step: recall loss below which a face goes",
                                 low=0, high=1),
+                GeneratorOption("min_precision", float, HYBRID_MIN_PRECISION,
+                                "metric-guided step: precision floor on its views, faces of "
+                                "most gain removed while under it", low=0, high=1,
+                                nullable=True),
                 GeneratorOption("mgos_spacing", float, None,
                                 "view spacing of the metric-guided step, fraction of the "
                                 "bounding-box diagonal", low=0, low_open=True, high=1,

@@ -258,3 +258,24 @@ def test_state_lists_coplanar_overlapping_faces():
     fresh = views.score(small)
     np.testing.assert_array_equal(state.nt, fresh.per_view["nt"])
     np.testing.assert_array_equal(state.nf, fresh.per_view["nf"])
+
+
+def test_metric_guided_simplify_precision_floor_removes_spread_false_occlusion(box_views):
+    # a stray sheet whose removal gains less than eps_p = 1: the paper's step keeps it
+    # (and eps_r = 0 keeps every face in the recall step); the floor removes it while
+    # precision is under the floor, and only then
+    occ = _join(_box(), _sheet(1.7, 0.6))
+    kept, plain = metric_guided_simplify(_box(), occ, reference=box_views, eps_p=1.0,
+                                         eps_r=0.0)
+    assert plain["removed_precision"] == 0 and plain["precision_after"] < 1.0
+    assert {12, 13} <= set(plain["kept"]) and plain["removed_floor"] == 0
+    out, info = metric_guided_simplify(_box(), occ, reference=box_views, eps_p=1.0,
+                                       eps_r=0.0, min_precision=0.999)
+    assert info["removed_floor"] == 2 and not {12, 13} & set(info["kept"])
+    assert info["precision_after"] == 1.0 and info["recall_after"] == 1.0
+    # a floor already met removes nothing
+    _, met = metric_guided_simplify(_box(), occ, reference=box_views, eps_p=1.0, eps_r=0.0,
+                                    min_precision=plain["precision_after"] * 0.999)
+    assert met["removed_floor"] == 0
+    with pytest.raises(InputError, match="min_precision"):
+        metric_guided_simplify(_box(), occ, reference=box_views, min_precision=1.5)

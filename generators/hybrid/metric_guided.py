@@ -98,7 +98,8 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
                            eps_r: float = EPS_R, spacing: float | None = None,
                            quads: int | None = None, resolution: int | None = None,
                            seed: int = 0, skip_unseen: bool = True,
-                           skip_backfacing: bool = False, max_faces: int | None = None
+                           skip_backfacing: bool = False, max_faces: int | None = None,
+                           min_precision: float | None = None
                            ) -> tuple[trimesh.Trimesh, dict]:
     """Drop occluder faces by their effect on volume precision and recall (MGOS).
 
@@ -161,6 +162,11 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
         on, least loss first, until at most this many faces are left (the
         same greedy with a larger threshold, without casting again).
         Default None: no budget.
+    min_precision : float, optional
+        A precision floor in [0, 1], beyond the paper: after each step, while
+        the tracked precision is under it, the face whose removal raises
+        precision most goes, gains recomputed after each (false occlusion
+        spread over many faces, each under ``eps_p``). Default None: no floor.
 
     Returns
     -------
@@ -242,6 +248,8 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
                          f"{type(occluder_mesh).__name__}")
     eps_p = as_fraction(eps_p, "eps_p")
     eps_r = as_fraction(eps_r, "eps_r")
+    if min_precision is not None:
+        min_precision = as_fraction(min_precision, "min_precision")
     seed = as_seed(seed)
     if max_faces is not None:
         max_faces = as_positive_int(max_faces, "max_faces")
@@ -293,6 +301,7 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
     for f in drop:
         state.remove(int(f))
     removed_p = len(drop)
+    removed_f = _precision_floor(state, min_precision)
     # 2. the recall step: least loss first, losses kept up to date after each removal
     removed_r = removed_b = 0
     eps_final = eps_r
@@ -320,6 +329,7 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
             removed_b += 1
             eps_final = max(eps_final, best)
         refreshed = False
+    removed_f += _precision_floor(state, min_precision)
     kept = np.flatnonzero(state.alive)
     mesh = trimesh.Trimesh(occ.vertices, occ.faces[kept], process=False)
     kept_input = _input_faces(occluder_mesh, occ)[kept]
@@ -327,6 +337,7 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
     after = reference.score(mesh if len(kept) else None)
     tracked = state.figures()
     info |= {"faces_after": len(kept), "removed_precision": removed_p,
+             "removed_floor": removed_f, "min_precision": min_precision,
              "removed_recall": removed_r, "removed_budget": removed_b,
              "eps_r_final": eps_final, "kept": kept_input.tolist(),
              "precision_after": after.precision, "recall_after": after.recall,
@@ -342,6 +353,28 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
               info["precision_before"], after.precision, info["recall_before"], after.recall,
               info["seconds"])
     return mesh, info
+
+
+def _precision_floor(state, min_precision: float | None) -> int:
+    """While tracked precision is under ``min_precision``, remove the face of most gain.
+
+    Beyond the paper: its precision step removes only faces that alone raise
+    precision by more than ``eps_p``, so false occlusion spread thinly over
+    many faces (each under ``eps_p``) stays. Gains are recomputed after each
+    removal; stops when no face's removal raises precision. Returns the count.
+    """
+    removed = 0
+    if min_precision is None:
+        return removed
+    while state.alive.any() and state.figures()[0] < min_precision:
+        gains = np.nan_to_num(state.precision_gains()[state.rep] * state.group_alone(), nan=0.0)
+        gains[~state.alive] = 0.0
+        best = int(np.argmax(gains))
+        if not gains[best] > 0.0:
+            break
+        state.remove(best)
+        removed += 1
+    return removed
 
 
 def _input_faces(given: trimesh.Trimesh, valid: trimesh.Trimesh) -> np.ndarray:
