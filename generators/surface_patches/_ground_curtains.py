@@ -21,7 +21,16 @@ inside ``S`` therefore never hides what the input shows to such a viewpoint.
 A vertical plane meets the part in segments (:func:`trimesh.intersections.mesh_plane`,
 float64); ``S`` in that plane is exactly the columns the segments cover, from
 ``base`` up to the lowest segment over each column: the covered strip minus
-the union of the areas above every segment. A part with no boundary (a closed
+the union of the areas above every segment. A horizontal plane at height
+``z >= base`` cuts ``S`` where every layer of the part lies above ``z``: the
+union of the part's triangles clipped to their part above ``z``, projected,
+minus the union of their parts below it (a floor under the hills, which
+views from above see whole: on a 100 x 100 hill at 64 triangles, orbit
+recall 0.445 with these floors, 0.070 with the vertical cuts alone, 0
+without either, all at precision 1.0). Rays that rise out of ``S`` leave it
+through the part's surface, so even from below the rim an occluder in ``S``
+covers only pixels the part covers (precision stays 1 on every view); only
+its depth is then in front of the part's. A part with no boundary (a closed
 solid, handled by the boxes) or whose region is empty gives nothing; so does
 a part whose rim is as high as its surface (a vertical panel).
 
@@ -41,7 +50,8 @@ from shapely.geometry import Polygon
 __all__ = ["curtain_regions", "CURTAIN_PLANES", "MIN_FOOTPRINT"]
 
 #: Vertical planes per horizontal axis through each open part, evenly spread
-#: over its extent (the selection keeps the curtains worth their triangles).
+#: over its extent, and horizontal ones between its base and its top (the
+#: selection keeps the curtains worth their triangles).
 CURTAIN_PLANES = 12
 
 #: An open part gets curtains when its footprint (bounding box across the up
@@ -135,9 +145,72 @@ def curtain_regions(vertices: np.ndarray, faces: np.ndarray, *, up: int,
                 if region is not None:
                     regions.append((np.stack([origin, u, v, n]), region))
                     made += 1
+        # horizontal cuts: where the part's every layer lies above the height
+        n = np.zeros(3)
+        n[up] = 1.0
+        u = np.zeros(3)
+        u[others[0]] = 1.0
+        v = np.cross(n, u)
+        for k in range(planes):
+            at = base + (phi[up] - base) * (k + 0.5) / planes
+            origin = np.zeros(3)
+            origin[up] = at
+            region = _above(tri, at, up, u, v)
+            if region is not None:
+                regions.append((np.stack([origin, u, v, n]), region))
+                made += 1
         if made:
             bases.append(base)
     return regions, {"parts": len(bases), "bases": bases}
+
+
+def _clip(tri: np.ndarray, height: np.ndarray, keep_above: bool) -> list[np.ndarray]:
+    """The part of each triangle above (or below) height 0, as a polygon per triangle."""
+    out = []
+    for t, h in zip(tri, height, strict=True):
+        pts = []
+        for i in range(3):
+            a, b = t[i], t[(i + 1) % 3]
+            ha, hb = h[i], h[(i + 1) % 3]
+            if (ha >= 0) == keep_above:
+                pts.append(a)
+            if (ha >= 0) != (hb >= 0):
+                pts.append(a + (b - a) * (ha / (ha - hb)))
+        if len(pts) >= 3:
+            out.append(np.asarray(pts))
+    return out
+
+
+def _above(tri: np.ndarray, at: float, up: int, u: np.ndarray, v: np.ndarray
+           ) -> Polygon | None:
+    """In the horizontal plane at height ``at``: where every layer of the part lies above.
+
+    The union of the part's triangles clipped to their part at or above ``at``,
+    projected along the up axis, minus the union of their parts below it.
+    """
+    h = tri[:, :, up] - at
+    above_all, below_all = (h >= 0).all(axis=1), (h < 0).all(axis=1)
+    cross = ~above_all & ~below_all
+
+    def flat(polys: list[np.ndarray]):
+        if not polys:
+            return shapely.Polygon()
+        geoms = [shapely.Polygon(np.stack([p @ u, p @ v], axis=1)) for p in polys]
+        return shapely.union_all([g for g in geoms if g.is_valid and g.area > 0])
+
+    def whole(sel):
+        if not sel.any():
+            return shapely.Polygon()
+        xy = np.stack([tri[sel] @ u, tri[sel] @ v], axis=2)
+        polys = shapely.polygons(xy)
+        return shapely.union_all(polys[shapely.area(polys) > 0])
+
+    up_part = shapely.union(whole(above_all), flat(_clip(tri[cross], h[cross], True)))
+    down_part = shapely.union(whole(below_all), flat(_clip(tri[cross], h[cross], False)))
+    region = shapely.difference(up_part, down_part)
+    if region.is_empty or region.area <= 0:
+        return None
+    return region
 
 
 def _sealed(s: np.ndarray, t: np.ndarray, base: float, top: float) -> Polygon | None:
