@@ -296,6 +296,9 @@ def test_ground_curtains_need_a_sealed_space():
     cut = generate_surface_patches(holed, ground="auto", up="z", budget=64)
     assert box.info["curtain_candidates"] == 0 and box.info["ground_parts"] == 0
     assert sheet.info["curtain_candidates"] == 0
+    lone = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 1]], [[0, 1, 2]], process=False)
+    empty = generate_surface_patches(lone, ground="auto", up="z")
+    assert empty.triangles == 0 and "no open part seals" in empty.info["empty_reason"]
     whole = generate_surface_patches(hill, ground="auto", up="z", budget=64)
     assert cut.info["curtains"] >= 1
     upright = np.abs(cut.mesh.face_normals[:, 2]) < 1e-9  # the curtains

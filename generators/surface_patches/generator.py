@@ -556,6 +556,9 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
                   "area (curved regions contribute nothing)" if not found else
                   f"no patch fits a budget of {budget}")
         empty_reason = f"{planar}, and {box_reason}"
+        if ground == "auto" and not curtain_cands:
+            empty_reason += ("; no open part seals a space under its surface above its rim "
+                             "(ground)")
         _log.warning("surface-patches: no occluder for %s: %s",
                      mesh.metadata.get("name", "the mesh"), empty_reason)
     info = {"conservative_guaranteed": bool(not len(kept_boxes) or boxes_claim is True),
