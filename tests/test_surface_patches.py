@@ -305,3 +305,24 @@ def test_ground_curtains_need_a_sealed_space():
     assert upright.any()
     assert cut.mesh.triangles[upright][:, :, 2].min() >= rim - 1e-6  # only above the rim
     assert cut.mesh.area < 0.5 * whole.mesh.area
+
+
+def test_ground_curtains_refuse_a_part_with_an_overhang(monkeypatch):
+    # a ball with a hole at its bottom: its rim is low, but the space between the rim's
+    # height and the lower hemisphere is open at the side, under the bulge
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=10.0)
+    ball.update_faces(ball.triangles_center[:, 2] > -9.5)
+    occ = generate_surface_patches(ball, ground="auto", up="z", budget=64, boxes="off")
+    assert occ.info["ground_parts_layered"] == 1 and occ.info["curtain_candidates"] == 0
+    # planted out, the layer test lets curtains under the bulge hide rays from the side
+    import viscore.generators.surface_patches._ground_curtains as curtains
+
+    monkeypatch.setattr(curtains, "_one_layer", lambda tri, others: True)
+    bad = generate_surface_patches(ball, ground="auto", up="z", budget=64, boxes="off")
+    assert bad.info["curtains"] > 0
+    rng = np.random.default_rng(3)
+    n = 20_000
+    side = np.column_stack([np.full(n, -30.0), rng.uniform(-9, 9, n), rng.uniform(-9.6, -2, n)])
+    eps = 1e-5 * float(np.linalg.norm(ball.extents))
+    hits, _ = _violations(ball, bad, side, np.tile([1.0, 0.0, 0.0], (n, 1)), eps)
+    assert hits > 0

@@ -10,11 +10,15 @@ the surface profile) that the surface patches' chain and selection treat like
 the input's own planar regions.
 
 For one part (faces joined by shared vertices) with a boundary (an open
-sheet): ``base`` is the highest point of its boundary edges along the up axis.
+sheet) that is one layer along the up axis (its triangles' projections
+overlap nowhere: a height field, with vertical cliffs and skirts allowed):
+``base`` is the highest point of its boundary edges along the up axis.
 The sealed space is ``S = {p : base <= p_up <= lowest surface point of the
 part above p's footprint position}``, where the part covers that position.
 Its border is the part's own surface and the horizontal plane at ``base``
-(where the part's rim lies at or below ``base``, ``S`` has no height), so a
+(the outline of a single layer is its rim, where it lies at or below
+``base``, so ``S`` has no height there; a fold or an overhang would leave
+the space under it open at the side, which is why layered parts get none), so a
 ray from a viewpoint at or above ``base`` and outside ``S`` enters ``S`` only
 through the part's surface: it meets an input triangle first. A curtain
 inside ``S`` therefore never hides what the input shows to such a viewpoint.
@@ -53,6 +57,11 @@ __all__ = ["curtain_regions", "CURTAIN_PLANES", "MIN_FOOTPRINT"]
 #: over its extent, and horizontal ones between its base and its top (the
 #: selection keeps the curtains worth their triangles).
 CURTAIN_PLANES = 12
+
+#: A part is one layer (a height field) when its triangles' projections along the up
+#: axis overlap by at most this share of their summed area (float rounding of the
+#: union of shared edges).
+LAYER_OVERLAP = 1e-9
 
 #: An open part gets curtains when its footprint (bounding box across the up
 #: axis) is at least this share of the whole input's footprint.
@@ -101,7 +110,8 @@ def curtain_regions(vertices: np.ndarray, faces: np.ndarray, *, up: int,
         coordinates from the origin (exact up to float64 rounding of the
         plane-triangle intersections).
     info : dict
-        ``parts`` (open parts with curtains), ``bases`` (their base heights).
+        ``parts`` (open parts with curtains), ``bases`` (their base heights),
+        ``layered`` (open parts refused: more than one layer along the up axis).
     """
     up = int(up)
     others = [a for a in range(3) if a != up]
@@ -110,6 +120,7 @@ def curtain_regions(vertices: np.ndarray, faces: np.ndarray, *, up: int,
     parts, merged_v, merged_f = _open_parts(vertices, faces)
     regions: list[tuple[np.ndarray, Polygon]] = []
     bases = []
+    layered = 0
     for part_faces, rim in parts:
         tri = merged_v[merged_f[part_faces]]
         plo, phi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
@@ -118,6 +129,9 @@ def curtain_regions(vertices: np.ndarray, faces: np.ndarray, *, up: int,
         base = float(rim[:, up].max())
         if base >= phi[up]:
             continue  # the rim is as high as the surface: nothing sealed
+        if not _one_layer(tri, others):
+            layered += 1  # a fold or overhang: the space under it is open at the side
+            continue
         part = trimesh.Trimesh(merged_v, merged_f[part_faces], process=False)
         top = float(phi[up]) + 1.0 + (phi[up] - base)
         made = 0
@@ -161,7 +175,25 @@ def curtain_regions(vertices: np.ndarray, faces: np.ndarray, *, up: int,
                 made += 1
         if made:
             bases.append(base)
-    return regions, {"parts": len(bases), "bases": bases}
+    return regions, {"parts": len(bases), "bases": bases, "layered": layered}
+
+
+def _one_layer(tri: np.ndarray, others: list[int]) -> bool:
+    """Whether the triangles' projections across the up axis overlap nowhere (a height field).
+
+    Exact up to :data:`LAYER_OVERLAP`: the projected areas of the non-vertical
+    triangles sum to the area of their union. Vertical triangles project to
+    nothing and are not counted (cliffs and skirts seal the space beside them).
+    """
+    xy = tri[:, :, others]
+    polys = shapely.polygons(xy)
+    area = shapely.area(polys)
+    flat = area > 0
+    if not flat.any():
+        return False
+    total = float(area[flat].sum())
+    union = float(shapely.union_all(polys[flat]).area)
+    return total - union <= LAYER_OVERLAP * total
 
 
 def _clip(tri: np.ndarray, height: np.ndarray, keep_above: bool) -> list[np.ndarray]:

@@ -289,9 +289,11 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         units, or None), ``empty_reason`` (why there is no triangle, or
         None); ``curtain_candidates`` and ``curtains`` (offered and kept,
         with ``ground='auto'``), ``ground_parts`` (open parts that sealed a
-        space), ``up``, ``guarantee`` (``'every viewpoint'``, or with a
-        curtain kept ``'viewpoints not under the surface of an open part
-        nor below its rim'``); ``seconds_steps``.
+        space), ``ground_parts_layered`` (open parts refused for folds or
+        overhangs: more than one layer along the up axis), ``up``,
+        ``guarantee`` (``'every viewpoint'``, or with a curtain kept
+        ``'viewpoints not under the surface of an open part nor below its
+        rim'``); ``seconds_steps``.
 
     Raises
     ------
@@ -572,7 +574,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
             "boxes_guaranteed": None if boxes_claim is None else bool(boxes_claim),
             "box_pitch": box_info.get("pitch"), "empty_reason": empty_reason,
             "curtain_candidates": curtain_cands, "curtains": curtains_kept,
-            "ground_parts": ground_info["parts"], "up": ground_info.get("up"),
+            "ground_parts": ground_info["parts"],
+            "ground_parts_layered": ground_info.get("layered", 0), "up": ground_info.get("up"),
             "guarantee": ("viewpoints not under the surface of an open part nor below its rim"
                           if curtains_kept else "every viewpoint"),
             "seconds_steps": timing}
