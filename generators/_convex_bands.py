@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
+import shapely.affinity
 from shapely.geometry import Polygon
 
-__all__ = ["convex_bands", "polygons_of"]
+__all__ = ["convex_bands", "grid_bands", "polygons_of"]
 
 
 def polygons_of(geometry) -> list[Polygon]:
@@ -58,3 +59,15 @@ def convex_bands(part: Polygon) -> list[Polygon]:
         done += [q for q in below if q is not None]
         below = row
     return [q for q in done + below if q.area > 0 and not q.interiors]
+
+
+def grid_bands(geometry, step: float) -> list[Polygon]:
+    """The convex bands of every polygon of ``geometry`` snapped to a grid of ``step``.
+
+    ``geometry`` is scaled by ``1 / step`` and snapped to the integer grid
+    (``shapely.set_precision``); the bands (:func:`convex_bands`) are in those
+    grid units.
+    """
+    snapped = shapely.set_precision(
+        shapely.affinity.scale(geometry, 1.0 / step, 1.0 / step, origin=(0, 0)), 1.0)
+    return [band for part in polygons_of(snapped) for band in convex_bands(part)]

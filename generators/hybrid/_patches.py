@@ -67,7 +67,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
-from .._convex_bands import convex_bands, polygons_of
+from .._convex_bands import grid_bands, polygons_of
 from .._plane_regions import plane_regions
 from .._polygons import triangulate_polygon
 from ._holes import OPEN_REASONS, judge_holes
@@ -426,12 +426,7 @@ def _holed_bands(poly, step: float) -> list:
 
     if not poly.interiors:
         return [poly]
-    grid = shapely.set_precision(shapely.affinity.scale(poly, 1 / step, 1 / step, origin=(0, 0)),
-                                 1.0)
-    out = []
-    for part in polygons_of(grid):
-        out += [shapely.affinity.scale(b, step, step, origin=(0, 0)) for b in convex_bands(part)]
-    return out
+    return [shapely.affinity.scale(b, step, step, origin=(0, 0)) for b in grid_bands(poly, step)]
 
 
 def _curved_patches(vertices, faces, labels, groups) -> list[Patch]:

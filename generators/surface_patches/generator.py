@@ -77,7 +77,6 @@ import time
 
 import numpy as np
 import shapely
-import shapely.affinity
 import trimesh
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
@@ -88,7 +87,7 @@ from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 from viscore.ground import UP_AXES, guess_up
 
 from .._boxes import boxes_mesh
-from .._convex_bands import convex_bands, polygons_of
+from .._convex_bands import grid_bands
 from .._plane_regions import plane_regions
 from .._polygon_chain import refine_chain, simplification_chain
 from ..occluder import Occluder
@@ -158,6 +157,19 @@ MEASURE_MIN_ACROSS = 6
 
 #: Largest pixel count along a side of that rasterization.
 MEASURE_MAX_PIXELS = 512
+
+
+def _region_pieces(union, *, erosion: float, grid: float, floor: float) -> list[Polygon] | None:
+    """Hole-free convex pieces (grid units) of an exact region, eroded inward by ``erosion``
+    (mitred) and snapped to the grid; those under ``floor`` (world units^2) are left out.
+    None when the erosion leaves nothing. ``union`` is prepared for the final covers test."""
+    with np.errstate(divide="ignore", invalid="ignore"):  # GEOS on slivers
+        eroded = shapely.buffer(union, -erosion, join_style="mitre")
+    if eroded.is_empty:
+        return None
+    shapely.prepare(union)
+    return [piece for piece in grid_bands(eroded, grid)
+            if piece.area * grid * grid >= max(floor, 0.0) and piece.area > 0]
 
 
 def _loop(piece: Polygon) -> np.ndarray:
@@ -435,18 +447,11 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         if len(tris) == 0:
             continue
         union = shapely.union_all(tris)
-        with np.errstate(divide="ignore", invalid="ignore"):  # GEOS on slivers
-            eroded = shapely.buffer(union, -EROSION * diag, join_style="mitre")
-        if eroded.is_empty:
+        pieces = _region_pieces(union, erosion=EROSION * diag, grid=grid, floor=floor)
+        if pieces is None:
             continue
-        snapped = shapely.set_precision(
-            shapely.affinity.scale(eroded, 1.0 / grid, 1.0 / grid, origin=(0, 0)), 1.0)
         used += 1
-        shapely.prepare(union)
-        for part in polygons_of(snapped):
-            for piece in convex_bands(part):
-                if piece.area * grid * grid >= max(floor, 0.0) and piece.area > 0:
-                    cands.append((frame, union, piece))
+        cands += [(frame, union, piece) for piece in pieces]
     timing["pieces"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -457,17 +462,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         curtains, ground_info = curtain_regions(vertices, faces, up=UP_AXES.index(up_name))
         ground_info["up"] = up_name
         for frame, region in curtains:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                eroded = shapely.buffer(region, -EROSION * diag, join_style="mitre")
-            if eroded.is_empty:
-                continue
-            snapped = shapely.set_precision(
-                shapely.affinity.scale(eroded, 1.0 / grid, 1.0 / grid, origin=(0, 0)), 1.0)
-            shapely.prepare(region)
-            for part in polygons_of(snapped):
-                for piece in convex_bands(part):
-                    if piece.area * grid * grid >= max(floor, 0.0) and piece.area > 0:
-                        cands.append((frame, region, piece))
+            pieces = _region_pieces(region, erosion=EROSION * diag, grid=grid, floor=floor)
+            cands += [(frame, region, piece) for piece in pieces or ()]
     curtain_cands = len(cands) - planar_cands
     is_curtain = np.arange(len(cands)) >= planar_cands
     timing["curtains"] = time.perf_counter() - t0
