@@ -296,8 +296,7 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
     # the tallies of reference.score(occ), bit for bit (the same images, quads and pixels)
     info["precision_before"], info["recall_before"] = state.figures()
     # 1. the precision step: all faces judged against the whole occluder, removed together
-    gains = state.precision_gains()[state.rep] * state.group_alone()
-    drop = np.flatnonzero(state.alive & (np.nan_to_num(gains, nan=0.0) > eps_p))
+    drop = np.flatnonzero(_alive_gains(state) > eps_p)
     for f in drop:
         state.remove(int(f))
     removed_p = len(drop)
@@ -355,6 +354,14 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
     return mesh, info
 
 
+def _alive_gains(state) -> np.ndarray:
+    """``(m,)`` each face's precision gain if removed alone: 0 for removed faces, for a copy
+    whose twin still covers its pixels, and where the gain is undefined."""
+    gains = np.nan_to_num(state.precision_gains()[state.rep] * state.group_alone(), nan=0.0)
+    gains[~state.alive] = 0.0
+    return gains
+
+
 def _precision_floor(state, min_precision: float | None) -> int:
     """While tracked precision is under ``min_precision``, remove the face of most gain.
 
@@ -367,8 +374,7 @@ def _precision_floor(state, min_precision: float | None) -> int:
     if min_precision is None:
         return removed
     while state.alive.any() and state.figures()[0] < min_precision:
-        gains = np.nan_to_num(state.precision_gains()[state.rep] * state.group_alone(), nan=0.0)
-        gains[~state.alive] = 0.0
+        gains = _alive_gains(state)
         best = int(np.argmax(gains))
         if not gains[best] > 0.0:
             break
