@@ -9,7 +9,8 @@ with vertical planes; each cut is a planar region (a "curtain" standing under
 the surface profile) that the surface patches' chain and selection treat like
 the input's own planar regions.
 
-For one part (faces joined by shared vertices) with a boundary (an open
+For one part (faces joined across shared edges, vertices at one position
+merged as :meth:`trimesh.Trimesh.merge_vertices` merges them) with a boundary (an open
 sheet) that is one layer along the up axis (its triangles' projections
 overlap nowhere: a height field, with vertical cliffs and skirts allowed):
 ``base`` is the highest point of its boundary edges along the up axis.
@@ -69,8 +70,9 @@ MIN_FOOTPRINT = 0.01
 
 
 def _open_parts(vertices: np.ndarray, faces: np.ndarray) -> tuple[list, np.ndarray, np.ndarray]:
-    """``(faces of the part, its boundary vertices)`` per connected part with a boundary,
-    and the merged vertices and faces those index."""
+    """``(faces of the part, its boundary vertices)`` per part (faces joined across shared
+    edges) with a boundary (edges of one face), and the merged vertices and faces those
+    index."""
     mesh = trimesh.Trimesh(vertices, faces, process=False)
     mesh.merge_vertices()
     merged = np.asarray(mesh.faces, dtype=np.int64)
