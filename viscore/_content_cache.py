@@ -13,6 +13,7 @@ the same answer without holding the mesh's identity.
 from __future__ import annotations
 
 import hashlib
+import threading
 from collections import OrderedDict
 from collections.abc import Callable, Hashable
 
@@ -53,18 +54,39 @@ class ContentCache:
     def __init__(self, size: int = 4) -> None:
         self.size = int(size)
         self._items: OrderedDict[Hashable, object] = OrderedDict()
+        self._lock = threading.Lock()
+        self._pending: dict[Hashable, threading.Event] = {}
 
     def get(self, parts: tuple, compute: Callable[[], object]):
-        """The result kept for ``parts``, else ``compute()`` (kept, the oldest dropped)."""
+        """The result kept for ``parts``, else ``compute()`` (kept, the oldest dropped).
+
+        Safe from several threads: a thread that asks for a result another one is
+        computing waits for it instead of computing it again.
+        """
         key = content_key(*parts)
-        if key in self._items:
-            self._items.move_to_end(key)
-            return self._items[key]
-        value = compute()
-        self._items[key] = value
-        while len(self._items) > self.size:
-            self._items.popitem(last=False)
-        return value
+        while True:
+            with self._lock:
+                if key in self._items:
+                    self._items.move_to_end(key)
+                    return self._items[key]
+                busy = self._pending.get(key)
+                if busy is None:
+                    mine = self._pending[key] = threading.Event()
+            if busy is None:
+                break
+            busy.wait()  # then kept, or its computation failed: look again
+        try:
+            value = compute()
+            with self._lock:
+                self._items[key] = value
+                while len(self._items) > self.size:
+                    self._items.popitem(last=False)
+            return value
+        finally:
+            with self._lock:
+                del self._pending[key]
+            mine.set()
 
     def clear(self) -> None:
-        self._items.clear()
+        with self._lock:
+            self._items.clear()
