@@ -27,7 +27,10 @@ The directional measure of an image is that of
 (the boundary taken half-way between covered and uncovered pixel centres;
 a test checks the two agree), batched over candidates in a numba kernel. A
 direction in which a candidate's bitmap adds no pixel to the soup's keeps
-the soup's value without a distance transform.
+the soup's value without a distance transform. The batches (a greedy step's
+candidates, a soup's images) are split over :func:`viscore.get_workers`
+threads; the kernels release the GIL and each part writes its own values,
+so the selection is the same on any number of threads.
 
 References
 ----------
@@ -45,6 +48,7 @@ References
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -136,7 +140,7 @@ def _fill_polygons(xs, ys, starts, out, k):  # pragma: no cover
                     out[i, k, row, col] = True
 
 
-@njit_cached()
+@njit_cached(nogil=True)
 def _envelope(f, out):  # pragma: no cover
     """Lower envelope of parabolas (q - p)^2 + f[p] at each q (Felzenszwalb, Huttenlocher).
 
@@ -148,7 +152,7 @@ def _envelope(f, out):  # pragma: no cover
     lower_envelope_min(f, np.empty(n, np.int64), np.empty(n + 1), out)
 
 
-@njit_cached()
+@njit_cached(nogil=True)
 def _image_measure(img, buf_a, buf_b, col, tmp):  # pragma: no cover
     """Sum over covered pixels of the distance (pixels) to the nearest mid-point crossing.
 
@@ -208,24 +212,22 @@ def _image_measure(img, buf_a, buf_b, col, tmp):  # pragma: no cover
     return total
 
 
-@njit_cached()
-def _soup_totals(union, bitmaps, skip, base, use_area):  # pragma: no cover
-    """Total over directions of the measure of (union | bitmap i), for every i not skipped.
+@njit_cached(nogil=True)
+def _soup_totals(ids, union, bitmaps, base, use_area, out):  # pragma: no cover
+    """``out[t]``: total over directions of the measure of (union | bitmap ``ids[t]``).
 
     ``base`` (N,) holds the union's own per-direction values (reused where a
     bitmap adds nothing). Pixel units (distance sums, or pixel counts).
     """
-    n, nd, h, w = bitmaps.shape
-    out = np.full(n, -np.inf)
+    _, nd, h, w = bitmaps.shape
     img = np.empty((h, w), np.bool_)
     buf_a = np.empty((h, w))
     buf_b = np.empty((h, w))
     m = max(h, w)
     col = np.empty(m)
     tmp = np.empty(m)
-    for i in range(n):
-        if skip[i]:
-            continue
+    for t in range(len(ids)):
+        i = ids[t]
         total = 0.0
         for k in range(nd):
             adds = 0
@@ -247,8 +249,67 @@ def _soup_totals(union, bitmaps, skip, base, use_area):  # pragma: no cover
                 total += base[k] + adds
             else:  # the covered pixels' bounding box: outside it is background anyway
                 total += _image_measure(img[a0:a1 + 1, b0:b1 + 1], buf_a, buf_b, col, tmp)
-        out[i] = total
+        out[t] = total
     return out
+
+
+@njit_cached(nogil=True)
+def _images_measures(images, out):  # pragma: no cover
+    """``out[k]`` = :func:`_image_measure` of ``images[k]`` (pixel units)."""
+    h, w = images.shape[1:]
+    m = max(h, w)
+    buf_a = np.empty((h, w))
+    buf_b = np.empty((h, w))
+    col = np.empty(m)
+    tmp = np.empty(m)
+    for k in range(len(images)):
+        out[k] = _image_measure(images[k], buf_a, buf_b, col, tmp)
+
+
+#: Fewest items (candidates of a greedy step, images of a measure) per thread: below
+#: this a batch runs on the calling thread.
+MIN_PER_THREAD = 8
+
+
+def _in_threads(kernel, items: np.ndarray, *shared, out: np.ndarray) -> np.ndarray:
+    """``kernel(items[lo:hi], *shared, out[lo:hi])`` over contiguous parts of ``items`` on
+    :func:`viscore.get_workers` threads (the kernels release the GIL and each part writes
+    its own slice of ``out``, so the result is that of one call over all items)."""
+    from viscore import get_workers
+
+    parts = min(get_workers(), len(items) // MIN_PER_THREAD)
+    if parts <= 1:
+        kernel(items, *shared, out)
+        return out
+    cuts = np.linspace(0, len(items), parts + 1).astype(np.int64)
+    pool = _helpers(parts - 1)
+    jobs = [pool.submit(kernel, items[lo:hi], *shared, out[lo:hi])
+            for lo, hi in zip(cuts[1:-1], cuts[2:], strict=True)]
+    kernel(items[:cuts[1]], *shared, out[:cuts[1]])
+    for job in jobs:
+        job.result()
+    return out
+
+
+_pools: dict = {}
+_pools_lock = threading.Lock()
+
+
+def _helpers(threads: int):
+    """A thread pool of at least ``threads`` threads, kept for the process (a greedy
+    search makes thousands of batches; starting threads for each costs more than the
+    work of the small ones). A forked child makes its own."""
+    import os
+    from concurrent.futures import ThreadPoolExecutor
+
+    with _pools_lock:
+        pid, pool, size = _pools.get("pool", (None, None, 0))
+        if pid != os.getpid() or size < threads:
+            if pid == os.getpid():
+                pool.shutdown(wait=False)
+            pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="viscore-measure")
+            _pools["pool"] = (os.getpid(), pool, threads)
+        return pool
 
 
 def soup_measures(images: np.ndarray, pixel: float, *, measure: str = "om") -> np.ndarray:
@@ -267,12 +328,7 @@ def soup_measures(images: np.ndarray, pixel: float, *, measure: str = "om") -> n
     images = np.ascontiguousarray(images, dtype=bool)
     if measure == "area":
         return images.reshape(len(images), -1).sum(axis=1) * pixel**2
-    h, w = images.shape[1:]
-    m = max(h, w)
-    out = np.empty(len(images))
-    for k, img in enumerate(images):
-        out[k] = _image_measure(img, np.empty((h, w)), np.empty((h, w)), np.empty(m),
-                                np.empty(m))
+    out = _in_threads(_images_measures, images, out=np.empty(len(images)))
     return out * pixel**3
 
 
@@ -353,11 +409,10 @@ def select_greedy(bitmaps: np.ndarray, pixel: float, *, alpha: float, measure: s
         for first in range(0, len(order), chunk):
             if lazy and best >= 0 and best_gain >= bound[order[first]]:
                 break
-            todo = np.ones(n, dtype=bool)
-            todo[order[first:first + chunk]] = False
-            t = _soup_totals(union, bitmaps, todo, base, use_area)
             ids = order[first:first + chunk]
-            bound[ids] = t[ids] - current
+            t = _in_threads(_soup_totals, ids, union, bitmaps, base, use_area,
+                            out=np.empty(len(ids)))
+            bound[ids] = t - current
             k = ids[int(np.argmax(bound[ids]))]
             if bound[k] > best_gain:
                 best, best_gain = int(k), float(bound[k])
@@ -378,10 +433,16 @@ def select_greedy(bitmaps: np.ndarray, pixel: float, *, alpha: float, measure: s
 MEASURE_FROM = 1.25
 
 
-def _next_stage(chain: SimplificationChain, s: int) -> int:
-    """First stage after ``s`` with fewer triangles; ``chain.stages`` means removed."""
-    later = np.flatnonzero(chain.counts[s + 1:] < chain.counts[s])
-    return s + 1 + int(later[0]) if len(later) else chain.stages
+def _next_stages(chain: SimplificationChain) -> np.ndarray:
+    """``(S,)`` int64: for each stage, the first later stage with fewer triangles;
+    ``chain.stages`` means removed."""
+    counts = np.asarray(chain.counts)
+    out = np.full(len(counts), len(counts), dtype=np.int64)
+    for s in range(len(counts)):
+        later = np.flatnonzero(counts[s + 1:] < counts[s])
+        if len(later):
+            out[s] = s + 1 + int(later[0])
+    return out
 
 
 def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
@@ -421,33 +482,54 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
     tri = int(sum(int(c.counts[0]) for c in chains))
     if budget is None:
         return stage, tri
-    counts_img = None
+    nexts = [_next_stages(ch) for ch in chains]
+    ends = np.array([ch.stages for ch in chains], dtype=np.int64)
+
+    def area_loss(i: int) -> float:  # area the next step of chain i removes (-inf: done)
+        s, ch = int(stage[i]), chains[i]
+        if s >= ch.stages:
+            return -np.inf
+        nxt = nexts[i][s]
+        return -(ch.areas[s] - (ch.areas[nxt] if nxt < ch.stages else 0.0))
+
+    by_area_vals = np.array([area_loss(i) for i in range(k)], dtype=np.float64)
+    counts_img = cover = base = None
     while tri > budget:
         by_area = reduce == "area" or tri > measure_from * budget
         if not by_area and counts_img is None:
             counts_img = sum(bitmaps_of(i, int(stage[i])).astype(np.int32) for i in range(k)
                              if stage[i] < chains[i].stages)
         best, best_val, best_next = -1, -np.inf, -1
-        for i, ch in enumerate(chains):
-            s = int(stage[i])
-            if s >= ch.stages:
-                continue
-            nxt = _next_stage(ch, s)
-            if by_area:
-                after = ch.areas[nxt] if nxt < ch.stages else 0.0
-                val = -(ch.areas[s] - after)
-            elif reduce == "projected-area":  # pixels only this polygon covers, lost
-                lost = bitmaps_of(i, s) & (counts_img == 1)
-                if nxt < ch.stages:
-                    lost &= ~bitmaps_of(i, nxt)
-                val = -float(np.count_nonzero(lost))
-            else:
-                img = counts_img - bitmaps_of(i, s)
-                if nxt < ch.stages:
-                    img = img + bitmaps_of(i, nxt)
-                val = float(soup_measures(img > 0, pixel).sum())
-            if val > best_val:
-                best, best_val, best_next = i, val, nxt
+        if by_area:  # the first chain of largest value, as the loop below takes it
+            if (stage < ends).any():
+                best = int(np.argmax(by_area_vals))
+                best_next = int(nexts[best][stage[best]])
+        else:
+            if reduce == "om" and cover is None:
+                cover = counts_img > 0
+                base = soup_measures(cover, pixel)
+            for i, ch in enumerate(chains):
+                s = int(stage[i])
+                if s >= ch.stages:
+                    continue
+                nxt = int(nexts[i][s])
+                if reduce == "projected-area":  # pixels only this polygon covers, lost
+                    lost = bitmaps_of(i, s) & (counts_img == 1)
+                    if nxt < ch.stages:
+                        lost &= ~bitmaps_of(i, nxt)
+                    val = -float(np.count_nonzero(lost))
+                else:  # directions whose image the step leaves as it is keep their value
+                    img = counts_img - bitmaps_of(i, s)
+                    if nxt < ch.stages:
+                        img = img + bitmaps_of(i, nxt)
+                    after = img > 0
+                    changed = (after != cover).reshape(len(after), -1).any(axis=1)
+                    vals = base.copy()
+                    if changed.any():
+                        vals[changed] = soup_measures(after[changed], pixel)
+                    val = float(vals.sum())
+                if val > best_val:
+                    best, best_val, best_next = i, val, nxt
         if best < 0:
             break
         ch = chains[best]
@@ -458,6 +540,10 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
             counts_img = counts_img - bitmaps_of(best, s)
             if best_next < ch.stages:
                 counts_img = counts_img + bitmaps_of(best, best_next)
+            if cover is not None:
+                cover = counts_img > 0
+                base = soup_measures(cover, pixel)
         stage[best] = best_next
+        by_area_vals[best] = area_loss(best)
     stage[stage >= np.array([c.stages for c in chains], dtype=np.int64)] = -1
     return stage, tri
