@@ -86,3 +86,75 @@ def test_ground_auto_keeps_the_fill_only_where_it_passes_the_floor():
 def test_bad_ground_options_are_refused_before_any_work(options, match):
     with pytest.raises(InputError, match=match):
         generate_planar_sections(_open_bottom_box(), **options)
+
+
+
+def _bumpy_sheet(n: int = 16) -> trimesh.Trimesh:
+    """An open height field over 4 x 4: seen past its edges from low views, so a fill
+    that keeps voxels most directions expose over-occludes."""
+    x, y = np.meshgrid(np.linspace(0, 4, n), np.linspace(0, 4, n))
+    z = 0.6 * np.sin(1.7 * x) * np.cos(1.3 * y) + 0.075 * x + 0.8
+    a = (np.arange(n - 1)[:, None] * n + np.arange(n - 1)[None, :]).ravel()
+    faces = np.concatenate([np.column_stack([a, a + 1, a + n + 1]),
+                            np.column_stack([a, a + n + 1, a + n])])
+    return trimesh.Trimesh(np.column_stack([x.ravel(), y.ravel(), z.ravel()]), faces,
+                           process=False)
+
+
+@pytest.mark.parametrize("case", ["fills", "fill-skipped", "coarser"])
+def test_the_floor_on_two_threads_makes_what_one_makes(case, caplog, monkeypatch):
+    """The precision floor's independent runs (closings, ground fills, coarser voxels),
+    made side by side on two threads, are the runs one thread makes and keeps, in the
+    same order and with the same log lines: the same occluder.
+
+    - fills: the open-bottomed box tries 3 closings and 4 ground fills.
+    - fill-skipped: on a sheet, a fill that keeps voxels 90% of the directions expose
+      fails the floor, so the next fill of its grazing is not kept, though on two
+      threads it was made ahead.
+    - coarser: a closed box at the default size is coarsened twice (64 -> 45 -> 32).
+    """
+    import logging
+
+    import viscore.generators.planar_sections.floor as floor_module
+
+    from viscore import get_workers, set_workers
+
+    mesh, options = {
+        "fills": (_open_bottom_box(), {"voxels": 24, "min_precision": 0.995}),
+        "fill-skipped": (_bumpy_sheet(), {"voxels": 24, "min_precision": 0.95}),
+        "coarser": (trimesh.creation.box(extents=(4, 4, 2)), {}),
+    }[case]
+    if case == "fill-skipped":
+        monkeypatch.setattr(floor_module, "GROUND_FILLS", (
+            {"grazing": 0.0, "misses": 0.9}, {"grazing": 0.0, "misses": 0.95},
+            {"grazing": 0.2, "misses": 0.05}))
+    caplog.set_level(logging.INFO, logger="viscore")
+    made, logs = [], []
+    before = get_workers()
+    try:
+        for workers in (1, 2):
+            set_workers(workers)
+            caplog.clear()
+            made.append(generate_planar_sections(mesh, budget=16, **options, **FAST))
+            logs.append([(r.name, r.levelno, r.getMessage()) for r in caplog.records])
+    finally:
+        set_workers(before)
+    one, two = made
+
+    def runs(occ):
+        floor = occ.info["precision_floor"]
+        return [{k: v for k, v in s.items() if k != "seconds"}
+                for s in floor.get("closings", []) + floor["steps"]]
+
+    assert np.array_equal(one.mesh.vertices, two.mesh.vertices)
+    assert np.array_equal(one.mesh.faces, two.mesh.faces)
+    assert runs(one) == runs(two)
+    assert logs[0] == logs[1] and (case == "coarser" or len(logs[0]) > 0)
+    tried = one.info["precision_floor"].get("closings", [])
+    fills = [(s["ground"]["misses"], s["precision"]) for s in tried if s["ground"]]
+    if case == "fills":
+        assert len(tried) == 8 and len(fills) == 4
+    elif case == "fill-skipped":
+        assert [m for m, _ in fills] == [0.9, 0.05] and fills[0][1] < 0.95
+    else:
+        assert [s["voxels"] for s in one.info["precision_floor"]["steps"]] == [64, 45, 32]

@@ -3,7 +3,11 @@
 With the default sizing, :func:`viscore.generators.planar_sections.generate_planar_sections`
 refines (or coarsens) the voxels and tries closings until the occluder's
 precision on :data:`FLOOR_VIEWS` orbit views reaches the floor
-(:func:`_with_precision_floor`).
+(:func:`_with_precision_floor`). The runs that do not wait on each other (the
+closings, the ground fills, the coarser sizes) are made side by side on
+:func:`viscore.get_workers` threads, and kept by the rules one thread keeps them
+by: the occluder, the log lines and ``info`` (but the seconds) do not depend on
+the thread count.
 """
 
 from __future__ import annotations
@@ -16,8 +20,9 @@ import numpy as np
 import trimesh
 from viscore.metrics.frames import orbit_frame
 
-from viscore import InputError
+from viscore import InputError, get_workers
 
+from .._held_logs import held_records, release
 from ._single import _generate_one, _no_interior, _resolution
 from ._slices import section_solid
 
@@ -149,16 +154,53 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     def passes(step: dict) -> bool:
         return step["precision"] - FLOOR_Z * step["precision_se"] >= floor
 
-    def fills(size: dict, close: int) -> list:
-        """The ground fills of :data:`GROUND_FILLS`, a fill skipped when the one before it
-        with the same ``grazing`` (fewer misses: a subset of its voxels) fails the floor."""
+    threads = get_workers()
+
+    def side_by_side(calls: list[tuple]) -> list:
+        """Each call's ``run(*call)`` made ahead, on up to :func:`viscore.get_workers`
+        threads, as ``(result, held log records, exception)`` for :func:`use`."""
+        from concurrent.futures import ThreadPoolExecutor
+
+        def held(call: tuple):
+            with held_records() as records:
+                try:
+                    return run(*call), records, None
+                except Exception as exc:  # noqa: BLE001 - raised by use(), if it is used
+                    return None, records, exc
+
+        with ThreadPoolExecutor(max_workers=max(1, min(threads, len(calls))),
+                                thread_name_prefix="viscore-floor") as pool:
+            return list(pool.map(held, calls))
+
+    def use(made: tuple):
+        """A run made ahead, as if made now: its log records said, its error raised."""
+        result, records, exc = made
+        release(records)
+        if exc is not None:
+            raise exc
+        return result
+
+    def runs(calls: list[tuple]) -> list:
+        """``run(*call)`` of each call, side by side on several threads."""
+        if threads <= 1 or len(calls) <= 1:
+            return [run(*call) for call in calls]
+        return [use(made) for made in side_by_side(calls)]
+
+    def fills(size: dict, close: int, before: tuple = ()) -> list:
+        """The runs of ``before`` ((size, close, kind) calls), then the ground fills of
+        :data:`GROUND_FILLS`, a fill skipped when the one before it with the same
+        ``grazing`` (fewer misses: a subset of its voxels) fails the floor. On several
+        threads every fill is made ahead, side by side with the others, and the rule
+        then applied: the same runs are kept."""
+        calls = list(before) + [(size, close, kind) for kind in GROUND_FILLS]
+        ahead = side_by_side(calls) if threads > 1 else None
         out, failed = [], set()
-        for kind in GROUND_FILLS:
-            if kind["grazing"] in failed:
+        for i, call in enumerate(calls):
+            if call[2] is not None and call[2]["grazing"] in failed:
                 continue
-            out.append(run(size, close, kind))
-            if not passes(out[-1][1]):
-                failed.add(kind["grazing"])
+            out.append(run(*call) if ahead is None else use(ahead[i]))
+            if call[2] is not None and not passes(out[-1][1]):
+                failed.add(call[2]["grazing"])
         return out
 
     close, kind = options["close"], None
@@ -178,9 +220,11 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
                                **size).solid_voxels
         gain = closed / solid - 1.0 if solid else math.inf
     if gain is not None and (gain >= AUTO_CLOSE_GAIN or _no_interior(result[2])):
-        tried += [run(size, k) for k in AUTO_CLOSINGS]
+        closings = [(size, k, None) for k in AUTO_CLOSINGS]
         if ground is not None and not forced and result[2]["footprint_share"] >= GROUND_SHARE:
-            tried += fills(size, 0)
+            tried += fills(size, 0, before=closings)
+        else:
+            tried += runs(closings)
         result, step = _best(tried, passes)
         closings = [t[1] for t in tried]
         _log.info("planar-sections: closing adds %.0f%% to the voxel solid at %d voxels; "
@@ -200,13 +244,27 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
         closings = [t[1] for t in tried]
     close, kind = step["close"], step["ground"]
     if coarsen and passes(steps[-1]):  # spare precision: coarser voxels recall more
+        # on several threads the coarser sizes are run side by side, each from the size
+        # before it as predicted; a run is used only where the prediction held
+        ahead, n = [], steps[-1]["voxels"]
+        for _ in range(FLOOR_COARSER_STEPS if threads > 1 else 0):
+            n = int(round(n / FLOOR_STEP))
+            if n < FLOOR_MIN_VOXELS:
+                break
+            ahead.append(n)
+        early = dict(zip(ahead, side_by_side(
+            [(_resolution(mesh, c, None, f"voxels={c}"), close, kind) for c in ahead]),
+            strict=True)) if len(ahead) > 1 else {}  # a run not used is not said
         for _ in range(FLOOR_COARSER_STEPS):
             n = steps[-1]["voxels"]
             coarser = int(round(n / FLOOR_STEP))
             if coarser < FLOOR_MIN_VOXELS:
                 break
-            result, step = run(_resolution(mesh, coarser, None, f"voxels={coarser}"), close,
-                               kind)
+            if coarser in early:
+                result, step = use(early.pop(coarser))
+            else:
+                result, step = run(_resolution(mesh, coarser, None, f"voxels={coarser}"),
+                                   close, kind)
             steps.append(step)
             results.append(result)
             if not passes(step):
