@@ -590,7 +590,8 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
     joined : sequence of str, optional
         Methods generated once over all the objects together
         (:func:`joined_occluder`) instead of mesh by mesh; default those of
-        :data:`JOINED_METHODS` among ``methods``; ``()`` for none.
+        :data:`JOINED_METHODS` among ``methods``, variants with options
+        (``surface-patches:ground=auto``) included; ``()`` for none.
 
     Returns
     -------
@@ -634,8 +635,8 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
                              f"{type(occ).__name__}")
     source = (frusta_method() if frusta_source is None
               else parse_method(frusta_source, "frusta_source").label)
-    joined = set(m for m in methods if m in JOINED_METHODS) if joined is None \
-        else set(joined)
+    joined = set(m for m in methods if get_generator(m).name in JOINED_METHODS) \
+        if joined is None else set(joined)
     for m in joined:
         if m not in methods:
             raise InputError(f"joined: {m!r} is not one of the methods")

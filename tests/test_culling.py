@@ -425,6 +425,10 @@ def test_surface_patches_joined_over_objects_closes_the_seams():
     assert apart["depth-buffer:surface-patches"]["occluders"] == 2
     with pytest.raises(InputError, match="joined"):
         culling_runtimes(objects, both, ["surface-patches"], frusta=False, joined=["qem"])
+    variant = "surface-patches:chain=greedy"  # a variant with options is joined too
+    _, info = culling_runtimes(objects, both, [variant], frusta=False)
+    assert info[f"depth-buffer:{variant}"]["joined"] is True
+    assert info[f"depth-buffer:{variant}"]["occluders"] == 1
 
     cam = PerspectiveCamera((4.0, 12.0, 2.0), (0, -1, 0), up=(0, 0, 1), fov=60,
                             resolution=128, height=128)
