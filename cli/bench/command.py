@@ -67,6 +67,10 @@ def add_parser(sub, common) -> None:
                    help="planar-sections: the paper's Table 1 instead, its five rows beside "
                         "ours, qem's and godot's on stand-ins made here (million-triangle ones "
                         "included: minutes)")
+    g.add_argument("--scale", action="store_true",
+                   help="planar-sections: its cost against the triangle count instead, an "
+                        "open scan at 56k and 16x the triangles beside qem in the same run "
+                        "(minutes)")
     g.add_argument("--no-fill-holes", action="store_true",
                    help="hybrid: run it with hole filling off (the hybrid option fill_holes); "
                         "by default the bench also scores filling on against off")
@@ -207,13 +211,27 @@ def run_table1(args) -> int:
     return 0
 
 
+def run_scale(args) -> int:
+    from .scale import bench_scale, scale_lines
+
+    rows = bench_scale(seed=args.seed)
+    emit({"rows": rows, "provenance": provenance()}, args.json, "\n".join(scale_lines(rows)))
+    return 0
+
+
 def run_generate(args) -> int:
     if args.no_fill_holes and args.method != "hybrid":
         raise InputError("--no-fill-holes: only for hybrid (its hole filling)")
+    if args.table1 and args.scale:
+        raise InputError("--table1, --scale: one at a time")
     if args.table1:
         if args.method != "planar-sections":
             raise InputError("--table1: only for planar-sections (the paper's Table 1)")
         return run_table1(args)
+    if args.scale:
+        if args.method != "planar-sections":
+            raise InputError("--scale: only for planar-sections")
+        return run_scale(args)
     if args.method == "planar-sections":
         return _run_generate_planar(args)
     if args.method == "hybrid":
