@@ -164,8 +164,8 @@ def _own(spec: GeneratorSpec) -> GeneratorSpec:
 _VOXEL_SIZING = GeneratorOption(
     "voxel_sizing", str, "extent",
     "without --voxels: 64 voxels along the longest side, or 'auto': finer where walls are "
-    "thinner (measured by rays along the inward normals, within the memory guard; 10-70 s "
-    "on an open building instead of under a second)",
+    "thinner (measured by rays along the inward normals, within the memory guard; seconds "
+    "to a minute on an open building instead of under a second)",
     choices=("auto", "extent"))
 _VOXELS_BY_SIZING = "by --voxel-sizing: 64, or finer for thin walls with auto"
 

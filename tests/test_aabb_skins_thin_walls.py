@@ -111,3 +111,37 @@ def test_generate_aabb_skins_grid_that_does_not_fit_falls_back_with_one_line(mon
 def test_generate_aabb_skins_voxel_sizing_invalid_input():
     with pytest.raises(InputError, match="voxel_sizing"):
         generate_aabb_skins(trimesh.creation.box(), voxel_sizing="walls")
+
+
+def open_room(wall=0.1) -> trimesh.Trimesh:
+    """``thin_room`` without its floor panel and with its -Z panels' bottom faces gone:
+    open at the bottom, as the built-in buildings are (not closed, so every inner voxel
+    comes from the winding number of an open mesh)."""
+    room = thin_room(wall=wall)
+    keep = ~((room.face_normals[:, 1] < -0.5) & (room.triangles_center[:, 1] < 1e-9))
+    return trimesh.Trimesh(room.vertices, room.faces[keep], process=False,
+                           metadata={"name": "open-room"})
+
+
+def _per_voxel_winding(monkeypatch, module):
+    """Make ``module``'s inside test evaluate every voxel (the reference of the bounds)."""
+    from functools import partial
+
+    from viscore.voxels import inside_voxels_winding
+
+    monkeypatch.setattr(module, "inside_voxels_winding",
+                        partial(inside_voxels_winding, per_voxel=True))
+
+
+def test_generate_aabb_skins_auto_open_room_same_boxes_as_per_voxel(monkeypatch):
+    import viscore.generators.aabb_skins.generator as module
+
+    room = open_room()
+    assert not is_closed_oriented(room.vertices, room.faces)
+    fast = generate_aabb_skins(room, voxel_sizing="auto", seed_voxel="densest")
+    _per_voxel_winding(monkeypatch, module)
+    slow = generate_aabb_skins(room, voxel_sizing="auto", seed_voxel="densest")
+    assert fast.info["inner_voxels"] == slow.info["inner_voxels"] > 1000
+    assert fast.info["cavity_voxels"] == slow.info["cavity_voxels"]
+    np.testing.assert_array_equal(fast.parts["boxes"], slow.parts["boxes"])
+    np.testing.assert_array_equal(fast.mesh.faces, slow.mesh.faces)

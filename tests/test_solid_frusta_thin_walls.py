@@ -67,3 +67,19 @@ def test_inner_depth_equals_the_distance_transform():
 def test_generate_solid_frusta_voxel_sizing_invalid_input():
     with pytest.raises(InputError, match="voxel_sizing"):
         generate_solid_frusta(trimesh.creation.box(), voxel_sizing="walls")
+
+
+def test_generate_solid_frusta_auto_open_room_same_solids_as_per_voxel(monkeypatch):
+    import viscore.generators.aabb_skins.generator as box_module
+    import viscore.generators.solid_frusta.generator as module
+    from test_aabb_skins_thin_walls import _per_voxel_winding, open_room
+
+    room = open_room()
+    fast = generate_solid_frusta(room, voxel_sizing="auto")
+    _per_voxel_winding(monkeypatch, module)
+    _per_voxel_winding(monkeypatch, box_module)
+    slow = generate_solid_frusta(room, voxel_sizing="auto")
+    assert fast.info["kinds"] == slow.info["kinds"] and len(fast.info["kinds"]) > 0
+    assert fast.info["volume_share"] == slow.info["volume_share"]
+    np.testing.assert_array_equal(fast.mesh.vertices, slow.mesh.vertices)
+    np.testing.assert_array_equal(fast.mesh.faces, slow.mesh.faces)
