@@ -23,6 +23,8 @@ from viscore.metrics.frames import orbit_frame
 from viscore import InputError, get_workers
 
 from .._held_logs import held_records, release
+from .._precision_check import CHECK_SEED_OFFSET, CHECK_VIEWS, CHECK_Z
+from .._precision_check import ratio_se as _ratio_se
 from ._single import _generate_one, _no_interior, _resolution
 from ._slices import section_solid
 
@@ -37,12 +39,12 @@ DEFAULT_MIN_PRECISION = 0.995
 #: The standard error takes the views as the units: over-occlusion through the openings
 #: of a building comes from a few views, and 32 views read the closed tower at P 0.9963
 #: +- 0.0013 where 128 views of three other seeds read 0.990-0.992.
-FLOOR_VIEWS = 64
-FLOOR_SEED_OFFSET = 7919
+FLOOR_VIEWS = CHECK_VIEWS
+FLOOR_SEED_OFFSET = CHECK_SEED_OFFSET
 
 #: The check passes when the one-sided 95% lower bound of the precision, ``P - 1.645
 #: SE``, is at or over the floor.
-FLOOR_Z = 1.645
+FLOOR_Z = CHECK_Z
 
 #: Closings tried (beside none) when the voxel solid has no interior and ``close`` is left
 #: to its default with the precision floor on: at 64 triangles and 64^3 (orbit, 64 views,
@@ -94,15 +96,6 @@ GROUND_FILLS = ({"grazing": 0.0, "misses": 0.05}, {"grazing": 0.0, "misses": 0.1
 #: built-in terrain 1.0; a building's roof its plan) and whose voxel solid would also
 #: have its closings tried (no interior, or closing grows it by :data:`AUTO_CLOSE_GAIN`).
 GROUND_SHARE = 0.8
-
-def _ratio_se(num: np.ndarray, den: np.ndarray) -> float:
-    """Standard error of sum(num) / sum(den) with the views as units (the ratio estimator's
-    linearization); 0 with fewer than two views."""
-    k = len(num)
-    if k < 2 or den.sum() <= 0:
-        return 0.0
-    ratio = num.sum() / den.sum()
-    return float(np.sqrt(np.sum((num - ratio * den) ** 2) / (k * (k - 1))) / den.mean())
 
 
 def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed: int,

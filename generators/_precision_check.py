@@ -1,0 +1,58 @@
+"""The precision check that generators run on orbit views of the mesh before they keep an occluder.
+
+A generator that cannot guarantee its precision (the planar sections' precision
+floor, the terrain drape's choice of grid) scores each candidate on
+:data:`CHECK_VIEWS` orbit views of the original, drawn with a seed of their own
+(the generator's plus :data:`CHECK_SEED_OFFSET`, so that they are never the
+views a study scores on), and keeps it when the one-sided 95% lower bound of
+the precision, ``P - CHECK_Z SE``, reaches the floor, with the views as the
+units of the standard error (:func:`ratio_se`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+__all__ = ["CHECK_VIEWS", "CHECK_SEED_OFFSET", "CHECK_Z", "ratio_se", "check_views",
+           "check_score", "passes"]
+
+#: Orbit views of the check (the metric's own resolution and quads).
+CHECK_VIEWS = 64
+#: Added to the generator's seed for the check views.
+CHECK_SEED_OFFSET = 7919
+#: One-sided 95% normal quantile of the check's lower bound.
+CHECK_Z = 1.645
+
+
+def ratio_se(num: np.ndarray, den: np.ndarray) -> float:
+    """Standard error of sum(num) / sum(den) with the views as units (the ratio estimator's
+    linearization); 0 with fewer than two views."""
+    k = len(num)
+    if k < 2 or den.sum() <= 0:
+        return 0.0
+    ratio = num.sum() / den.sum()
+    return float(np.sqrt(np.sum((num - ratio * den) ** 2) / (k * (k - 1))) / den.mean())
+
+
+def check_views(mesh: trimesh.Trimesh, seed: int, views: int = CHECK_VIEWS):
+    """The original's check views (:class:`viscore.metrics.ReferenceViews`, orbit), cast once."""
+    from viscore.metrics.reference_views import ReferenceViews
+
+    return ReferenceViews(mesh, protocol="orbit", views=views, seed=seed + CHECK_SEED_OFFSET)
+
+
+def check_score(views, occluder: trimesh.Trimesh) -> dict:
+    """``precision``, ``precision_se`` and ``recall`` of ``occluder`` on the check views
+    (1, 0, 0 for an empty occluder: nothing to over-occlude with)."""
+    if len(occluder.faces) == 0:
+        return {"precision": 1.0, "precision_se": 0.0, "recall": 0.0}
+    pr = views.score(occluder)
+    return {"precision": float(pr.precision),
+            "precision_se": ratio_se(*pr.ratio_parts("precision")),
+            "recall": float(pr.recall)}
+
+
+def passes(score: dict, floor: float) -> bool:
+    """The check's rule: ``precision - CHECK_Z precision_se >= floor``."""
+    return score["precision"] - CHECK_Z * score["precision_se"] >= floor
