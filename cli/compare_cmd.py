@@ -93,10 +93,14 @@ def add_parser(sub, common) -> None:
     c.add_argument("meshes", nargs="*", metavar="MESH",
                    help="mesh files or built-in scenes (default: "
                         + ", ".join(DEFAULT_SCENES) + "; 'viscore data list' names them all)")
-    c.add_argument("--methods", default=",".join(REGISTRY),
-                   help=f"comma-separated (default: all of {', '.join(REGISTRY)}); a method "
-                        "with options fixed, NAME:option=value[:option=value...], runs as a "
-                        "method of its own (planar-sections:chain=greedy:reduce=area)")
+    default_methods = [n for n, s in REGISTRY.items() if s.inputs == "any"]
+    c.add_argument("--methods", default=",".join(default_methods),
+                   help=f"comma-separated (default: all of {', '.join(default_methods)}; "
+                        "methods for height fields only when named: "
+                        + (", ".join(n for n, s in REGISTRY.items() if s.inputs != "any")
+                           or "none") + "); a method with options fixed, "
+                        "NAME:option=value[:option=value...], runs as a method of its own "
+                        "(planar-sections:chain=greedy:reduce=area)")
     c.add_argument("--budget", default="64,256",
                    help="triangle budget(s), comma-separated (default 64,256)")
     c.add_argument("--protocol", choices=["orbit", "volume"], default="orbit")

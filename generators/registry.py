@@ -80,6 +80,8 @@ from .surface_patches.generator import BOXES as SURFACE_BOXES
 from .surface_patches.generator import MIN_AREA as SURFACE_MIN_AREA
 from .surface_patches.generator import PLANE_TOLERANCE as SURFACE_PLANE_TOLERANCE
 from .surface_patches.generator import use_box_source as use_surface_box_source
+from .terrain_drape import generate_terrain_drape
+from .terrain_drape.generator import RESOLUTION as TERRAIN_RESOLUTION
 
 __all__ = ["GeneratorOption", "GeneratorSpec", "REGISTRY", "get_generator", "generate",
            "COMMON_OPTIONS", "MethodVariant", "parse_method", "check_method", "PluginError",
@@ -379,6 +381,28 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                                 choices=("auto", "x", "y", "z")),
             ),
             conservative=True, min_budget=1),
+        GeneratorSpec(
+            "terrain-drape", generate_terrain_drape,
+            "a few triangles just under an open height field (terrain, a floor), chosen on "
+            "check views at the precision floor; or only where every line meets the sheet",
+            options=(
+                GeneratorOption("mode", str, "measured",
+                                "keep the drape of best check recall at min-precision, or only "
+                                "what every line through it shows covered (guaranteed, thin)",
+                                choices=("measured", "hidden")),
+                GeneratorOption("min_precision", float, 0.995,
+                                "check-view precision floor of the measured mode", low=0,
+                                high=1),
+                GeneratorOption("up", str, "auto", "the up axis",
+                                choices=("auto", "x", "y", "z")),
+                GeneratorOption("resolution", int, TERRAIN_RESOLUTION,
+                                "height samples along the footprint's longer side",
+                                low=8, high=1024),
+                GeneratorOption("reach", int, 3,
+                                "hidden mode: lattice directions (a, b) of the hidden floor, "
+                                "max(|a|, |b|) <= reach (16 orientations at 3)", low=1, high=8),
+            ),
+            min_budget=2, inputs="height-fields"),
         GeneratorSpec("qem", generate_qem, "quadric edge-collapse decimation to the budget",
                       baseline=True),
         GeneratorSpec(

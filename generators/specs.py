@@ -215,6 +215,10 @@ class GeneratorSpec:
         compare`` leaves such a method out of its culling column, which runs
         it on every building of the city, unless ``--culling-methods`` names
         it.
+    inputs : {'any', 'height-fields'}
+        The meshes the method is for: ``any``, or ``height-fields`` (open
+        ground seen once from below: terrain, floors; ``terrain-drape``).
+        ``viscore compare`` runs the latter only when ``--methods`` names them.
     plugin : tuple of (str, str), optional
         ``(distribution, version)`` of the installed package that registered
         the method through the ``viscore.generators`` entry points (``None``:
@@ -240,6 +244,7 @@ class GeneratorSpec:
     budgeted: bool = True
     min_budget: int = 1
     heavy: bool = False
+    inputs: str = "any"
     plugin: tuple[str, str] | None = None
     checker: Callable[..., None] | None = None
 

@@ -941,7 +941,8 @@ def test_generate_absurd_options(workdir, method, slow):
         base = ["--voxels", "8"] if method == "aabb-skins" and option != "--voxels" else []
         if method == "planar-sections" and option != "--min-precision":
             base = ["--min-precision", "0"]  # no check views: the options are under test
-        rc, stdout, err = run_cli(["generate", method, "fat-torus", "-o", str(out), *base,
+        scene = "terrain" if REGISTRY[method].inputs == "height-fields" else "fat-torus"
+        rc, stdout, err = run_cli(["generate", method, scene, "-o", str(out), *base,
                                    f"{option}={value}", "--json"]
                                   + (["--quiet"] if quiet else []))
         assert_refused_or_ok(rc, stdout, err, quiet=quiet, output=out, json_out=True)

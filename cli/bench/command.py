@@ -53,7 +53,7 @@ def add_parser(sub, common) -> None:
     e.set_defaults(run=run_evaluate)
     g = bsub.add_parser("generate", parents=[common], help="generator speed and coverage")
     g.add_argument("method", choices=["aabb-skins", "planar-sections", "hybrid",
-                                      "surface-patches"])
+                                      "surface-patches", "terrain-drape"])
     g.add_argument("--ablation", default=None, metavar="DIR",
                    help="also run the method's ablations and write their PNGs into this "
                         "existing folder: planar-sections, occlusion measure vs surface area "
@@ -219,6 +219,15 @@ def run_scale(args) -> int:
     return 0
 
 
+def run_terrain_drape(args) -> int:
+    from .terrain_drape import bench_terrain_drape, terrain_drape_lines
+
+    rows = bench_terrain_drape(seed=args.seed)
+    emit({"rows": rows, "provenance": provenance()}, args.json,
+         "\n".join(terrain_drape_lines(rows)))
+    return 0
+
+
 def run_generate(args) -> int:
     if args.no_fill_holes and args.method != "hybrid":
         raise InputError("--no-fill-holes: only for hybrid (its hole filling)")
@@ -240,6 +249,8 @@ def run_generate(args) -> int:
         raise InputError("--ablation: only for planar-sections and hybrid")
     if args.method == "surface-patches":
         return _run_generate_surface_patches(args)
+    if args.method == "terrain-drape":
+        return run_terrain_drape(args)
     folder = models_folder(args.models)  # a folder named but missing: InputError, exit 2
     if folder is None and not args.quiet:
         print(f"viscore: no --models and no ${MODELS_ENV}: benchmarking the built-in scenes "

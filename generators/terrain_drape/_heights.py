@@ -1,0 +1,97 @@
+"""The lowest surface of a mesh as a height field, sampled by vertical rays.
+
+:func:`lowest_surface` casts one ray per grid point straight up from below the
+mesh (``viscore.Scene``, the mesh's one Embree scene) and keeps the height of
+the first hit: the underside a viewer below would see, which for an open
+terrain sheet is the sheet itself and for a level is its ground wherever
+nothing hangs lower. Grid points whose ray misses are off the footprint.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+from viscore.scene import Scene
+
+__all__ = ["HeightGrid", "lowest_surface"]
+
+
+@dataclass(frozen=True)
+class HeightGrid:
+    """Heights on a regular grid across the up axis.
+
+    Attributes
+    ----------
+    up : int
+        Index of the up axis; ``axes`` the two horizontal ones, in order.
+    axes : tuple of int
+    origin : (2,) float
+        World coordinates (along ``axes``) of grid point (0, 0).
+    spacing : float
+        Distance between neighbouring grid points, world units.
+    heights : (nx, ny) float64
+        Height of the lowest surface above each point (``nan`` off the footprint).
+    mask : (nx, ny) bool
+        The footprint: points whose ray hit.
+    """
+
+    up: int
+    axes: tuple[int, int]
+    origin: np.ndarray
+    spacing: float
+    heights: np.ndarray
+    mask: np.ndarray
+
+    def points(self, ij: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """World points at fractional grid coordinates ``ij`` (n, 2) and heights ``z`` (n,)."""
+        out = np.empty((len(ij), 3))
+        out[:, self.axes[0]] = self.origin[0] + ij[:, 0] * self.spacing
+        out[:, self.axes[1]] = self.origin[1] + ij[:, 1] * self.spacing
+        out[:, self.up] = z
+        return out
+
+
+def lowest_surface(mesh: trimesh.Trimesh, up: int, resolution: int) -> HeightGrid:
+    """Sample the lowest surface of ``mesh`` seen from below along axis ``up``.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    up : int
+        0, 1 or 2.
+    resolution : int
+        Grid points along the longer horizontal side of the bounding box.
+
+    Returns
+    -------
+    HeightGrid
+
+    Examples
+    --------
+    >>> sheet = trimesh.creation.box(extents=(4, 2, 1))
+    >>> g = lowest_surface(sheet, 2, 9)
+    >>> g.heights.shape, round(float(np.nanmax(g.heights)), 5)
+    ((9, 5), -0.5)
+    """
+    lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
+    axes = tuple(int(a) for a in (0, 1, 2) if a != up)
+    extent = hi[list(axes)] - lo[list(axes)]
+    spacing = float(extent.max()) / max(resolution - 1, 1)
+    counts = np.maximum(np.round(extent / spacing).astype(int) + 1, 1)
+    # centre the grid on the box so both rims are sampled alike
+    origin = lo[list(axes)] + 0.5 * (extent - (counts - 1) * spacing)
+    ii, jj = np.meshgrid(np.arange(counts[0]), np.arange(counts[1]), indexing="ij")
+    start = lo[up] - 0.01 * max(float(hi[up] - lo[up]), spacing) - spacing
+    grid = HeightGrid(up, axes, origin, spacing, np.empty(0), np.empty(0, bool))
+    o = grid.points(np.stack([ii.ravel(), jj.ravel()], 1).astype(np.float64),
+                    np.full(ii.size, start))
+    d = np.zeros(3)
+    d[up] = 1.0
+    t, _ = Scene.shared(mesh).first_hit(o, np.broadcast_to(d, o.shape))
+    heights = (start + t).reshape(ii.shape)
+    mask = np.isfinite(heights)
+    heights[~mask] = np.nan
+    return HeightGrid(up, axes, origin, spacing, heights, mask)
