@@ -91,6 +91,24 @@ def test_qem_respects_budget(unit_sphere):
     assert 32 <= occ.triangles <= 64
 
 
+def test_qem_of_an_open_scan_at_a_small_budget_is_not_a_sliver(caplog):
+    """The boundary-preserving pass shrinks the open bunny (56k) to 42 faces over 7% of its
+    box at budgets up to 32; the second pass then starts again from the input."""
+    import logging
+
+    from viscore.cli.bench.scale import open_scan
+
+    scan = open_scan(0)
+    caplog.set_level(logging.INFO, logger="viscore.generators.baselines.generic")
+    occ = generate_qem(scan, budget=24)
+    assert occ.triangles <= 24
+    diag = np.linalg.norm(scan.extents)
+    assert np.linalg.norm(occ.mesh.extents) > 0.8 * diag
+    assert any("collapsed the mesh" in r.message for r in caplog.records)
+    r = orbit_precision_recall(scan, occ.mesh, views=8, quads=2000, resolution=64)
+    assert r.recall > 0.3
+
+
 def test_registry_names_and_unknown():
     assert {"aabb-skins", "qem", "bbox", "original"} <= set(REGISTRY)
     with pytest.raises(InputError, match="registered"):
