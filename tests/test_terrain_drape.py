@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+from viscore.cli.bench.table1 import height_field_sheet
 from viscore.generators import generate
 from viscore.generators.terrain_drape._envelope import hidden_floor, lattice_directions
 from viscore.generators.terrain_drape._fit import fit_drape
@@ -19,13 +20,7 @@ from viscore.scene import Scene
 
 def _sheet(z: np.ndarray, size: float = 2.0) -> trimesh.Trimesh:
     """A height field over [0, size]^2 as an open triangle sheet."""
-    n = z.shape[0]
-    x, y = np.meshgrid(np.linspace(0, size, n), np.linspace(0, size, n), indexing="ij")
-    idx = np.arange(n * n).reshape(n, n)
-    a, b = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel()
-    c, d = idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
-    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
-    return trimesh.Trimesh(np.stack([x.ravel(), y.ravel(), z.ravel()], 1), faces, process=False)
+    return height_field_sheet(z, size, size)
 
 
 def _brute_floor(h: np.ndarray, mask: np.ndarray, reach: int) -> np.ndarray:

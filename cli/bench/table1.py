@@ -39,7 +39,7 @@ import trimesh
 from viscore import load_mesh
 
 __all__ = ["PAPER_TABLE1", "table1_meshes", "machine_assembly", "fractal_terrain",
-           "bench_table1", "table1_lines"]
+           "height_field_sheet", "bench_table1", "table1_lines"]
 
 _log = logging.getLogger(__name__)
 
@@ -80,12 +80,25 @@ def fractal_terrain(n: int = 174, *, size: float = 100.0, height: float = 33.0,
     spectrum = (rng.normal(size=(n, n)) + 1j * rng.normal(size=(n, n))) / k ** beta
     z = np.real(np.fft.ifft2(spectrum))
     z = (z - z.min()) / np.ptp(z) * height
-    x, y = np.meshgrid(np.linspace(0, size, n), np.linspace(0, size, n), indexing="ij")
-    idx = np.arange(n * n).reshape(n, n)
+    return height_field_sheet(z, size, size)
+
+
+def height_field_sheet(z: np.ndarray, sx: float, sy: float) -> trimesh.Trimesh:
+    """The heights ``z`` (nx, ny) on a regular grid over [0, sx] x [0, sy] as an open
+    sheet of ``2 (nx - 1)(ny - 1)`` triangles, z up.
+
+    Examples
+    --------
+    >>> len(height_field_sheet(np.zeros((3, 4)), 2.0, 3.0).faces)
+    12
+    """
+    nx, ny = z.shape
+    x, y = np.meshgrid(np.linspace(0, sx, nx), np.linspace(0, sy, ny), indexing="ij")
+    idx = np.arange(nx * ny).reshape(nx, ny)
     a, b = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel()
     c, d = idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
     faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
-    return trimesh.Trimesh(np.stack([x.ravel(), y.ravel(), z.ravel()], 1), faces,
+    return trimesh.Trimesh(np.stack([x.ravel(), y.ravel(), np.ravel(z)], 1), faces,
                            process=False)
 
 

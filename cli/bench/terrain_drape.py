@@ -24,7 +24,7 @@ import trimesh
 
 from viscore import load_mesh
 
-from .table1 import _scored, fractal_terrain
+from .table1 import _scored, fractal_terrain, height_field_sheet
 
 __all__ = ["height_fields", "area_above", "bench_terrain_drape", "terrain_drape_lines",
            "BUDGET", "METHODS"]
@@ -39,16 +39,6 @@ METHODS = ("terrain-drape", "planar-sections", "qem")
 ABOVE = 0.005
 
 
-def _grid_sheet(z: np.ndarray, sx: float, sy: float) -> trimesh.Trimesh:
-    nx, ny = z.shape
-    x, y = np.meshgrid(np.linspace(0, sx, nx), np.linspace(0, sy, ny), indexing="ij")
-    idx = np.arange(nx * ny).reshape(nx, ny)
-    a, b = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel()
-    c, d = idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
-    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
-    return trimesh.Trimesh(np.stack([x.ravel(), y.ravel(), z.ravel()], 1), faces, process=False)
-
-
 def _hills(seed: int, n: int = 150) -> trimesh.Trimesh:
     """Twelve seeded Gaussian hills and hollows over 200 x 120."""
     rng = np.random.default_rng(seed)
@@ -58,7 +48,7 @@ def _hills(seed: int, n: int = 150) -> trimesh.Trimesh:
         cx, cy = rng.uniform(0, 200), rng.uniform(0, 120)
         r, a = rng.uniform(10, 40), rng.uniform(-15, 25)
         z += a * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / r ** 2)
-    return _grid_sheet(z, 200, 120)
+    return height_field_sheet(z, 200, 120)
 
 
 def height_fields(seed: int = 0) -> dict[str, tuple[trimesh.Trimesh, str]]:
