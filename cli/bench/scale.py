@@ -23,14 +23,14 @@ References
 from __future__ import annotations
 
 import logging
-import time
+from functools import partial
 
 import numpy as np
 import trimesh
 
 from viscore import load_mesh
 
-from .table1 import _scored, _subdivided
+from .table1 import _subdivided, timed_row
 
 __all__ = ["open_scan", "bench_scale", "scale_lines", "OPEN_BASE"]
 
@@ -90,10 +90,8 @@ def bench_scale(*, budget: int = 64, views: int = 128, seed: int = 0,
         ref = ReferenceViews(mesh, protocol="orbit", views=views, seed=seed)
         row = {"subdivisions": k, "triangles": len(mesh.faces)}
         for method in ("planar-sections", "qem"):
-            t0 = time.perf_counter()
-            occ = generate(method, mesh, budget=budget, seed=seed)
-            row[method] = {"seconds": time.perf_counter() - t0, "triangles": occ.triangles,
-                           **_scored(ref.score(occ.mesh))}
+            occ, row[method] = timed_row(
+                partial(generate, method, mesh, budget=budget, seed=seed), ref)
             floor = occ.info.get("precision_floor")
             if floor is not None:
                 row[method]["generations"] = len(floor.get("closings", [])) + len(

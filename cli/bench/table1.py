@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import logging
 import time
+from functools import partial
 
 import numpy as np
 import trimesh
@@ -163,6 +164,20 @@ def _scored(result) -> dict:
             "recall_ci": [float(x) for x in result.recall_ci]}
 
 
+def timed_row(make, ref) -> tuple:
+    """``make()``'s occluder, timed, and its row: ``triangles``, ``seconds`` (wall) and the
+    scores on ``ref`` (a :class:`viscore.metrics.ReferenceViews`) with their intervals;
+    precision None for an empty occluder, and ``(None, None)`` when ``make`` gives None."""
+    t0 = time.perf_counter()
+    occ = make()
+    took = time.perf_counter() - t0
+    if occ is None:
+        return None, None
+    scored = (_scored(ref.score(occ.mesh)) if occ.triangles else
+              {"precision": None, "recall": 0.0, "precision_ci": None, "recall_ci": [0.0, 0.0]})
+    return occ, {"triangles": occ.triangles, "seconds": took, **scored}
+
+
 def bench_table1(*, views: int = 256, seed: int = 0, rows: tuple[str, ...] | None = None
                  ) -> list[dict]:
     """Table 1's rows: the paper's figures beside planar sections, qem and godot here.
@@ -193,15 +208,9 @@ def bench_table1(*, views: int = 256, seed: int = 0, rows: tuple[str, ...] | Non
                "paper": {"triangles": tris, "seconds": seconds, "precision": precision,
                          "recall": recall}}
         for method in ("planar-sections", "qem", "godot"):
-            t0 = time.perf_counter()
-            occ = (godot_within(mesh, budget) if method == "godot"
-                   else generate(method, mesh, budget=budget, seed=seed))
-            took = time.perf_counter() - t0
-            if occ is None:
-                row[method] = None
-                continue
-            row[method] = {"triangles": occ.triangles, "seconds": took,
-                           **_scored(ref.score(occ.mesh))}
+            row[method] = timed_row(
+                partial(godot_within, mesh, budget) if method == "godot" else
+                partial(generate, method, mesh, budget=budget, seed=seed), ref)[1]
         out.append(row)
     return out
 

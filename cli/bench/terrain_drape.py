@@ -17,14 +17,14 @@ printed, never asserted in tests.
 from __future__ import annotations
 
 import logging
-import time
+from functools import partial
 
 import numpy as np
 import trimesh
 
 from viscore import load_mesh
 
-from .table1 import _scored, fractal_terrain, height_field_sheet
+from .table1 import fractal_terrain, height_field_sheet, timed_row
 
 __all__ = ["height_fields", "area_above", "bench_terrain_drape", "terrain_drape_lines",
            "BUDGET", "METHODS"]
@@ -108,14 +108,9 @@ def bench_terrain_drape(*, budget: int = BUDGET, views: int = 256, seed: int = 0
         ref = ReferenceViews(mesh, protocol="orbit", views=views, seed=seed)
         row = {"name": name, "triangles": len(mesh.faces)}
         for method in methods:
-            t0 = time.perf_counter()
-            occ = generate(method, mesh, budget=budget, seed=seed)
-            seconds = time.perf_counter() - t0
-            scored = (_scored(ref.score(occ.mesh)) if occ.triangles else
-                      {"precision": None, "recall": 0.0, "precision_ci": None,
-                       "recall_ci": [0.0, 0.0]})
-            row[method] = {"triangles": occ.triangles, "seconds": seconds, **scored,
-                           "above": area_above(mesh, occ.mesh, up, seed=seed)}
+            occ, cells = timed_row(
+                partial(generate, method, mesh, budget=budget, seed=seed), ref)
+            row[method] = {**cells, "above": area_above(mesh, occ.mesh, up, seed=seed)}
         rows.append(row)
     return rows
 
