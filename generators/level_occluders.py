@@ -48,6 +48,10 @@ across around a town 180 m across), the threshold is a fraction of the
 latter. A glTF holding a single object (a map exported as one mesh) is split
 into parts as a single mesh is.
 
+A method for height fields (``GeneratorSpec.inputs``, ``terrain-drape``) runs on
+the flat objects only; every other chosen object's record says it was not run
+and why.
+
 Resumption (:func:`occlude_level`). Each (mesh, method) job's result is
 written as soon as it finishes, atomically, under ``DIR/occluders/<method>/``:
 ``<mesh>.ply`` (the local-space occluder, float64) and then ``<mesh>.json``
@@ -88,7 +92,7 @@ from viscore._validate import as_positive_int, as_seed
 from viscore.mesh_io import ply_bytes
 
 from ._pool import worker_init as _worker_init
-from .level_objects import LevelObjects, default_methods
+from .level_objects import FLAT_RATIO, LevelObjects, default_methods
 from .registry import generate, parse_method
 from .scene_occluders import _guaranteed
 
@@ -469,13 +473,26 @@ def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
         canonical[m] = first.setdefault(digest, m)
     results: dict[tuple[str, int], MeshOccluder] = {}
     pending = []
+    # a method for height fields (GeneratorSpec.inputs) runs on the flat objects only: a
+    # mesh is flat when every chosen object placing it is
+    placing = np.asarray(objects.mesh_ids)[chosen]
+    flat_mesh = {m: bool(np.asarray(level.flat)[chosen][placing == m].all()) for m in mesh_ids}
     for label in labels:
+        fields_only = parse_method(label).spec.inputs == "height-fields"
         for m in sorted(set(canonical.values())):
             mesh = objects.meshes[m]
             v = np.asarray(mesh.vertices, dtype=np.float64)
             f = np.asarray(mesh.faces, dtype=np.int64)
             name = objects.mesh_names[m]
-            found = _stored(out, label, name, _job_key(v, f, label, budget, seed))
+            key = _job_key(v, f, label, budget, seed)
+            if fields_only and not all(flat_mesh[k] for k in mesh_ids if canonical[k] == m):
+                results[(label, m)] = MeshOccluder(
+                    name, label, np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), 0, False,
+                    0.0, f"not run: {label} is for height fields, and this object is not flat "
+                    f"(its extent along the up axis is at least {FLAT_RATIO:g} of its width)",
+                    key)
+                continue
+            found = _stored(out, label, name, key)
             if found is not None:
                 results[(label, m)] = found
             else:
@@ -483,9 +500,11 @@ def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
     # the biggest meshes first: the pool's last job is a small one
     pending.sort(key=lambda a: -len(a[1]))
     index = {(objects.mesh_names[m], label): m for m in mesh_ids for label in labels}
-    total, reused = len(results) + len(pending), len(results)
+    total = len(results) + len(pending)
+    reused = sum(r.refused is None or not r.refused.startswith("not run:")
+                 for r in results.values())  # the jobs found finished, not the ones skipped
     if progress is not None:
-        progress(reused, total, "")
+        progress(len(results), total, "")
 
     def commit(job: MeshOccluder) -> None:
         _keep(out, job)

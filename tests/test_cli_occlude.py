@@ -373,3 +373,42 @@ def test_level_scale_ignores_an_outer_ground_far_larger_than_the_town(monkeypatc
     monkeypatch.setattr(lo, "LEVEL_SPAN", np.inf)
     assert {level_objects(scene).objects.names[i] for i in level_objects(scene).chosen} \
         == {"ground", "hill"}
+
+
+def test_occlude_runs_a_height_field_method_on_the_flat_objects_only(tmp_path):
+    """terrain-drape (GeneratorSpec.inputs == 'height-fields') gets the terrain sheet of a
+    level and leaves the buildings, without running on them."""
+    from viscore.cli.bench.table1 import height_field_sheet
+
+    x, z = np.meshgrid(np.linspace(-1, 1, 41), np.linspace(-1, 1, 41), indexing="ij")
+    hill = height_field_sheet(0.3 * np.exp(-3 * (x ** 2 + z ** 2)), 40.0, 40.0)
+    hill.apply_transform(T.rotation_matrix(-np.pi / 2, (1, 0, 0)))  # z up -> y up (glTF)
+    scene = trimesh.Scene()
+    scene.add_geometry(hill, geom_name="hill", node_name="hill")
+    for k, at in enumerate((5.0, 25.0)):
+        scene.add_geometry(trimesh.creation.box(bounds=[[at, 0, -20], [at + 6, 8, -14]]),
+                           geom_name=f"house{k}", node_name=f"house{k}")
+    path = tmp_path / "level.glb"
+    scene.export(path)
+    level = level_objects(path)
+    assert set(level.objects.names[i] for i in level.chosen) == {"hill", "house0", "house1"}
+    out = tmp_path / "out"
+    out.mkdir()
+    made = occlude_level(level, out, methods=["terrain-drape"], budget=16)
+    doc = json.loads((out / "occlude.json").read_text())
+    hill_occ = doc["objects"]["hill"]["occluders"]["terrain-drape"]
+    assert "refused" not in hill_occ and 0 < hill_occ["triangles"] <= 16
+    for house in ("house0", "house1"):
+        row = doc["objects"][house]["occluders"]["terrain-drape"]
+        assert "refused" in row, (house, row, level.flat)
+        why = row["refused"]
+        assert why.startswith("not run:") and "not flat" in why
+    assert not (out / "occluders" / "terrain-drape" / "house0.json").exists()
+    assert made.reused == 0
+    # the drape, placed in Godot's frame (+Y up, as the level), lies under the hill
+    placed = _world_triangles(out, "terrain-drape", level)["hill"].reshape(-1, 3)
+    sheet = trimesh.Trimesh(np.asarray(hill.vertices), np.asarray(hill.faces), process=False)
+    from viscore.scene import Scene
+
+    up = np.tile([0.0, 1.0, 0.0], (len(placed), 1))
+    assert Scene(sheet).any_hit(placed.astype(np.float64) - [0, 1e-4, 0], up).all()
