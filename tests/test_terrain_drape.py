@@ -145,6 +145,13 @@ def test_up_axis_is_found_for_a_y_up_terrain(hill):
     assert Scene(turned).any_hit(pts, np.tile([0.0, 1.0, 0.0], (len(pts), 1))).all()
 
 
+def test_no_budget_means_the_default_budget(hill):
+    from viscore.generators.terrain_drape.generator import DEFAULT_BUDGET, generate_terrain_drape
+
+    occ = generate_terrain_drape(hill, budget=None)
+    assert 16 < occ.triangles <= DEFAULT_BUDGET
+
+
 def test_empty_drapes_say_why():
     # a wall along the up axis: no ray from below meets it
     wall = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]], [[0, 1, 2], [0, 2, 3]])

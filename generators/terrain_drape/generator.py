@@ -57,6 +57,7 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
+from viscore._validate import as_positive_int
 from viscore.ground import UP_AXES, guess_up
 
 from .._precision_check import check_score, check_views, passes
@@ -66,10 +67,12 @@ from ._fit import fit_drape
 from ._heights import lowest_surface
 from ._line_check import escaping_lines
 
-__all__ = ["generate_terrain_drape", "RESOLUTION", "MARGIN", "INSETS", "SHAPES"]
+__all__ = ["generate_terrain_drape", "DEFAULT_BUDGET", "RESOLUTION", "MARGIN", "INSETS", "SHAPES"]
 
 _log = logging.getLogger(__name__)
 
+#: Triangles when no budget is given.
+DEFAULT_BUDGET = 64
 #: Grid points along the footprint's longer side.
 RESOLUTION = 192
 #: Shell margin at both bounds, in grid spacings (world units: MARGIN x spacing).
@@ -141,7 +144,7 @@ def _mesh(grid, drape, faces=None) -> trimesh.Trimesh:
     return out
 
 
-def generate_terrain_drape(mesh: trimesh.Trimesh, *, budget: int = 23, seed: int = 0,
+def generate_terrain_drape(mesh: trimesh.Trimesh, *, budget: int | None = None, seed: int = 0,
                            mode: str = "measured", min_precision: float = 0.995,
                            up: str = "auto", resolution: int = RESOLUTION,
                            reach: int = 3) -> Occluder:
@@ -151,8 +154,8 @@ def generate_terrain_drape(mesh: trimesh.Trimesh, *, budget: int = 23, seed: int
     ----------
     mesh : trimesh.Trimesh
         A terrain sheet, a floor, a level's ground: open, seen once from below.
-    budget : int
-        Most triangles.
+    budget : int, optional
+        Most triangles (default :data:`DEFAULT_BUDGET`).
     seed : int
         Seeds the check views (``measured``) or the line check (``hidden``).
     mode : {'measured', 'hidden'}
@@ -186,6 +189,7 @@ def generate_terrain_drape(mesh: trimesh.Trimesh, *, budget: int = 23, seed: int
     (20, True)
     """
     start = time.perf_counter()
+    budget = DEFAULT_BUDGET if budget is None else as_positive_int(budget, "budget")
     params = {"mode": mode, "min_precision": min_precision, "up": up,
               "resolution": resolution, "reach": reach}
     up_name = guess_up(mesh, level=True)[0] if up == "auto" else up
