@@ -396,7 +396,8 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                 GeneratorOption("up", str, "auto", "the up axis",
                                 choices=("auto", "x", "y", "z")),
                 GeneratorOption("resolution", int, TERRAIN_RESOLUTION,
-                                "height samples along the footprint's longer side",
+                                "height samples along each side of a square footprint "
+                                "(about its square over any footprint)",
                                 low=8, high=1024),
                 GeneratorOption("reach", int, 3,
                                 "hidden mode: lattice directions (a, b) of the hidden floor, "

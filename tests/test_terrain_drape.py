@@ -163,3 +163,26 @@ def test_empty_drapes_say_why():
                    min_precision=0.9999)
     assert occ.triangles == 0 and "precision floor 0.9999" in occ.info["reason"]
     assert all(t["precision"] < 0.9999 for t in occ.info["tried"])
+
+
+def test_a_road_gets_rows_across_it():
+    """A long narrow footprint (a road 400 x 4, gently sloped) is sampled across as well as
+    along, so the drape under it is not dropped for want of samples."""
+    x, y = np.meshgrid(np.linspace(0, 400, 201), np.linspace(0, 4, 5), indexing="ij")
+    road = height_field_sheet(0.01 * x + 0.05 * np.sin(x / 10), 400.0, 4.0)
+    grid = lowest_surface(road, 2, 64)
+    assert grid.heights.shape[1] >= 5 and grid.heights.size <= 2 * 64 ** 2
+    occ = generate("terrain-drape", road, budget=16)
+    assert occ.triangles > 0
+    pts, _ = trimesh.sample.sample_surface(occ.mesh, 500, seed=2)
+    assert Scene(road).any_hit(pts, np.tile([0.0, 0.0, 1.0], (len(pts), 1))).all()
+
+
+def test_no_grid_to_fit_says_so():
+    """Tiles with gaps between them: every sample is next to a hole, so no quad is held and
+    nothing is scored; the reason says that, not the precision floor."""
+    tiles = [trimesh.creation.box(bounds=[[i, j, 0], [i + 0.5, j + 0.5, 0.01]])
+             for i in range(12) for j in range(12)]
+    occ = generate("terrain-drape", trimesh.util.concatenate(tiles), budget=16, resolution=24)
+    assert occ.triangles == 0 and occ.info["tried"] == []
+    assert "no grid of quads holds a triangle" in occ.info["reason"]

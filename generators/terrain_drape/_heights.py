@@ -16,7 +16,11 @@ import trimesh
 
 from viscore.scene import Scene
 
-__all__ = ["HeightGrid", "lowest_surface"]
+__all__ = ["HeightGrid", "lowest_surface", "LONG_FACTOR"]
+
+#: At most this many times ``resolution`` points along the longer side (a footprint with
+#: no width, a wall seen along the up axis, gets one row of them, not an unbounded one).
+LONG_FACTOR = 32.0
 
 
 @dataclass(frozen=True)
@@ -63,7 +67,10 @@ def lowest_surface(mesh: trimesh.Trimesh, up: int, resolution: int) -> HeightGri
     up : int
         0, 1 or 2.
     resolution : int
-        Grid points along the longer horizontal side of the bounding box.
+        Grid points along each side of a square footprint: about
+        ``resolution^2`` points over the bounding box whatever its shape (a
+        road 1000 x 1 at 192 gets 6 rows of 6,000), at most
+        :data:`LONG_FACTOR` x ``resolution`` along its longer side.
 
     Returns
     -------
@@ -74,12 +81,15 @@ def lowest_surface(mesh: trimesh.Trimesh, up: int, resolution: int) -> HeightGri
     >>> sheet = trimesh.creation.box(extents=(4, 2, 1))
     >>> g = lowest_surface(sheet, 2, 9)
     >>> g.heights.shape, round(float(np.nanmax(g.heights)), 5)
-    ((9, 5), -0.5)
+    ((12, 7), -0.5)
     """
     lo, hi = np.asarray(mesh.bounds, dtype=np.float64)
     axes = tuple(int(a) for a in (0, 1, 2) if a != up)
     extent = hi[list(axes)] - lo[list(axes)]
-    spacing = float(extent.max()) / max(resolution - 1, 1)
+    # about resolution^2 points over the box: a long narrow footprint (a road) gets rows
+    # across it too, not one
+    spacing = max(float(np.sqrt(extent[0] * extent[1])),
+                  float(extent.max()) / LONG_FACTOR) / max(resolution - 1, 1)
     counts = np.maximum(np.round(extent / spacing).astype(int) + 1, 1)
     # centre the grid on the box so both rims are sampled alike
     origin = lo[list(axes)] + 0.5 * (extent - (counts - 1) * spacing)

@@ -7,8 +7,8 @@ built-in terrain at 23 triangles: R 0.449). This method drapes a
 piecewise-linear surface of at most ``budget`` triangles under the sheet:
 
 1. :func:`._heights.lowest_surface`: the mesh's lowest surface along the up
-   axis, sampled by vertical rays on a grid of ``resolution`` points along its
-   longer side; its neighbourhood minimum (3 x 3 samples) less a margin of
+   axis, sampled by vertical rays on a grid of about ``resolution^2`` points
+   over its bounding box; its neighbourhood minimum (3 x 3 samples) less a margin of
    :data:`MARGIN` grid spacings is the drape's ceiling, so that the surface
    between samples is allowed for;
 2. :func:`._fit.fit_drape`: for a few quad grids of at most ``budget``
@@ -36,8 +36,11 @@ piecewise-linear surface of at most ``budget`` triangles under the sheet:
 
 The drape lies under the lowest surface, so for a viewer above the surface
 within the footprint it is behind the sheet as well (depth-conservative).
-Closed meshes give nothing here (their lowest surface is their underside):
-planar sections and the solid methods are for them. Beyond the source
+Closed meshes get little or nothing here (their lowest surface is their
+underside, and a drape under it shows past it from low views: the teapot
+keeps 2 triangles at R 0.03, the bunny none); planar sections and the solid
+methods are for them. A second layer under the ground (a deck, a cave) pulls
+the drape under it. Beyond the source
 papers; ours.
 
 References
@@ -73,7 +76,7 @@ _log = logging.getLogger(__name__)
 
 #: Triangles when no budget is given.
 DEFAULT_BUDGET = 64
-#: Grid points along the footprint's longer side.
+#: Grid points along each side of a square footprint (about RESOLUTION^2 over any).
 RESOLUTION = 192
 #: Shell margin at both bounds, in grid spacings (world units: MARGIN x spacing).
 MARGIN = 0.02
@@ -166,7 +169,8 @@ def generate_terrain_drape(mesh: trimesh.Trimesh, *, budget: int | None = None, 
     up : {'auto', 'x', 'y', 'z'}
         The up axis; ``auto`` guesses it (:func:`viscore.ground.guess_up`).
     resolution : int
-        Height samples along the footprint's longer side.
+        Height samples along each side of a square footprint (about
+        ``resolution^2`` over any footprint).
     reach : int
         Lattice directions of the hidden floor (``max(|a|, |b|) <= reach``).
 
@@ -198,8 +202,7 @@ def generate_terrain_drape(mesh: trimesh.Trimesh, *, budget: int | None = None, 
 
     def done(out: trimesh.Trimesh, reason: str | None = None) -> Occluder:
         if reason:
-            info["reason"] = reason
-            _log.info("terrain-drape: %s", reason)
+            info["reason"] = reason  # the caller says it (generate's error line, the manifest)
         return Occluder(out, "terrain-drape", params, True, time.perf_counter() - start,
                         info=info)
 
@@ -268,8 +271,11 @@ def generate_terrain_drape(mesh: trimesh.Trimesh, *, budget: int | None = None, 
                     break
                 best, insets = hit, trial
     info["tried"] = tried
+    if not tried:
+        return done(_empty(), "no grid of quads holds a triangle: every height sample lies "
+                    "within one sample of the footprint's rim or of a hole")
     if not good:
-        top = max(t["precision"] for t in tried) if tried else float("nan")
+        top = max(t["precision"] for t in tried)
         return done(_empty(), f"no drape reaches the precision floor {min_precision} on the "
                     f"check views (best {top:.4f})")
     sc, out, drape, shape, insets = best
