@@ -14,8 +14,11 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-__all__ = ["CHECK_VIEWS", "CHECK_SEED_OFFSET", "CHECK_Z", "ratio_se", "check_views",
-           "check_score", "passes"]
+__all__ = ["CHECK_VIEWS", "CHECK_SEED_OFFSET", "CHECK_Z", "DEFAULT_MIN_PRECISION", "ratio_se",
+           "check_views", "check_score", "passes"]
+
+#: The precision floor generators keep by default (planar sections, the terrain drape).
+DEFAULT_MIN_PRECISION = 0.995
 
 #: Orbit views of the check (the metric's own resolution and quads).
 CHECK_VIEWS = 64

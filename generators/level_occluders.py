@@ -474,9 +474,11 @@ def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
     results: dict[tuple[str, int], MeshOccluder] = {}
     pending = []
     # a method for height fields (GeneratorSpec.inputs) runs on the flat objects only: a
-    # mesh is flat when every chosen object placing it is
-    placing = np.asarray(objects.mesh_ids)[chosen]
-    flat_mesh = {m: bool(np.asarray(level.flat)[chosen][placing == m].all()) for m in mesh_ids}
+    # job's mesh is flat when every chosen object placing it or a copy of it is
+    flat = np.asarray(level.flat)[chosen]
+    job_of = np.array([canonical[int(m)] for m in np.asarray(objects.mesh_ids)[chosen]])
+    flat_job = {m: bool(flat[job_of == m].all()) for m in set(canonical.values())}
+    reused = 0
     for label in labels:
         fields_only = parse_method(label).spec.inputs == "height-fields"
         for m in sorted(set(canonical.values())):
@@ -485,7 +487,7 @@ def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
             f = np.asarray(mesh.faces, dtype=np.int64)
             name = objects.mesh_names[m]
             key = _job_key(v, f, label, budget, seed)
-            if fields_only and not all(flat_mesh[k] for k in mesh_ids if canonical[k] == m):
+            if fields_only and not flat_job[m]:
                 results[(label, m)] = MeshOccluder(
                     name, label, np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), 0, False,
                     0.0, f"not run: {label} is for height fields, and this object is not flat "
@@ -495,14 +497,13 @@ def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
             found = _stored(out, label, name, key)
             if found is not None:
                 results[(label, m)] = found
+                reused += 1
             else:
                 pending.append((v, f, name, label, budget, seed))
     # the biggest meshes first: the pool's last job is a small one
     pending.sort(key=lambda a: -len(a[1]))
     index = {(objects.mesh_names[m], label): m for m in mesh_ids for label in labels}
     total = len(results) + len(pending)
-    reused = sum(r.refused is None or not r.refused.startswith("not run:")
-                 for r in results.values())  # the jobs found finished, not the ones skipped
     if progress is not None:
         progress(len(results), total, "")
 

@@ -46,6 +46,7 @@ from dataclasses import dataclass
 
 from viscore import InputError
 
+from ._precision_check import DEFAULT_MIN_PRECISION as CHECK_MIN_PRECISION
 from .aabb_skins import generate_aabb_skins
 from .aabb_skins.generator import BYTES_PER_CELL as AABB_BYTES_PER_CELL
 from .aabb_skins.generator import MAX_VOXELS as AABB_MAX_VOXELS
@@ -390,7 +391,7 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                                 "keep the drape of best check recall at min-precision, or only "
                                 "what every line through it shows covered (guaranteed, thin)",
                                 choices=("measured", "hidden")),
-                GeneratorOption("min_precision", float, 0.995,
+                GeneratorOption("min_precision", float, CHECK_MIN_PRECISION,
                                 "check-view precision floor of the measured mode", low=0,
                                 high=1),
                 GeneratorOption("up", str, "auto", "the up axis",

@@ -373,7 +373,7 @@ def test_precision_floor_refines_a_thin_disc_and_keeps_the_most_precise(few_chec
 
 
 def test_ratio_se_of_the_precision_floor():
-    from viscore.generators.planar_sections.floor import _ratio_se
+    from viscore.generators._precision_check import ratio_se as _ratio_se
 
     den = np.array([10.0, 20.0, 30.0, 40.0])
     assert _ratio_se(0.9 * den, den) == 0.0  # every view at the pooled ratio

@@ -100,7 +100,7 @@ def generate_qem(mesh: trimesh.Trimesh, *, budget: int = DEFAULT_BUDGET, seed: i
     ms = _meshset(mesh)
     if len(mesh.faces) > budget:
         ms.meshing_remove_duplicate_vertices()
-            # keep open boundaries where the budget allows; open sheets (terrain, walls)
+        # keep open boundaries where the budget allows; open sheets (terrain, walls)
         # cannot reach small budgets that way, so a second pass may collapse them
         for preserve in (True, False):
             quadric_edge_collapse(ms, targetfacenum=budget, preserveboundary=preserve,

@@ -23,16 +23,22 @@ from viscore.metrics.frames import orbit_frame
 from viscore import InputError, get_workers
 
 from .._held_logs import held_records, release
-from .._precision_check import CHECK_SEED_OFFSET, CHECK_VIEWS, CHECK_Z
-from .._precision_check import ratio_se as _ratio_se
+from .._precision_check import (
+    CHECK_SEED_OFFSET,
+    CHECK_VIEWS,
+    check_score,
+    check_views,
+    passes,
+)
 from ._single import _generate_one, _no_interior, _resolution
 from ._slices import section_solid
 
 _log = logging.getLogger(__name__)
 
-#: Precision floor of the default sizing (``min_precision``): the precision the occluder
-#: must reach on :data:`FLOOR_VIEWS` orbit views of the mesh before the voxels are refined.
-DEFAULT_MIN_PRECISION = 0.995
+# The precision floor of the default sizing (``min_precision``) is DEFAULT_MIN_PRECISION of
+# .._precision_check: the precision the occluder must reach on FLOOR_VIEWS orbit views of
+# the mesh before the voxels are refined. The check passes when the one-sided 95% lower
+# bound of the precision, P - 1.645 SE, is at or over the floor (.._precision_check.passes).
 
 #: Orbit views of the precision floor's check (the metric's own resolution and quads),
 #: drawn with a seed of their own (:data:`FLOOR_SEED_OFFSET` added to the generator's).
@@ -41,10 +47,6 @@ DEFAULT_MIN_PRECISION = 0.995
 #: +- 0.0013 where 128 views of three other seeds read 0.990-0.992.
 FLOOR_VIEWS = CHECK_VIEWS
 FLOOR_SEED_OFFSET = CHECK_SEED_OFFSET
-
-#: The check passes when the one-sided 95% lower bound of the precision, ``P - 1.645
-#: SE``, is at or over the floor.
-FLOOR_Z = CHECK_Z
 
 #: Closings tried (beside none) when the voxel solid has no interior and ``close`` is left
 #: to its default with the precision floor on: at 64 triangles and 64^3 (orbit, 64 views,
@@ -121,10 +123,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     share reaches :data:`GROUND_SHARE`; without, always and alone (the plain
     solid is not a candidate).
     """
-    from viscore.metrics.reference_views import ReferenceViews
-
-    views = ReferenceViews(mesh, protocol="orbit", views=FLOOR_VIEWS,
-                           seed=seed + FLOOR_SEED_OFFSET)
+    views = check_views(mesh, seed, FLOOR_VIEWS)
     extent = float(np.max(mesh.extents))
     orbit = orbit_frame(mesh)  # every step's selection frame, computed once
 
@@ -133,19 +132,10 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
         fill = None if kind is None else {"height": ground["height"], **kind}
         result = _generate_one(mesh, size, **{**options, "close": close}, ground=fill,
                                warn_interior=not auto_close and ground is None, orbit=orbit)
-        if len(result[0].faces) == 0:  # nothing to over-occlude with
-            p, se, r = 1.0, 0.0, 0.0
-        else:
-            pr = views.score(result[0])
-            p, se, r = float(pr.precision), _ratio_se(*pr.ratio_parts("precision")), float(
-                pr.recall)
         step = {"voxels": result[2]["voxels"], "close": close, "ground": kind,
-                "triangles": len(result[0].faces), "precision": p, "precision_se": se,
-                "recall": r, "seconds": time.perf_counter() - t0}
+                "triangles": len(result[0].faces), **check_score(views, result[0]),
+                "seconds": time.perf_counter() - t0}
         return result, step
-
-    def passes(step: dict) -> bool:
-        return step["precision"] - FLOOR_Z * step["precision_se"] >= floor
 
     threads = get_workers()
 
@@ -192,7 +182,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
             if call[2] is not None and call[2]["grazing"] in failed:
                 continue
             out.append(run(*call) if ahead is None else use(ahead[i]))
-            if call[2] is not None and not passes(out[-1][1]):
+            if call[2] is not None and not passes(out[-1][1], floor):
                 failed.add(call[2]["grazing"])
         return out
 
@@ -200,7 +190,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     forced = ground is not None and not ground["auto"]
     if forced:
         tried = fills(size, close)
-        result, step = _best(tried, passes)
+        result, step = _best(tried, floor)
     else:
         result, step = run(size, close)
         tried = [(result, step)]
@@ -218,7 +208,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
             tried += fills(size, 0, before=closings)
         else:
             tried += runs(closings)
-        result, step = _best(tried, passes)
+        result, step = _best(tried, floor)
         closings = [t[1] for t in tried]
         _log.info("planar-sections: closing adds %.0f%% to the voxel solid at %d voxels; "
                   "closings %s (ground fills %s) give check recall %s at precision %s: "
@@ -236,7 +226,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     elif forced:
         closings = [t[1] for t in tried]
     close, kind = step["close"], step["ground"]
-    if coarsen and passes(steps[-1]):  # spare precision: coarser voxels recall more
+    if coarsen and passes(steps[-1], floor):  # spare precision: coarser voxels recall more
         # on several threads the coarser sizes are run side by side, each from the size
         # before it as predicted; a run is used only where the prediction held
         ahead, n = [], steps[-1]["voxels"]
@@ -260,10 +250,10 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
                                    close, kind)
             steps.append(step)
             results.append(result)
-            if not passes(step):
+            if not passes(step, floor):
                 break
     for _ in range(FLOOR_MAX_STEPS):
-        if any(passes(t) for t in steps):
+        if any(passes(t, floor) for t in steps):
             break
         n = steps[-1]["voxels"]
         finer = max(n + 1, int(round(n * FLOOR_STEP)))
@@ -279,7 +269,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
         result, step = run(size, close, kind)
         steps.append(step)
         results.append(result)
-    ok = [i for i, t in enumerate(steps) if passes(t)]
+    ok = [i for i, t in enumerate(steps) if passes(t, floor)]
     met = bool(ok)
     if met:  # the largest check recall among the resolutions that pass
         best = max(ok, key=lambda i: steps[i]["recall"])
@@ -300,9 +290,9 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     return out_mesh, polygons, info
 
 
-def _best(tried: list, passes) -> tuple:
+def _best(tried: list, floor: float) -> tuple:
     """The (result, step) of largest check recall among those that pass, else the first."""
-    ok = [t for t in tried if passes(t[1])]
+    ok = [t for t in tried if passes(t[1], floor)]
     return max(ok, key=lambda t: t[1]["recall"]) if ok else tried[0]
 
 

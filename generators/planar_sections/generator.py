@@ -80,9 +80,10 @@ from viscore._validate import (
 )
 from viscore.ground import guess_up
 
+from .._precision_check import DEFAULT_MIN_PRECISION
 from ..occluder import Occluder
 from ._single import MAX_VOXELS, _generate_one, _resolution
-from .floor import DEFAULT_MIN_PRECISION, _with_precision_floor
+from .floor import _with_precision_floor
 
 __all__ = ["generate_planar_sections", "screen_space_voxel_size", "DEFAULT_DIRECTION_BINS",
            "DEFAULT_DEPTH_BINS", "DEFAULT_ALPHA", "DEFAULT_VOXELS", "MAX_VOXELS"]

@@ -68,7 +68,7 @@ def _layout(lo: np.ndarray, hi: np.ndarray, nx: int, ny: int):
     c, d = idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
     # quad q -> triangles 2q (a, b, c) and 2q + 1 (a, c, d)
     triangles = np.stack([np.stack([a, b, c], 1), np.stack([a, c, d], 1)], 1).reshape(-1, 3)
-    return corners, triangles, u, v
+    return corners, triangles
 
 
 def _samples_in(lo, hi, nx, ny, shape):
@@ -164,7 +164,7 @@ def fit_drape(low: np.ndarray, high: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     """
     lo = np.asarray(lo, dtype=np.float64)
     hi = np.asarray(hi, dtype=np.float64)
-    corners, triangles, _, _ = _layout(lo, hi, nx, ny)
+    corners, triangles = _layout(lo, hi, nx, ny)
     ii, jj, tri, w = _samples_in(lo, hi, nx, ny, low.shape)
     if len(ii) == 0:
         return None

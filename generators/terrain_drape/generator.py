@@ -40,8 +40,7 @@ Closed meshes get little or nothing here (their lowest surface is their
 underside, and a drape under it shows past it from low views: the teapot
 keeps 2 triangles at R 0.03, the bunny none); planar sections and the solid
 methods are for them. A second layer under the ground (a deck, a cave) pulls
-the drape under it. Beyond the source
-papers; ours.
+the drape under it. Beyond the source papers; ours.
 
 References
 ----------
@@ -63,7 +62,7 @@ from scipy import ndimage
 from viscore._validate import as_positive_int
 from viscore.ground import UP_AXES, guess_up
 
-from .._precision_check import check_score, check_views, passes
+from .._precision_check import DEFAULT_MIN_PRECISION, check_score, check_views, passes
 from ..occluder import Occluder
 from ._envelope import hidden_floor
 from ._fit import fit_drape
@@ -148,7 +147,7 @@ def _mesh(grid, drape, faces=None) -> trimesh.Trimesh:
 
 
 def generate_terrain_drape(mesh: trimesh.Trimesh, *, budget: int | None = None, seed: int = 0,
-                           mode: str = "measured", min_precision: float = 0.995,
+                           mode: str = "measured", min_precision: float = DEFAULT_MIN_PRECISION,
                            up: str = "auto", resolution: int = RESOLUTION,
                            reach: int = 3) -> Occluder:
     """A drape of at most ``budget`` triangles under an open height field (module docstring).
