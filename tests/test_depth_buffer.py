@@ -340,18 +340,113 @@ def test_facet_planar_within_tolerance_depth_never_nearer(monkeypatch):
 
 def test_occluded_kernel_matches_screen_rectangles(rng):
     """The compiled occludee test equals the numpy rectangles and a plain maximum."""
-    solids = [(b.vertices, b.faces) for b in _city(rng, 12)]
+    wall = trimesh.creation.box(bounds=[[-300, 55, -100], [300, 56, 100]])  # behind the city
+    solids = [(b.vertices, b.faces) for b in _city(rng, 12) + [wall]]
     cam = PerspectiveCamera((0, -15, 0.5), (0.1, 1, 0.05), fov=70, resolution=160, height=90)
     buf = ConservativeDepthBuffer.from_occluders(OccluderScene(solids), cam)
     centre = rng.uniform([-25, -20, -3], [25, 50, 3], (3000, 3))
     half = rng.uniform(0.05, 2.0, (3000, 3))
-    lo, hi = centre - half, centre + half
+    # and 1,000 long ones beside the eye, crossing its plane
+    near = cam.position + rng.uniform([-90, -2, -3], [90, 2, 3], (1000, 3))
+    reach = rng.uniform([0.05, 5, 0.05], [2.0, 100, 2.0], (1000, 3))
+    lo, hi = np.concatenate([centre - half, near - [0, 3, 0] * reach[:, :1] - reach * [1, 0, 1]]), \
+        np.concatenate([centre + half, near + reach])
     rect, nearest, ok = buf.screen_rectangles(lo, hi)
-    expect = np.array([bool(k) and buf.depth[a:b + 1, c:d + 1].max() < n
-                       for (a, b, c, d), n, k in zip(rect, nearest, ok, strict=True)])
+    bound = _pixel_bounds(buf, lo, hi, nearest)
+    expect = np.array([bool(k) and (buf.depth[a:b + 1, c:d + 1] < m[a:b + 1, c:d + 1]).all()
+                       for (a, b, c, d), m, k in zip(rect, bound, ok, strict=True)])
     got = buf.occluded(lo, hi)
     assert expect.sum() > 50
+    crossing = ok & (_corner_depths(cam, lo, hi).min(axis=1) <= 0)
+    assert crossing.sum() > 20 and (expect & crossing).sum() > 3  # both tests are run
     np.testing.assert_array_equal(got, expect)
+
+
+def _corner_depths(cam, lo, hi):
+    """(n, 8) forward depths of the boxes' corners."""
+    return (_corners(lo, hi) - cam.position) @ cam.basis[0]
+
+
+def _pixel_bounds(buf, lo, hi, nearest):
+    """(n, H, W) the plain rule's distance bound per box and pixel: the box's nearest
+    distance when it lies in front of the eye's plane; else the larger of its Euclidean
+    distance and its in-view part's least forward depth (``nearest``) times the secant of
+    the pixel's ray nearest the view axis."""
+    cam = buf.camera
+    h, w = buf.shape
+
+    def least(n, half):  # per pixel, least |image-plane coordinate|
+        e = (np.arange(n + 1) / n - 0.5) * 2 * half
+        a, b = e[:-1], e[1:]
+        return np.where(a * b <= 0, 0.0, np.minimum(np.abs(a), np.abs(b)))
+
+    sec = np.sqrt(1 + least(w, cam._half)[None, :] ** 2
+                  + least(h, cam._half_vertical)[:, None] ** 2)
+    gap = np.maximum(lo - cam.position, 0) + np.maximum(cam.position - hi, 0)
+    dist = np.linalg.norm(gap, axis=1)
+    front = (_corner_depths(cam, lo, hi) > 0).all(axis=1)
+    out = np.where(front[:, None, None], dist[:, None, None],
+                   np.maximum(dist[:, None, None], nearest[:, None, None] * sec[None]))
+    return out * np.where(front, 1.0, 1 - 1e-12)[:, None, None]
+
+
+def test_box_crossing_the_eye_plane_is_tested_by_its_part_in_view():
+    """A long box beside the camera, from behind it to behind a wide wall: only its part
+    inside the view pyramid can be seen, and that part starts at forward depth
+    x0 / tan(30 deg). It is culled when that depth lies behind the wall's face (7.5 ahead)
+    and kept when it lies in front."""
+    wall = trimesh.creation.box(extents=(100, 1, 100))
+    cam = PerspectiveCamera((0, -8, 0), (0, 1, 0), **CAM)
+    buf = ConservativeDepthBuffer.from_occluders(wall, cam)
+    # in-view part from depth 7.79, 7.27, 7.79, 8.66; the last box ends (depth 12) before
+    # its part in view would begin (12.1): it has none, and frustum culling is the caller's
+    x0 = np.array([4.5, 4.2, -4.5, 5.0, 7.0])
+    lo = np.stack([x0, np.full(5, -9.0), np.full(5, -1.0)], axis=1)
+    hi = np.stack([x0 + 15, np.full(5, 4.0), np.full(5, 1.0)], axis=1)
+    lo[2, 0], hi[2, 0] = -19.5, -4.5  # the mirror image on the left
+    assert (_corner_depths(cam, lo, hi).min(axis=1) < 0).all()
+    assert buf.occluded(lo, hi).tolist() == [True, False, True, True, False]
+    rng = np.random.default_rng(3)
+    culled = buf.occluded(lo, hi)
+    assert _hidden_samples(Scene(wall), cam.position, lo[culled], hi[culled], rng, 4096,
+                           camera=cam).all()
+    seen = np.array([4.25, -0.6, 0.0])  # in the second box, in view, before the wall
+    assert cam.contains((seen - cam.position)[None])[0]
+    assert np.all((seen >= lo[1]) & (seen <= hi[1])) and seen[1] < -0.5
+    # the part in view: its rectangle is the right (left) edge of the buffer
+    rect, nearest, ok = buf.screen_rectangles(lo, hi)
+    assert ok.tolist() == [True] * 4 + [False]
+    assert rect[0, 3] == buf.shape[1] - 1 and rect[2, 2] == 0
+    np.testing.assert_allclose(nearest[:3], np.abs(x0[:3]) / np.tan(np.radians(30)))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_boxes_around_a_camera_inside_a_city_never_falsely_culled(seed):
+    """The eye stands among the blocks, so many occludee boxes cross its plane: what the
+    buffer culls shows in no pixel of a full-resolution id image and has every sampled
+    point hidden or out of view; and boxes crossing the eye's plane do get culled."""
+    rng = np.random.default_rng(seed)
+    wall = trimesh.creation.box(bounds=[[-300, 45, -100], [300, 46, 100]])  # behind the city
+    solids = [(b.vertices, b.faces) for b in _city(rng, 40) + [wall]]
+    occ = OccluderScene(solids)
+    eye = np.array([rng.uniform(-3, 3), 12.0, 0.0])
+    cam = PerspectiveCamera(eye, (rng.uniform(-0.5, 0.5), 1, rng.uniform(-0.1, 0.1)), fov=80,
+                            resolution=160, height=90)
+    buf = ConservativeDepthBuffer.from_occluders(occ, cam)
+    centre = eye + rng.uniform([-60, -15, -3], [60, 50, 3], (3000, 3))
+    half = rng.uniform(0.05, 1.5, (3000, 3))
+    half[:, 1] *= rng.choice([1.0, 30.0], 3000)  # long boxes along the view
+    lo, hi = centre - half, centre + half
+    culled = buf.occluded(lo, hi)
+    crossing = _corner_depths(cam, lo, hi).min(axis=1) <= 0
+    assert (culled & crossing).sum() >= 3  # the test has teeth (74 and 5 with seeds 0, 1)
+    assert _hidden_samples(occ.scene, eye, lo[culled], hi[culled], rng, 256, camera=cam).all()
+    occludees = [trimesh.creation.box(bounds=[a, b])
+                 for a, b in zip(lo[culled], hi[culled], strict=True)]
+    world = trimesh.util.concatenate([trimesh.Trimesh(*s) for s in solids] + occludees)
+    o, d = cam.rays()
+    _, tri = Scene(world).first_hit(o, d)
+    assert not (tri >= sum(len(s[1]) for s in solids)).any()
 
 
 @pytest.mark.parametrize("scale", [1e-9, 1e9])
@@ -511,3 +606,44 @@ def test_coplanar_region_with_boundary_at_the_eye_is_not_used():
     assert not _hidden_samples(occ.scene, eye, *through, np.random.default_rng(0), 16).all()
     assert not buf.occluded(*through)[0]
     assert buf.occluded([[0.6, 1.0, 0.6]], [[0.9, 1.001, 0.9]])[0]  # behind the wall
+
+
+def test_clipped_part_depth_and_rectangle_against_a_linear_program(rng):
+    """For boxes crossing the eye's plane under a turned camera, the least forward depth
+    of the part in the view pyramid equals scipy's linear program (min f . (p - eye) over
+    the box and the four side planes), an empty part is refused, and every sampled point
+    of the part projects inside the rectangle."""
+    from scipy.optimize import linprog
+
+    cam = PerspectiveCamera((1.0, 2.0, 0.5), (0.6, 1, 0.3), fov=70, resolution=160, height=90)
+    buf = ConservativeDepthBuffer(np.zeros((22, 40)), cam, hits=0)
+    centre = cam.position + rng.uniform(-12, 12, (400, 3))
+    half = rng.uniform(0.2, 8.0, (400, 3))
+    lo, hi = centre - half, centre + half
+    crossing = _corner_depths(cam, lo, hi).min(axis=1) <= 0
+    outside = ((lo > cam.position) | (hi < cam.position)).any(axis=1)
+    lo, hi = lo[crossing & outside], hi[crossing & outside]
+    rect, nearest, ok = buf.screen_rectangles(lo, hi)
+    f, r, u = cam.basis
+    a = np.array([cam._half * f - r, cam._half * f + r, cam._half_vertical * f - u,
+                  cam._half_vertical * f + u])
+    found = 0
+    for k in range(len(lo)):
+        lp = linprog(f, A_ub=-a, b_ub=-(a @ cam.position), bounds=list(zip(lo[k], hi[k])))
+        if lp.status == 2:  # infeasible: no part in view
+            assert not ok[k]
+            continue
+        z = lp.fun - f @ cam.position
+        if z < 1e-6:  # the part reaches the eye
+            assert not ok[k]
+            continue
+        found += 1
+        assert ok[k]
+        np.testing.assert_allclose(nearest[k], z, rtol=1e-6)
+        p = lo[k] + rng.random((20000, 3)) * (hi[k] - lo[k])
+        pix, _ = cam.project(p)
+        inside = cam.contains(p - cam.position)
+        col, row = (pix[inside] * [40 / 160, 22 / 90]).T  # buffer pixels
+        assert (col >= rect[k, 2]).all() and (col < rect[k, 3] + 1).all()
+        assert (row >= rect[k, 0]).all() and (row < rect[k, 1] + 1).all()
+    assert found > 30 and (~ok).sum() > 5

@@ -277,6 +277,131 @@ def _box_screen(lo, hi, q, eye, r, u, f, hx, hy, w, h):  # pragma: no cover
     return True, rmin, rmax, cmin, cmax
 
 
+#: Relative widening of the view pyramid's sides when a box is clipped to it
+#: (:func:`_clipped_screen`): a clipped vertex rounded outwards only lowers the box's
+#: nearest depth and widens its rectangle.
+PYRAMID_SLACK = 1e-9
+
+
+@njit_cached()
+def _clipped_screen(lo, hi, q, eye, r, u, f, hx, hy, w, h):  # pragma: no cover
+    """(ok, row_min, row_max, col_min, col_max, z_min) of the part of box q inside the
+    view pyramid (the four side planes through the eye and the image edges): the screen
+    rectangle (buffer pixels) and smallest forward depth ``f . (p - eye)`` of its vertices.
+
+    The vertices of box ∩ pyramid are among: the box's corners inside the pyramid, the
+    crossings of its 12 edges with the 4 side planes, and the entry and exit points of
+    the pyramid's 4 edge rays (the image corners' rays) in the box. All are listed, each
+    kept when inside every side plane widened by :data:`PYRAMID_SLACK` (a superset:
+    z_min only lower, the rectangle only wider). ok is False when the part is empty or
+    reaches the eye (z_min not > 0)."""
+    # corners in camera coordinates (right, up, forward)
+    cx = np.empty(8)
+    cy = np.empty(8)
+    cz = np.empty(8)
+    for m in range(8):
+        px = (hi[q, 0] if m & 4 else lo[q, 0]) - eye[0]
+        py = (hi[q, 1] if m & 2 else lo[q, 1]) - eye[1]
+        pz = (hi[q, 2] if m & 1 else lo[q, 2]) - eye[2]
+        cx[m] = px * r[0] + py * r[1] + pz * r[2]
+        cy[m] = px * u[0] + py * u[1] + pz * u[2]
+        cz[m] = px * f[0] + py * f[1] + pz * f[2]
+    ax = hx * (1.0 + PYRAMID_SLACK)
+    ay = hy * (1.0 + PYRAMID_SLACK)
+    # candidate vertices: 8 corners, 12 edges x 4 planes, 4 rays x 2
+    vx = np.empty(64)
+    vy = np.empty(64)
+    vz = np.empty(64)
+    n = 0
+    for m in range(8):
+        vx[n] = cx[m]
+        vy[n] = cy[m]
+        vz[n] = cz[m]
+        n += 1
+    for m in range(8):
+        for bit in (1, 2, 4):
+            if m & bit:
+                continue
+            e = m | bit
+            for k in range(4):
+                sx = 1.0 if k == 0 else (-1.0 if k == 1 else 0.0)
+                sy = 1.0 if k == 2 else (-1.0 if k == 3 else 0.0)
+                # side plane value g = a z - s x (or y): >= 0 inside
+                g0 = ax * cz[m] * abs(sx) + ay * cz[m] * abs(sy) - sx * cx[m] - sy * cy[m]
+                g1 = ax * cz[e] * abs(sx) + ay * cz[e] * abs(sy) - sx * cx[e] - sy * cy[e]
+                if (g0 < 0) == (g1 < 0) or g0 == g1:
+                    continue
+                t = g0 / (g0 - g1)
+                vx[n] = cx[m] + t * (cx[e] - cx[m])
+                vy[n] = cy[m] + t * (cy[e] - cy[m])
+                vz[n] = cz[m] + t * (cz[e] - cz[m])
+                n += 1
+    for k in range(4):
+        dxw = (ax if k & 1 else -ax)
+        dyw = (ay if k & 2 else -ay)
+        # the ray eye + t (dxw r + dyw u + f), t >= 0, against the world box (slab test)
+        t0 = 0.0
+        t1 = np.inf
+        empty = False
+        for a in range(3):
+            d = dxw * r[a] + dyw * u[a] + f[a]
+            if d == 0.0:
+                if eye[a] < lo[q, a] or eye[a] > hi[q, a]:
+                    empty = True
+                    break
+                continue
+            ta = (lo[q, a] - eye[a]) / d
+            tb = (hi[q, a] - eye[a]) / d
+            if ta > tb:
+                ta, tb = tb, ta
+            t0 = max(t0, ta)
+            t1 = min(t1, tb)
+        if empty or not t0 <= t1:
+            continue
+        for t in (t0, t1):
+            vx[n] = t * dxw
+            vy[n] = t * dyw
+            vz[n] = t
+            n += 1
+    zmin = np.inf
+    cmin = np.inf
+    cmax = -np.inf
+    rmin = np.inf
+    rmax = -np.inf
+    tol = 2.0 * PYRAMID_SLACK
+    for i in range(n):
+        z = vz[i]
+        # inside every widened side plane (a vertex on a plane is rounded outwards)
+        if abs(vx[i]) > ax * z + tol * (abs(vx[i]) + abs(z)) \
+                or abs(vy[i]) > ay * z + tol * (abs(vy[i]) + abs(z)):
+            continue
+        zmin = min(zmin, z)
+        if not z > 0:
+            return False, rmin, rmax, cmin, cmax, zmin
+        col = (vx[i] / z * (0.5 / hx) + 0.5) * w
+        row = (0.5 - vy[i] / z * (0.5 / hy)) * h
+        cmin = min(cmin, col)
+        cmax = max(cmax, col)
+        rmin = min(rmin, row)
+        rmax = max(rmax, row)
+    return zmin < np.inf and zmin > 0, rmin, rmax, cmin, cmax, zmin
+
+
+@njit_cached()
+def clipped_rectangles(lo, hi, eye, r, u, f, hx, hy, w, h, rect, zmin, ok):
+    """Per box, :func:`_clipped_screen` into ``rect`` (n, 4: row_min, row_max, col_min,
+    col_max), ``zmin`` and ``ok`` (the numpy side's twin of the occludee test's
+    clipping)."""
+    for q in range(lo.shape[0]):
+        k, a, b, c, d, z = _clipped_screen(lo, hi, q, eye, r, u, f, hx, hy, w, h)
+        ok[q] = k
+        rect[q, 0] = a
+        rect[q, 1] = b
+        rect[q, 2] = c
+        rect[q, 3] = d
+        zmin[q] = z
+
+
 @njit_cached()
 def thin_rectangles(lo, hi, eye, r, u, f, hx, hy, w, h, rect):
     """Write into ``rect`` (k, 5: row_min, row_max, col_min, col_max, smaller side;
@@ -299,10 +424,13 @@ def thin_rectangles(lo, hi, eye, r, u, f, hx, hy, w, h, rect):
 
 @njit_cached()
 def occluded_boxes(lo, hi, eye, r, u, f, hx, hy, slack, depth, out):
-    """Set ``out[k]`` for the boxes hidden in the buffer: every corner strictly in front of
-    the eye's plane, the eye outside, the screen rectangle (widened by ``slack``
-    pixels) meeting the screen, and every pixel it touches nearer than the
-    box's nearest point."""
+    """Set ``out[k]`` for the boxes hidden in the buffer: the eye outside, the screen
+    rectangle (widened by ``slack`` pixels) meeting the screen, and every pixel it touches
+    nearer than the box's nearest point. A box with a corner on or behind the eye's plane
+    is tested by its part in the view pyramid (:func:`_clipped_screen`), against, per
+    pixel, the larger of the box's distance and that part's least forward depth times
+    the secant of the pixel's ray nearest the view axis (a lower bound of the distance of
+    every point of the part a ray through the pixel meets)."""
     h, w = depth.shape
     for k in range(lo.shape[0]):
         d2 = 0.0
@@ -313,8 +441,14 @@ def occluded_boxes(lo, hi, eye, r, u, f, hx, hy, slack, depth, out):
         if not near > 0:
             continue
         ok, rmin, rmax, cmin, cmax = _box_screen(lo, hi, k, eye, r, u, f, hx, hy, w, h)
+        zmin = 0.0
         if not ok:
-            continue
+            # a corner on or behind the eye's plane: the part in the view pyramid, at its
+            # least forward depth
+            ok, rmin, rmax, cmin, cmax, zmin = _clipped_screen(lo, hi, k, eye, r, u, f,
+                                                               hx, hy, w, h)
+            if not ok:
+                continue
         c0 = math.floor(cmin - slack)
         c1 = math.floor(cmax + slack)
         r0 = math.floor(rmin - slack)
@@ -327,10 +461,33 @@ def occluded_boxes(lo, hi, eye, r, u, f, hx, hy, slack, depth, out):
         r1 = min(r1, h - 1)
         hidden = True
         for i in range(r0, r1 + 1):
+            yb = _nearest_to_centre(i, h, hy)
             for j in range(c0, c1 + 1):
-                if not depth[i, j] < near:
+                bound = near
+                if zmin > 0:
+                    xb = _nearest_to_centre(j, w, hx)
+                    bound = max(near, zmin * math.sqrt(1.0 + xb * xb + yb * yb) * SEC_SHRINK)
+                if not depth[i, j] < bound:
                     hidden = False
                     break
             if not hidden:
                 break
         out[k] = hidden
+
+
+#: Relative shrink of a clipped box's per-pixel distance bound (``z_min`` times the
+#: secant of the pixel's ray nearest the view axis) against its float rounding.
+SEC_SHRINK = 1.0 - 1e-12
+
+
+@njit_cached()
+def _nearest_to_centre(i, n, half):  # pragma: no cover
+    """The image-plane coordinate (``x / z`` or ``y / z``, any sign) of the pixel edge or
+    axis crossing of pixel ``i`` of ``n`` nearest the view axis, in absolute value: the
+    least ``|x / z|`` over the pixel, for a half-extent ``half`` (``tan`` of the half
+    field of view)."""
+    a = abs((i / n - 0.5) * 2.0 * half)
+    b = abs(((i + 1) / n - 0.5) * 2.0 * half)
+    if (i / n - 0.5) * ((i + 1) / n - 0.5) <= 0.0:
+        return 0.0
+    return min(a, b)

@@ -106,10 +106,24 @@ The box's eight corners are projected; the buffer pixels its screen rectangle
 touches (clipped to the screen) are compared with the box's nearest distance
 to the eye. The box is culled iff every one of those pixels holds a depth
 nearer than that distance: then every ray from the eye through the box meets
-an occluder before the box. Boxes with a corner on or behind the eye's plane,
-boxes containing the eye, and boxes wholly off the screen are never culled
-(view-frustum culling is the caller's). The rectangle is widened by
-``1e-9`` pixel against the rounding of the projection.
+an occluder before the box. Boxes containing the eye, and boxes wholly off the
+screen are never culled (view-frustum culling is the caller's). The rectangle
+is widened by ``1e-9`` pixel against the rounding of the projection.
+
+A box with a corner on or behind the eye's plane (a table beside a camera at
+floor height, a wall the camera walks along) has no bounded projection, but a
+ray from the eye only meets its part inside the view pyramid (the four side
+planes through the eye and the image edges). That part is a convex polytope
+whose vertices are among the box corners inside the pyramid, the crossings of
+the box's edges with the side planes, and the entry and exit points of the
+pyramid's four edge rays; its rectangle is that of those vertices (a
+perspective projection maps it onto the convex hull of theirs), and its
+least forward depth ``f . (p - eye)`` bounds the Euclidean distance of every
+point of it from below. The box is culled iff that part is not empty, does
+not reach the eye, and every pixel of its rectangle is nearer than that
+depth (the side planes are widened by ``1e-9``, relative: a superset).
+Frustum culling stays the caller's: a box with no part in the pyramid is not
+culled here.
 
 Cost
 ----
@@ -783,13 +797,17 @@ class ConservativeDepthBuffer:
         Returns
         -------
         rect : (n, 4) int64
-            ``row0, row1, col0, col1`` inclusive, clipped to the buffer.
+            ``row0, row1, col0, col1`` inclusive, clipped to the buffer; of the
+            part in the view pyramid for a box crossing the eye's plane.
         nearest : (n,) float64
             Distance from the eye to the nearest point of the box (0 when the
-            box contains the eye).
+            box contains the eye); for a box crossing the eye's plane, the
+            least forward depth of its part in the view pyramid (a lower bound
+            of that part's distance).
         testable : (n,) bool
-            Every corner strictly in front of the eye's plane and the clipped
-            rectangle not empty; only these can be culled.
+            The box (or its part in the view pyramid) strictly in front of the
+            eye's plane, the eye outside it, and the clipped rectangle not
+            empty; only these can be culled.
         """
         lo, hi = _as_boxes(lower, upper)
         cam = self.camera
@@ -797,6 +815,22 @@ class ConservativeDepthBuffer:
         h, w = self.depth.shape
         bounds, front = _screen_boxes(lo, hi, eye, cam.basis, cam._half, cam._half_vertical,
                                       w, h)
+        gap = np.maximum(lo - eye, 0) + np.maximum(eye - hi, 0)
+        nearest = np.sqrt(np.einsum("ij,ij->i", gap, gap))
+        across = np.flatnonzero(~front & (nearest > 0))
+        if len(across):  # the part of each in the view pyramid, at its least forward depth
+            from ._depth_kernel import clipped_rectangles
+
+            f, r, u = cam.basis
+            part = np.empty((len(across), 4))
+            zmin = np.empty(len(across))
+            ok = np.empty(len(across), dtype=bool)
+            clipped_rectangles(lo[across], hi[across], np.asarray(eye, dtype=np.float64), r, u,
+                               f, cam._half, cam._half_vertical, w, h, part, zmin, ok)
+            bounds[across[ok]] = part[ok]
+            nearest[across[ok]] = zmin[ok]
+            front = front.copy()
+            front[across[ok]] = True
         with np.errstate(invalid="ignore"):
             r0, r1, c0, c1 = np.floor(bounds + [-_RECT_SLACK, _RECT_SLACK, -_RECT_SLACK,
                                                  _RECT_SLACK]).T
@@ -804,8 +838,6 @@ class ConservativeDepthBuffer:
         rect = np.stack([np.clip(r0, 0, h - 1), np.clip(r1, 0, h - 1),
                          np.clip(c0, 0, w - 1), np.clip(c1, 0, w - 1)], axis=1)
         rect = np.where(on[:, None], rect, 0).astype(np.int64)
-        gap = np.maximum(lo - eye, 0) + np.maximum(eye - hi, 0)
-        nearest = np.sqrt(np.einsum("ij,ij->i", gap, gap))
         return rect, nearest, on & (nearest > 0)
 
     def occluded(self, lower: npt.ArrayLike, upper: npt.ArrayLike) -> np.ndarray:
@@ -819,8 +851,9 @@ class ConservativeDepthBuffer:
         Returns
         -------
         culled : (n,) bool
-            False for boxes crossing or behind the eye's plane, containing the
-            eye, or wholly off the screen.
+            False for boxes behind the eye's plane, containing the eye, with
+            no part in the view pyramid, or wholly off the screen. A box
+            crossing the eye's plane is tested by its part in the view pyramid.
 
         Raises
         ------
