@@ -171,3 +171,16 @@ def test_layout_doc_names_every_module(folder):
         if f"{sub.name}/" not in named:
             missing.append(f"{sub.relative_to(ROOT)}/")
     assert not missing, f"docs/layout.md does not name: {missing}"
+
+
+def test_pyproject_installs_every_package():
+    """A non-editable install (``pip install .``) ships every folder with an
+    ``__init__.py``: pyproject.toml lists packages by hand, and a family missing from
+    the list imports in an editable install but not in a wheel."""
+    import tomllib
+
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+                 ["tool"]["setuptools"]["packages"])
+    found = {_module_name(init) for folder in PACKAGES
+             for init in (ROOT / folder).rglob("__init__.py")}
+    assert found - listed == set(), "add these to [tool.setuptools] packages"
