@@ -629,7 +629,8 @@ def test_clipped_part_depth_and_rectangle_against_a_linear_program(rng):
                   cam._half_vertical * f + u])
     found = 0
     for k in range(len(lo)):
-        lp = linprog(f, A_ub=-a, b_ub=-(a @ cam.position), bounds=list(zip(lo[k], hi[k])))
+        lp = linprog(f, A_ub=-a, b_ub=-(a @ cam.position),
+                     bounds=list(zip(lo[k], hi[k], strict=True)))
         if lp.status == 2:  # infeasible: no part in view
             assert not ok[k]
             continue
