@@ -90,6 +90,7 @@ from viscore import InputError, OccluderInstance, occonly_glb_bytes, tscn_text
 from viscore._atomic import write_atomic
 from viscore._validate import as_positive_int, as_seed
 from viscore.mesh_io import ply_bytes
+from viscore.scene_graph import geometry_digest
 
 from ._pool import worker_init as _worker_init
 from .level_objects import FLAT_RATIO, LevelObjects, default_methods
@@ -465,12 +466,8 @@ def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
     # one stored file and one sub-resource: the first of them by mesh index
     canonical: dict[int, int] = {}
     first: dict[bytes, int] = {}
-    for m in mesh_ids:
-        mesh = objects.meshes[m]
-        digest = hashlib.sha256(
-            np.ascontiguousarray(mesh.vertices, dtype="<f8").tobytes()
-            + np.ascontiguousarray(mesh.faces, dtype="<i8").tobytes()).digest()
-        canonical[m] = first.setdefault(digest, m)
+    for m in mesh_ids:  # (load_scene_objects stores such copies once already)
+        canonical[m] = first.setdefault(geometry_digest(objects.meshes[m]), m)
     results: dict[tuple[str, int], MeshOccluder] = {}
     pending = []
     # a method for height fields (GeneratorSpec.inputs) runs on the flat objects only: a

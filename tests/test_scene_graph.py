@@ -288,7 +288,34 @@ def test_load_scene_objects_multi_primitive_names(tmp_path):
     path = _write(tmp_path, "two.glb", _glb([{"name": "a", "mesh": 0}], [0], primitives=2))
     first, second = load_scene_objects(path), load_scene_objects(path)
     assert first.names == second.names == ("a_0", "a_1")  # trimesh gave random suffixes
-    assert first.mesh_names == second.mesh_names and len(first.meshes) == 2
+    assert first.mesh_names == second.mesh_names
+    # the two primitives are the same box: stored once, under the first one's name
+    assert len(first.meshes) == 1 and first.mesh_ids.tolist() == [0, 0]
+
+
+def test_copies_exported_without_instancing_are_stored_once(tmp_path):
+    """A level whose every copy of a room is its own glTF mesh (no instancing) keeps one
+    geometry per distinct shape, placed by each node's transform; a copy that differs in
+    one vertex, or only in its face order, stays a mesh of its own."""
+    box = trimesh.creation.box(extents=(1, 2, 3))
+    moved = box.copy()
+    moved.vertices[0] += [0, 0, 1e-3]  # glTF stores float32
+    flipped = trimesh.Trimesh(box.vertices, box.faces[::-1], process=False)
+    scene = trimesh.Scene()
+    for k in range(4):
+        scene.add_geometry(box.copy(), geom_name=f"room{k}", node_name=f"n{k}",
+                           transform=trimesh.transformations.translation_matrix((5 * k, 0, 0)))
+    scene.add_geometry(moved, geom_name="moved", node_name="n8")
+    scene.add_geometry(flipped, geom_name="flipped", node_name="n9")
+    path = tmp_path / "copies.glb"
+    scene.export(path)
+    objects = load_scene_objects(path)
+    assert len(objects) == 6 and len(objects.meshes) == 3
+    ids = dict(zip(objects.names, objects.mesh_ids.tolist(), strict=True))
+    assert len({ids[f"n{k}"] for k in range(4)}) == 1
+    assert len({ids["n0"], ids["n8"], ids["n9"]}) == 3
+    # each copy is still where its node puts it
+    np.testing.assert_allclose(objects.lower[:4, 0], [-0.5, 4.5, 9.5, 14.5])
 
 
 def test_load_scene_objects_camera_node(tmp_path):

@@ -40,6 +40,7 @@ References
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
 import logging
@@ -183,7 +184,8 @@ class SceneObjects:
         Local-to-world transform of each object.
     meshes : tuple of trimesh.Trimesh
         (m,) the distinct geometries, each stored once in its local frame
-        (validated by :func:`viscore.validate_mesh`).
+        (validated by :func:`viscore.validate_mesh`); identical copies under
+        other names are stored once too.
     mesh_names : tuple of str
         (m,) name of each geometry.
     lower, upper : (n, 3) float64
@@ -315,6 +317,14 @@ def _from_trimesh_scene(scene: trimesh.Scene, label: str, up) -> SceneObjects:
     return _scene_objects(names, geoms, mats, scene.geometry, label, up)
 
 
+def geometry_digest(mesh: trimesh.Trimesh) -> bytes:
+    """SHA-256 of a mesh's vertices (float64) and faces (int64), in order: equal exactly
+    when the two are the same geometry vertex for vertex and face for face."""
+    return hashlib.sha256(
+        np.ascontiguousarray(mesh.vertices, dtype="<f8").tobytes() + b"|"
+        + np.ascontiguousarray(mesh.faces, dtype="<i8").tobytes()).digest()
+
+
 def _scene_objects(names: list[str], geoms: list[str], mats: np.ndarray, geometry: dict,
                    label: str, up) -> SceneObjects:
     """Check the world transforms and build the :class:`SceneObjects` (objects in given order)."""
@@ -336,9 +346,23 @@ def _scene_objects(names: list[str], geoms: list[str], mats: np.ndarray, geometr
         bad = names[int(np.flatnonzero(singular)[0])]
         raise InputError(f"{label}: node {bad!r} has a singular transform (a zero scale "
                          "flattens its mesh)")
-    mesh_names = list(dict.fromkeys(geoms))
-    index = {g: k for k, g in enumerate(mesh_names)}
-    meshes = tuple(validate_mesh(geometry[g], name=f"{label}:{g}") for g in mesh_names)
+    names_once = list(dict.fromkeys(geoms))
+    # geometries equal vertex for vertex and face for face (a level exported without
+    # instancing: every copy of a room its own glTF mesh, each in the same local frame)
+    # are stored once, under the first one's name, as instances of one mesh would be
+    index: dict[str, int] = {}
+    first: dict[bytes, int] = {}
+    mesh_names: list[str] = []
+    kept: list[trimesh.Trimesh] = []
+    for g in names_once:
+        mesh = validate_mesh(geometry[g], name=f"{label}:{g}")
+        digest = geometry_digest(mesh)
+        if digest not in first:
+            first[digest] = len(kept)
+            kept.append(mesh)
+            mesh_names.append(g)
+        index[g] = first[digest]
+    meshes = tuple(kept)
     mesh_ids = np.array([index[g] for g in geoms], dtype=np.int64)
     n = len(names)
     lower, upper = np.empty((n, 3)), np.empty((n, 3))
@@ -836,7 +860,10 @@ def load_scene_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trime
     -------
     SceneObjects
         One object per node carrying a triangle mesh, ordered by node name;
-        each distinct geometry stored once. A glTF mesh with several
+        each distinct geometry stored once: instances of one glTF mesh, and
+        meshes equal vertex for vertex and face for face in their local
+        frames (copies exported without instancing), share one entry of
+        ``meshes``, named after the first. A glTF mesh with several
         primitives gives one object per primitive, named ``<node>_<k>``
         (``k`` the primitive's position; made unique if taken).
 
