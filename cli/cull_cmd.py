@@ -56,12 +56,14 @@ import stat
 import tempfile
 from pathlib import Path
 
+import numpy as np
 from viscore.generators import (
     JOINED_METHODS,
     REGISTRY,
     check_method,
     culling_runtimes,
     frusta_method,
+    get_generator,
     occluder_objects,
 )
 from viscore.generators.level_objects import level_objects
@@ -380,7 +382,8 @@ def run_cull(args) -> int:
     with _OutFolder(out) as folder:  # this process alone, from here to the files
         doc = _simulate(args, objects, indices, path, folder, progress=progress, seed=seed,
                         frames=frames, methods=methods, source=source, active=active,
-                        reduction=reduction, width=width, height=height, files=files)
+                        reduction=reduction, width=width, height=height, files=files,
+                        flat=level.flat)
     emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
          "(replay with --path)")
     return 0
@@ -433,14 +436,19 @@ def _check_frames_memory(frames: int, what: str) -> None:
 
 def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: bool, seed: int,
               frames, methods, source, active, reduction, width, height,
-              files: dict | None = None) -> dict:
+              files: dict | None = None, flat=None) -> dict:
     """The work and the files of :func:`run_cull`; returns the JSON document."""
     from tqdm import tqdm
 
     if path is None:
         path = camera_path(objects, frames=frames or DEFAULT_FRAMES, seed=seed)
-    distinct = len(set(objects.mesh_ids[indices].tolist()))
-    todo = distinct * (len(set(methods) | {source}))
+    def distinct(method: str) -> int:  # meshes a method generates (flat ones: height fields)
+        idx = np.asarray(indices, dtype=np.int64)
+        if get_generator(method).inputs == "height-fields" and flat is not None:
+            idx = idx[np.asarray(flat, dtype=bool)[idx]]
+        return len(set(objects.mesh_ids[idx].tolist()))
+
+    todo = sum(distinct(m) for m in set(methods) | {source})
     with tqdm(total=todo, desc="occluders", unit="mesh", disable=not progress,
               leave=False) as bar:
         tick = RateEstimate(f"cull: occluders of {todo:,} meshes", todo, "meshes", bar.update)
@@ -448,7 +456,7 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
                                           reduction=reduction, seed=seed,
                                           frusta_source=source, cap=args.cap,
                                           rank=args.rank, progress=tick, files=files,
-                                          joined=() if args.per_object else None)
+                                          joined=() if args.per_object else None, flat=flat)
     with tqdm(total=len(path), desc="frames", unit="frame", disable=not progress,
               leave=False) as bar:
         tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)

@@ -28,7 +28,13 @@ import trimesh
 
 from viscore import InputError, load_mesh
 from viscore.ground import UP_AXES, guess_up
-from viscore.scene_graph import SceneObjects, culling_scene_names, load_scene_objects
+from viscore.scene_graph import (
+    FLAT_RATIO,
+    LEVEL_SPAN,
+    SceneObjects,
+    culling_scene_names,
+    load_scene_objects,
+)
 
 from .registry import REGISTRY
 from .scene_occluders import occluder_objects
@@ -46,17 +52,10 @@ MIN_SIZE = 0.02
 #: diagonal are merged into parts (see the module docstring); also the gap,
 #: same unit, under which they join.
 PART_FRACTION = 0.02
-#: An object is flat when its extent along the up axis is under this fraction
-#: of its widest horizontal extent (ground, terrain, floor slabs).
-FLAT_RATIO = 0.1
 #: When only flat objects pass the threshold and no non-flat one passes the
 #: threshold against the non-flat objects' own box: non-flat objects at least
 #: this share of the largest non-flat object's diagonal are chosen.
 FALLBACK_SHARE = 0.5
-#: A flat object whose box makes the level's diagonal more than this many times that of
-#: the non-flat objects' box (an outer ground plane, a sea around a town) does not set
-#: the level's scale: sizes are then fractions of the non-flat objects' diagonal.
-LEVEL_SPAN = 2.0
 #: Rotations from a level's frame to Godot's +Y up (right-handed, det +1).
 _TO_GODOT = {
     "y": np.eye(4),
@@ -234,18 +233,15 @@ def _choose(objects: SceneObjects, up: str, min_size: float | None,
             names: Sequence[str] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """Sizes, flatness, chosen indices and refusals (see the module docstring)."""
     level = float(np.linalg.norm(objects.bounds[1] - objects.bounds[0])) or 1.0
-    extent = objects.upper - objects.lower
-    diag = np.linalg.norm(extent, axis=1)
-    k = UP_AXES.index(up)
-    horizontal = np.delete(extent, k, axis=1).max(axis=1)
-    flat = extent[:, k] < FLAT_RATIO * horizontal
-    if (~flat).any():
-        built = float(np.linalg.norm(objects.upper[~flat].max(axis=0)
-                                     - objects.lower[~flat].min(axis=0)))
-        if built > 0 and level > LEVEL_SPAN * built:
-            _log.info("%s: flat objects span %.4g world units around non-flat ones of %.4g; "
-                      "object sizes are fractions of the latter", objects.source, level, built)
-            level = built
+    diag = np.linalg.norm(objects.upper - objects.lower, axis=1)
+    axis = np.eye(3)[UP_AXES.index(up)]
+    flat = objects.flat(axis)
+    box, part = objects.built_bounds(axis)
+    if part:
+        built = float(np.linalg.norm(box[1] - box[0]))
+        _log.info("%s: flat objects span %.4g world units around non-flat ones of %.4g; "
+                  "object sizes are fractions of the latter", objects.source, level, built)
+        level = built
     sizes = diag / level
     for arr in (sizes, flat):
         arr.flags.writeable = False

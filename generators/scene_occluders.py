@@ -49,6 +49,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 import trimesh
 from viscore.metrics.culling import (
     Runtime,
@@ -548,7 +549,8 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
                      params: dict[str, dict] | None = None,
                      progress: Callable[[int], None] | None = None,
                      files: Mapping[str, Occluder] | None = None,
-                     joined: Sequence[str] | None = None
+                     joined: Sequence[str] | None = None,
+                     flat: npt.ArrayLike | None = None
                      ) -> tuple[dict[str, Runtime], dict]:
     """The runtimes of the culling simulation for a scene's occluder objects.
 
@@ -592,6 +594,13 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
         (:func:`joined_occluder`) instead of mesh by mesh; default those of
         :data:`JOINED_METHODS` among ``methods``, variants with options
         (``surface-patches:ground=auto``) included; ``()`` for none.
+    flat : (n,) bool, optional
+        Per object of ``objects``, whether it is flat (a level's terrain or
+        ground: :attr:`viscore.generators.level_objects.LevelObjects.flat`). A
+        method for height fields (``GeneratorSpec.inputs``, such as
+        ``terrain-drape``) then makes occluders for the flat objects among
+        ``indices`` only, as ``viscore occlude`` does; without ``flat``, for
+        all of them.
 
     Returns
     -------
@@ -642,10 +651,22 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
             raise InputError(f"joined: {m!r} is not one of the methods")
     cache: dict[str, dict[int, Occluder]] = {}
 
-    indices = np.asarray(indices, dtype=np.int64)
+    indices = all_indices = np.asarray(indices, dtype=np.int64)
+    is_flat = None if flat is None else np.asarray(flat, dtype=bool)
+    if is_flat is not None and is_flat.shape != (len(objects),):
+        raise InputError(f"flat: expected one flag per object ({len(objects)}), got shape "
+                         f"{is_flat.shape}")
 
     def occluders(method: str) -> dict[int, Occluder]:
         if method not in cache:
+            fields_only = get_generator(method).inputs == "height-fields"
+            indices = all_indices[is_flat[all_indices]] if fields_only and \
+                is_flat is not None else all_indices
+            if not len(indices):
+                _log.info("%s is for height fields, and none of the %d objects is flat",
+                          method, len(all_indices))
+                cache[method] = {}
+                return cache[method]
             _log.debug("generating %s occluders for %d objects", method, len(indices))
             options = params.get(method, {})
             if method in joined and len(indices):

@@ -297,16 +297,23 @@ def _horizontal_basis(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _height_map(objects: SceneObjects, up: np.ndarray):
     """Top heights of the scene seen from above on a horizontal grid, and the ground level.
 
-    Returns the grid frame (basis, origin, cell size, shape), the height along
+    The grid spans the level's built part
+    (:meth:`viscore.scene_graph.SceneObjects.built_bounds`). Returns the grid
+    frame (basis, origin, cell size, shape), the height along
     ``up`` of the first hit of one ray cast down through each cell centre (the
     scene's lowest point where the ray misses), and the ground level: the 5th
     percentile of those heights.
     """
     e1, e2 = _horizontal_basis(up)
-    corners = np.array([[x, y, z] for x in objects.bounds[:, 0] for y in objects.bounds[:, 1]
-                        for z in objects.bounds[:, 2]])
-    h = corners @ up
-    a, b = corners @ e1, corners @ e2
+
+    def corners(box):
+        return np.array([[x, y, z] for x in box[:, 0] for y in box[:, 1] for z in box[:, 2]])
+
+    h = corners(objects.bounds) @ up
+    # the map covers the level's built part: an outer ground plane or a sea far wider
+    # than the town on it would make every street a few cells of empty ground
+    built = corners(objects.built_bounds(up)[0])
+    a, b = built @ e1, built @ e2
     cell = max(a.max() - a.min(), b.max() - b.min()) / _GRID_CELLS
     na = max(2, int(np.ceil((a.max() - a.min()) / cell)))
     nb = max(2, int(np.ceil((b.max() - b.min()) / cell)))
@@ -502,8 +509,11 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     Notes
     -----
     Free space is found by casting one vertical ray down per cell of a
-    256-cell grid over the scene's footprint: a cell is free when nothing in
-    it rises above 90% of the eye height over the ground (the 5th
+    256-cell grid over the scene's footprint (its built part, without an
+    outer ground plane or sea that spans over
+    :data:`viscore.scene_graph.LEVEL_SPAN` times the rest:
+    :meth:`viscore.scene_graph.SceneObjects.built_bounds`): a cell is free
+    when nothing in it rises above 90% of the eye height over the ground (the 5th
     percentile of the first-hit heights, a miss counting as the scene's
     lowest point). Things thinner than a cell (poles, fences) can fall
     between the rays, so every edge of the objects that rise above that

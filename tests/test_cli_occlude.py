@@ -353,7 +353,7 @@ def test_level_scale_ignores_an_outer_ground_far_larger_than_the_town(monkeypatc
     inside a ground plane 2,000 across. Against the ground's diagonal the houses are 0.5%
     and get no occluder (the hill, not flat, passes: no fallback); the ground does not set
     the scale (its box is over LEVEL_SPAN x the others'), so they are 5% and get one."""
-    import viscore.generators.level_objects as lo
+    import viscore.scene_graph as sg
 
     rng = np.random.default_rng(0)
     scene = trimesh.Scene()
@@ -370,7 +370,7 @@ def test_level_scale_ignores_an_outer_ground_far_larger_than_the_town(monkeypatc
     built = np.linalg.norm(level.objects.upper[1:].max(0) - level.objects.lower[1:].min(0))
     house = level.objects.names.index("house0")
     assert level.sizes[house] == pytest.approx(np.sqrt(9**2 + 4**2 + 9**2) / built)
-    monkeypatch.setattr(lo, "LEVEL_SPAN", np.inf)
+    monkeypatch.setattr(sg, "LEVEL_SPAN", np.inf)
     assert {level_objects(scene).objects.names[i] for i in level_objects(scene).chosen} \
         == {"ground", "hill"}
 

@@ -464,3 +464,71 @@ def test_scene_occluders_say_a_warning_every_mesh_gives_once(caplog):
                         min_precision=0)
     texts = [r.getMessage() for r in caplog.records if "closed" in r.getMessage()]
     assert texts[-1].startswith("planar-sections mesh "), texts
+
+
+def _town_on_a_wide_ground(ground: float = 1000.0):
+    """Truck town's layout: houses on 200 x 200 inside a ground plane ``2 ground`` across."""
+    rng = np.random.default_rng(0)
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.creation.box(bounds=[[-ground, -0.2, -ground],
+                                                    [ground, 0, ground]]),
+                       geom_name="ground", node_name="ground")
+    for k in range(16):
+        x, z = rng.uniform(-95, 85, 2)
+        scene.add_geometry(trimesh.creation.box(bounds=[[x, 0, z], [x + 9, 6, z + 9]]),
+                           geom_name=f"house{k}", node_name=f"house{k}")
+    return load_scene_objects(scene)
+
+
+def test_camera_path_walks_the_town_not_the_wide_ground_around_it():
+    """An outer ground 2,000 across around a town of 200: the path's street and elevated
+    cameras stay over the town (they wandered the empty plane, 500 m from any house, so
+    the walk saw the town as a speck), and its far cameras look at it from a ring around
+    the town; a ground about as wide as the town (not over LEVEL_SPAN x) changes
+    nothing."""
+    from viscore.scene_graph import LEVEL_SPAN
+
+    objects = _town_on_a_wide_ground()
+    box, part = objects.built_bounds()
+    assert part and box[0][0] > -100 and box[1][0] < 100
+    path = camera_path(objects, frames=40, seed=0)
+    eyes = np.array([p.position for p in path])
+    near = eyes[:36]  # street and elevated
+    assert (np.abs(near[:, [0, 2]]) < 110).all()
+    assert (np.abs(eyes[36:, [0, 2]]).max(axis=1) < 400).all()
+    seen = [view_frustum_mask(p.camera(64, 36), objects.lower[1:], objects.upper[1:]).sum()
+            for p in path]
+    assert np.mean(seen) > 3
+    # a ground not much wider than the town: the map covers everything, as before
+    small = _town_on_a_wide_ground(0.45 * LEVEL_SPAN * 130)
+    assert small.built_bounds()[1] is False
+    np.testing.assert_array_equal(small.built_bounds()[0], small.bounds)
+
+
+def test_height_field_methods_get_the_flat_objects_only():
+    """culling_runtimes(flat=...): terrain-drape (inputs 'height-fields') makes occluders
+    for the flat objects among the occluder objects, the others' methods for all."""
+    from viscore.cli.bench.table1 import height_field_sheet
+
+    x, y = np.meshgrid(np.linspace(0, 1, 24), np.linspace(0, 1, 24), indexing="ij")
+    sheet = height_field_sheet(3 * np.sin(3 * x) * np.cos(2 * y) + 3, 100.0, 100.0)
+    sheet.apply_transform(trimesh.transformations.rotation_matrix(-np.pi / 2, [1, 0, 0]))
+    scene = trimesh.Scene()
+    scene.add_geometry(sheet, geom_name="hill", node_name="hill")
+    for k in range(2):
+        scene.add_geometry(trimesh.creation.box(bounds=[[10 + 40 * k, 5, -30],
+                                                        [20 + 40 * k, 15, -20]]),
+                           geom_name=f"house{k}", node_name=f"house{k}")
+    objects = load_scene_objects(scene)
+    flat = objects.flat()
+    assert flat.tolist() == [True, False, False]  # hill, house0, house1
+    everyone = np.arange(3)
+    _, info = culling_runtimes(objects, everyone, ["terrain-drape", "bbox"], frusta=False,
+                               flat=flat, joined=())
+    assert info["depth-buffer:terrain-drape"]["occluders"] == 1
+    assert info["depth-buffer:bbox"]["occluders"] == 3  # every object
+    _, info = culling_runtimes(objects, everyone[1:], ["terrain-drape"], frusta=False,
+                               flat=flat)
+    assert info["depth-buffer:terrain-drape"]["occluders"] == 0
+    with pytest.raises(InputError, match="one flag per object"):
+        culling_runtimes(objects, everyone, ["terrain-drape"], frusta=False, flat=[True])

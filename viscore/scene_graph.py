@@ -52,6 +52,7 @@ from functools import cached_property
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 import trimesh
 
 from ._validate import InputError, check_memory
@@ -170,6 +171,15 @@ def culling_scene_path(name: str) -> Path:
     return path
 
 
+#: An object is flat when its box's extent along the up axis is under this fraction of
+#: its widest horizontal extent (ground, terrain, floor slabs).
+FLAT_RATIO = 0.1
+#: A flat object whose box makes the level's diagonal more than this many times that of
+#: the non-flat objects' box (an outer ground plane, a sea around a town) does not set
+#: the level's extent: its built part is the non-flat objects' box.
+LEVEL_SPAN = 2.0
+
+
 @dataclass(frozen=True, eq=False)
 class SceneObjects:
     """The objects of a scene: shared meshes, one world transform per object.
@@ -223,6 +233,36 @@ class SceneObjects:
     def bounds(self) -> np.ndarray:
         """``(2, 3) float64`` lower and upper corner of the whole scene, world units."""
         return np.stack([self.lower.min(axis=0), self.upper.max(axis=0)])
+
+    def flat(self, up: npt.ArrayLike | None = None) -> np.ndarray:
+        """``(n,) bool``: objects whose box's extent along ``up`` (default :attr:`up`) is
+        under :data:`FLAT_RATIO` of its widest horizontal extent (ground, terrain, floor
+        slabs)."""
+        u = np.abs(np.asarray(self.up if up is None else up, dtype=np.float64))
+        u = u / np.linalg.norm(u)
+        extent = self.upper - self.lower
+        along = extent @ u
+        # the widest horizontal extent: of the box's extent with its part along up removed
+        across = np.linalg.norm(extent - np.outer(along, u), axis=1) if np.count_nonzero(
+            u) > 1 else np.delete(extent, int(np.argmax(u)), axis=1).max(axis=1)
+        return along < FLAT_RATIO * across
+
+    def built_bounds(self, up: npt.ArrayLike | None = None) -> tuple[np.ndarray, bool]:
+        """``(2, 3)`` the box of the level's built part, and whether it is not the whole.
+
+        The non-flat objects' box when flat ones (an outer ground plane, a sea
+        around a town) make the whole box's diagonal more than
+        :data:`LEVEL_SPAN` times its diagonal; otherwise :attr:`bounds`.
+        """
+        whole = self.bounds
+        flat = self.flat(up)
+        if flat.all() or not flat.any():
+            return whole, False
+        built = np.stack([self.lower[~flat].min(axis=0), self.upper[~flat].max(axis=0)])
+        span = float(np.linalg.norm(built[1] - built[0]))
+        if span > 0 and float(np.linalg.norm(whole[1] - whole[0])) > LEVEL_SPAN * span:
+            return built, True
+        return whole, False
 
     @property
     def total_triangles(self) -> int:
