@@ -25,3 +25,19 @@ def open_cube(cube):
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(autouse=True)
+def _restore_log_levels():
+    """Every test starts from the same log levels: ``main([... '--quiet'])`` run in-process
+    sets the ``viscore`` logger to ERROR for the rest of the process, and a later test's
+    ``caplog.at_level('WARNING')`` (which sets the root logger's level only) then saw
+    nothing of the toolkit's warnings, depending on which tests a worker ran before."""
+    import logging
+
+    loggers = [logging.getLogger(), logging.getLogger("viscore")]
+    saved = [lg.level for lg in loggers]
+    yield
+    for lg, level in zip(loggers, saved, strict=True):
+        lg.setLevel(level)
+    logging.captureWarnings(False)

@@ -532,3 +532,24 @@ def test_height_field_methods_get_the_flat_objects_only():
     assert info["depth-buffer:terrain-drape"]["occluders"] == 0
     with pytest.raises(InputError, match="one flag per object"):
         culling_runtimes(objects, everyone, ["terrain-drape"], frusta=False, flat=[True])
+
+
+def test_the_mesh_itself_is_a_guaranteed_occluder_on_an_open_mesh():
+    """'original' claims the guarantee on any input: an open, single-sided sheet is its own
+    conservative occluder (0 violating rays), and its depth-buffer runtime is
+    conservative, where the registry's flag alone promises closed meshes only."""
+    from viscore.cli.bench.table1 import height_field_sheet
+    from viscore.metrics.conservativeness import assert_conservative
+
+    x, y = np.meshgrid(np.linspace(0, 1, 16), np.linspace(0, 1, 16), indexing="ij")
+    sheet = height_field_sheet(2 * np.sin(4 * x) * np.cos(3 * y), 50.0, 50.0)
+    occ = generate("original", sheet)
+    assert occ.info["conservative_guaranteed"] is True
+    assert not sheet.is_watertight
+    assert_conservative(sheet, occ.mesh, rays=20_000, domain="volume", seed=1)
+    scene = trimesh.Scene()
+    scene.add_geometry(sheet, geom_name="sheet", node_name="sheet")
+    objects = load_scene_objects(scene)
+    runtimes, info = culling_runtimes(objects, [0], ["original"], frusta=False)
+    assert runtimes["depth-buffer:original"].conservative
+    assert info["depth-buffer:original"]["not_guaranteed"] == []

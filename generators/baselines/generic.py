@@ -153,7 +153,11 @@ def generate_original(mesh: trimesh.Trimesh, *, budget: int | None = None, seed:
     """The mesh itself (a check on the metrics: P = R = 1).
 
     ``budget`` is ignored and ``seed`` unused; both are accepted for the
-    common signature.
+    common signature. Conservative on any input, open or not: every ray
+    meets the occluder first where it meets the mesh first, so
+    ``info["conservative_guaranteed"]`` is True (the upper reference of a
+    guaranteed culling runtime: the depth buffer of the level's own
+    triangles).
 
     Examples
     --------
@@ -161,4 +165,4 @@ def generate_original(mesh: trimesh.Trimesh, *, budget: int | None = None, seed:
     12
     """
     return Occluder(mesh=mesh.copy(), method="original", params={}, double_sided=True,
-                    seconds=0.0)
+                    seconds=0.0, info={"conservative_guaranteed": True})
