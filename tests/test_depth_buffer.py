@@ -457,6 +457,14 @@ def test_depth_buffer_scale_invariant(scale):
     lo = np.array([[-1, 3, -1], [6.0, 3, -1], [-1, -4, -1]]) * scale
     hi = np.array([[1, 4, 1], [9.0, 4, 1], [1, -3, 1]]) * scale
     assert buf.occluded(lo, hi).tolist() == [True, False, False]
+    # boxes from behind the eye to behind a wide wall, beside the view axis: the part in
+    # view of the first starts behind the wall (12 / tan 30 = 20.8 ahead of the eye, the
+    # wall's face 19.5), of the second before it (10 / tan 30 = 17.3)
+    wide = ConservativeDepthBuffer.from_occluders(
+        trimesh.creation.box(extents=(100, 1, 10)).apply_scale(scale), cam)
+    lo = np.array([[12.0, -25, -1], [10.0, -25, -1]]) * scale
+    hi = np.array([[14.0, 4, 1], [12.0, 4, 1]]) * scale
+    assert wide.occluded(lo, hi).tolist() == [True, False]
 
 
 def test_depth_buffer_from_generated_solids_hidden_by_the_mesh(rng):
