@@ -60,6 +60,22 @@ rectangle; and the distance to a plane over a convex set of directions is
 largest at a corner. The rule never replaces the convex-piece rule, it is
 tried after it.
 
+Creases of curved sheets
+------------------------
+A terrain, a drape or a vault is neither convex nor planar, so each of its
+seams would be a line of open pixels and the sheet would hide nothing. Its
+triangles form *patches* (:mod:`viscore._patches`: connected triangles whose
+projection along an axis is one-to-one, so that the patch never meets
+itself). Each frame a patch's edges are sorted into creases (the two
+triangles on either side of the edge's image) and boundary edges (its
+border, silhouettes), and projected. The rule, tried last on pixels still
+without depth: when the four corner rays of a pixel first hit one patch and
+no boundary edge's image meets the pixel, every ray through it meets the
+patch no farther than the largest of the corners' distances and of the
+distances at the ends of the creases' parts in the pixel (proof in
+:mod:`viscore._patches`). A crease splits the tiles across it down to
+pixels, so those pixels' corners are already cast.
+
 How a pixel gets a depth
 ------------------------
 Hierarchically, by area subdivision (Warnock [4]_, and the pyramid of
@@ -161,6 +177,7 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
+from ._patches import height_field_patches
 from ._validate import InputError, as_positive_int, check_memory
 from .cameras import PerspectiveCamera
 from .scene import Scene
@@ -438,6 +455,10 @@ class OccluderScene:
         v = np.vstack(verts)
         f = np.vstack(faces)
         self.scene = Scene(trimesh.Trimesh(v, f, process=False), workers=workers)
+        # curved sheets (terrain, drapes): the crease rule's patches (viscore._patches)
+        self._vertices, self._faces = v, f
+        self._patch, self._patch_edges = height_field_patches(v, f)
+        self._n_patches = int(self._patch.max()) + 1 if len(self._patch) else 0
         self._facet = np.concatenate(facet)
         raw_solid = np.concatenate(solid)
         # solid ids: dense, and labels offset past the facet labels
@@ -640,6 +661,52 @@ def _first_triangles(scene: Scene, eye: np.ndarray, d32: np.ndarray) -> np.ndarr
     return scene._embree.run(o32, d32, output=1)["primID"]
 
 
+def _patch_depths(occ: OccluderScene, depth: np.ndarray, corner_tri: np.ndarray,
+                  eye: np.ndarray, basis, hx: float, hy: float, size: float,
+                  margin: float) -> None:
+    """The crease rule (:mod:`viscore._patches`) on the pixels without depth, in place:
+    a pixel whose four corner rays (cast by the tiles' subdivision: ``corner_tri``,
+    (H + 1, W + 1), the triangle each first hit, -1 a miss, -2 not cast) first hit one
+    patch, with no boundary edge of a patch across it, gets the largest of the corners'
+    distances to their triangles' planes and of its column's crease distances. A crease
+    between two triangles splits the tiles across it down to pixels, so its pixels'
+    corners are cast; no ray is cast here."""
+    from ._patches import patch_frame
+
+    h, w = depth.shape
+    f, r, u = basis
+    todo = ~np.isfinite(depth)
+    ci, cj = np.nonzero(corner_tri >= 0)
+    tri = corner_tri[ci, cj]
+    d = f[None] + ((cj / w - 0.5) * (2 * hx))[:, None] * r[None] \
+        + ((0.5 - ci / h) * (2 * hy))[:, None] * u[None]
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    # each corner's exact distance to its triangle's plane (float64), and its patch
+    v = occ._vertices[occ._faces[tri]]
+    n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.einsum("ij,ij->i", n, v[:, 0] - eye) / np.einsum("ij,ij->i", n, d)
+    good = np.isfinite(t) & (t > 0)
+    grid_t = np.full((h + 1, w + 1), np.inf)
+    grid_p = np.full((h + 1, w + 1), -1, dtype=np.int64)
+    grid_t[ci[good], cj[good]] = t[good]
+    grid_p[ci[good], cj[good]] = occ._patch[tri[good]]
+    blocked = np.zeros((h, w), dtype=bool)
+    crease = np.zeros((h, w))
+    disabled = np.zeros(occ._n_patches, dtype=bool)
+    z0 = 1e-6 * size
+    reach = 3 * z0 * np.sqrt(1 + 9 * hx * hx + 9 * hy * hy)
+    patch_frame(occ._vertices, occ._patch_edges, np.asarray(eye, dtype=np.float64), r, u, f,
+                hx, hy, w, h, z0, reach, _SEGMENT_SLACK, blocked, crease, disabled)
+    p = grid_p[:-1, :-1]
+    one = ((p >= 0) & (p == grid_p[:-1, 1:]) & (p == grid_p[1:, :-1]) & (p == grid_p[1:, 1:])
+           & todo & ~blocked)
+    one &= ~disabled[np.where(p >= 0, p, 0)]
+    far = np.maximum(np.maximum(grid_t[:-1, :-1], grid_t[:-1, 1:]),
+                     np.maximum(grid_t[1:, :-1], grid_t[1:, 1:]))
+    depth[one] = np.maximum(far, crease)[one] + margin
+
+
 def _full_corner_depth(occ: OccluderScene, camera: PerspectiveCamera, width: int,
                        height: int) -> np.ndarray:
     """(H, W) the one-ray-per-pixel-corner buffer (the reference of the tests): a pixel
@@ -752,6 +819,7 @@ class ConservativeDepthBuffer:
         xs, ys, ti, tj = occ._grid(w, h, hx, hy, cols, rows, tile)
         stride = cols + 1
         facet = np.full((rows + 1) * stride, -2, dtype=np.int64)  # -2: not cast, -1: miss
+        corner_tri = np.full_like(facet, -2)  # the triangle each cast corner ray first hit
         piece = np.empty_like(facet)
         region = np.empty_like(facet)
         segments, region_ok = occ._screen_segments(eye, basis, hx, hy, w, h)
@@ -770,6 +838,7 @@ class ConservativeDepthBuffer:
             n = tile_corners(ti, tj, s, stride, facet, xs, ys, r, u, f, need, d32)
             if n:
                 tri = _first_triangles(occ.scene, eye, d32[:n])
+                corner_tri[need[:n]] = tri
                 hits += store_hits(need[:n], tri, occ._facet, occ._solid, occ._region,
                                    occ._n_facets, occ._solid_plane, occ._solid_plane_ok, eye,
                                    tol, outside, facet, piece, region)
@@ -783,6 +852,9 @@ class ConservativeDepthBuffer:
                                 corner, coef, child_i, child_j)
             ti, tj = child_i[:n], child_j[:n]
             s //= 2
+        if occ._n_patches and not np.isfinite(depth).all():
+            _patch_depths(occ, depth, corner_tri.reshape(rows + 1, stride)[:h + 1, :w + 1],
+                          eye, basis, hx, hy, size, margin)
         return cls(depth=depth, camera=camera, hits=hits, rays=rays)
 
     def screen_rectangles(self, lower: npt.ArrayLike, upper: npt.ArrayLike

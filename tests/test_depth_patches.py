@@ -1,0 +1,179 @@
+"""The depth buffer's crease rule on curved sheets (viscore._patches): covered pixels are
+covered, their depths never nearer than the sheet, and nothing seen is culled."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from viscore import PerspectiveCamera, Scene
+from viscore._patches import height_field_patches
+from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
+
+
+def _terrain(rng, n=24, size=100.0, height=12.0, hole=False):
+    """A seeded smooth height field (z up) over [0, size]^2, optionally with a square hole."""
+    x, y = np.meshgrid(np.linspace(0, size, n), np.linspace(0, size, n), indexing="ij")
+    z = np.zeros_like(x)
+    for _ in range(5):
+        cx, cy = rng.uniform(0, size, 2)
+        z += rng.uniform(0.3, 1.0) * height * np.exp(-((x - cx) ** 2 + (y - cy) ** 2)
+                                                      / rng.uniform(150, 600))
+    v = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    f = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
+                        np.stack([a, c, d], -1).reshape(-1, 3)])
+    if hole:
+        centre = v[f].mean(axis=1)
+        f = f[~((np.abs(centre[:, 0] - 50) < 9) & (np.abs(centre[:, 1] - 50) < 9))]
+    return trimesh.Trimesh(v, f, process=False)
+
+
+def _sampled_first_hits(scene, cam, shape, pixels, rng, per=24):
+    """(k, per) first-hit distances of random rays through each buffer pixel."""
+    h, w = shape
+    f, r, u = cam.basis
+    i, j = pixels[:, 0], pixels[:, 1]
+    px = (j[:, None] + rng.random((len(j), per))) / w
+    py = (i[:, None] + rng.random((len(i), per))) / h
+    d = (f + ((px - 0.5) * 2 * cam._half)[..., None] * r
+         + ((0.5 - py) * 2 * cam._half_vertical)[..., None] * u).reshape(-1, 3)
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    t, _ = scene.first_hit(np.broadcast_to(cam.position, d.shape), d)
+    return t.reshape(len(i), per)
+
+
+def test_a_terrain_is_one_patch_and_a_box_none():
+    rng = np.random.default_rng(0)
+    terrain = _terrain(rng)
+    patch, edges = height_field_patches(terrain.vertices, terrain.faces)
+    assert (patch == 0).all()
+    inner = edges[edges[:, 3] >= 0]
+    border = edges[edges[:, 3] < 0]
+    assert len(border) == 4 * 23 and len(inner) == (3 * len(terrain.faces) - len(border)) // 2
+    box = trimesh.creation.box()
+    assert (height_field_patches(box.vertices, box.faces)[0] == -1).all()  # planar faces
+    # a sheet folded back over itself (the second triangle's shadow on the first) is no
+    # height field: refused, where an unfolded one is a patch
+    v = np.array([[0, 0, 0], [10, 0, 0], [0, 10, 0], [-2, -2, 3], [10, 10, 3]], float)
+    assert (height_field_patches(v, [[0, 1, 2], [1, 2, 3]])[0] == -1).all()
+    assert (height_field_patches(v, [[0, 1, 2], [1, 4, 2]])[0] == 0).all()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_terrain_depths_never_nearer_and_nothing_seen_is_culled(seed):
+    """Random terrains (one with a hole) and eyes above them, high and grazing: every
+    covered pixel's rays meet the sheet no farther than its depth; the crease rule
+    covers pixels the other rules leave open; no culled box shows in a full-resolution
+    id image."""
+    rng = np.random.default_rng(seed)
+    terrain = _terrain(rng, hole=seed % 2 == 1)
+    occ = OccluderScene([terrain])
+    scene = Scene(terrain)
+    eye = np.array([rng.uniform(-10, 110), rng.uniform(-30, 0), 0.0])
+    t, _ = scene.first_hit(np.array([[eye[0], eye[1], 100.0]]), np.array([[0, 0, -1.0]]))
+    ground = 100.0 - t[0] if np.isfinite(t[0]) else 0.0
+    eye[2] = ground + rng.choice([1.7, 6.0, 30.0])
+    aim = np.array([50.0, 50.0, 5.0]) - eye
+    cam = PerspectiveCamera(eye, aim, up=(0, 0, 1), fov=80, resolution=192, height=108)
+    buf = ConservativeDepthBuffer.from_occluders(occ, cam)
+    without = occ._n_patches
+    occ._n_patches = 0
+    plain = ConservativeDepthBuffer.from_occluders(occ, cam)
+    occ._n_patches = without
+    assert (buf.covered >= plain.covered).all()
+    assert buf.covered.sum() > plain.covered.sum()  # the rule covers creases
+    pixels = np.argwhere(buf.covered)
+    hits = _sampled_first_hits(scene, cam, buf.shape, pixels, rng)
+    assert np.isfinite(hits).all()
+    assert (hits <= buf.depth[pixels[:, 0], pixels[:, 1]][:, None]).all()
+    # occludees: boxes on and under the terrain's surface, behind its hills
+    centre = np.column_stack([rng.uniform(0, 100, 2000), rng.uniform(0, 100, 2000),
+                              rng.uniform(-2, 10, 2000)])
+    half = rng.uniform(0.2, 2.0, (2000, 3))
+    lo, hi = centre - half, centre + half
+    culled = buf.occluded(lo, hi)
+    # the test has teeth: 46, 10, 188 and 328 boxes over the seeds, where the convex
+    # pieces alone cull none (every seam of the sheet a line of open pixels)
+    assert culled.sum() >= 5 and plain.occluded(lo, hi).sum() < culled.sum()
+    occludees = [trimesh.creation.box(bounds=[a, b])
+                 for a, b in zip(lo[culled], hi[culled], strict=True)]
+    world = trimesh.util.concatenate([terrain] + occludees)
+    o, d = cam.rays()
+    _, tri = Scene(world).first_hit(o, d)
+    assert not (tri >= len(terrain.faces)).any()
+
+
+def test_a_box_seen_through_the_terrain_hole_is_never_culled():
+    rng = np.random.default_rng(1)
+    terrain = _terrain(rng, hole=True)
+    cam = PerspectiveCamera((50, 50, 60), (0.01, 0.01, -1), up=(0, 1, 0), fov=40,
+                            resolution=192, height=108)
+    buf = ConservativeDepthBuffer.from_occluders(terrain, cam)
+    under_hole = buf.occluded([[47, 47, -20]], [[53, 53, -19]])
+    # under the sheet away from the hole (seen through it only from elsewhere)
+    under_ground = buf.occluded([[70, 60, -20], [72, 40, -20], [30, 62, -20]],
+                                [[73, 63, -19], [75, 43, -19], [33, 65, -19]])
+    assert not under_hole[0] and under_ground.all()
+    # the hole's rim (its boundary edges) leaves the pixels around it without depth
+    rect = buf.screen_rectangles([[41, 41, 0]], [[59, 59, 12]])[0][0]
+    assert not buf.covered[rect[0]:rect[1] + 1, rect[2]:rect[3] + 1].all()
+
+
+def _grid_sheet(xs, ys, z):
+    """The heights ``z`` (len(xs), len(ys)) over the grid as a sheet, z up."""
+    x, y = np.meshgrid(xs, ys, indexing="ij")
+    v = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    n, m = len(xs), len(ys)
+    idx = np.arange(n * m).reshape(n, m)
+    a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    f = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
+                        np.stack([a, c, d], -1).reshape(-1, 3)])
+    return trimesh.Trimesh(v, f, process=False)
+
+
+def test_a_pole_seen_through_a_notch_in_a_ridge_is_never_culled():
+    """A ridge 10 high in front of the eye (5 high) with a V notch 0.6 wide down to 4, a
+    third of a buffer pixel, a wall far behind, and a pole between them seen through the
+    notch: the notch's sides are silhouettes, so the pixel gets no depth from the ridge
+    (its corners all hit the ridge's face) and the pole is not culled; a pole beside it,
+    behind the ridge, is. Were silhouettes taken for creases, the pixel would hold the
+    ridge's distance and the pole would be culled."""
+    xs = np.concatenate([np.linspace(-20, -0.3, 12), [0.0], np.linspace(0.3, 20, 12)])
+    ys = np.array([-60.0, -1.0, 0.0, 1.0])
+    z = np.zeros((len(xs), len(ys)))
+    z[:, 2] = np.where(np.abs(xs) < 0.29, 4.0, 10.0)
+    ridge = _grid_sheet(xs, ys, z)
+    assert (height_field_patches(ridge.vertices, ridge.faces)[0] == 0).all()
+    wall = trimesh.Trimesh([[-500, 100, -100], [500, 100, -100], [500, 100, 300],
+                            [-500, 100, 300]], [[0, 1, 2], [0, 2, 3]], process=False)
+    # the eye 0.45 to the right: the notch's image lies inside a pixel, not on its edge
+    eye = np.array([0.45, -50.0, 5.0])
+    cam = PerspectiveCamera(eye, (0, 1, -0.02), up=(0, 0, 1), fov=60, resolution=128,
+                            height=72)
+    buf = ConservativeDepthBuffer.from_occluders([ridge, wall], cam)
+    seen = [[-0.32, 29.9, 4.45], [-0.22, 30.1, 4.6]]  # through the notch
+    hidden = [[-10.32, 29.9, 4.45], [-10.22, 30.1, 4.6]]  # behind the ridge, to the left
+    through = np.array([-0.27, 30.0, 4.52]) - eye
+    t, _ = Scene(ridge).first_hit(eye[None], (through / np.linalg.norm(through))[None])
+    assert not np.isfinite(t[0])  # the ray to the pole passes the notch
+    got = buf.occluded(np.array([seen[0], hidden[0]]), np.array([seen[1], hidden[1]]))
+    assert got.tolist() == [False, True]
+
+
+def test_a_box_in_front_of_a_valley_crease_is_never_culled():
+    """A folded wall whose fold lies farther than its wings (a valley seen from the eye):
+    a pixel across the fold has its corners on the wings, nearer than the fold; a box
+    just in front of the fold is seen and must not be culled (the crease's own distance
+    bounds the pixel), one just behind it is."""
+    v = np.array([[-10, -8, -5], [0, 2, -5], [10, -8, -5], [-10, -8, 5], [0, 2, 5],
+                  [10, -8, 5]], float)  # wings at 45 degrees, the fold 2 ahead of the origin
+    wall = trimesh.Trimesh(v, [[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]], process=False)
+    # the eye a third of a pixel to the right: the fold's image inside a pixel
+    cam = PerspectiveCamera((0.24, -20.0, 0.0), (0, 1, 0), up=(0, 0, 1), fov=60,
+                            resolution=128, height=72)
+    buf = ConservativeDepthBuffer.from_occluders(wall, cam)
+    front = [[-0.01, 1.90, -0.01], [0.01, 1.92, 0.01]]  # the wings reach 1.64 at the corners
+    behind = [[-0.01, 2.3, -0.01], [0.01, 2.32, 0.01]]
+    got = buf.occluded(np.array([front[0], behind[0]]), np.array([front[1], behind[1]]))
+    assert got.tolist() == [False, True]

@@ -1,0 +1,324 @@
+"""Height-field patches of occluder triangles for the conservative depth buffer's crease rule.
+
+Convex pieces and coplanar regions (:mod:`viscore.depth_buffer`) leave every
+seam between two triangles of different planes open: a pixel across the
+crease of a curved sheet (a terrain, a drape, a vault) holds no depth, so a
+hill hides nothing in the buffer however large it is on screen. This module
+gives such sheets a rule of their own.
+
+Patches
+-------
+A *patch* is a set of occluder triangles, connected through shared edges,
+whose projections along one coordinate axis have disjoint interiors (the sum
+of their projected areas equals the area of their union, within ``1e-9``
+relative: :func:`height_field_patches`). Such a patch is the graph of a
+function over that plane, so it never meets itself. Vertices are joined by
+their exact float64 coordinates.
+
+The crease rule
+---------------
+In a frame, an edge of a patch is a *crease* when the two patch triangles
+on it lie on opposite sides of the plane through the eye and the edge (so
+their images lie on opposite sides of the edge's image); every other edge of
+the patch (its border, an edge with one patch triangle, a silhouette where
+both lie on one side, or either in the plane) is a *boundary* edge. Let the
+four corner rays of a pixel first hit triangles of one patch ``P``, and no
+boundary edge's image meet the pixel (widened by a thousandth of a pixel).
+Then every ray through the pixel meets ``P``, no farther than the largest of
+the corners' distances and the distances at the ends of every crease's part
+within the pixel (widened by the same thousandth). Proof: the boundary of the image of
+``P`` lies in the images of its boundary edges (across a crease both sides
+are covered), so the pixel, which such an image does not meet and whose
+corners are covered, is covered whole. Along the rays of the pixel the
+nearest point of ``P`` moves continuously, from triangle to triangle across
+creases only: a nearer layer of ``P`` could come in front only where its
+image ends, at a boundary edge, and ``P`` never meets itself. Over the part
+of the pixel where it stays on one triangle, a convex polygon, the distance
+to that triangle's plane is largest at a vertex (the lemma of
+:mod:`viscore.depth_buffer`), and the polygon's vertices are corners of the
+pixel or points of creases; the distance from the eye along a segment is
+convex, so a crease's points in the pixel are no farther than the ends of
+its part in the pixel (the image of a segment in front of the eye is
+monotone along it, in columns and in rows, so that part is one piece). The
+first occluder along the ray is no farther than ``P``. Creases of other
+patches, or of layers of ``P`` behind, only raise the bound.
+
+A patch whose edges pass within the near distance of the eye (as for
+coplanar regions, a millionth of the scene's size) is not used in the frame:
+an edge's part cut off by the near plane could project onto a pixel. The
+rule is tried last, on pixels the other rules left without depth.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import njit_cached
+
+__all__ = ["height_field_patches", "patch_frame", "INJECTIVE_TOLERANCE"]
+
+#: Relative gap allowed between the sum of a patch's projected triangle areas and the
+#: area of their union (shapely), for the projection to count as one-to-one.
+INJECTIVE_TOLERANCE = 1e-9
+
+
+def height_field_patches(vertices: np.ndarray, faces: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """Patch of each triangle (-1: none) and the patches' edges.
+
+    Axes are tried by the area the triangles' projections cover along them,
+    largest first (x, y, z on a tie): the triangles not in a patch yet
+    that face one way along the axis (not edge-on) are joined across edges
+    they share with exactly one other such triangle (vertices joined by exact
+    coordinates), and each connected set of two or more triangles whose
+    projections have disjoint interiors, and that is not planar (a planar
+    one is a coplanar region's), becomes a patch. A set that fails loses its
+    triangles that overlap another in projection (a fold) and is joined and
+    tested once more.
+
+    Returns
+    -------
+    patch : (n,) int64
+    edges : (m, 5) int64
+        Per edge of a patch: its two vertices, then the third vertex of each
+        patch triangle on it (the second -1 for an edge with one patch
+        triangle: a boundary edge), then the patch.
+    """
+    import shapely
+
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    patch = np.full(len(f), -1, dtype=np.int64)
+    if len(f) < 2:
+        return patch, np.zeros((0, 5), dtype=np.int64)
+    _, vid = np.unique(v, axis=0, return_inverse=True)
+    vid = vid.reshape(-1)
+    fid = vid[f]
+    tri = v[f]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    size = np.linalg.norm(normal, axis=1)
+    count = 0
+    # the axis the sheet faces most first: along another one a terrain folds into
+    # fragments that would take its triangles
+    for axis in np.argsort(-np.abs(normal).sum(axis=0), kind="stable"):
+        keep = np.delete([0, 1, 2], axis)
+        free = (patch < 0) & (np.abs(normal[:, axis]) > 1e-9 * size)
+        # triangles facing one way along the axis (a solid's top, its bottom) are joined
+        # apart; a fold shows as triangles overlapping in projection: those are left out,
+        # and what remains is joined and tested again
+        avail = [np.flatnonzero(free & (normal[:, axis] > 0)),
+                 np.flatnonzero(free & (normal[:, axis] < 0))]
+        for _ in range(2):
+            members_of = [m for part in avail for m in _components(fid, part)]
+            avail = []
+            for members in members_of:
+                unit = normal[members] / size[members, None]
+                if np.abs(unit @ unit[0]).min() > 1.0 - 1e-12:  # planar: regions do it
+                    continue
+                flat = tri[members][:, :, keep]
+                area = 0.5 * np.abs(normal[members, axis]).sum()
+                union = shapely.union_all(shapely.polygons(flat)).area
+                if abs(union - area) <= INJECTIVE_TOLERANCE * area:
+                    patch[members] = count
+                    count += 1
+                else:
+                    avail.append(members[~_overlapping(flat)])
+    return patch, _patch_edges(f, fid, patch)
+
+
+def _components(fid: np.ndarray, avail: np.ndarray) -> list[np.ndarray]:
+    """The triangles ``avail`` (indices into ``fid``) joined across the edges two of them
+    share: each connected set of two or more, as indices into ``fid``."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    if len(avail) < 2:
+        return []
+    pairs = _edge_pairs(fid[avail])
+    n = len(avail)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    k, label = connected_components(graph, directed=False)
+    return [avail[label == c] for c in np.flatnonzero(np.bincount(label, minlength=k) >= 2)]
+
+
+def _overlapping(flat: np.ndarray) -> np.ndarray:
+    """(k,) bool: projected triangles ``flat`` (k, 3, 2) whose interior overlaps another's
+    (an intersection of area over :data:`INJECTIVE_TOLERANCE` of the smaller)."""
+    import shapely
+
+    polys = shapely.polygons(flat)
+    a, b = shapely.STRtree(polys).query(polys, predicate="intersects")
+    pick = a < b
+    a, b = a[pick], b[pick]
+    inter = shapely.area(shapely.intersection(polys[a], polys[b]))
+    small = np.minimum(shapely.area(polys[a]), shapely.area(polys[b]))
+    bad = inter > INJECTIVE_TOLERANCE * np.maximum(small, 1e-300)
+    out = np.zeros(len(flat), dtype=bool)
+    out[a[bad]] = True
+    out[b[bad]] = True
+    return out
+
+
+def _edge_pairs(fid: np.ndarray) -> np.ndarray:
+    """(k, 2) triangles (rows of ``fid``) that share an edge no third triangle has."""
+    n = len(fid)
+    e = np.sort(np.stack([fid[:, [0, 1]], fid[:, [1, 2]], fid[:, [2, 0]]], axis=1), axis=2)
+    e = e.reshape(-1, 2)
+    owner = np.repeat(np.arange(n), 3)
+    _, inverse, counts = np.unique(e, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.reshape(-1)
+    two = counts[inverse] == 2
+    order = np.argsort(inverse[two], kind="stable")
+    own = owner[two][order]
+    return own.reshape(-1, 2)
+
+
+def _patch_edges(f: np.ndarray, fid: np.ndarray, patch: np.ndarray) -> np.ndarray:
+    """The (m, 5) edges of the patches (see :func:`height_field_patches`)."""
+    inside = np.flatnonzero(patch >= 0)
+    if len(inside) == 0:
+        return np.zeros((0, 5), dtype=np.int64)
+    rows = []
+    for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        rows.append(np.stack([f[inside, a], f[inside, b], f[inside, c],
+                              fid[inside, a], fid[inside, b], patch[inside]], axis=1))
+    e = np.concatenate(rows)
+    key = np.stack([np.minimum(e[:, 3], e[:, 4]), np.maximum(e[:, 3], e[:, 4]), e[:, 5]],
+                   axis=1)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.reshape(-1)
+    order = np.argsort(inverse, kind="stable")
+    e, inverse = e[order], inverse[order]
+    first = np.r_[True, inverse[1:] != inverse[:-1]]
+    start = np.flatnonzero(first)
+    out = []
+    for s in start:
+        k = counts[inverse[s]]
+        if k == 2:  # an edge inside the patch: both third vertices
+            out.append([e[s, 0], e[s, 1], e[s, 2], e[s + 1, 2], e[s, 5]])
+        else:  # the patch's border (or an edge of three or more): boundary, each time
+            out.extend([e[s + j, 0], e[s + j, 1], e[s + j, 2], -1, e[s, 5]] for j in range(k))
+    return np.asarray(out, dtype=np.int64).reshape(-1, 5)
+
+
+@njit_cached()
+def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack,
+                blocked, crease, disabled):  # pragma: no cover
+    """One frame's images of the patches' edges (see the module docstring).
+
+    Sets ``blocked[i, j]`` where a boundary edge's image meets pixel ``(i, j)``
+    widened by ``slack`` pixels; raises ``crease[i, j]`` to the largest distance
+    at the ends of each crease's part within pixel ``(i, j)`` widened by
+    ``slack``; sets ``disabled[p]`` for a patch with an edge within ``reach`` of
+    the eye. Parts of edges nearer than ``z0`` along the view are cut off.
+    """
+    kx = 0.5 / hx
+    ky = 0.5 / hy
+    for k in range(edges.shape[0]):
+        a0 = vert[edges[k, 0], 0] - eye[0]
+        a1 = vert[edges[k, 0], 1] - eye[1]
+        a2 = vert[edges[k, 0], 2] - eye[2]
+        b0 = vert[edges[k, 1], 0] - eye[0]
+        b1 = vert[edges[k, 1], 1] - eye[1]
+        b2 = vert[edges[k, 1], 2] - eye[2]
+        ax_ = a0 * r[0] + a1 * r[1] + a2 * r[2]
+        ay_ = a0 * u[0] + a1 * u[1] + a2 * u[2]
+        az_ = a0 * f[0] + a1 * f[1] + a2 * f[2]
+        bx_ = b0 * r[0] + b1 * r[1] + b2 * r[2]
+        by_ = b0 * u[0] + b1 * u[1] + b2 * u[2]
+        bz_ = b0 * f[0] + b1 * f[1] + b2 * f[2]
+        d0, d1, d2 = b0 - a0, b1 - a1, b2 - a2
+        dd = d0 * d0 + d1 * d1 + d2 * d2
+        t = 0.0 if dd == 0 else min(1.0, max(0.0, -(a0 * d0 + a1 * d1 + a2 * d2) / dd))
+        c0, c1, c2 = a0 + t * d0, a1 + t * d1, a2 + t * d2
+        if math.sqrt(c0 * c0 + c1 * c1 + c2 * c2) <= reach:
+            disabled[edges[k, 4]] = True
+            continue
+        is_crease = False
+        if edges[k, 3] >= 0:
+            nx = a1 * b2 - a2 * b1
+            ny = a2 * b0 - a0 * b2
+            nz = a0 * b1 - a1 * b0
+            sp = nx * (vert[edges[k, 2], 0] - eye[0]) + ny * (vert[edges[k, 2], 1] - eye[1]) \
+                + nz * (vert[edges[k, 2], 2] - eye[2])
+            sq = nx * (vert[edges[k, 3], 0] - eye[0]) + ny * (vert[edges[k, 3], 1] - eye[1]) \
+                + nz * (vert[edges[k, 3], 2] - eye[2])
+            is_crease = (sp > 0 and sq < 0) or (sp < 0 and sq > 0)
+        # the part in front of z0
+        s0, s1 = 0.0, 1.0
+        if az_ < z0 and bz_ < z0:
+            continue
+        if az_ < z0:
+            s0 = (z0 - az_) / (bz_ - az_)
+        elif bz_ < z0:
+            s1 = (z0 - az_) / (bz_ - az_)
+        dx, dy, dz = bx_ - ax_, by_ - ay_, bz_ - az_
+        # image columns of the part's ends (monotone along the segment)
+        ca = ((ax_ + s0 * dx) / (az_ + s0 * dz) * kx + 0.5) * w
+        cb = ((ax_ + s1 * dx) / (az_ + s1 * dz) * kx + 0.5) * w
+        j0 = max(0, int(math.floor(min(ca, cb) - slack)))
+        j1 = min(w - 1, int(math.floor(max(ca, cb) + slack)))
+        for j in range(j0, j1 + 1):
+            # the parameters of the part within the column widened by slack: the column
+            # is monotone along the segment, so the part is one interval
+            left, right = j - slack, j + 1 + slack
+            if ca <= cb:
+                lo = s0 if ca >= left else _at_column(left, w, kx, ax_, az_, dx, dz, s0, s1)
+                hi = s1 if cb <= right else _at_column(right, w, kx, ax_, az_, dx, dz, s0, s1)
+            else:
+                lo = s0 if ca <= right else _at_column(right, w, kx, ax_, az_, dx, dz, s0, s1)
+                hi = s1 if cb >= left else _at_column(left, w, kx, ax_, az_, dx, dz, s0, s1)
+            if lo > hi:
+                continue
+            ra = (0.5 - (ay_ + lo * dy) / (az_ + lo * dz) * ky) * h
+            rb = (0.5 - (ay_ + hi * dy) / (az_ + hi * dz) * ky) * h
+            i0 = max(0, int(math.floor(min(ra, rb) - slack)))
+            i1 = min(h - 1, int(math.floor(max(ra, rb) + slack)))
+            if i0 > i1:
+                continue
+            if is_crease:
+                # per pixel of the column, the part within its rows (widened by slack):
+                # the row is monotone along the segment too
+                for i in range(i0, i1 + 1):
+                    top, bottom = i - slack, i + 1 + slack
+                    if ra <= rb:
+                        p0 = lo if ra >= top else _at_row(top, h, ky, ay_, az_, dy, dz, lo, hi)
+                        p1 = hi if rb <= bottom else _at_row(bottom, h, ky, ay_, az_, dy, dz,
+                                                             lo, hi)
+                    else:
+                        p0 = lo if ra <= bottom else _at_row(bottom, h, ky, ay_, az_, dy, dz,
+                                                             lo, hi)
+                        p1 = hi if rb >= top else _at_row(top, h, ky, ay_, az_, dy, dz, lo, hi)
+                    if p0 > p1:
+                        continue
+                    far = max(math.sqrt((a0 + p0 * d0) ** 2 + (a1 + p0 * d1) ** 2
+                                        + (a2 + p0 * d2) ** 2),
+                              math.sqrt((a0 + p1 * d0) ** 2 + (a1 + p1 * d1) ** 2
+                                        + (a2 + p1 * d2) ** 2))
+                    if far > crease[i, j]:
+                        crease[i, j] = far
+            else:
+                for i in range(i0, i1 + 1):
+                    blocked[i, j] = True
+
+
+@njit_cached()
+def _at_column(col, w, kx, ax_, az_, dx, dz, s0, s1):  # pragma: no cover
+    """The parameter in [s0, s1] where the segment's image reaches buffer column ``col``."""
+    qx = (col / w - 0.5) / kx
+    den = dx - qx * dz
+    if den == 0.0:
+        return s0
+    return min(s1, max(s0, (qx * az_ - ax_) / den))
+
+
+@njit_cached()
+def _at_row(row, h, ky, ay_, az_, dy, dz, s0, s1):  # pragma: no cover
+    """The parameter in [s0, s1] where the segment's image reaches buffer row ``row``."""
+    qy = (0.5 - row / h) / ky
+    den = dy - qy * dz
+    if den == 0.0:
+        return s0
+    return min(s1, max(s0, (qy * az_ - ay_) / den))
