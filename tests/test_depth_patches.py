@@ -147,11 +147,18 @@ def test_a_pole_seen_through_a_notch_in_a_ridge_is_never_culled():
     assert (height_field_patches(ridge.vertices, ridge.faces)[0] == 0).all()
     wall = trimesh.Trimesh([[-500, 100, -100], [500, 100, -100], [500, 100, 300],
                             [-500, 100, 300]], [[0, 1, 2], [0, 2, 3]], process=False)
+    # a wide ground under everything: the scene faces up most, so patches are taken
+    # along z first and the ridge's two faces are one patch, its crest a silhouette
+    ground = trimesh.Trimesh([[-2000, -2000, -0.01], [2000, -2000, -0.01],
+                              [2000, 2000, -0.01], [-2000, 2000, -0.01]],
+                             [[0, 1, 2], [0, 2, 3]], process=False)
     # the eye 0.45 to the right: the notch's image lies inside a pixel, not on its edge
     eye = np.array([0.45, -50.0, 5.0])
     cam = PerspectiveCamera(eye, (0, 1, -0.02), up=(0, 0, 1), fov=60, resolution=128,
                             height=72)
-    buf = ConservativeDepthBuffer.from_occluders([ridge, wall], cam)
+    occ = OccluderScene([ridge, wall, ground])
+    assert len(set(occ._patch[:len(ridge.faces)].tolist())) == 1  # the ridge: one patch
+    buf = ConservativeDepthBuffer.from_occluders(occ, cam)
     seen = [[-0.32, 29.9, 4.45], [-0.22, 30.1, 4.6]]  # through the notch
     hidden = [[-10.32, 29.9, 4.45], [-10.22, 30.1, 4.6]]  # behind the ridge, to the left
     through = np.array([-0.27, 30.0, 4.52]) - eye

@@ -459,6 +459,10 @@ class OccluderScene:
         self._vertices, self._faces = v, f
         self._patch, self._patch_edges = height_field_patches(v, f)
         self._n_patches = int(self._patch.max()) + 1 if len(self._patch) else 0
+        # per triangle: its plane (n . x = offset, n not unit), for the corners' distances
+        tri_n = np.cross(v[f][:, 1] - v[f][:, 0], v[f][:, 2] - v[f][:, 0])
+        self._tri_plane = np.concatenate(
+            [tri_n, np.einsum("ij,ij->i", tri_n, v[f][:, 0])[:, None]], axis=1)
         self._facet = np.concatenate(facet)
         raw_solid = np.concatenate(solid)
         # solid ids: dense, and labels offset past the facet labels
@@ -682,22 +686,33 @@ def _patch_depths(occ: OccluderScene, depth: np.ndarray, corner_tri: np.ndarray,
         + ((0.5 - ci / h) * (2 * hy))[:, None] * u[None]
     d /= np.linalg.norm(d, axis=1)[:, None]
     # each corner's exact distance to its triangle's plane (float64), and its patch
-    v = occ._vertices[occ._faces[tri]]
-    n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    plane = occ._tri_plane[tri]
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.einsum("ij,ij->i", n, v[:, 0] - eye) / np.einsum("ij,ij->i", n, d)
+        t = (plane[:, 3] - plane[:, :3] @ eye) / np.einsum("ij,ij->i", plane[:, :3], d)
     good = np.isfinite(t) & (t > 0)
     grid_t = np.full((h + 1, w + 1), np.inf)
     grid_p = np.full((h + 1, w + 1), -1, dtype=np.int64)
     grid_t[ci[good], cj[good]] = t[good]
     grid_p[ci[good], cj[good]] = occ._patch[tri[good]]
+    # only the patches a corner of a pixel without depth hits: another patch's boundary
+    # or crease could only block a pixel or raise its depth
+    seen = np.zeros(occ._n_patches + 1, dtype=bool)
+    near_todo = np.zeros((h + 1, w + 1), dtype=bool)
+    for a in (0, 1):
+        for b in (0, 1):
+            near_todo[a:h + a, b:w + b] |= todo
+    seen[grid_p[near_todo]] = True  # -1 (none) lands on the extra last entry
+    edges = occ._patch_edges[seen[:-1][occ._patch_edges[:, 4]]]
     blocked = np.zeros((h, w), dtype=bool)
     crease = np.zeros((h, w))
     disabled = np.zeros(occ._n_patches, dtype=bool)
     z0 = 1e-6 * size
     reach = 3 * z0 * np.sqrt(1 + 9 * hx * hx + 9 * hy * hy)
-    patch_frame(occ._vertices, occ._patch_edges, np.asarray(eye, dtype=np.float64), r, u, f,
+    patch_frame(occ._vertices, edges, np.asarray(eye, dtype=np.float64), r, u, f,
                 hx, hy, w, h, z0, reach, _SEGMENT_SLACK, blocked, crease, disabled)
+    # a patch passing within reach of the eye inside a triangle (not at an edge): the cut
+    # of that triangle at z0 could bound its image on the screen; not used either
+    disabled[_near_patches(occ, eye, reach)] = True
     p = grid_p[:-1, :-1]
     one = ((p >= 0) & (p == grid_p[:-1, 1:]) & (p == grid_p[1:, :-1]) & (p == grid_p[1:, 1:])
            & todo & ~blocked)
@@ -705,6 +720,31 @@ def _patch_depths(occ: OccluderScene, depth: np.ndarray, corner_tri: np.ndarray,
     far = np.maximum(np.maximum(grid_t[:-1, :-1], grid_t[:-1, 1:]),
                      np.maximum(grid_t[1:, :-1], grid_t[1:, 1:]))
     depth[one] = np.maximum(far, crease)[one] + margin
+
+
+def _near_patches(occ: OccluderScene, eye: np.ndarray, reach: float) -> np.ndarray:
+    """Patches with a triangle whose interior lies within ``reach`` of the eye (the foot
+    of the eye on the triangle's plane inside the triangle, the plane that near)."""
+    plane = occ._tri_plane
+    nn = np.einsum("ij,ij->i", plane[:, :3], plane[:, :3])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        close = np.abs(plane[:, :3] @ eye - plane[:, 3]) <= reach * np.sqrt(nn)
+    k = np.flatnonzero(close & (occ._patch >= 0))  # the plane that near: then the foot
+    if len(k) == 0:
+        return np.zeros(0, dtype=np.int64)
+    nn = nn[k]
+    v = occ._vertices[occ._faces[k]]
+    e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
+    n = plane[k, :3]
+    rel = eye - v[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        height = np.einsum("ij,ij->i", n, rel) / np.sqrt(nn)
+        foot = rel - (np.einsum("ij,ij->i", n, rel) / nn)[:, None] * n
+        # barycentric coordinates of the foot
+        a = np.einsum("ij,ij->i", np.cross(foot, e2), n) / nn
+        b = np.einsum("ij,ij->i", np.cross(e1, foot), n) / nn
+    near = (np.abs(height) <= reach) & (a >= 0) & (b >= 0) & (a + b <= 1)
+    return np.unique(occ._patch[k[near]])
 
 
 def _full_corner_depth(occ: OccluderScene, camera: PerspectiveCamera, width: int,
