@@ -133,38 +133,39 @@ def _grid_sheet(xs, ys, z):
 
 
 def test_a_pole_seen_through_a_notch_in_a_ridge_is_never_culled():
-    """A ridge 10 high in front of the eye (5 high) with a V notch 0.6 wide down to 4, a
-    third of a buffer pixel, a wall far behind, and a pole between them seen through the
-    notch: the notch's sides are silhouettes, so the pixel gets no depth from the ridge
-    (its corners all hit the ridge's face) and the pole is not culled; a pole beside it,
-    behind the ridge, is. Were silhouettes taken for creases, the pixel would hold the
-    ridge's distance and the pole would be culled."""
-    xs = np.concatenate([np.linspace(-20, -0.3, 12), [0.0], np.linspace(0.3, 20, 12)])
-    ys = np.array([-60.0, -1.0, 0.0, 1.0])
+    """A ridge 30 high, 150 ahead of the eye (22 high), with a V notch down to 19 and 4.8
+    wide, 0.9 of a buffer pixel there, centred in a pixel column; a wall far behind; a
+    pole between them seen through the notch. The notch's sides are silhouettes, so the
+    pixel gets no depth from the ridge although its corners all hit the ridge's face, and
+    the pole is not culled; a pole beside it, behind the ridge, is. Were silhouettes taken
+    for creases, the pixel would hold the ridge's distance and the pole would be culled."""
+    xs = np.concatenate([np.linspace(-60, -2.4, 12), [0.0], np.linspace(2.4, 60, 12)])
+    ys = np.array([-300.0, -100.0, 0.0, 100.0])  # faces 3 in 10, the notch's 4.6 in 1
     z = np.zeros((len(xs), len(ys)))
-    z[:, 2] = np.where(np.abs(xs) < 0.29, 4.0, 10.0)
+    z[:, 2] = np.where(np.abs(xs) < 2.3, 19.0, 30.0)
     ridge = _grid_sheet(xs, ys, z)
     assert (height_field_patches(ridge.vertices, ridge.faces)[0] == 0).all()
-    wall = trimesh.Trimesh([[-500, 100, -100], [500, 100, -100], [500, 100, 300],
-                            [-500, 100, 300]], [[0, 1, 2], [0, 2, 3]], process=False)
+    wall = trimesh.Trimesh([[-2000, 300, -100], [2000, 300, -100], [2000, 300, 1000],
+                            [-2000, 300, 1000]], [[0, 1, 2], [0, 2, 3]], process=False)
     # a wide ground under everything: the scene faces up most, so patches are taken
     # along z first and the ridge's two faces are one patch, its crest a silhouette
-    ground = trimesh.Trimesh([[-2000, -2000, -0.01], [2000, -2000, -0.01],
-                              [2000, 2000, -0.01], [-2000, 2000, -0.01]],
+    ground = trimesh.Trimesh([[-5000, -5000, -0.01], [5000, -5000, -0.01],
+                              [5000, 5000, -0.01], [-5000, 5000, -0.01]],
                              [[0, 1, 2], [0, 2, 3]], process=False)
-    # the eye 0.45 to the right: the notch's image lies inside a pixel, not on its edge
-    eye = np.array([0.45, -50.0, 5.0])
-    cam = PerspectiveCamera(eye, (0, 1, -0.02), up=(0, 0, 1), fov=60, resolution=128,
-                            height=72)
     occ = OccluderScene([ridge, wall, ground])
     assert len(set(occ._patch[:len(ridge.faces)].tolist())) == 1  # the ridge: one patch
+    # the eye 2.7 right of the notch: pixel column edges fall 2.7 either side of it
+    eye = np.array([2.7, -150.0, 22.0])
+    cam = PerspectiveCamera(eye, (0, 1, -0.01), up=(0, 0, 1), fov=60, resolution=128,
+                            height=72)
     buf = ConservativeDepthBuffer.from_occluders(occ, cam)
-    seen = [[-0.32, 29.9, 4.45], [-0.22, 30.1, 4.6]]  # through the notch
-    hidden = [[-10.32, 29.9, 4.45], [-10.22, 30.1, 4.6]]  # behind the ridge, to the left
-    through = np.array([-0.27, 30.0, 4.52]) - eye
+    through = np.array([0.0, 0.0, 21.0]) - eye  # over the notch's floor, under the crest
+    pole = eye + through * 250 / 150  # at y = 100
     t, _ = Scene(ridge).first_hit(eye[None], (through / np.linalg.norm(through))[None])
     assert not np.isfinite(t[0])  # the ray to the pole passes the notch
-    got = buf.occluded(np.array([seen[0], hidden[0]]), np.array([seen[1], hidden[1]]))
+    beside = pole - [30, 0, 0]  # behind the ridge
+    got = buf.occluded(np.array([pole - 0.1, beside - 0.1]), np.array([pole + 0.1,
+                                                                       beside + 0.1]))
     assert got.tolist() == [False, True]
 
 
@@ -184,3 +185,20 @@ def test_a_box_in_front_of_a_valley_crease_is_never_culled():
     behind = [[-0.01, 2.3, -0.01], [0.01, 2.32, 0.01]]
     got = buf.occluded(np.array([front[0], behind[0]]), np.array([front[1], behind[1]]))
     assert got.tolist() == [False, True]
+
+
+def test_a_steep_triangle_is_left_out_of_the_patch():
+    """A triangle hung from the sheet's border edge, 1e-8 off vertical: its projection
+    covers almost no area, so the area test alone could not see it pierce the sheet (a
+    reviewer's counterexample did: a depth 140 margins too near); triangles steeper
+    than MIN_FACING stay out of patches, the rest of the sheet stays in."""
+    from viscore._patches import MIN_FACING
+
+    xs, ys = np.linspace(0, 4, 5), np.linspace(0, 2, 3)
+    sheet = _grid_sheet(xs, ys, np.outer(np.ones(5), [0.0, 0.5, 2.0]))  # a ramp along y
+    v = np.vstack([sheet.vertices, [[0.5, 1e-8, 3.0]]])  # over the edge (0,0,0)-(1,0,0)
+    f = np.vstack([sheet.faces, [[0, 3, len(v) - 1]]])
+    n = np.cross(v[3] - v[0], v[-1] - v[0])
+    assert abs(n[2]) < MIN_FACING * np.linalg.norm(n)
+    patch, _ = height_field_patches(v, f)
+    assert patch[-1] == -1 and (patch[:-1] >= 0).all()

@@ -9,19 +9,24 @@ gives such sheets a rule of their own.
 Patches
 -------
 A *patch* is a set of occluder triangles, connected through shared edges,
-whose projections along one coordinate axis have disjoint interiors (the sum
-of their projected areas equals the area of their union, within ``1e-9``
-relative: :func:`height_field_patches`). Such a patch is the graph of a
-function over that plane, so it never meets itself. Vertices are joined by
-their exact float64 coordinates.
+none steeper than :data:`MIN_FACING` along one coordinate axis, whose
+projections along that axis have disjoint interiors (the sum of their
+projected areas equals the area of their union: :func:`height_field_patches`).
+Such a patch is the graph of a function over that plane, so it never meets
+itself. Vertices are joined by their exact float64 coordinates. The area test
+allows an overlap of a millionth of the smallest triangle's projection (the
+float rounding of shapely's union): that is a margin, not a proof, and the
+steepness bound keeps a triangle from piercing the sheet while adding almost
+no projected area (a reviewer's counterexample, now a test).
 
 The crease rule
 ---------------
 In a frame, an edge of a patch is a *crease* when the two patch triangles
 on it lie on opposite sides of the plane through the eye and the edge (so
-their images lie on opposite sides of the edge's image); every other edge of
-the patch (its border, an edge with one patch triangle, a silhouette where
-both lie on one side, or either in the plane) is a *boundary* edge. Let the
+their images lie on opposite sides of the edge's image), each by more than
+:data:`SIDE_TOLERANCE` relative; every other edge of the patch (its border,
+an edge with one patch triangle, a silhouette where both lie on one side, or
+either in the plane up to rounding) is a *boundary* edge. Let the
 four corner rays of a pixel first hit triangles of one patch ``P``, and no
 boundary edge's image meet the pixel (widened by a thousandth of a pixel).
 Then every ray through the pixel meets ``P``, no farther than the largest of
@@ -60,8 +65,15 @@ from ._jit import njit_cached
 __all__ = ["height_field_patches", "patch_frame", "INJECTIVE_TOLERANCE"]
 
 #: Relative gap allowed between the sum of a patch's projected triangle areas and the
-#: area of their union (shapely), for the projection to count as one-to-one.
+#: area of their union (shapely), for the projection to count as one-to-one; at most a
+#: millionth of the patch's smallest projected triangle.
 INJECTIVE_TOLERANCE = 1e-9
+#: Least ``|cos|`` of the angle between a patch triangle's normal and the patch's axis
+#: (about 78 degrees from it at most): steeper triangles are left out of patches.
+MIN_FACING = 0.2
+#: Relative size under which the side of a vertex from the plane through the eye and
+#: an edge counts as none (the edge is then a boundary edge).
+SIDE_TOLERANCE = 1e-12
 
 
 def height_field_patches(vertices: np.ndarray, faces: np.ndarray
@@ -70,7 +82,7 @@ def height_field_patches(vertices: np.ndarray, faces: np.ndarray
 
     Axes are tried by the area the triangles' projections cover along them,
     largest first (x, y, z on a tie): the triangles not in a patch yet
-    that face one way along the axis (not edge-on) are joined across edges
+    that face one way along the axis (within :data:`MIN_FACING`) are joined across edges
     they share with exactly one other such triangle (vertices joined by exact
     coordinates), and each connected set of two or more triangles whose
     projections have disjoint interiors, and that is not planar (a planar
@@ -104,7 +116,9 @@ def height_field_patches(vertices: np.ndarray, faces: np.ndarray
     # fragments that would take its triangles
     for axis in np.argsort(-np.abs(normal).sum(axis=0), kind="stable"):
         keep = np.delete([0, 1, 2], axis)
-        free = (patch < 0) & (np.abs(normal[:, axis]) > 1e-9 * size)
+        # steep triangles stay out: a triangle almost edge-on along the axis covers
+        # almost no area there, so the area test could not tell it pierces the sheet
+        free = (patch < 0) & (np.abs(normal[:, axis]) >= MIN_FACING * size)
         # triangles facing one way along the axis (a solid's top, its bottom) are joined
         # apart; a fold shows as triangles overlapping in projection: those are left out,
         # and what remains is joined and tested again
@@ -118,9 +132,13 @@ def height_field_patches(vertices: np.ndarray, faces: np.ndarray
                 if np.abs(unit @ unit[0]).min() > 1.0 - 1e-12:  # planar: regions do it
                     continue
                 flat = tri[members][:, :, keep]
-                area = 0.5 * np.abs(normal[members, axis]).sum()
+                projected = 0.5 * np.abs(normal[members, axis])
+                area = projected.sum()
                 union = shapely.union_all(shapely.polygons(flat)).area
-                if abs(union - area) <= INJECTIVE_TOLERANCE * area:
+                # overlap allowed: a millionth of the smallest triangle (float noise of
+                # the union's area), and never more than INJECTIVE_TOLERANCE of the whole
+                tol = min(INJECTIVE_TOLERANCE * area, 1e-6 * projected.min())
+                if abs(union - area) <= tol:
                     patch[members] = count
                     count += 1
                 else:
@@ -245,7 +263,15 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack,
                 + nz * (vert[edges[k, 2], 2] - eye[2])
             sq = nx * (vert[edges[k, 3], 0] - eye[0]) + ny * (vert[edges[k, 3], 1] - eye[1]) \
                 + nz * (vert[edges[k, 3], 2] - eye[2])
-            is_crease = (sp > 0 and sq < 0) or (sp < 0 and sq > 0)
+            # a side within rounding of the plane counts as none: a boundary edge
+            nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+            ep = SIDE_TOLERANCE * nn * math.sqrt(
+                (vert[edges[k, 2], 0] - eye[0]) ** 2 + (vert[edges[k, 2], 1] - eye[1]) ** 2
+                + (vert[edges[k, 2], 2] - eye[2]) ** 2)
+            eq = SIDE_TOLERANCE * nn * math.sqrt(
+                (vert[edges[k, 3], 0] - eye[0]) ** 2 + (vert[edges[k, 3], 1] - eye[1]) ** 2
+                + (vert[edges[k, 3], 2] - eye[2]) ** 2)
+            is_crease = (sp > ep and sq < -eq) or (sp < -ep and sq > eq)
         # the part in front of z0
         s0, s1 = 0.0, 1.0
         if az_ < z0 and bz_ < z0:
@@ -258,8 +284,9 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack,
         # image columns of the part's ends (monotone along the segment)
         ca = ((ax_ + s0 * dx) / (az_ + s0 * dz) * kx + 0.5) * w
         cb = ((ax_ + s1 * dx) / (az_ + s1 * dz) * kx + 0.5) * w
-        j0 = max(0, int(math.floor(min(ca, cb) - slack)))
-        j1 = min(w - 1, int(math.floor(max(ca, cb) + slack)))
+        # clamped as floats first: a column far off the screen does not fit an int64
+        j0 = int(math.floor(min(max(0.0, min(ca, cb) - slack), float(w))))
+        j1 = int(math.floor(max(min(w - 1.0, max(ca, cb) + slack), -1.0)))
         for j in range(j0, j1 + 1):
             # the parameters of the part within the column widened by slack: the column
             # is monotone along the segment, so the part is one interval
@@ -274,8 +301,8 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack,
                 continue
             ra = (0.5 - (ay_ + lo * dy) / (az_ + lo * dz) * ky) * h
             rb = (0.5 - (ay_ + hi * dy) / (az_ + hi * dz) * ky) * h
-            i0 = max(0, int(math.floor(min(ra, rb) - slack)))
-            i1 = min(h - 1, int(math.floor(max(ra, rb) + slack)))
+            i0 = int(math.floor(min(max(0.0, min(ra, rb) - slack), float(h))))
+            i1 = int(math.floor(max(min(h - 1.0, max(ra, rb) + slack), -1.0)))
             if i0 > i1:
                 continue
             if is_crease:

@@ -687,9 +687,13 @@ def _patch_depths(occ: OccluderScene, depth: np.ndarray, corner_tri: np.ndarray,
     d /= np.linalg.norm(d, axis=1)[:, None]
     # each corner's exact distance to its triangle's plane (float64), and its patch
     plane = occ._tri_plane[tri]
+    facing = np.einsum("ij,ij->i", plane[:, :3], d)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = (plane[:, 3] - plane[:, :3] @ eye) / np.einsum("ij,ij->i", plane[:, :3], d)
-    good = np.isfinite(t) & (t > 0)
+        t = (plane[:, 3] - plane[:, :3] @ eye) / facing
+    # a corner ray grazing its triangle (within a millionth of a radian) gives an
+    # ill-conditioned distance, and Embree's verdict there is least sure: not used
+    grazing = np.abs(facing) < 1e-6 * np.linalg.norm(plane[:, :3], axis=1)
+    good = np.isfinite(t) & (t > 0) & ~grazing
     grid_t = np.full((h + 1, w + 1), np.inf)
     grid_p = np.full((h + 1, w + 1), -1, dtype=np.int64)
     grid_t[ci[good], cj[good]] = t[good]
