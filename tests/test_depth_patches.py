@@ -93,7 +93,7 @@ def test_terrain_depths_never_nearer_and_nothing_seen_is_culled(seed):
     half = rng.uniform(0.2, 2.0, (2000, 3))
     lo, hi = centre - half, centre + half
     culled = buf.occluded(lo, hi)
-    # the test has teeth: 46, 10, 188 and 328 boxes over the seeds, where the convex
+    # the test has teeth: 54, 11, 210 and 350 boxes over the seeds, where the convex
     # pieces alone cull none (every seam of the sheet a line of open pixels)
     assert culled.sum() >= 5 and plain.occluded(lo, hi).sum() < culled.sum()
     occludees = [trimesh.creation.box(bounds=[a, b])
