@@ -259,18 +259,16 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack,
             nx = a1 * b2 - a2 * b1
             ny = a2 * b0 - a0 * b2
             nz = a0 * b1 - a1 * b0
-            sp = nx * (vert[edges[k, 2], 0] - eye[0]) + ny * (vert[edges[k, 2], 1] - eye[1]) \
-                + nz * (vert[edges[k, 2], 2] - eye[2])
-            sq = nx * (vert[edges[k, 3], 0] - eye[0]) + ny * (vert[edges[k, 3], 1] - eye[1]) \
-                + nz * (vert[edges[k, 3], 2] - eye[2])
+            p0, p1, p2 = (vert[edges[k, 2], 0] - eye[0], vert[edges[k, 2], 1] - eye[1],
+                          vert[edges[k, 2], 2] - eye[2])
+            q0, q1, q2 = (vert[edges[k, 3], 0] - eye[0], vert[edges[k, 3], 1] - eye[1],
+                          vert[edges[k, 3], 2] - eye[2])
+            sp = nx * p0 + ny * p1 + nz * p2
+            sq = nx * q0 + ny * q1 + nz * q2
             # a side within rounding of the plane counts as none: a boundary edge
             nn = math.sqrt(nx * nx + ny * ny + nz * nz)
-            ep = SIDE_TOLERANCE * nn * math.sqrt(
-                (vert[edges[k, 2], 0] - eye[0]) ** 2 + (vert[edges[k, 2], 1] - eye[1]) ** 2
-                + (vert[edges[k, 2], 2] - eye[2]) ** 2)
-            eq = SIDE_TOLERANCE * nn * math.sqrt(
-                (vert[edges[k, 3], 0] - eye[0]) ** 2 + (vert[edges[k, 3], 1] - eye[1]) ** 2
-                + (vert[edges[k, 3], 2] - eye[2]) ** 2)
+            ep = SIDE_TOLERANCE * nn * math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+            eq = SIDE_TOLERANCE * nn * math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
             is_crease = (sp > ep and sq < -eq) or (sp < -ep and sq > eq)
         # the part in front of z0
         s0, s1 = 0.0, 1.0
@@ -291,12 +289,8 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack,
             # the parameters of the part within the column widened by slack: the column
             # is monotone along the segment, so the part is one interval
             left, right = j - slack, j + 1 + slack
-            if ca <= cb:
-                lo = s0 if ca >= left else _at_column(left, w, kx, ax_, az_, dx, dz, s0, s1)
-                hi = s1 if cb <= right else _at_column(right, w, kx, ax_, az_, dx, dz, s0, s1)
-            else:
-                lo = s0 if ca <= right else _at_column(right, w, kx, ax_, az_, dx, dz, s0, s1)
-                hi = s1 if cb >= left else _at_column(left, w, kx, ax_, az_, dx, dz, s0, s1)
+            lo, hi = _within(left, right, ((left / w) - 0.5) / kx, ((right / w) - 0.5) / kx,
+                             ca, cb, ax_, az_, dx, dz, s0, s1)
             if lo > hi:
                 continue
             ra = (0.5 - (ay_ + lo * dy) / (az_ + lo * dz) * ky) * h
@@ -310,20 +304,14 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack,
                 # the row is monotone along the segment too
                 for i in range(i0, i1 + 1):
                     top, bottom = i - slack, i + 1 + slack
-                    if ra <= rb:
-                        p0 = lo if ra >= top else _at_row(top, h, ky, ay_, az_, dy, dz, lo, hi)
-                        p1 = hi if rb <= bottom else _at_row(bottom, h, ky, ay_, az_, dy, dz,
-                                                             lo, hi)
-                    else:
-                        p0 = lo if ra <= bottom else _at_row(bottom, h, ky, ay_, az_, dy, dz,
-                                                             lo, hi)
-                        p1 = hi if rb >= top else _at_row(top, h, ky, ay_, az_, dy, dz, lo, hi)
-                    if p0 > p1:
+                    t0, t1 = _within(top, bottom, (0.5 - top / h) / ky, (0.5 - bottom / h) / ky,
+                                     ra, rb, ay_, az_, dy, dz, lo, hi)
+                    if t0 > t1:
                         continue
-                    far = max(math.sqrt((a0 + p0 * d0) ** 2 + (a1 + p0 * d1) ** 2
-                                        + (a2 + p0 * d2) ** 2),
-                              math.sqrt((a0 + p1 * d0) ** 2 + (a1 + p1 * d1) ** 2
-                                        + (a2 + p1 * d2) ** 2))
+                    far = max(math.sqrt((a0 + t0 * d0) ** 2 + (a1 + t0 * d1) ** 2
+                                        + (a2 + t0 * d2) ** 2),
+                              math.sqrt((a0 + t1 * d0) ** 2 + (a1 + t1 * d1) ** 2
+                                        + (a2 + t1 * d2) ** 2))
                     if far > crease[i, j]:
                         crease[i, j] = far
             else:
@@ -332,20 +320,25 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack,
 
 
 @njit_cached()
-def _at_column(col, w, kx, ax_, az_, dx, dz, s0, s1):  # pragma: no cover
-    """The parameter in [s0, s1] where the segment's image reaches buffer column ``col``."""
-    qx = (col / w - 0.5) / kx
-    den = dx - qx * dz
-    if den == 0.0:
-        return s0
-    return min(s1, max(s0, (qx * az_ - ax_) / den))
+def _within(low, high, q_low, q_high, ca, cb, a_, az_, da, dz, s0, s1):  # pragma: no cover
+    """``(lo, hi)``: the parameters of the part of the segment ``s0 .. s1`` whose image
+    coordinate (``ca`` at ``s0``, ``cb`` at ``s1``, monotone between: a column or a row)
+    lies in ``[low, high]``; ``q_low``, ``q_high`` are those bounds as ratios ``x / z``
+    (or ``y / z``) of the camera coordinates, ``a_ + s da`` over ``az_ + s dz``."""
+    if ca <= cb:
+        lo = s0 if ca >= low else _at(q_low, a_, az_, da, dz, s0, s1)
+        hi = s1 if cb <= high else _at(q_high, a_, az_, da, dz, s0, s1)
+    else:
+        lo = s0 if ca <= high else _at(q_high, a_, az_, da, dz, s0, s1)
+        hi = s1 if cb >= low else _at(q_low, a_, az_, da, dz, s0, s1)
+    return lo, hi
 
 
 @njit_cached()
-def _at_row(row, h, ky, ay_, az_, dy, dz, s0, s1):  # pragma: no cover
-    """The parameter in [s0, s1] where the segment's image reaches buffer row ``row``."""
-    qy = (0.5 - row / h) / ky
-    den = dy - qy * dz
+def _at(q, a_, az_, da, dz, s0, s1):  # pragma: no cover
+    """The parameter in [s0, s1] where the segment's ratio ``(a_ + s da) / (az_ + s dz)``
+    reaches ``q``."""
+    den = da - q * dz
     if den == 0.0:
         return s0
-    return min(s1, max(s0, (qy * az_ - ay_) / den))
+    return min(s1, max(s0, (q * az_ - a_) / den))

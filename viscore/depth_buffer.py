@@ -459,10 +459,6 @@ class OccluderScene:
         self._vertices, self._faces = v, f
         self._patch, self._patch_edges = height_field_patches(v, f)
         self._n_patches = int(self._patch.max()) + 1 if len(self._patch) else 0
-        # per triangle: its plane (n . x = offset, n not unit), for the corners' distances
-        tri_n = np.cross(v[f][:, 1] - v[f][:, 0], v[f][:, 2] - v[f][:, 0])
-        self._tri_plane = np.concatenate(
-            [tri_n, np.einsum("ij,ij->i", tri_n, v[f][:, 0])[:, None]], axis=1)
         self._facet = np.concatenate(facet)
         raw_solid = np.concatenate(solid)
         # solid ids: dense, and labels offset past the facet labels
@@ -477,6 +473,10 @@ class OccluderScene:
         norm = np.linalg.norm(n, axis=1)
         n = n / np.where(norm > 0, norm, 1.0)[:, None]
         offsets = np.einsum("ij,ij->i", n, tri[:, 0])
+        #: per triangle: its unit normal and offset (n.x = offset; zero for a degenerate
+        #: one), and twice its area (the crease rule's corner distances, near-eye test)
+        self._tri_plane = np.concatenate([n, offsets[:, None]], axis=1)
+        self._tri_norm = norm
         # each facet's plane: that of its largest triangle (a solid's are outward-facing)
         order = np.lexsort((-norm, self._facet))
         first = order[np.r_[True, self._facet[order][1:] != self._facet[order][:-1]]]
@@ -568,10 +568,8 @@ class OccluderScene:
         f, r, u = basis
         rel = segs - eye
         z, x, y = rel @ f, rel @ r, rel @ u  # (S, 2) each
-        z0 = 1e-6 * (self.scene.diagonal + float(np.linalg.norm(eye - self._center)))
-        # a tile of the padded buffer lies within 3 hx, 3 hy of the axis: points of its
-        # rays with z < z0 are within this distance of the eye
-        reach = 3 * z0 * np.sqrt(1 + 9 * hx * hx + 9 * hy * hy)
+        z0, reach = _near_cut(self.scene.diagonal + float(np.linalg.norm(eye - self._center)),
+                              hx, hy)
         d = rel[:, 1] - rel[:, 0]
         dd = np.einsum("ij,ij->i", d, d)
         t = np.clip(-np.einsum("ij,ij->i", rel[:, 0], d) / np.where(dd > 0, dd, 1.0), 0, 1)
@@ -665,16 +663,26 @@ def _first_triangles(scene: Scene, eye: np.ndarray, d32: np.ndarray) -> np.ndarr
     return scene._embree.run(o32, d32, output=1)["primID"]
 
 
+def _near_cut(size: float, hx: float, hy: float) -> tuple[float, float]:
+    """``(z0, reach)``: the near cut of boundary segments in front of the eye (a millionth
+    of the scene's size plus its distance, ``size``) and the distance from the eye within
+    which the rays of a tile of the padded buffer (within 3 hx, 3 hy of the axis) pass
+    nearer than ``z0`` along the view; a region or patch reaching that near is not used."""
+    z0 = 1e-6 * size
+    return z0, 3 * z0 * float(np.sqrt(1 + 9 * hx * hx + 9 * hy * hy))
+
+
 def _patch_depths(occ: OccluderScene, depth: np.ndarray, corner_tri: np.ndarray,
-                  eye: np.ndarray, basis, hx: float, hy: float, size: float,
-                  margin: float) -> None:
+                  eye: np.ndarray, basis, xs: np.ndarray, ys: np.ndarray, hx: float,
+                  hy: float, size: float, margin: float) -> None:
     """The crease rule (:mod:`viscore._patches`) on the pixels without depth, in place:
     a pixel whose four corner rays (cast by the tiles' subdivision: ``corner_tri``,
-    (H + 1, W + 1), the triangle each first hit, -1 a miss, -2 not cast) first hit one
-    patch, with no boundary edge of a patch across it, gets the largest of the corners'
-    distances to their triangles' planes and of its column's crease distances. A crease
-    between two triangles splits the tiles across it down to pixels, so its pixels'
-    corners are cast; no ray is cast here."""
+    (H + 1, W + 1), the triangle each first hit, -1 a miss, -2 not cast; ``xs``, ``ys``
+    the corners' camera-plane coordinates) first hit one patch, with no boundary edge of
+    a patch across it, gets the largest of the corners' distances to their triangles'
+    planes and of the crease distances in the pixel. A crease between two triangles
+    splits the tiles across it down to pixels, so its pixels' corners are cast; no ray
+    is cast here."""
     from ._patches import patch_frame
 
     h, w = depth.shape
@@ -682,8 +690,7 @@ def _patch_depths(occ: OccluderScene, depth: np.ndarray, corner_tri: np.ndarray,
     todo = ~np.isfinite(depth)
     ci, cj = np.nonzero(corner_tri >= 0)
     tri = corner_tri[ci, cj]
-    d = f[None] + ((cj / w - 0.5) * (2 * hx))[:, None] * r[None] \
-        + ((0.5 - ci / h) * (2 * hy))[:, None] * u[None]
+    d = f[None] + xs[cj][:, None] * r[None] + ys[ci][:, None] * u[None]
     d /= np.linalg.norm(d, axis=1)[:, None]
     # each corner's exact distance to its triangle's plane (float64), and its patch
     plane = occ._tri_plane[tri]
@@ -692,7 +699,7 @@ def _patch_depths(occ: OccluderScene, depth: np.ndarray, corner_tri: np.ndarray,
         t = (plane[:, 3] - plane[:, :3] @ eye) / facing
     # a corner ray grazing its triangle (within a millionth of a radian) gives an
     # ill-conditioned distance, and Embree's verdict there is least sure: not used
-    grazing = np.abs(facing) < 1e-6 * np.linalg.norm(plane[:, :3], axis=1)
+    grazing = np.abs(facing) < 1e-6
     good = np.isfinite(t) & (t > 0) & ~grazing
     grid_t = np.full((h + 1, w + 1), np.inf)
     grid_p = np.full((h + 1, w + 1), -1, dtype=np.int64)
@@ -710,8 +717,7 @@ def _patch_depths(occ: OccluderScene, depth: np.ndarray, corner_tri: np.ndarray,
     blocked = np.zeros((h, w), dtype=bool)
     crease = np.zeros((h, w))
     disabled = np.zeros(occ._n_patches, dtype=bool)
-    z0 = 1e-6 * size
-    reach = 3 * z0 * np.sqrt(1 + 9 * hx * hx + 9 * hy * hy)
+    z0, reach = _near_cut(size, hx, hy)
     patch_frame(occ._vertices, edges, np.asarray(eye, dtype=np.float64), r, u, f,
                 hx, hy, w, h, z0, reach, _SEGMENT_SLACK, blocked, crease, disabled)
     # a patch passing within reach of the eye inside a triangle (not at an edge): the cut
@@ -730,24 +736,18 @@ def _near_patches(occ: OccluderScene, eye: np.ndarray, reach: float) -> np.ndarr
     """Patches with a triangle whose interior lies within ``reach`` of the eye (the foot
     of the eye on the triangle's plane inside the triangle, the plane that near)."""
     plane = occ._tri_plane
-    nn = np.einsum("ij,ij->i", plane[:, :3], plane[:, :3])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        close = np.abs(plane[:, :3] @ eye - plane[:, 3]) <= reach * np.sqrt(nn)
-    k = np.flatnonzero(close & (occ._patch >= 0))  # the plane that near: then the foot
-    if len(k) == 0:
+    height = plane[:, :3] @ eye - plane[:, 3]  # signed distance to each plane (unit normal)
+    k = np.flatnonzero((np.abs(height) <= reach) & (occ._tri_norm > 0) & (occ._patch >= 0))
+    if len(k) == 0:  # no plane that near: then the foot of the eye on the triangle
         return np.zeros(0, dtype=np.int64)
-    nn = nn[k]
     v = occ._vertices[occ._faces[k]]
     e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
     n = plane[k, :3]
-    rel = eye - v[:, 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        height = np.einsum("ij,ij->i", n, rel) / np.sqrt(nn)
-        foot = rel - (np.einsum("ij,ij->i", n, rel) / nn)[:, None] * n
-        # barycentric coordinates of the foot
-        a = np.einsum("ij,ij->i", np.cross(foot, e2), n) / nn
-        b = np.einsum("ij,ij->i", np.cross(e1, foot), n) / nn
-    near = (np.abs(height) <= reach) & (a >= 0) & (b >= 0) & (a + b <= 1)
+    foot = (eye - v[:, 0]) - height[k, None] * n
+    # barycentric coordinates of the foot (twice the triangle's area is the norm)
+    a = np.einsum("ij,ij->i", np.cross(foot, e2), n) / occ._tri_norm[k]
+    b = np.einsum("ij,ij->i", np.cross(e1, foot), n) / occ._tri_norm[k]
+    near = (a >= 0) & (b >= 0) & (a + b <= 1)
     return np.unique(occ._patch[k[near]])
 
 
@@ -898,7 +898,7 @@ class ConservativeDepthBuffer:
             s //= 2
         if occ._n_patches and not np.isfinite(depth).all():
             _patch_depths(occ, depth, corner_tri.reshape(rows + 1, stride)[:h + 1, :w + 1],
-                          eye, basis, hx, hy, size, margin)
+                          eye, basis, xs, ys, hx, hy, size, margin)
         return cls(depth=depth, camera=camera, hits=hits, rays=rays)
 
     def screen_rectangles(self, lower: npt.ArrayLike, upper: npt.ArrayLike
