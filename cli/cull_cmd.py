@@ -56,18 +56,16 @@ import stat
 import tempfile
 from pathlib import Path
 
-import numpy as np
 from viscore.generators import (
     JOINED_METHODS,
     REGISTRY,
     check_method,
     culling_runtimes,
     frusta_method,
-    get_generator,
     occluder_objects,
 )
 from viscore.generators.level_objects import level_objects
-from viscore.generators.scene_occluders import file_occluder
+from viscore.generators.scene_occluders import file_occluder, method_indices
 from viscore.metrics.culling import (
     DEFAULT_HEIGHT,
     DEFAULT_WIDTH,
@@ -442,13 +440,8 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
 
     if path is None:
         path = camera_path(objects, frames=frames or DEFAULT_FRAMES, seed=seed)
-    def distinct(method: str) -> int:  # meshes a method generates (flat ones: height fields)
-        idx = np.asarray(indices, dtype=np.int64)
-        if get_generator(method).inputs == "height-fields" and flat is not None:
-            idx = idx[np.asarray(flat, dtype=bool)[idx]]
-        return len(set(objects.mesh_ids[idx].tolist()))
-
-    todo = sum(distinct(m) for m in set(methods) | {source})
+    todo = sum(len(set(objects.mesh_ids[method_indices(m, indices, flat)].tolist()))
+               for m in set(methods) | {source})  # meshes each method generates
     with tqdm(total=todo, desc="occluders", unit="mesh", disable=not progress,
               leave=False) as bar:
         tick = RateEstimate(f"cull: occluders of {todo:,} meshes", todo, "meshes", bar.update)

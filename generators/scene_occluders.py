@@ -659,9 +659,7 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
 
     def occluders(method: str) -> dict[int, Occluder]:
         if method not in cache:
-            fields_only = get_generator(method).inputs == "height-fields"
-            indices = all_indices[is_flat[all_indices]] if fields_only and \
-                is_flat is not None else all_indices
+            indices = method_indices(method, all_indices, is_flat)
             if not len(indices):
                 _log.info("%s is for height fields, and none of the %d objects is flat",
                           method, len(all_indices))
@@ -736,6 +734,17 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
                          "not_guaranteed": [] if conservative else [f"(file {name})"],
                          "hierarchy": False}
     return runtimes, info
+
+
+def method_indices(method: str, indices: npt.ArrayLike, flat: npt.ArrayLike | None
+                   ) -> np.ndarray:
+    """The occluder objects ``indices`` a method makes occluders for: the flat ones (per
+    object of the scene, ``flat``) for a method for height fields
+    (``GeneratorSpec.inputs``), all of them otherwise or without ``flat``."""
+    indices = np.asarray(indices, dtype=np.int64)
+    if flat is None or get_generator(method).inputs != "height-fields":
+        return indices
+    return indices[np.asarray(flat, dtype=bool)[indices]]
 
 
 def _unsure_names(objects: SceneObjects, indices: Sequence[int]) -> list[str]:
