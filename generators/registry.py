@@ -45,6 +45,7 @@ from collections.abc import Iterator, MutableMapping
 from dataclasses import dataclass
 
 from viscore import InputError
+from viscore.wall_thickness import AUTO_MAX_CELLS
 
 from ._precision_check import DEFAULT_MIN_PRECISION as CHECK_MIN_PRECISION
 from .aabb_skins import generate_aabb_skins
@@ -165,12 +166,13 @@ def _own(spec: GeneratorSpec) -> GeneratorSpec:
 
 #: aabb-skins' and solid-frusta's voxel size when neither --voxels nor --voxel-size is given.
 _VOXEL_SIZING = GeneratorOption(
-    "voxel_sizing", str, "extent",
-    "without --voxels: 64 voxels along the longest side, or 'auto': finer where walls are "
-    "thinner (measured by rays along the inward normals, within the memory guard; seconds "
-    "to a minute on an open building instead of under a second)",
+    "voxel_sizing", str, "auto",
+    "without --voxels: 'auto', 64 voxels along the longest side or finer where walls are "
+    "thinner (measured by rays along the inward normals; at most "
+    f"{AUTO_MAX_CELLS / 1e6:g}M cells, seconds on a thin-walled building instead of under a "
+    "second), or 'extent': 64 voxels always",
     choices=("auto", "extent"))
-_VOXELS_BY_SIZING = "by --voxel-sizing: 64, or finer for thin walls with auto"
+_VOXELS_BY_SIZING = "by --voxel-sizing: finer than 64 for thin walls (auto), or 64"
 
 REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
     spec.name: _own(spec) for spec in [

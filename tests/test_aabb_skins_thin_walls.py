@@ -5,7 +5,7 @@ import logging
 import numpy as np
 import pytest
 import trimesh
-from viscore.generators import generate_aabb_skins
+from viscore.generators import generate_aabb_skins, get_generator
 from viscore.metrics import check_conservative
 
 import viscore._validate as validate_module
@@ -67,6 +67,15 @@ def test_generate_aabb_skins_thin_walls_get_boxes_and_keep_the_guarantee():
     assert not sizing["limited"] and sizing["resolved_share"] > 0.8
     report = check_conservative(room, occ.mesh, rays=RAYS, domain="volume", seed=11)
     assert report.violations == 0, report.summary()
+
+
+def test_generate_aabb_skins_default_sizing_is_auto():
+    room = thin_room()
+    occ = generate_aabb_skins(room)
+    assert occ.info["voxel_sizing"] == "auto" and occ.triangles > 0
+    assert occ.info["pitch"] < voxel_size_for_wall(0.05)
+    option = {o.name: o for o in get_generator("aabb-skins").options}["voxel_sizing"]
+    assert option.default == "auto"
 
 
 def test_generate_aabb_skins_extent_sizing_gives_thin_walls_nothing():

@@ -29,6 +29,12 @@ def test_generate_solid_frusta_thin_walls_get_solids_and_keep_the_guarantee():
     assert report.violations == 0, report.summary()
 
 
+def test_generate_solid_frusta_default_sizing_is_auto():
+    occ = generate_solid_frusta(thin_room())
+    assert occ.info["voxel_sizing"] == "auto" and occ.triangles > 0
+    assert occ.info["pitch"] < voxel_size_for_wall(0.05)
+
+
 def test_generate_solid_frusta_extent_sizing_gives_thin_walls_nothing():
     room = thin_room()
     for occ in (generate_solid_frusta(room, voxel_sizing="extent"),

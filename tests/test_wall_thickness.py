@@ -10,6 +10,7 @@ import viscore._validate as validate_module
 from viscore import InputError, voxelize
 from viscore.voxels import inside_voxels_winding
 from viscore.wall_thickness import (
+    AUTO_MAX_CELLS,
     FIT_SHARE,
     PITCH_MARGIN,
     finest_fitting_pitch,
@@ -211,6 +212,46 @@ def test_wall_voxel_size_falls_back_to_the_finest_grid_that_fits(monkeypatch):
     assert size.pitch == pytest.approx(finest_fitting_pitch(shell.bounds, bytes_per_cell=40))
     assert "memory guard" in size.reason and "too thin" in size.reason
     assert size.log_level == logging.WARNING
+
+
+def _cells(bounds, pitch: float) -> int:
+    from viscore import voxel_grid
+
+    return int(np.prod(voxel_grid(np.asarray(bounds), pitch=pitch).shape))
+
+
+def test_wall_voxel_size_cell_cap_bounds_the_grid():
+    # walls 0.05 of a 10 x 5 x 10 shell ask for 0.0225 voxels: 449 x 227 x 449 = 45.8M
+    # cells, past the default cap of 16M; one byte per cell, so memory never decides
+    shell = _shell((10, 5, 10), (9.9, 4.9, 9.9))
+    shell.metadata["name"] = "big-shell"
+    free = wall_voxel_size(shell, bytes_per_cell=1, samples=2000, max_cells=None)
+    assert free.pitch == pytest.approx(PITCH_MARGIN * 0.025, rel=1e-5)
+    assert not free.limited and not free.capped
+    assert _cells(shell.bounds, free.pitch) > AUTO_MAX_CELLS
+    capped = wall_voxel_size(shell, bytes_per_cell=1, samples=2000, what="test")
+    assert capped.limited and capped.capped and capped.info["capped"]
+    assert free.pitch < capped.pitch < shell.extents.max() / 64
+    assert _cells(shell.bounds, capped.pitch) <= AUTO_MAX_CELLS
+    assert _cells(shell.bounds, 0.99 * capped.pitch) > AUTO_MAX_CELLS  # the finest under it
+    assert "cap of 16,000,000 cells" in capped.reason and "big-shell" in capped.reason
+    assert capped.log_level == logging.WARNING
+    small = wall_voxel_size(shell, bytes_per_cell=1, samples=2000, max_cells=10**6)
+    assert _cells(shell.bounds, small.pitch) <= 10**6 < _cells(shell.bounds, capped.pitch)
+    assert small.capped
+    # never coarser than the extent-based grid (69 x 37 x 69 cells), whatever the cap
+    tiny = wall_voxel_size(shell, bytes_per_cell=1, samples=2000, max_cells=10**5)
+    assert tiny.pitch == tiny.extent_pitch
+    # a cap the extent-based grid already meets changes nothing
+    thick = trimesh.creation.box(extents=(2, 2, 2))
+    assert wall_voxel_size(thick, bytes_per_cell=1, max_cells=10**6).pitch == 2 / 64
+
+
+def test_wall_voxel_size_memory_guard_is_not_called_the_cap(monkeypatch):
+    monkeypatch.setattr(validate_module, "available_memory", lambda: 4 * 10**7)
+    shell = _shell((10, 5, 10), (9.9, 4.9, 9.9))
+    size = wall_voxel_size(shell, bytes_per_cell=40, samples=2000)  # 750,000 cells fit
+    assert size.limited and not size.capped and "cap" not in size.reason
 
 
 def test_wall_voxel_size_no_wall():

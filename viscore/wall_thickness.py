@@ -55,7 +55,7 @@ from .scene import Scene
 from .winding import is_closed_oriented
 
 __all__ = ["WallThickness", "wall_thickness", "WallVoxelSize", "wall_voxel_size",
-           "voxel_size_for_wall", "finest_fitting_pitch"]
+           "voxel_size_for_wall", "finest_fitting_pitch", "AUTO_MAX_CELLS"]
 
 #: Rays cast by :func:`wall_thickness` by default: the area-weighted quantiles
 #: are then within about 1% of area (one standard error at the 10% quantile is
@@ -84,6 +84,16 @@ _START_RELATIVE = RAY_STEP_RELATIVE
 #: available memory moves between the choice and the generator's own check
 #: (:func:`viscore._validate.check_memory`), which must not then refuse the grid.
 FIT_SHARE = 0.95
+
+#: The most grid cells :func:`wall_voxel_size` chooses by default: the grid of
+#: ``voxel_sizing="auto"``, the default of aabb-skins and solid-frusta, stays
+#: at the cost of seconds per object. Measured (aabb-skins, one core, the
+#: built-in buildings uncapped): 2.7M-7.6M cells took 1-3 s, 18.5M 6.7 s,
+#: 34M 13.8 s and 67M 24 s, and a level pays it per distinct thin-walled mesh.
+#: Past the cap the pitch is the finest under it and one log line says which
+#: walls lose their voxels; an explicit voxel size goes finer, up to the memory
+#: guard and :data:`viscore.constants.MAX_VOXEL_CELLS`.
+AUTO_MAX_CELLS = 16_000_000
 
 #: Bisection steps of :func:`finest_fitting_pitch` on the logarithm of the pitch
 #: (the ratio of the bracket, at most 2048 x 64, is resolved to 1e-12).
@@ -308,7 +318,7 @@ def _grid_cells(extent: np.ndarray, pitch: float) -> float:
 
 
 def finest_fitting_pitch(bounds, *, bytes_per_cell: float, max_resolution: int | None = None,
-                         coarsest: float | None = None) -> float:
+                         coarsest: float | None = None, max_cells: float | None = None) -> float:
     """Smallest voxel side whose grid over ``bounds`` fits the memory guard.
 
     Parameters
@@ -322,14 +332,17 @@ def finest_fitting_pitch(bounds, *, bytes_per_cell: float, max_resolution: int |
     coarsest : float, optional
         Search no coarser than this (world units). Default: the longest side
         over 1.
+    max_cells : float, optional
+        Also at most this many grid cells. Default: no cap beyond
+        :data:`viscore.constants.MAX_VOXEL_CELLS`.
 
     Returns
     -------
     float
         World units: a grid at this pitch has at most
-        :data:`viscore.constants.MAX_VOXEL_CELLS` cells and needs at most
-        :data:`FIT_SHARE` x :func:`viscore._validate.memory_limit` bytes; within 1e-12 of the
-        smallest such pitch (bisection on its logarithm). ``coarsest`` when
+        :data:`viscore.constants.MAX_VOXEL_CELLS` cells (and ``max_cells``), needs
+        at most :data:`FIT_SHARE` x :func:`viscore._validate.memory_limit` bytes;
+        within 1e-12 of the smallest such pitch (bisection on its logarithm). ``coarsest`` when
         even that does not fit.
 
     Raises
@@ -357,6 +370,8 @@ def finest_fitting_pitch(bounds, *, bytes_per_cell: float, max_resolution: int |
     if max_resolution is not None:
         low = max(low, longest / as_positive_int(max_resolution, "max_resolution"))
     cells_limit = min(float(MAX_VOXEL_CELLS), FIT_SHARE * memory_limit() / bytes_per_cell)
+    if max_cells is not None:
+        cells_limit = min(cells_limit, float(as_positive(max_cells, "max_cells")))
 
     def fits(p: float) -> bool:
         return _grid_cells(extent, p) <= cells_limit
@@ -401,7 +416,11 @@ class WallVoxelSize:
     resolved_share : float
         Share of the wall area whose walls surely hold an inside voxel at ``pitch``.
     limited : bool
-        True when the memory guard made ``pitch`` coarser than the walls ask.
+        True when the memory guard or the cell cap made ``pitch`` coarser than
+        the walls ask.
+    capped : bool
+        True when it was the cell cap (``max_cells`` of :func:`wall_voxel_size`)
+        and not the memory guard's own limits.
     reason : str
         One line: how the size was chosen, and, when ``limited``, which walls
         lose their inside voxels and why.
@@ -417,6 +436,7 @@ class WallVoxelSize:
     resolved_share: float
     limited: bool
     reason: str
+    capped: bool = False
 
     @property
     def info(self) -> dict:
@@ -427,7 +447,8 @@ class WallVoxelSize:
 
         return {"wall_quantile": finite(self.wall_quantile), "wall_pitch": finite(self.wall_pitch),
                 "extent_pitch": self.extent_pitch, "wall_share": self.wall_share,
-                "resolved_share": self.resolved_share, "limited": self.limited}
+                "resolved_share": self.resolved_share, "limited": self.limited,
+                "capped": self.capped}
 
     @property
     def log_level(self) -> int:
@@ -443,7 +464,8 @@ class WallVoxelSize:
 def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution: int = 64,
                     quantile: float = WALL_QUANTILE, max_resolution: int | None = None,
                     samples: int = SAMPLES, seed: int = 0, what: str = "voxels",
-                    walls: WallThickness | None = None) -> WallVoxelSize:
+                    walls: WallThickness | None = None,
+                    max_cells: float | None = AUTO_MAX_CELLS) -> WallVoxelSize:
     """Voxel size from the thinnest wall that matters, capped by the memory guard.
 
     The size is the extent-based one (longest side / ``resolution``), or
@@ -452,7 +474,8 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
     ``t / (|n|_1 + |n|_inf)`` (module docstring), so that the walls above
     that quantile hold inside voxels wherever the grid falls. When that
     grid would not fit (:func:`finest_fitting_pitch`: the memory limit,
-    :data:`viscore.constants.MAX_VOXEL_CELLS`, ``max_resolution``), the
+    :data:`viscore.constants.MAX_VOXEL_CELLS`, ``max_resolution``,
+    ``max_cells``), the
     finest size that fits is taken instead and ``reason`` says how much of
     the wall area then holds no voxel.
 
@@ -475,6 +498,9 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
         Name of the method, at the start of ``reason``.
     walls : WallThickness, optional
         Measured already: used instead of measuring again.
+    max_cells : float or None, optional
+        At most this many grid cells (default :data:`AUTO_MAX_CELLS`, the
+        cost cap of automatic sizing; None: only the memory guard's limits).
 
     Returns
     -------
@@ -515,8 +541,12 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
     wall_pitch = PITCH_MARGIN * float(np.quantile(finite, quantile)) if len(finite) else np.inf
     wanted = min(extent_pitch, wall_pitch)
     fitting = finest_fitting_pitch(bounds, bytes_per_cell=bytes_per_cell,
-                                   max_resolution=max_resolution, coarsest=extent_pitch)
+                                   max_resolution=max_resolution, coarsest=extent_pitch,
+                                   max_cells=max_cells)
     limited = fitting > wanted
+    capped = limited and max_cells is not None and fitting > finest_fitting_pitch(
+        bounds, bytes_per_cell=bytes_per_cell, max_resolution=max_resolution,
+        coarsest=extent_pitch)
     pitch = max(wanted, fitting)
     resolved = float((finite > pitch).mean()) if len(finite) else 0.0
     wall_q = walls.quantile(quantile)
@@ -525,9 +555,11 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
         reason = (f"{lead}: no wall found (the inward rays of all the area escape: open or "
                   f"single-sided geometry), so the extent-based voxel {extent_pitch:.4g}")
     elif limited:
+        bound = (f"automatic sizing's cap of {max_cells:,.0f} cells (give a voxel size to go "
+                 "finer)" if capped else "memory guard")
         reason = (f"{lead}: its walls of {wall_q:.4g} (the {quantile:.0%} area quantile) "
-                  f"need voxels under {wall_pitch:.4g}, but the finest grid that fits the "
-                  f"memory guard has voxels of {pitch:.4g}: {1 - resolved:.0%} of the wall "
+                  f"need voxels under {wall_pitch:.4g}, but the finest grid within the "
+                  f"{bound} has voxels of {pitch:.4g}: {1 - resolved:.0%} of the wall "
                   "area is too thin to hold an inside voxel and gets no occluder")
     elif wall_pitch < extent_pitch:
         reason = (f"{lead}: voxel {pitch:.4g} (extent-based {extent_pitch:.4g}) for its walls "
@@ -540,4 +572,4 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
                          wall_pitch=float(wall_pitch), fitting_pitch=float(fitting),
                          wall_quantile=float(wall_q), quantile=quantile,
                          wall_share=walls.wall_share, resolved_share=resolved,
-                         limited=bool(limited), reason=reason)
+                         limited=bool(limited), reason=reason, capped=bool(capped))

@@ -41,13 +41,14 @@ Voxel size: a voxel is inner only when its closed cube touches no triangle,
 so a wall of thickness ``t`` holds one wherever the grid falls only when
 the voxel side ``p`` satisfies ``p < t / 2`` for a wall along the axes
 (``p < t / sqrt(6)``, about ``t / 2.45``, at worst;
-:mod:`viscore.wall_thickness`). With ``voxel_sizing="auto"`` (and no
-``voxels`` or ``voxel_size`` given) the side is the extent-based one
+:mod:`viscore.wall_thickness`). With ``voxel_sizing="auto"`` (the default, when no
+``voxels`` or ``voxel_size`` is given) the side is the extent-based one
 (longest side / 64), or finer where the mesh's walls, measured by rays along
 the inward normals (:func:`viscore.wall_thickness.wall_thickness`), ask for
 it: 0.9 x that bound at the area-weighted 20% quantile of the walls
 (:func:`viscore.wall_thickness.wall_voxel_size`), so that walls above it
-hold inner voxels. Where that grid would not fit the memory guard, the
+hold inner voxels. Where that grid would not fit the memory guard or the
+cost cap (:data:`viscore.wall_thickness.AUTO_MAX_CELLS` cells), the
 finest grid that fits is taken and one log line says how much wall area
 then gets no occluder.
 
@@ -160,7 +161,7 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int | None = None,
                         budget: int | None = None, fill: float = 0.9,
                         min_volume: float = 0.0, seed: int = 0,
                         seed_voxel: str = "max-volume",
-                        voxel_sizing: str = "extent") -> Occluder:
+                        voxel_sizing: str = "auto") -> Occluder:
     """Box occluder by greedy maximal-box growth, conservative on closed meshes.
 
     Parameters
@@ -197,7 +198,7 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int | None = None,
         inside test of open meshes evaluates the winding number at 0.5-11% of
         the voxels and bounds it at the rest,
         :func:`viscore.voxels.inside_voxels_winding`).
-        'extent' (default): 64 voxels along the longest side.
+        'auto' is the default. 'extent': 64 voxels along the longest side.
 
     Returns
     -------

@@ -31,12 +31,13 @@ consistently oriented mesh: no ray from outside hits it before the mesh.
 Voxel size: as for aabb-skins, an inner voxel's closed cube touches no
 triangle, so a wall of thickness ``t`` holds one wherever the grid falls
 only when the voxel side is under ``t / 2`` along the axes (``t / sqrt(6)``
-at worst; :mod:`viscore.wall_thickness`). With ``voxel_sizing="auto"`` (and
-no ``voxels``) the side is the extent-based one (longest side / 64), or
+at worst; :mod:`viscore.wall_thickness`). With ``voxel_sizing="auto"`` (the
+default, when no ``voxels`` is given) the side is the extent-based one (longest side / 64), or
 0.9 x that bound at the area-weighted 20% quantile of the walls measured by
 rays along the inward normals where that is finer
 (:func:`viscore.wall_thickness.wall_voxel_size`), within the memory guard
-(twice the box source's bytes per cell: the boxes' grid and this one); where
+(twice the box source's bytes per cell: the boxes' grid and this one) and
+:data:`viscore.wall_thickness.AUTO_MAX_CELLS` cells; where
 it would not fit, the finest grid that fits is taken and one log line says
 how much wall area then gets no solid. The boxes come from the same grid.
 
@@ -339,7 +340,7 @@ def _covered(points: np.ndarray, hull: trimesh.Trimesh) -> np.ndarray:
 def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, seed: int = 0,
                           voxels: int | None = None, solids: int = 8,
                           pieces: str = "voxel-hulls", shrink_steps: int = 6,
-                          voxel_sizing: str = "extent") -> Occluder:
+                          voxel_sizing: str = "auto") -> Occluder:
     """A few convex solid occluders inside the mesh, for shadow-frustum culling.
 
     Parameters
@@ -375,7 +376,7 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
         open mesh evaluates the winding number at a small share of the voxels
         and bounds it at the rest, and the box source's answer for the same grid
         and candidates is reused: :func:`viscore.voxels.inside_voxels_winding`).
-        'extent' (default): 64 voxels along the longest side.
+        'auto' is the default. 'extent': 64 voxels along the longest side.
 
     Returns
     -------
