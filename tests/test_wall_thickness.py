@@ -5,6 +5,7 @@ import logging
 import numpy as np
 import pytest
 import trimesh
+from scipy import ndimage
 
 import viscore._validate as validate_module
 from viscore import InputError, voxelize
@@ -121,14 +122,19 @@ def test_wall_thickness_invalid_input():
 
 
 # ------------------------------------------------------------------ the factor
-def _slab_inner_voxels(t: float, pitch: float, normal, offset: float) -> int:
+def _slab_inner_voxels(t: float, pitch: float, normal, offset: float, erode: int = 0) -> int:
     """Inner voxels (closed cube touching no triangle, inside by the winding number) of a
-    wide closed slab of thickness ``t`` along ``normal``, shifted by ``offset`` along it."""
+    wide closed slab of thickness ``t`` along ``normal``, shifted by ``offset`` along it;
+    those left after ``erode`` erosions by the 3 x 3 x 3 cube."""
     slab = trimesh.creation.box(extents=(t, 24 * pitch, 24 * pitch))
     slab.apply_translation([offset, 0, 0])
     slab.apply_transform(_rotation(normal))
     vox = voxelize(slab, pitch=pitch)
-    return int(inside_voxels_winding(slab.vertices, slab.faces, vox.grid, vox.surface).sum())
+    inner = inside_voxels_winding(slab.vertices, slab.faces, vox.grid, vox.surface)
+    if erode:
+        inner = ndimage.binary_erosion(inner, structure=np.ones((3, 3, 3), bool),
+                                       iterations=erode)
+    return int(inner.sum())
 
 
 @pytest.mark.parametrize("normal", [(1, 0, 0), (1, 1, 0), (1, 1, 1), (2, 1, 1), (3, 1, 0.5)])
@@ -137,6 +143,18 @@ def test_voxel_size_for_wall_gives_inner_voxels_wherever_the_grid_falls(normal):
     pitch = 0.97 * voxel_size_for_wall(t, normal)
     for offset in np.linspace(0.0, 1.0, 7) * pitch:
         assert _slab_inner_voxels(t, pitch, normal, offset) > 0, offset
+
+
+@pytest.mark.parametrize("normal", [(1, 0, 0), (1, 1, 0), (1, 1, 1), (2, 1, 1), (3, 1, 0.5)])
+def test_voxel_size_for_wall_block_survives_one_erosion_wherever_the_grid_falls(normal):
+    t = 1.0
+    pitch = 0.97 * voxel_size_for_wall(t, normal, block=3)
+    for offset in np.linspace(0.0, 1.0, 5) * pitch:
+        assert _slab_inner_voxels(t, pitch, normal, offset, erode=1) > 0, offset
+    # the one-voxel bound is not enough for the erosion: along the axes, all are gone
+    coarse = 0.97 * voxel_size_for_wall(t, normal)
+    if normal == (1, 0, 0):
+        assert _slab_inner_voxels(t, coarse, normal, 0.0, erode=1) == 0
 
 
 def test_voxel_size_for_wall_bound_is_tight_along_the_axes():
@@ -162,6 +180,7 @@ def test_voxel_size_for_wall_bound_is_tight_along_the_axes():
 
 def test_voxel_size_for_wall_values():
     assert voxel_size_for_wall(0.05) == pytest.approx(0.025)
+    assert voxel_size_for_wall(0.05, block=3) == pytest.approx(0.0125)  # t / 4
     assert voxel_size_for_wall(1.0, (1, 1, 1)) == pytest.approx(1 / (np.sqrt(3) + 1 / np.sqrt(3)))
     assert voxel_size_for_wall(1.0, (2, 1, 1)) == pytest.approx(1 / np.sqrt(6))
 

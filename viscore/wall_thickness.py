@@ -28,7 +28,11 @@ ends step by ``p * |n|_inf``, so some cube lies inside the slab wherever
 the grid falls when ``p * (|n|_1 + |n|_inf) < t``: ``p < t / 2`` for a wall
 along the grid axes, ``p < t / sqrt(6)`` (about ``t / 2.45``) at worst. The
 bound is tight: an axis-aligned wall of ``t = 2 p`` whose faces fall on
-voxel boundaries holds no voxel.
+voxel boundaries holds no voxel. A block of ``k x k x k`` inside voxels (what
+a solid eroded ``(k - 1) / 2`` times by the 3 x 3 x 3 cube keeps a voxel of)
+is a cube of side ``k p`` whose lower corner steps on the same lattice, so
+the same argument asks for ``p * (k |n|_1 + |n|_inf) < t``: ``p < t / 4``
+along the axes for ``k = 3``.
 
 References
 ----------
@@ -155,13 +159,15 @@ class WallThickness:
         walls = self.thickness[np.isfinite(self.thickness)]
         return float(np.quantile(walls, q)) if len(walls) else float("inf")
 
-    def resolving_pitch(self) -> np.ndarray:
-        """``(n,) float64``: per sample, the voxel size below which its wall holds a voxel.
+    def resolving_pitch(self, block: int = 1) -> np.ndarray:
+        """``(n,) float64``: per sample, the voxel size below which its wall holds a voxel
+        (or a ``block`` x ``block`` x ``block`` cube of voxels).
 
-        ``t / (|n|_1 + |n|_inf)`` of the module docstring, ``inf`` where no wall.
+        ``t / (block |n|_1 + |n|_inf)`` of the module docstring, ``inf`` where no wall.
         """
+        block = as_positive_int(block, "block")
         d = np.abs(self.directions)
-        return self.thickness / (d.sum(axis=1) + d.max(axis=1, initial=0.0))
+        return self.thickness / (block * d.sum(axis=1) + d.max(axis=1, initial=0.0))
 
 
 def wall_thickness(mesh: trimesh.Trimesh, *, samples: int = SAMPLES, seed: int = 0,
@@ -269,11 +275,12 @@ def wall_thickness(mesh: trimesh.Trimesh, *, samples: int = SAMPLES, seed: int =
                          area=0.5 * total, seed=seed)
 
 
-def voxel_size_for_wall(thickness: float, normal=(1.0, 0.0, 0.0)) -> float:
+def voxel_size_for_wall(thickness: float, normal=(1.0, 0.0, 0.0), block: int = 1) -> float:
     """Largest voxel side (open bound) at which a wall surely holds an inside voxel.
 
     ``t / (|n|_1 + |n|_inf)``, see the module docstring: ``t / 2`` along the
-    axes, ``t / sqrt(6)`` at worst.
+    axes, ``t / sqrt(6)`` at worst; ``t / (k |n|_1 + |n|_inf)`` for a
+    ``k x k x k`` block of inside voxels.
 
     Parameters
     ----------
@@ -281,6 +288,8 @@ def voxel_size_for_wall(thickness: float, normal=(1.0, 0.0, 0.0)) -> float:
         Wall thickness, world units (> 0).
     normal : (3,) float, optional
         The wall's normal (normalised here). Default +X.
+    block : int, optional
+        Side ``k`` of the cube of inside voxels the wall must hold (default 1).
 
     Returns
     -------
@@ -305,7 +314,7 @@ def voxel_size_for_wall(thickness: float, normal=(1.0, 0.0, 0.0)) -> float:
     if not (np.isfinite(length) and length > 0):
         raise InputError(f"normal: expected a non-zero 3-vector, got {normal!r}")
     a = np.abs(n) / length
-    return thickness / float(a.sum() + a.max())
+    return thickness / float(as_positive_int(block, "block") * a.sum() + a.max())
 
 
 def _grid_cells(extent: np.ndarray, pitch: float) -> float:
@@ -465,7 +474,7 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
                     quantile: float = WALL_QUANTILE, max_resolution: int | None = None,
                     samples: int = SAMPLES, seed: int = 0, what: str = "voxels",
                     walls: WallThickness | None = None,
-                    max_cells: float | None = AUTO_MAX_CELLS) -> WallVoxelSize:
+                    max_cells: float | None = AUTO_MAX_CELLS, block: int = 1) -> WallVoxelSize:
     """Voxel size from the thinnest wall that matters, capped by the memory guard.
 
     The size is the extent-based one (longest side / ``resolution``), or
@@ -501,6 +510,10 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
     max_cells : float or None, optional
         At most this many grid cells (default :data:`AUTO_MAX_CELLS`, the
         cost cap of automatic sizing; None: only the memory guard's limits).
+    block : int, optional
+        The walls must hold a ``block`` x ``block`` x ``block`` cube of inside
+        voxels (default 1; 3 for a solid eroded once by the 3 x 3 x 3 cube):
+        the bound ``t / (block |n|_1 + |n|_inf)``.
 
     Returns
     -------
@@ -536,7 +549,7 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
         walls = wall_thickness(mesh, samples=samples, seed=seed)
     bounds = np.asarray(mesh.bounds, dtype=np.float64)
     extent_pitch = float((bounds[1] - bounds[0]).max()) / resolution
-    need = walls.resolving_pitch()
+    need = walls.resolving_pitch(block)
     finite = need[np.isfinite(need)]
     wall_pitch = PITCH_MARGIN * float(np.quantile(finite, quantile)) if len(finite) else np.inf
     wanted = min(extent_pitch, wall_pitch)

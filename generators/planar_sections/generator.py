@@ -24,17 +24,20 @@ largest surface area (``reduce='area'`` is the paper's rule). On the bunny
 defaults R 0.837 with 8 direction bins, at P 0.9997 either way.
 
 Beyond the paper: a conservative variant (slices only through voxels wholly
-inside the mesh, eroded once more), a screen-space error knob that sets the
-voxel size from the error a viewer would see (the paper's premise, sec. 4:
-"a voxel resolution appropriate for the allowed Euclidean error"), one
-occluder per viewing distance (levels of detail, sec. 4's "multiple
-simplified versions"), closing of openings before the flood fill
-(``close``) for scans with holes and buildings with open windows, and a
-precision floor (``min_precision``): with the default voxel size the
-occluder is scored on orbit views of its own, finer voxels are used while
-it over-occludes (thin parts), and a solid without an interior, or one that
-closing changes much, is also tried closed, keeping the closing of largest
-recall that passes the floor.
+inside the mesh, eroded once more; its default voxels are sized for the
+mesh's walls, which must hold a 3 x 3 x 3 block of inside voxels to survive
+the erosion, about four voxels of thickness:
+:func:`viscore.wall_thickness.wall_voxel_size` with ``block=3``), a
+screen-space error knob that sets the voxel size from the error a viewer
+would see (the paper's premise, sec. 4: "a voxel resolution appropriate for
+the allowed Euclidean error"), one occluder per viewing distance (levels of
+detail, sec. 4's "multiple simplified versions"), closing of openings before
+the flood fill (``close``) for scans with holes and buildings with open
+windows, and a precision floor (``min_precision``): with the default voxel
+size the occluder is scored on orbit views of its own, finer voxels are used
+while it over-occludes (thin parts), and a solid without an interior, or one
+that closing changes much, is also tried closed, keeping the closing of
+largest recall that passes the floor.
 
 Measured (orbit protocol, 256 views; ``viscore bench generate
 planar-sections``): the bunny at 53 triangles and 64^3, P 0.9998 R 0.844 in
@@ -79,10 +82,11 @@ from viscore._validate import (
     as_seed,
 )
 from viscore.ground import guess_up
+from viscore.wall_thickness import WALL_QUANTILE, wall_voxel_size
 
 from .._precision_check import DEFAULT_MIN_PRECISION
 from ..occluder import Occluder
-from ._single import MAX_VOXELS, _generate_one, _resolution
+from ._single import BYTES_PER_CELL, MAX_VOXELS, _generate_one, _resolution
 from .floor import _with_precision_floor
 
 __all__ = ["generate_planar_sections", "screen_space_voxel_size", "DEFAULT_DIRECTION_BINS",
@@ -242,7 +246,12 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     voxels : int, optional
         Voxels along the longest bounding-box side, 1 to 1024. Default 64
         when neither ``voxel_size`` nor ``pixel_error`` is given; giving it
-        with either is an error.
+        with either is an error. With ``conservative`` the default is 64 or
+        finer where the walls would not hold a 3 x 3 x 3 block of inside voxels,
+        within the memory guard and
+        :data:`viscore.wall_thickness.AUTO_MAX_CELLS` cells, as aabb-skins'
+        ``voxel_sizing="auto"`` (:func:`viscore.wall_thickness.wall_voxel_size`;
+        ``info["wall_sizing"]``).
     voxel_size : float, optional
         Voxel side, world units (direct control, as ``voxels``).
     direction_bins, depth_bins : int, optional
@@ -504,6 +513,7 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
                    alpha=alpha, measure=measure, reduce=reduce,
                    rdp_tolerance=rdp_tolerance, chain=chain, conservative=bool(conservative),
                    dilate=int(dilate), close=int(close or 0), up=up)
+    wall_sizing = None
     if distances is None:
         if pixel_error is not None:
             size = _resolution(mesh, None, screen_space_voxel_size(
@@ -511,6 +521,16 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
                 f"pixel_error={pixel_error:g} at distance={distance:g}")
         elif voxel_size is not None:
             size = _resolution(mesh, None, voxel_size, f"voxel_size={voxel_size:g}")
+        elif conservative and voxels is None:
+            # the solid is the inside voxels eroded once by the 3^3 cube: size the voxels
+            # so that the walls hold 3 x 3 x 3 blocks of inside voxels
+            sized = wall_voxel_size(mesh, bytes_per_cell=BYTES_PER_CELL,
+                                    resolution=DEFAULT_VOXELS, quantile=WALL_QUANTILE,
+                                    max_resolution=MAX_VOXELS, what="planar-sections",
+                                    block=3)
+            _log.log(sized.log_level, "%s", sized.reason)
+            wall_sizing = sized.info
+            size = _resolution(mesh, None, sized.pitch, f"voxel_size={sized.pitch:g} (auto)")
         else:
             n = DEFAULT_VOXELS if voxels is None else voxels
             size = _resolution(mesh, n, None, f"voxels={n}")
@@ -543,6 +563,8 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         parts = {"polygons": polygons, "lods": lods}
     info = {"close": options["close"], **info, "up": up, "up_reason": up_reason,
             "triangles_single_sided": 2 * len(out_mesh.faces)}
+    if wall_sizing is not None:
+        info["wall_sizing"] = wall_sizing
     return Occluder(mesh=out_mesh, method="planar-sections", params=params, double_sided=True,
                     seconds=time.perf_counter() - start, parts=parts, info=info)
 
