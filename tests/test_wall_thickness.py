@@ -273,6 +273,19 @@ def test_wall_voxel_size_memory_guard_is_not_called_the_cap(monkeypatch):
     assert size.limited and not size.capped and "cap" not in size.reason
 
 
+def test_wall_voxel_size_mostly_open_mesh_keeps_the_extent_size():
+    shell = _shell((2, 2, 2), (1.8, 1.8, 1.8))  # walls 0.1, 43.44 units^2 of area
+    sheet = trimesh.Trimesh([[-6, -1, -6], [6, -1, -6], [6, -1, 6], [-6, -1, 6]],
+                            [[0, 1, 2], [0, 2, 3]])  # 144 units^2, no wall
+    mesh = trimesh.util.concatenate([shell, sheet])
+    size = wall_voxel_size(mesh, bytes_per_cell=1, samples=4000)
+    assert size.wall_share == pytest.approx(43.44 / 187.44, abs=0.03)
+    assert size.pitch == size.extent_pitch == 12 / 64 and not size.limited
+    assert "mostly open" in size.reason
+    finer = wall_voxel_size(mesh, bytes_per_cell=1, samples=4000, min_wall_share=0.2)
+    assert finer.pitch == pytest.approx(PITCH_MARGIN * 0.05, rel=1e-5)
+
+
 def test_wall_voxel_size_no_wall():
     sheet = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])
     size = wall_voxel_size(sheet, bytes_per_cell=40)
