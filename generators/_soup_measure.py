@@ -1,0 +1,333 @@
+"""The occlusion measure of a polygon soup over orthographic directions, on bitmaps.
+
+Silvennoinen et al. 2014 [1]_, sec. 3, eqs. 2-3: the measure of a soup is the
+mean over N fixed directions of the upper hemisphere (an orthographic
+projection along -d is the mirror image of the one along d, so M(d) = M(-d))
+of the directional measure of its projection, each an R x R image of the
+original mesh's orbit frame (:func:`viscore.metrics.orbit_frame`). Shared by
+the selections that value polygons by what they add to a soup (planar
+sections' sec. 4.5 greedy, surface patches' overlap-aware knapsack).
+
+Projections. Each candidate is projected once per direction and a soup's
+image is the OR of its polygons' bitmaps, so a selection step costs no
+projection. The candidates are flat polygons, not 3D objects: a ray parallel
+to d hits a planar polygon exactly when its pixel centre lies inside the
+polygon's projection, an affine image of the polygon. We therefore rasterize
+that projected polygon at the pixel centres (a numba scanline fill,
+even-odd), which gives the coverage a ray cast of its triangles would give,
+without an Embree scene per candidate.
+
+The directional measure of an image is that of
+:func:`viscore.metrics.directional_occlusion_measure` without boundary rays
+(the boundary taken half-way between covered and uncovered pixel centres;
+a test checks the two agree), batched over candidates in a numba kernel
+(distance transforms of Felzenszwalb and Huttenlocher [2]_). A direction in
+which a candidate's bitmap adds no pixel to the soup's keeps the soup's
+value without a distance transform. The batches are split over
+:func:`viscore.get_workers` threads; the kernels release the GIL and each
+part writes its own values, so results are the same on any number of
+threads.
+
+References
+----------
+.. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
+   Simplification using Planar Sections". Computer Graphics Forum 33(1),
+   2014, pp. 235-245. :DOI:`10.1111/cgf.12271` (sec. 3)
+.. [2] Felzenszwalb, P. F., Huttenlocher, D. P. "Distance Transforms of
+   Sampled Functions". Theory of Computing 8, 2012, pp. 415-428.
+   :DOI:`10.4086/toc.2012.v008a019`
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+from viscore.metrics.erosion import lower_envelope_min
+
+from viscore import camera_basis, directions_fibonacci
+from viscore._jit import njit_cached
+from viscore._validate import check_memory
+
+__all__ = ["measure_directions", "project_candidates", "soup_measures", "soup_totals",
+           "in_threads", "MEASURE_DIRECTIONS", "MEASURE_RESOLUTION"]
+
+#: Directions of the measure (upper hemisphere; M(d) = M(-d)).
+MEASURE_DIRECTIONS = 24
+
+#: Pixels per side of each measure image over the orbit frame.
+MEASURE_RESOLUTION = 64
+
+
+def measure_directions(n: int = MEASURE_DIRECTIONS) -> np.ndarray:
+    """``(n, 3)`` Fibonacci directions of the upper hemisphere."""
+    return directions_fibonacci(2 * n)[:n]
+
+
+def project_candidates(rings: list[np.ndarray], directions: np.ndarray, center: np.ndarray,
+                       extent: float, resolution: int = MEASURE_RESOLUTION) -> np.ndarray:
+    """Bitmaps of planar polygons seen along each direction.
+
+    Parameters
+    ----------
+    rings : list of (m_i, 3) float
+        World loops (weakly simple, holes bridged).
+    directions : (N, 3) float
+    center, extent
+        Orthographic window (the orbit frame), world units.
+    resolution : int
+
+    Returns
+    -------
+    bitmaps : (n, N, R, R) bool
+        True where the pixel centre's ray along the direction meets polygon i
+        (even-odd rule: a bridge, walked twice, adds nothing). Row 0 at the
+        top, as :meth:`viscore.OrthoCamera.project`.
+    """
+    n, nd, r = len(rings), len(directions), resolution
+    check_memory(float(n) * nd * r * r, f"{n} candidates x {nd} directions x {r}^2 pixels")
+    out = np.zeros((n, nd, r, r), dtype=bool)
+    if n == 0:
+        return out
+    points = np.concatenate(rings) - np.asarray(center, dtype=np.float64)
+    starts = np.concatenate([[0], np.cumsum([len(g) for g in rings])]).astype(np.int64)
+    for k, d in enumerate(directions):  # as OrthoCamera(d, center, extent, r).project
+        _, right, up = camera_basis(d)
+        cols = (points @ right / extent + 0.5) * r
+        rows = (0.5 - points @ up / extent) * r
+        _fill_polygons(cols, rows, starts, out, k)
+    return out
+
+
+@njit_cached()
+def _fill_polygons(xs, ys, starts, out, k):  # pragma: no cover
+    """Scanline fill (even-odd) of polygon i into ``out[i, k]`` at the pixel centres."""
+    n = len(starts) - 1
+    r = out.shape[2]
+    cross = np.empty(len(xs))
+    for i in range(n):
+        s, e = starts[i], starts[i + 1]
+        ymin, ymax = ys[s:e].min(), ys[s:e].max()
+        r0 = max(0, int(np.ceil(ymin - 0.5)))
+        r1 = min(r - 1, int(np.floor(ymax - 0.5)))
+        for row in range(r0, r1 + 1):
+            yc = row + 0.5
+            m = 0
+            for a in range(s, e):
+                b = a + 1 if a + 1 < e else s
+                ya, yb = ys[a], ys[b]
+                if (ya > yc) != (yb > yc):
+                    cross[m] = xs[a] + (yc - ya) * (xs[b] - xs[a]) / (yb - ya)
+                    m += 1
+            if m < 2:
+                continue
+            c = np.sort(cross[:m])
+            for t in range(0, m - 1, 2):
+                c0 = max(0, int(np.ceil(c[t] - 0.5)))
+                c1 = min(r, int(np.ceil(c[t + 1] - 0.5)))
+                for col in range(c0, c1):
+                    out[i, k, row, col] = True
+
+
+@njit_cached(nogil=True)
+def _envelope(f, out):  # pragma: no cover
+    """Lower envelope of parabolas (q - p)^2 + f[p] at each q (Felzenszwalb, Huttenlocher).
+
+    inf everywhere if every ``f[p]`` is inf; see
+    :func:`viscore.metrics.erosion.lower_envelope_min`.
+    """
+    n = len(f)
+    out[:] = np.inf
+    lower_envelope_min(f, np.empty(n, np.int64), np.empty(n + 1), out)
+
+
+@njit_cached(nogil=True)
+def _image_measure(img, buf_a, buf_b, col, tmp):  # pragma: no cover
+    """Sum over covered pixels of the distance (pixels) to the nearest mid-point crossing.
+
+    ``img`` (H, W) bool is taken with a background border around it. Buffers
+    (H, W) float64 ``buf_a``, ``buf_b``; ``col``, ``tmp`` of length max(H, W).
+    """
+    h, w = img.shape
+    # 1) crossings on rows (between horizontal neighbours), nearest along the row
+    for i in range(h):
+        last = -np.inf
+        for j in range(w):
+            left = img[i, j - 1] if j > 0 else False
+            if img[i, j] != left:
+                last = j - 0.5
+            buf_a[i, j] = (j - last) ** 2
+        nxt = np.inf
+        for j in range(w - 1, -1, -1):
+            right = img[i, j + 1] if j < w - 1 else False
+            if img[i, j] != right:
+                nxt = j + 0.5
+            d = (nxt - j) ** 2
+            if d < buf_a[i, j]:
+                buf_a[i, j] = d
+    for j in range(w):  # envelope down each column
+        for i in range(h):
+            col[i] = buf_a[i, j]
+        _envelope(col[:h], tmp[:h])
+        for i in range(h):
+            buf_a[i, j] = tmp[i]
+    # 2) crossings on columns (between vertical neighbours), nearest along the column
+    for j in range(w):
+        last = -np.inf
+        for i in range(h):
+            up = img[i - 1, j] if i > 0 else False
+            if img[i, j] != up:
+                last = i - 0.5
+            buf_b[i, j] = (i - last) ** 2
+        nxt = np.inf
+        for i in range(h - 1, -1, -1):
+            down = img[i + 1, j] if i < h - 1 else False
+            if img[i, j] != down:
+                nxt = i + 0.5
+            d = (nxt - i) ** 2
+            if d < buf_b[i, j]:
+                buf_b[i, j] = d
+    total = 0.0
+    for i in range(h):  # envelope along each row, then the minimum of both families
+        for j in range(w):
+            col[j] = buf_b[i, j]
+        _envelope(col[:w], tmp[:w])
+        for j in range(w):
+            if img[i, j]:
+                d = tmp[j]
+                if buf_a[i, j] < d:
+                    d = buf_a[i, j]
+                total += np.sqrt(d)
+    return total
+
+
+@njit_cached(nogil=True)
+def _soup_totals(ids, union, bitmaps, base, use_area, out):  # pragma: no cover
+    """``out[t]``: total over directions of the measure of (union | bitmap ``ids[t]``).
+
+    ``base`` (N,) holds the union's own per-direction values (reused where a
+    bitmap adds nothing). Pixel units (distance sums, or pixel counts).
+    """
+    _, nd, h, w = bitmaps.shape
+    img = np.empty((h, w), np.bool_)
+    buf_a = np.empty((h, w))
+    buf_b = np.empty((h, w))
+    m = max(h, w)
+    col = np.empty(m)
+    tmp = np.empty(m)
+    for t in range(len(ids)):
+        i = ids[t]
+        total = 0.0
+        for k in range(nd):
+            adds = 0
+            a0, a1, b0, b1 = h, -1, w, -1
+            for a in range(h):
+                for b in range(w):
+                    v = union[k, a, b] or bitmaps[i, k, a, b]
+                    img[a, b] = v
+                    if v:
+                        if not union[k, a, b]:
+                            adds += 1
+                        a0 = min(a0, a)
+                        a1 = max(a1, a)
+                        b0 = min(b0, b)
+                        b1 = max(b1, b)
+            if adds == 0:
+                total += base[k]
+            elif use_area:
+                total += base[k] + adds
+            else:  # the covered pixels' bounding box: outside it is background anyway
+                total += _image_measure(img[a0:a1 + 1, b0:b1 + 1], buf_a, buf_b, col, tmp)
+        out[t] = total
+    return out
+
+
+@njit_cached(nogil=True)
+def _images_measures(images, out):  # pragma: no cover
+    """``out[k]`` = :func:`_image_measure` of ``images[k]`` (pixel units)."""
+    h, w = images.shape[1:]
+    m = max(h, w)
+    buf_a = np.empty((h, w))
+    buf_b = np.empty((h, w))
+    col = np.empty(m)
+    tmp = np.empty(m)
+    for k in range(len(images)):
+        out[k] = _image_measure(images[k], buf_a, buf_b, col, tmp)
+
+
+#: Fewest items (candidates of a greedy step, images of a measure) per thread: below
+#: this a batch runs on the calling thread.
+MIN_PER_THREAD = 8
+
+
+def in_threads(kernel, items: np.ndarray, *shared, out: np.ndarray) -> np.ndarray:
+    """``kernel(items[lo:hi], *shared, out[lo:hi])`` over contiguous parts of ``items`` on
+    :func:`viscore.get_workers` threads (the kernels release the GIL and each part writes
+    its own slice of ``out``, so the result is that of one call over all items)."""
+    from viscore import get_workers
+
+    parts = min(get_workers(), len(items) // MIN_PER_THREAD)
+    if parts <= 1:
+        kernel(items, *shared, out)
+        return out
+    cuts = np.linspace(0, len(items), parts + 1).astype(np.int64)
+    pool = _helpers(parts - 1)
+    jobs = [pool.submit(kernel, items[lo:hi], *shared, out[lo:hi])
+            for lo, hi in zip(cuts[1:-1], cuts[2:], strict=True)]
+    kernel(items[:cuts[1]], *shared, out[:cuts[1]])
+    for job in jobs:
+        job.result()
+    return out
+
+
+_pools: dict = {}
+_pools_lock = threading.Lock()
+
+
+def _helpers(threads: int):
+    """A thread pool of at least ``threads`` threads, kept for the process (a greedy
+    search makes thousands of batches; starting threads for each costs more than the
+    work of the small ones). A forked child makes its own."""
+    import os
+    from concurrent.futures import ThreadPoolExecutor
+
+    with _pools_lock:
+        pid, pool, size = _pools.get("pool", (None, None, 0))
+        if pid != os.getpid() or size < threads:
+            if pid == os.getpid():
+                pool.shutdown(wait=False)
+            pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="viscore-measure")
+            _pools["pool"] = (os.getpid(), pool, threads)
+        return pool
+
+
+def soup_measures(images: np.ndarray, pixel: float, *, measure: str = "om") -> np.ndarray:
+    """Per-image measure, world units: M(d) (``'om'``) or projected area (``'area'``).
+
+    Parameters
+    ----------
+    images : (N, R, R) bool
+    pixel : float
+        Pixel side, world units.
+
+    Returns
+    -------
+    (N,) float64
+    """
+    images = np.ascontiguousarray(images, dtype=bool)
+    if measure == "area":
+        return images.reshape(len(images), -1).sum(axis=1) * pixel**2
+    out = in_threads(_images_measures, images, out=np.empty(len(images)))
+    return out * pixel**3
+
+
+def soup_totals(ids: np.ndarray, union: np.ndarray, bitmaps: np.ndarray, base: np.ndarray,
+                *, measure: str = "om") -> np.ndarray:
+    """``(len(ids),) float64``: per candidate ``i`` in ``ids``, the sum over directions of
+    the measure of ``union | bitmaps[i]``, pixel units (distance sums, or pixel counts for
+    ``measure='area'``). ``base`` (N,) is the union's own per-direction values, reused
+    where a bitmap adds nothing."""
+    ids = np.ascontiguousarray(ids, dtype=np.int64)
+    return in_threads(_soup_totals, ids, np.ascontiguousarray(union, dtype=bool), bitmaps,
+                      np.asarray(base, dtype=np.float64), measure == "area",
+                      out=np.empty(len(ids)))
