@@ -81,6 +81,7 @@ from .surface_patches import generate_surface_patches
 from .surface_patches.generator import BOXES as SURFACE_BOXES
 from .surface_patches.generator import MIN_AREA as SURFACE_MIN_AREA
 from .surface_patches.generator import PLANE_TOLERANCE as SURFACE_PLANE_TOLERANCE
+from .surface_patches.generator import SELECTIONS as SURFACE_SELECTIONS
 from .surface_patches.generator import use_box_source as use_surface_box_source
 from .terrain_drape import generate_terrain_drape
 from .terrain_drape.generator import RESOLUTION as TERRAIN_RESOLUTION
@@ -382,6 +383,10 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                                 "the ground nor below its rim", choices=("off", "auto")),
                 GeneratorOption("up", str, "auto", "the up axis of --ground",
                                 choices=("auto", "x", "y", "z")),
+                GeneratorOption("selection", str, "overlap",
+                                "value each candidate by what it adds to the chosen ones' "
+                                "projections (the paper's soup measure) or by its own measure "
+                                "alone", choices=SURFACE_SELECTIONS),
             ),
             conservative=True, min_budget=1),
         GeneratorSpec(

@@ -123,7 +123,12 @@ def test_generate_surface_patches_closed_solid_nonempty_guaranteed_and_clean(nam
         assert occ.info["polygons"] == 6 and occ.info["boxes"] == 0
         assert occ.info["box_candidates"] >= 1
     if name == "cut_sphere":  # the flat cut is a patch, the round rest gets boxes
-        assert occ.info["polygons"] == 1 and occ.info["boxes"] > 0
+        # (with the overlap-aware selection, facets of two coplanar faces on the rim may
+        # join: they add silhouette the boxes leave)
+        flat = [p for p in occ.parts["polygons"][:occ.info["polygons"]]
+                if np.ptp(p[:, 2]) == 0 and p[0, 2] == pytest.approx(0.2)]
+        assert len(flat) == 1 and np.ptp(flat[0][:, :2], axis=0).min() > 1.9
+        assert occ.info["boxes"] > 0
     assert len(occ.parts["polygons"]) == occ.info["polygons"] + 6 * occ.info["boxes"]
     assert "boxes" not in occ.parts  # runtimes would take them for the whole occluder
     report = check_conservative(mesh, occ.mesh, rays=RAYS, domain="volume", seed=3)

@@ -32,7 +32,10 @@ union of the part's triangles clipped to their part above ``z``, projected,
 minus the union of their parts below it (a floor under the hills, which
 views from above see whole: on a 100 x 100 hill at 64 triangles, orbit
 recall 0.445 with these floors, 0.070 with the vertical cuts alone, 0
-without either, all at precision 1.0). Rays that rise out of ``S`` leave it
+without either, all at precision 1.0, with the selection's values taken one
+by one; the overlap-aware selection, now the default, keeps 9 curtains
+instead of 16 and reaches 0.473 against 0.443 on the same 256 orbit views,
+seed 0). Rays that rise out of ``S`` leave it
 through the part's surface, so even from below the rim an occluder in ``S``
 covers only pixels the part covers (precision stays 1 on every view); only
 its depth is then in front of the part's. A part with no boundary (a closed

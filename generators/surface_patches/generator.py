@@ -32,9 +32,14 @@ single-sided sheets, open rooms) where the volume methods find no inside:
    :func:`viscore.metrics.directional_occlusion_measure` of its in-plane
    rasterization), and a greedy multiple-choice knapsack raises, at each step,
    the one candidate whose next stage adds the most measure per added
-   triangle within the budget. This is simpler than the paper's sec. 4.5: the
-   candidates' measures are taken one by one, without the overlap of their
-   projections (two faces of a thick wall both count);
+   triangle within the budget. By default (``selection='overlap'``,
+   :mod:`._overlap`) each candidate's value is scaled by its share of the
+   soup: the occlusion measure it adds to the chosen candidates'
+   projections over the measure it has alone, over the orthographic
+   directions of the paper's sec. 4.5 (eqs. 2-3), so the second face of a
+   thick wall adds little; on the eight built-in buildings the mean volume
+   recall at 260 triangles goes from 0.855 with the values taken one by one
+   (``selection='separate'``) to 0.878;
 5. boxes where thick parts hold them (``boxes='auto'``, :mod:`._inner_boxes`):
    curved regions give no patch, so the closed, consistently oriented parts
    of the input (a sphere, a column, a solid block) are also filled with the
@@ -101,6 +106,7 @@ from ._inner_boxes import (
     unshadowed_measures,
     use_box_source,
 )
+from ._overlap import candidate_bitmaps, select_with_overlap
 
 __all__ = ["generate_surface_patches", "use_box_source", "DEFAULT_BUDGET", "PLANE_TOLERANCE",
            "GRID", "EROSION", "MIN_AREA", "BOXES"]
@@ -141,6 +147,9 @@ BOXES = ("auto", "off")
 
 #: Values of ``ground``: curtains under open ground, or none.
 GROUNDS = ("off", "auto")
+
+#: Choices of ``selection``: values discounted by the soup's overlap, or taken one by one.
+SELECTIONS = ("overlap", "separate")
 
 #: Candidate pieces kept for the chains and the selection, largest first.
 MAX_CANDIDATES = 400
@@ -233,7 +242,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
                              seed: int = 0, plane_tolerance: float = PLANE_TOLERANCE,
                              min_area: float = MIN_AREA, chain: str = "optimal",
                              boxes: str = "auto", ground: str = "off",
-                             up: str = "auto") -> Occluder:
+                             up: str = "auto", selection: str = "overlap") -> Occluder:
     """Double-sided occluder in the input's own planar surface, conservative on any input.
 
     Parameters
@@ -278,6 +287,11 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     up : {'auto', 'x', 'y', 'z'}, optional
         The up axis of ``ground='auto'``; ``'auto'`` (default) guesses it
         from the geometry (:func:`viscore.ground.guess_up`, as one object).
+    selection : {'overlap', 'separate'}, optional
+        ``'overlap'`` (default): each candidate's value is scaled by what it
+        adds to the chosen candidates' projections (module docstring, step
+        4); ``'separate'``: the values are taken one by one. The geometry of
+        each candidate, and so the guarantee, is the same either way.
 
     Returns
     -------
@@ -411,6 +425,9 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         raise InputError(f"ground: expected one of {', '.join(GROUNDS)}, got {ground!r}")
     if up not in ("auto", *UP_AXES):
         raise InputError(f"up: expected auto, x, y or z, got {up!r}")
+    if selection not in SELECTIONS:
+        raise InputError(f"selection: expected one of {', '.join(SELECTIONS)}, "
+                         f"got {selection!r}")
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise InputError("mesh: expected a non-empty trimesh.Trimesh")
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
@@ -422,7 +439,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         raise InputError("mesh: zero extent")
     params = {"budget": budget, "seed": seed, "plane_tolerance": plane_tolerance,
               "min_area": min_area, "chain": chain, "boxes": boxes, "ground": ground,
-              "up": up}
+              "up": up, "selection": selection}
     timing = {}
 
     t0 = time.perf_counter()
@@ -502,6 +519,13 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     if budget is None:
         stages = np.array([0 if int(c[0]) > 0 and float(x[0]) > 0 else -1
                            for c, x in zip(counts, values, strict=True)], dtype=np.int64)
+    elif selection == "overlap":
+        rings = [frame[0] + loop[:, :1] * frame[1] + loop[:, 1:2] * frame[2]
+                 for (frame, _, _), ch in zip(cands, chains, strict=True)
+                 for loop in [ch.stage_ring(0) * grid]]
+        stages = select_with_overlap(values, counts,
+                                     candidate_bitmaps(mesh, rings, box_faces(corners)),
+                                     budget)
     else:
         stages = _select(values, counts, budget)
     timing["selection"] = time.perf_counter() - t0
