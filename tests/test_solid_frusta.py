@@ -8,6 +8,7 @@ import trimesh
 from viscore.generators.aabb_skins import generate_aabb_skins
 from viscore.generators.solid_frusta.generator import (
     _Containment,
+    _line_extremes,
     _segments_meet,
     generate_solid_frusta,
 )
@@ -156,3 +157,22 @@ def test_solid_frusta_scale_invariant(scale):
     np.testing.assert_allclose(occ.info["volume_share"], ref.info["volume_share"], atol=0.01)
     rep = check_conservative(unit.copy().apply_scale(scale), occ.mesh, rays=20_000, seed=2)
     assert rep.violations == 0, rep.summary()
+
+
+def test_line_extremes_keep_the_hull_of_voxel_centres():
+    rng = np.random.default_rng(3)
+    pitch = 0.25
+    centres = (rng.integers(0, 12, (4000, 3)) + 0.5) * pitch - 1.0
+    centres = np.unique(centres, axis=0)
+    ends = _line_extremes(centres, pitch)
+    assert len(ends) < len(centres) / 3
+    assert set(map(tuple, ends)) <= set(map(tuple, centres))
+    whole, kept = trimesh.convex.convex_hull(centres), trimesh.convex.convex_hull(ends)
+    assert kept.volume == pytest.approx(whole.volume, rel=1e-12)
+    # a flat layer of 40 x 30 centres keeps only its rim
+    i, j = np.meshgrid(np.arange(40), np.arange(30), indexing="ij")
+    layer = np.stack([i.ravel(), j.ravel(), np.zeros(i.size)], axis=1) * pitch
+    rim = _line_extremes(layer, pitch)
+    on_rim = ((rim[:, 0] == 0) | (rim[:, 0] == 39 * pitch) | (rim[:, 1] == 0)
+              | (rim[:, 1] == 29 * pitch))
+    assert on_rim.all() and len(rim) <= 2 * (40 + 30)

@@ -138,6 +138,26 @@ def _farthest_subset(points: np.ndarray, k: int) -> np.ndarray:
     return np.array(chosen)
 
 
+def _line_extremes(points: np.ndarray, pitch: float) -> np.ndarray:
+    """The points of a voxel-centre set at the ends of its grid lines: per line along x the
+    first and last point, then per line along y of those, then along z (in the given order).
+
+    Each point left out lies on the segment between two points kept (the ends of its
+    line), so the convex hull is the same, from a few points per line instead of every
+    voxel (a thin slab of millions of voxels keeps its rim)."""
+    ijk = np.rint((points - points.min(axis=0)) / pitch).astype(np.int64)
+    keep = np.arange(len(points))
+    for a in range(3):
+        b, c = [axis for axis in range(3) if axis != a]
+        sub = ijk[keep]
+        order = np.lexsort((sub[:, a], sub[:, c], sub[:, b]))
+        kb, kc = sub[order, b], sub[order, c]
+        start = np.r_[True, (kb[1:] != kb[:-1]) | (kc[1:] != kc[:-1])]
+        end = np.r_[start[1:], True]
+        keep = keep[order[start | end]]
+    return points[np.sort(keep)]
+
+
 def _hull(points: np.ndarray) -> trimesh.Trimesh | None:
     """Convex hull with outward faces, or None when degenerate (flat, too few points).
 
@@ -282,8 +302,9 @@ def _voxel_hulls(centres: np.ndarray, depth: np.ndarray, pitch: float, solids: i
             if len(member) < 2:
                 continue
             pts = centres[member]
-            first = _hull(pts) if len(pts) >= 4 else None
-            base = np.asarray(first.vertices) if first is not None else pts
+            ends = _line_extremes(pts, pitch)
+            first = _hull(ends) if len(ends) >= 4 else None
+            base = np.asarray(first.vertices) if first is not None else ends  # flat: a layer
             cubes = (base[:, None, :] + offsets[None]).reshape(-1, 3)
             full = _hull(cubes)
             if full is None:
