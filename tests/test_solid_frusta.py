@@ -8,6 +8,7 @@ import trimesh
 from viscore.generators.aabb_skins import generate_aabb_skins
 from viscore.generators.solid_frusta.generator import (
     _Containment,
+    _hull,
     _line_extremes,
     _segments_meet,
     generate_solid_frusta,
@@ -176,3 +177,15 @@ def test_line_extremes_keep_the_hull_of_voxel_centres():
     on_rim = ((rim[:, 0] == 0) | (rim[:, 0] == 39 * pitch) | (rim[:, 1] == 0)
               | (rim[:, 1] == 29 * pitch))
     assert on_rim.all() and len(rim) <= 2 * (40 + 30)
+
+
+def test_hull_refuses_a_hull_that_comes_back_open(monkeypatch):
+    # trimesh drops qhull's zero-area faces, so a thin hull can come back with a hole
+    # (a 0.075 x 0.045 x 0.015 piece of a Sauerbraten map: 16 vertices, 27 faces), and
+    # the frusta runtimes refuse the whole level for one such solid
+    points = trimesh.creation.box().vertices
+    assert _hull(points) is not None
+    box = trimesh.creation.box()
+    holed = trimesh.Trimesh(box.vertices, box.faces[1:], process=False)
+    monkeypatch.setattr(trimesh.convex, "convex_hull", lambda pts: holed)
+    assert _hull(points) is None

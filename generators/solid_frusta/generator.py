@@ -67,6 +67,7 @@ import trimesh
 
 from viscore import InputError, Scene, points_inside, voxelize
 from viscore._validate import as_positive_int, as_seed, check_memory
+from viscore.shadow_frusta import _solid_arrays
 from viscore.voxels import inside_voxels_winding
 from viscore.wall_thickness import WALL_QUANTILE, wall_voxel_size
 
@@ -159,7 +160,8 @@ def _line_extremes(points: np.ndarray, pitch: float) -> np.ndarray:
 
 
 def _hull(points: np.ndarray) -> trimesh.Trimesh | None:
-    """Convex hull with outward faces, or None when degenerate (flat, too few points).
+    """Convex hull with outward faces, or None when degenerate (flat, too few points, or
+    not closed: every piece must be a closed convex solid for the frusta runtimes).
 
     Computed on the points centred and scaled to unit size (qhull's and
     trimesh's tolerances are absolute), then mapped back exactly as given.
@@ -176,8 +178,20 @@ def _hull(points: np.ndarray) -> trimesh.Trimesh | None:
         return None
     if len(unit.faces) < 4 or not unit.volume > 1e-12:
         return None
+    if not (unit.is_watertight and unit.is_winding_consistent):
+        return None  # trimesh drops qhull's zero-area faces: a thin hull can come back open
     return trimesh.Trimesh(centre + size * np.asarray(unit.vertices), np.asarray(unit.faces),
                            process=False)
+
+
+def _runtime_solid(hull: trimesh.Trimesh) -> bool:
+    """Whether the frusta runtimes take ``hull`` as a solid (closed, outward, convex within
+    their tolerance: :mod:`viscore.shadow_frusta`'s check of every occluder solid)."""
+    try:
+        _solid_arrays(np.asarray(hull.vertices), np.asarray(hull.faces), 0)
+    except InputError:
+        return False
+    return True
 
 
 def _planes(hull: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
@@ -515,7 +529,8 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
         test = _Containment(mesh, pitch)
         rng = np.random.default_rng(seed)
         for hull, scale in _voxel_hulls(centres, depth, pitch, solids, rng, test, shrink_steps):
-            candidates.append((hull, "hull", scale))
+            if _runtime_solid(hull):
+                candidates.append((hull, "hull", scale))
     n_boxes = len(box_meshes)
     n_hulls = len(candidates) - n_boxes
 
