@@ -82,6 +82,7 @@ from .surface_patches.generator import BOXES as SURFACE_BOXES
 from .surface_patches.generator import MIN_AREA as SURFACE_MIN_AREA
 from .surface_patches.generator import PLANE_TOLERANCE as SURFACE_PLANE_TOLERANCE
 from .surface_patches.generator import SELECTIONS as SURFACE_SELECTIONS
+from .surface_patches.generator import SHEETS as SURFACE_SHEETS
 from .surface_patches.generator import use_box_source as use_surface_box_source
 from .terrain_drape import generate_terrain_drape
 from .terrain_drape.generator import RESOLUTION as TERRAIN_RESOLUTION
@@ -387,6 +388,9 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                                 "value each candidate by what it adds to the chosen ones' "
                                 "projections (the paper's soup measure) or by its own measure "
                                 "alone", choices=SURFACE_SELECTIONS),
+                GeneratorOption("sheets", str, "auto",
+                                "also offer curved open sheets (terrain, vaults) as their own "
+                                "triangles, in chunks of about 64", choices=SURFACE_SHEETS),
             ),
             conservative=True, min_budget=1),
         GeneratorSpec(

@@ -283,7 +283,9 @@ def joined_occluder(objects: SceneObjects, indices: Sequence[int], method: str, 
     The objects' world-space triangles form one mesh (vertices are not
     merged), generated once. Without a ``budget`` in ``params`` the budget is
     the method's default times the number of objects, so that the level gets
-    what its objects would get one by one.
+    what its objects would get one by one; likewise a ``min_area`` option (a
+    share of the input's face area, surface-patches') is the method's
+    default over the number of objects: a share of the mean object's area.
 
     Parameters
     ----------
@@ -323,6 +325,11 @@ def joined_occluder(objects: SceneObjects, indices: Sequence[int], method: str, 
         default = inspect.signature(spec.function).parameters.get("budget")
         if default is not None and isinstance(default.default, int):
             params["budget"] = default.default * len(indices)
+    floor = next((o for o in spec.options if o.name == "min_area"), None)
+    if floor is not None and "min_area" not in params and isinstance(floor.default, float):
+        # a share of the input's area: of the mean object's, not of the level's (a ground
+        # plane 2 km across would set a floor larger than every wall of the town on it)
+        params["min_area"] = floor.default / len(indices)
     spec.check_params({**params, "seed": seed})
     verts, faces, offset = [], [], 0
     for i in indices:

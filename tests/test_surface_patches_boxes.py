@@ -195,12 +195,15 @@ def test_generate_surface_patches_curved_open_mesh_empty_says_why(caplog):
     keep = sphere.triangles_center[:, 2] < 0.5
     dome = trimesh.Trimesh(sphere.vertices, sphere.faces[keep], process=False)
     with caplog.at_level(logging.WARNING, logger="viscore.generators.surface_patches"):
-        occ = generate_surface_patches(dome)
+        occ = generate_surface_patches(dome, sheets="off")
     assert occ.triangles == 0
     lines = [r.getMessage() for r in caplog.records if "no occluder" in r.getMessage()]
     assert len(lines) == 1
     assert "curved regions contribute nothing" in lines[0] and "closed" in lines[0]
     assert occ.info["empty_reason"] in lines[0]
+    # by default its own triangles are offered as sheets (test_surface_patches_sheets.py)
+    occ = generate_surface_patches(dome)
+    assert occ.triangles == occ.info["sheet_faces"] > 0 and occ.info["empty_reason"] is None
 
 
 @pytest.mark.parametrize("kwargs, words", [
@@ -265,9 +268,10 @@ def test_plant_open_parts_taken_for_closed_lose_the_claim(monkeypatch):
     keep = np.ones(len(sphere.faces), bool)
     keep[:4] = False  # a small hole
     holed = trimesh.Trimesh(sphere.vertices, sphere.faces[keep], process=False)
-    assert generate_surface_patches(holed).triangles == 0  # shipped: no closed part
+    # (no sheets: the holed sphere's own triangles would be offered too)
+    assert generate_surface_patches(holed, sheets="off").triangles == 0  # no closed part
     monkeypatch.setattr(patches_module, "closed_parts",
                         lambda vertices, faces: np.ones(len(faces), bool))
-    occ = generate_surface_patches(holed)
+    occ = generate_surface_patches(holed, sheets="off")
     assert occ.info["boxes"] > 0 and occ.info["boxes_guaranteed"] is False
     assert occ.info["conservative_guaranteed"] is False

@@ -18,7 +18,10 @@ only when a candidate joined the soup since (lazy evaluation, Minoux [2]_):
 shares shrink as the soup grows, except where two polygons side by side
 block wider beams than either, so a stale share is almost always an upper
 bound. Stages within a candidate keep the generator's values (the full
-stage's head-on measure, scaled by area^1.5), times the share.
+stage's head-on measure, scaled by area^1.5), times the share. A candidate
+that covers no pixel of the images (under a pixel of the whole input's
+frame: a house's wall in a level a hundred times its size) cannot be
+measured against the soup and keeps its own value (share 1).
 
 References
 ----------
@@ -85,7 +88,9 @@ def select_with_overlap(values: list[np.ndarray], counts: list[np.ndarray],
     first = np.concatenate([[0], np.cumsum([len(c) for c in counts])[:-1]])
     cur_v = np.zeros(k)
     cur_c = np.zeros(k, dtype=np.int64)
-    share = np.where(alone > 0, 1.0, 0.0)
+    # a candidate under a pixel of the images (a wall of a house across a whole level)
+    # cannot be measured against the soup: it keeps its own value (share 1)
+    share = np.ones(k)
     fresh = np.zeros(k, dtype=bool)
     covers = np.zeros(bitmaps.shape[1:], dtype=np.int32)  # chosen candidates per pixel
     base = np.zeros(nd)  # the soup's per-direction measure
@@ -112,10 +117,10 @@ def select_with_overlap(values: list[np.ndarray], counts: list[np.ndarray],
             else:
                 others = (covers - bitmaps[i]) > 0
                 gain = float(base.sum()) - float(soup_measures(others, 1.0).sum())
-            share[i] = max(gain, 0.0) / alone[i] if alone[i] > 0 else 0.0
+            share[i] = max(gain, 0.0) / alone[i] if alone[i] > 0 else 1.0
             continue
         left -= int(dc[j])
-        if stage[i] < 0 and not leftover:
+        if stage[i] < 0 and not leftover and alone[i] > 0:  # the soup's images change
             covers += bitmaps[i]
             base = soup_measures(covers > 0, 1.0)
             fresh[:] = False
@@ -124,18 +129,25 @@ def select_with_overlap(values: list[np.ndarray], counts: list[np.ndarray],
         cur_c[i] = flat_c[j]
 
 
-def candidate_bitmaps(mesh, rings: list[np.ndarray], box_loops: list[np.ndarray]
-                      ) -> np.ndarray:
+def candidate_bitmaps(mesh, rings: list[np.ndarray], box_loops: list[np.ndarray],
+                      sheets: list[np.ndarray] = ()) -> np.ndarray:
     """``(k, N, R, R) bool``: the patch candidates' world loops, then each box (six loops in a
-    row, OR-ed), seen along the measure directions over ``mesh``'s orbit frame."""
+    row, OR-ed), then each sheet chunk (``(m, 3, 3)`` triangles, OR-ed), seen along the
+    measure directions over ``mesh``'s orbit frame."""
     from viscore.metrics.frames import orbit_frame
 
     center, extent = orbit_frame(mesh)
     dirs = measure_directions(MEASURE_DIRECTIONS)
-    maps = project_candidates(list(rings) + list(box_loops), dirs, center, extent,
+    tris = [t for chunk in sheets for t in chunk]
+    maps = project_candidates(list(rings) + list(box_loops) + tris, dirs, center, extent,
                               MEASURE_RESOLUTION)
-    if not box_loops:
+    if not box_loops and not tris:
         return maps
     patches = maps[:len(rings)]
-    boxes = maps[len(rings):].reshape(-1, 6, *maps.shape[1:]).any(axis=1)
-    return np.concatenate([patches, boxes])
+    boxes = maps[len(rings):len(rings) + len(box_loops)]
+    boxes = boxes.reshape(-1, 6, *maps.shape[1:]).any(axis=1)
+    ends = np.cumsum([len(chunk) for chunk in sheets], dtype=np.int64)
+    chunks = [maps[len(rings) + len(box_loops) + e - len(c):len(rings) + len(box_loops) + e]
+              .any(axis=0) for c, e in zip(sheets, ends, strict=True)]
+    return np.concatenate([patches, boxes, np.asarray(chunks, dtype=bool).reshape(
+        -1, *maps.shape[1:])])

@@ -54,7 +54,14 @@ single-sided sheets, open rooms) where the volume methods find no inside:
    space between its surface and its rim's height from every viewpoint on
    or above the ground; vertical cuts of that space are offered as planar
    regions to steps 2-4, and the claim narrows to such viewpoints
-   (``info["guarantee"]``).
+   (``info["guarantee"]``);
+7. sheets (``sheets='auto'``, :mod:`._sheets`): the curved open surfaces
+   (a terrain, a vault) that give no patch, no box and no curtain are
+   offered as their own triangles, in chunks of about 64, to the same
+   selection: a part of the input's surface is conservative from every
+   viewpoint, and the conservative depth buffer covers a sheet across its
+   creases (:mod:`viscore._patches`). Beyond the papers, which simplify
+   closed solids.
 
 References
 ----------
@@ -107,9 +114,10 @@ from ._inner_boxes import (
     use_box_source,
 )
 from ._overlap import candidate_bitmaps, select_with_overlap
+from ._sheets import SHEET_MAX_FACES, chunk_measure, sheet_chunks
 
 __all__ = ["generate_surface_patches", "use_box_source", "DEFAULT_BUDGET", "PLANE_TOLERANCE",
-           "GRID", "EROSION", "MIN_AREA", "BOXES"]
+           "GRID", "EROSION", "MIN_AREA", "BOXES", "SHEETS"]
 
 _log = logging.getLogger(__name__)
 
@@ -144,6 +152,9 @@ MIN_AREA = 1e-4
 
 #: Choices of ``boxes``: aabb-skins boxes in the closed parts where they fit, or none.
 BOXES = ("auto", "off")
+
+#: Choices of ``sheets``: the curved open sheets' own triangles in chunks, or none.
+SHEETS = ("auto", "off")
 
 #: Values of ``ground``: curtains under open ground, or none.
 GROUNDS = ("off", "auto")
@@ -242,7 +253,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
                              seed: int = 0, plane_tolerance: float = PLANE_TOLERANCE,
                              min_area: float = MIN_AREA, chain: str = "optimal",
                              boxes: str = "auto", ground: str = "off",
-                             up: str = "auto", selection: str = "overlap") -> Occluder:
+                             up: str = "auto", selection: str = "overlap",
+                             sheets: str = "auto") -> Occluder:
     """Double-sided occluder in the input's own planar surface, conservative on any input.
 
     Parameters
@@ -292,6 +304,12 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         adds to the chosen candidates' projections (module docstring, step
         4); ``'separate'``: the values are taken one by one. The geometry of
         each candidate, and so the guarantee, is the same either way.
+    sheets : {'auto', 'off'}, optional
+        ``'auto'`` (default): also offer the curved sheets of the input's
+        open parts (height-field patches: a terrain, a vault, a curved wall)
+        as their own triangles, in chunks (:mod:`._sheets`; module
+        docstring, step 7), when the open parts have at most
+        :data:`._sheets.SHEET_MAX_FACES` faces. ``'off'``: none.
 
     Returns
     -------
@@ -319,7 +337,10 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         overhangs: more than one layer along the up axis), ``up``,
         ``guarantee`` (``'every viewpoint'``, or with a curtain kept
         ``'viewpoints not under the surface of an open part nor below its
-        rim'``); ``seconds_steps``.
+        rim'``); ``sheet_candidates`` and ``sheets`` (chunks offered and
+        kept), ``sheet_faces`` (input faces kept as they are),
+        ``sheets_skipped`` (why no sheet was looked for, or None);
+        ``seconds_steps``.
 
     Raises
     ------
@@ -328,10 +349,11 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
 
     Notes
     -----
-    Deterministic. Curved regions contribute nothing: a face that shares its
+    Deterministic. Curved regions give no patch: a face that shares its
     plane with no other face (a facet of a curved surface, or a lone
     triangle) is skipped (:data:`MIN_FACES`); a flat facet of two or more
-    faces (a cylinder's quads) is a region like any other. Holes in a region (windows,
+    faces (a cylinder's quads) is a region like any other. Curved open
+    sheets are offered as their own triangles instead (``sheets``). Holes in a region (windows,
     doors) stay open; nothing is filled. Curved solids are covered by the
     boxes instead (``boxes='auto'``), where a closed part holds inner voxels
     at the box source's resolution (64 voxels along the longest side of the
@@ -358,6 +380,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     non-manifold). Float rounding: the plane passes through its seed face's
     first vertex exactly and axis-aligned planes get axis-aligned in-plane
     axes, so their occluder vertices keep the input's coordinate exactly;
+    The sheets' triangles are input triangles, vertex for vertex (the same
+    float64 coordinates): a ray meets the input wherever it meets them.
     Embree's float32 hit points are off by ~1e-7 of the coordinates, far
     under the 2.5e-6 margin and the check's eps (1e-5 of the diagonal,
     :func:`viscore.metrics.check_conservative`). When a region face lies off
@@ -428,6 +452,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     if selection not in SELECTIONS:
         raise InputError(f"selection: expected one of {', '.join(SELECTIONS)}, "
                          f"got {selection!r}")
+    if sheets not in SHEETS:
+        raise InputError(f"sheets: expected one of {', '.join(SHEETS)}, got {sheets!r}")
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise InputError("mesh: expected a non-empty trimesh.Trimesh")
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
@@ -439,7 +465,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         raise InputError("mesh: zero extent")
     params = {"budget": budget, "seed": seed, "plane_tolerance": plane_tolerance,
               "min_area": min_area, "chain": chain, "boxes": boxes, "ground": ground,
-              "up": up, "selection": selection}
+              "up": up, "selection": selection, "sheets": sheets}
     timing = {}
 
     t0 = time.perf_counter()
@@ -451,6 +477,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
 
     t0 = time.perf_counter()
     cands = []  # (frame, exact union, hole-free piece in grid units)
+    region_of = np.full(len(faces), -1, dtype=np.int64)  # faces of regions giving pieces
+    sources = []  # per candidate, the input faces of its planar region (None: a curtain)
     used = 0
     for reg in regions:
         if reg.area < floor or reg.area <= 0 or len(reg.faces) < MIN_FACES:
@@ -467,8 +495,10 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         pieces = _region_pieces(union, erosion=EROSION * diag, grid=grid, floor=floor)
         if pieces is None:
             continue
+        region_of[reg.faces] = used
         used += 1
         cands += [(frame, union, piece) for piece in pieces]
+        sources += [reg.faces] * len(pieces)
     timing["pieces"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -481,6 +511,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         for frame, region in curtains:
             pieces = _region_pieces(region, erosion=EROSION * diag, grid=grid, floor=floor)
             cands += [(frame, region, piece) for piece in pieces or ()]
+            sources += [None] * len(pieces or ())
     curtain_cands = len(cands) - planar_cands
     is_curtain = np.arange(len(cands)) >= planar_cands
     timing["curtains"] = time.perf_counter() - t0
@@ -491,6 +522,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         keep = np.sort(np.argsort([-p.area for _, _, p in cands],
                                   kind="stable")[:MAX_CANDIDATES])
         cands = [cands[i] for i in keep]
+        sources = [sources[i] for i in keep]
         is_curtain = is_curtain[keep]
     chains, values, counts = [], [], []
     search_from = np.sort([-p.area for _, _, p in cands])[:MAX_SEARCH]
@@ -508,12 +540,21 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     timing["chains"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
+    closed = closed_parts(vertices, faces)
     corners, box_values, box_info, box_reason = _box_candidates(
-        vertices, faces, cands, chains, grid, boxes=boxes, budget=budget)
+        vertices, faces, closed, cands, chains, grid, boxes=boxes, budget=budget)
     for value in box_values:  # one stage of 12 triangles each, after the patches (ties)
         values.append(np.array([value]))
         counts.append(np.array([TRIANGLES_PER_BOX], dtype=np.int64))
     timing["boxes"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    chunks, sheets_skipped = _sheet_candidates(vertices, faces, closed, region_of,
+                                               sheets=sheets, floor=floor, budget=budget)
+    for members in chunks:  # one stage each: the chunk's own triangles, after the boxes
+        values.append(np.array([chunk_measure(vertices[faces[members]])]))
+        counts.append(np.array([len(members)], dtype=np.int64))
+    timing["sheets"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     if budget is None:
@@ -523,14 +564,26 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         rings = [frame[0] + loop[:, :1] * frame[1] + loop[:, 1:2] * frame[2]
                  for (frame, _, _), ch in zip(cands, chains, strict=True)
                  for loop in [ch.stage_ring(0) * grid]]
+        sheet_tris = [vertices[faces[members]] for members in chunks]
         stages = select_with_overlap(values, counts,
-                                     candidate_bitmaps(mesh, rings, box_faces(corners)),
+                                     candidate_bitmaps(mesh, rings, box_faces(corners),
+                                                       sheet_tris),
                                      budget)
     else:
         stages = _select(values, counts, budget)
     timing["selection"] = time.perf_counter() - t0
-    kept_boxes = corners[stages[len(cands):] >= 0]
+    kept_boxes = corners[stages[len(cands):len(cands) + len(corners)] >= 0]
+    kept_chunks = [m for m, s in zip(chunks, stages[len(cands) + len(corners):], strict=True)
+                   if s >= 0]
     stages = stages[:len(cands)]
+    sheet_faces = np.concatenate(kept_chunks) if kept_chunks else np.zeros(0, dtype=np.int64)
+    # a planar stage inside a region whose faces the kept sheets hold as they are would lie
+    # on them: a second layer, which keeps the depth buffer's corner rays off one patch
+    in_sheets = np.zeros(len(faces), dtype=bool)
+    in_sheets[sheet_faces] = True
+    doubled = np.array([src is not None and s >= 0 and bool(in_sheets[src].all())
+                        for src, s in zip(sources, stages, strict=True)], dtype=bool)
+    stages = np.where(doubled, -1, stages)
 
     out_v, out_f, polygons = [], [], []
     offset = dropped = curtains_kept = 0
@@ -563,6 +616,13 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         out_v.append(np.asarray(box_mesh.vertices))
         out_f.append(np.asarray(box_mesh.faces) + offset)
         polygons.extend(box_faces(kept_boxes))
+        offset += len(box_mesh.vertices)
+    if len(sheet_faces):  # the input's own triangles, its float64 vertices as they are
+        used_v, inv = np.unique(faces[sheet_faces], return_inverse=True)
+        out_v.append(vertices[used_v])
+        out_f.append(inv.reshape(-1, 3) + offset)
+        offset += len(used_v)
+        polygons.extend(vertices[faces[sheet_faces]])
     if out_f:
         occ_mesh = trimesh.Trimesh(np.concatenate(out_v), np.concatenate(out_f), process=False)
     else:
@@ -581,6 +641,10 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         if ground == "auto" and not curtain_cands:
             empty_reason += ("; no open part seals a space under its surface above its rim "
                              "(ground)")
+        if sheets == "auto":
+            empty_reason += ("; " + sheets_skipped if sheets_skipped else
+                             "; no curved open sheet" if not chunks else
+                             f"; no sheet chunk fits a budget of {budget}")
         _log.warning("surface-patches: no occluder for %s: %s",
                      mesh.metadata.get("name", "the mesh"), empty_reason)
     info = {"conservative_guaranteed": bool(not len(kept_boxes) or boxes_claim is True),
@@ -598,23 +662,48 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
             "ground_parts_layered": ground_info.get("layered", 0), "up": ground_info.get("up"),
             "guarantee": ("viewpoints not under the surface of an open part nor below its rim"
                           if curtains_kept else "every viewpoint"),
+            "sheet_candidates": len(chunks), "sheets": len(kept_chunks),
+            "sheet_faces": int(len(sheet_faces)), "sheets_skipped": sheets_skipped,
             "seconds_steps": timing}
     return Occluder(mesh=occ_mesh, method="surface-patches", params=params, double_sided=True,
                     seconds=time.perf_counter() - start, parts={"polygons": polygons},
                     info=info)
 
 
-def _box_candidates(vertices: np.ndarray, faces: np.ndarray, cands: list, chains: list,
-                    grid: float, *, boxes: str, budget: int | None
+def _sheet_candidates(vertices: np.ndarray, faces: np.ndarray, closed: np.ndarray,
+                      region: np.ndarray, *, sheets: str, floor: float, budget: int | None
+                      ) -> tuple[list[np.ndarray], str | None]:
+    """Step 7: the sheet chunks offered (face indices): those of the sheets of at least
+    ``floor`` area, with no more triangles than ``budget``, the :data:`MAX_CANDIDATES`
+    largest; and why none was looked for, or None."""
+    if sheets == "off":
+        return [], None
+    open_faces = np.flatnonzero(~closed)
+    if len(open_faces) > SHEET_MAX_FACES:
+        return [], (f"sheets: its open parts have {len(open_faces):,} faces, over the "
+                    f"{SHEET_MAX_FACES:,} sheets are looked for in")
+    tri = vertices[faces]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    chunks = [m for sheet in sheet_chunks(vertices, faces, open_faces, region=region)
+              if sum(area[m].sum() for m in sheet) >= max(floor, 1e-300)
+              for m in sheet if budget is None or len(m) <= budget]
+    if len(chunks) > MAX_CANDIDATES:  # the largest; crumbs cost time only
+        size = np.array([area[m].sum() for m in chunks])
+        chunks = [chunks[i] for i in np.sort(np.argsort(-size, kind="stable")[:MAX_CANDIDATES])]
+    return chunks, None
+
+
+def _box_candidates(vertices: np.ndarray, faces: np.ndarray, closed: np.ndarray, cands: list,
+                    chains: list, grid: float, *, boxes: str, budget: int | None
                     ) -> tuple[np.ndarray, np.ndarray, dict, str]:
     """Step 5: the boxes offered to the selection, their values, the source's info (with
-    ``closed_faces``) and, when there is none, why (one clause for the empty-output line)."""
+    ``closed_faces``) and, when there is none, why (one clause for the empty-output line).
+    ``closed``: the faces of the input's closed parts (:func:`._inner_boxes.closed_parts`)."""
     none = np.zeros((0, 2, 3))
     if boxes == "off":
         return none, np.zeros(0), {}, "boxes are off"
     if budget is not None and budget < TRIANGLES_PER_BOX:
         return none, np.zeros(0), {}, f"a budget of {budget} holds no box (12 triangles)"
-    closed = closed_parts(vertices, faces)
     counted = {"closed_faces": int(closed.sum())}
     if not closed.any():
         why = "no part of it is closed and consistently oriented (boxes need one)"
