@@ -14,9 +14,12 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 
 __all__ = ["held_records", "release", "report_parts"]
+
+#: Stands for a part's own name while texts are grouped (:func:`report_parts`).
+_EACH = "\x00each\x00"
 
 #: The loggers held: this one and every logger below it.
 _PREFIX = "viscore"
@@ -96,7 +99,8 @@ def release(records: Sequence[logging.LogRecord]) -> None:
 
 
 def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
-                 what: str = "nodes", label: str = "hierarchy", one: str | None = None) -> None:
+                 what: str = "nodes", label: str = "hierarchy", one: str | None = None,
+                 names: Mapping[int, str] | None = None) -> None:
     """Say each distinct message of the held records once, with the parts that gave it.
 
     Parameters
@@ -109,6 +113,10 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
         The parts' name and the prefix of each line.
     one : str, optional
         One part's name (default: ``what`` without its final "s").
+    names : mapping of int -> str, optional
+        Each part's own name (a mesh's file and node). Texts that differ
+        only by it, each part naming itself ("GLTF_19 is not closed", "GLTF_22
+        is not closed"), are one text, said with "each of them" in its place.
 
     Notes
     -----
@@ -132,15 +140,17 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
     groups: dict[str, list] = {}
     for part, record in held:
         text = record.getMessage()
-        group = groups.setdefault(text, [record, set()])
+        own = (names or {}).get(part)
+        key = text.replace(own, _EACH) if own else text
+        group = groups.setdefault(key, [record, set(), text])
         if record.levelno > group[0].levelno:
             group[0] = record
         group[1].add(part)
-    for text, (record, which) in groups.items():
+    for key, (record, which, text) in groups.items():
         logger = logging.getLogger(record.name)
         if len(which) == 1:
             logger.log(record.levelno, "%s %s %d: %s", label,
                        what.rstrip("s") if one is None else one, next(iter(which)), text)
         else:
             logger.log(record.levelno, "%s: %d of %d %s: %s", label, len(which), parts, what,
-                       text)
+                       key.replace(_EACH, "each of them"))

@@ -68,7 +68,7 @@ from .registry import REGISTRY, generate, get_generator, parse_method
 
 __all__ = ["occluder_objects", "scene_occluders", "scene_hierarchy", "transform_occluder",
            "culling_runtimes", "frusta_method", "file_occluder", "SIZE_FACTOR",
-           "OCCLUDE_MANIFEST", "JOINED_METHODS", "joined_occluder"]
+           "OCCLUDE_MANIFEST", "JOINED_METHODS", "joined_occluder", "generate_held"]
 
 _log = logging.getLogger(__name__)
 
@@ -210,6 +210,7 @@ def transform_occluder(occluder: Occluder, matrix: np.ndarray) -> Occluder:
 
 def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, *,
                     seed: int = 0, progress: Callable[[int], None] | None = None,
+                    made: Mapping[int, tuple[Occluder, list]] | None = None,
                     **params) -> dict[int, Occluder]:
     """World-space occluders of some objects by one registered method.
 
@@ -224,6 +225,10 @@ def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, 
         Passed to the generator (default 0).
     progress : callable, optional
         Called with 1 after each distinct mesh is generated.
+    made : mapping of int -> (Occluder, list of logging.LogRecord), optional
+        Meshes already generated with these options (by mesh id, in the
+        mesh's frame), each with the records its generation held
+        (:func:`generate_held`): not generated again.
     **params
         Options of the generator, checked by the registry before any work.
 
@@ -248,13 +253,15 @@ def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, 
     # many meshes gave it
     said: list[tuple[int, logging.LogRecord]] = []
     for mesh_id in distinct:
-        records: list[logging.LogRecord] = []
-        try:
-            with held_records() as records:
-                local = generate(method, objects.meshes[mesh_id], seed=seed, **params)
-        except BaseException:  # what was held is said as it was, before the error
-            release([r for _, r in said] + list(records))
-            raise
+        if made is not None and int(mesh_id) in made:
+            local, records = made[int(mesh_id)]
+        else:
+            try:
+                local, records = generate_held(objects, int(mesh_id), method, seed=seed,
+                                               **params)
+            except BaseException:  # what was held before is said as it was, then the error
+                release([r for _, r in said])
+                raise
         said += [(int(mesh_id), r) for r in records]
         if progress is not None:
             progress(1)
@@ -263,8 +270,24 @@ def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, 
             continue
         for i in indices[objects.mesh_ids[indices] == mesh_id]:
             out[int(i)] = transform_occluder(local, objects.transforms[i])
-    report_parts(said, len(distinct), what="meshes", label=method, one="mesh")
+    report_parts(said, len(distinct), what="meshes", label=method, one="mesh",
+                 names={int(m): str(objects.meshes[m].metadata.get("name", ""))
+                        for m in distinct})
     return dict(sorted(out.items()))
+
+
+def generate_held(objects: SceneObjects, mesh_id: int, method: str, *, seed: int = 0,
+                  **params) -> tuple[Occluder, list[logging.LogRecord]]:
+    """One distinct mesh's occluder (in its own frame) and the log records its generation
+    made, held back (:func:`viscore.generators._held_logs.held_records`) for the caller to
+    say; on an error the records are said as they were, then the error raised."""
+    records: list[logging.LogRecord] = []
+    try:
+        with held_records() as records:
+            return generate(method, objects.meshes[mesh_id], seed=seed, **params), records
+    except BaseException:
+        release(list(records))
+        raise
 
 
 #: Methods whose culling runtime is generated once over the occluder objects together
@@ -682,16 +705,19 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
                 return cache[method]
             # a probe on the first distinct mesh: a hierarchical method gets one
             # tree over all the occluder objects instead of one per mesh
-            first = indices[objects.mesh_ids[indices] == objects.mesh_ids[indices[0]]]
-            probe = scene_occluders(objects, first[:1], method, seed=seed, **options)
-            if any("hierarchy" in o.parts for o in probe.values()):
+            # (kept for the mesh by mesh generation: the first mesh is made once)
+            first = int(objects.mesh_ids[indices[0]])
+            probe, records = generate_held(objects, first, method, seed=seed, **options)
+            if "hierarchy" in probe.parts:
+                release(records)
                 cache[method] = {-1: scene_hierarchy(objects, indices, method, seed=seed,
                                                      **options)}
                 if progress is not None:
                     progress(len(set(objects.mesh_ids[indices].tolist())))
             else:
                 cache[method] = scene_occluders(objects, indices, method, seed=seed,
-                                                progress=progress, **options)
+                                                progress=progress,
+                                                made={first: (probe, records)}, **options)
         return cache[method]
 
     runtimes: dict[str, Runtime] = {"none": no_culling()}

@@ -553,3 +553,30 @@ def test_the_mesh_itself_is_a_guaranteed_occluder_on_an_open_mesh():
     runtimes, info = culling_runtimes(objects, [0], ["original"], frusta=False)
     assert runtimes["depth-buffer:original"].conservative
     assert info["depth-buffer:original"]["not_guaranteed"] == []
+
+
+def test_culling_runtimes_generate_each_distinct_mesh_once(monkeypatch, caplog):
+    """The probe for a hierarchy (on the first mesh) is the first mesh's occluder: a level
+    of three distinct meshes is generated three times, not four, and the first mesh's
+    warning is said with the others', once."""
+    from viscore.generators import registry
+
+    calls = []
+
+    def counted(mesh, *, budget=None, seed=0):
+        calls.append(len(mesh.faces))
+        logging.getLogger("viscore.generators.test").warning("%s: open", mesh.metadata["name"])
+        return generate("bbox", mesh)
+
+    spec = registry.GeneratorSpec("test-counted", counted, "test", budgeted=False)
+    monkeypatch.setitem(registry.REGISTRY, "test-counted", spec)
+    scene = trimesh.Scene()
+    for k in range(3):
+        scene.add_geometry(trimesh.creation.box(bounds=[[3 * k, 0, 0], [3 * k + 1 + k, 2, 1]]),
+                           geom_name=f"block{k}", node_name=f"block{k}")
+    objects = load_scene_objects(scene)
+    with caplog.at_level(logging.WARNING, logger="viscore"):
+        _, info = culling_runtimes(objects, [0, 1, 2], ["test-counted"], frusta=False)
+    assert len(calls) == 3 and info["depth-buffer:test-counted"]["occluders"] == 3
+    said = [r.getMessage() for r in caplog.records if "open" in r.getMessage()]
+    assert said == ["test-counted: 3 of 3 meshes: each of them: open"]

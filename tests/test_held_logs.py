@@ -63,3 +63,21 @@ def test_report_parts_says_each_text_once_with_its_count(caplog):
     caplog.clear()
     report_parts([], 5)
     assert caplog.records == []
+
+
+def test_report_parts_groups_texts_that_name_their_own_part(caplog):
+    """A warning each mesh gives with its own name in it (a level's 30 open meshes) is said
+    once with the count; a text naming another part, or one part alone, is said as made."""
+    names = {0: "town.gltf:GLTF_19", 1: "town.gltf:GLTF_22", 2: "town.gltf:GLTF_2"}
+    with held_records() as records:
+        for part in range(3):
+            _LOG.warning("aabb-skins: %s is not closed", names[part])
+        _LOG.warning("%s is tiny", names[1])
+    held = list(zip([0, 1, 2, 1], records, strict=True))
+    report_parts(held, 4, what="meshes", label="aabb-skins", one="mesh", names=names)
+    said = [r.getMessage() for r in caplog.records]
+    assert said == ["aabb-skins: 3 of 4 meshes: aabb-skins: each of them is not closed",
+                    "aabb-skins mesh 1: town.gltf:GLTF_22 is tiny"]
+    caplog.clear()
+    report_parts(held, 4, what="meshes", label="aabb-skins", one="mesh")  # names unknown
+    assert len(caplog.records) == 4
