@@ -48,6 +48,20 @@ monotone along it, in columns and in rows, so that part is one piece). The
 first occluder along the ray is no farther than ``P``. Creases of other
 patches, or of layers of ``P`` behind, only raise the bound.
 
+Flats meeting at a crease
+-------------------------
+Nothing in the proof asks more of a patch than to be connected across its creases
+and the graph of a function along some direction. Two planar *flats* (coplanar
+triangles joined across edges: a wall, a floor) that share an edge are such a graph
+along a bisector of their normals when their projections along it do not overlap
+(:func:`flat_pairs`): a room's corner. A pixel whose corners first hit the two flats
+of such a pair is covered by the rule with the pair as its patch; only the pair's
+own edges are tested against it (its crease with both flats' triangles on either side
+of the plane through the eye, or else a boundary), since another patch's edges could
+only block a pixel or raise its depth. At a concave crease (seen from inside a room)
+the pixel's farthest point is on the crease, which is why the crease distances enter
+the bound (the test that drops them fails).
+
 A patch whose edges pass within the near distance of the eye (as for
 coplanar regions, a millionth of the scene's size) is not used in the frame:
 an edge's part cut off by the near plane could project onto a pixel. The
@@ -62,7 +76,7 @@ import numpy as np
 
 from ._jit import njit_cached
 
-__all__ = ["height_field_patches", "patch_frame", "INJECTIVE_TOLERANCE"]
+__all__ = ["height_field_patches", "flat_pairs", "patch_frame", "INJECTIVE_TOLERANCE"]
 
 #: Relative gap allowed between the sum of a patch's projected triangle areas and the
 #: area of their union (shapely), for the projection to count as one-to-one; at most a
@@ -74,6 +88,8 @@ MIN_FACING = 0.2
 #: Relative size under which the side of a vertex from the plane through the eye and
 #: an edge counts as none (the edge is then a boundary edge).
 SIDE_TOLERANCE = 1e-12
+#: Planes of two triangles agree (one flat) to this fraction of the scene's size.
+FLAT_TOLERANCE = 1e-11
 
 
 def height_field_patches(vertices: np.ndarray, faces: np.ndarray
@@ -144,6 +160,197 @@ def height_field_patches(vertices: np.ndarray, faces: np.ndarray
                 else:
                     avail.append(members[~_overlapping(flat)])
     return patch, _patch_edges(f, fid, patch)
+
+
+def flat_pairs(vertices: np.ndarray, faces: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Planar flats and the pairs of them that meet at a crease (a wall and the floor).
+
+    A *flat* is a set of two or more triangles connected through edges (vertices joined
+    by exact coordinates) lying in one plane (normals and offsets within
+    :data:`FLAT_TOLERANCE` of the scene's size, either orientation). Two flats that
+    share an edge make a *pair* when each is one layer in its plane (the test of
+    :func:`height_field_patches`) and, along one of the two bisectors of their normals
+    (``n_a + n_b``, ``n_a - n_b``), both face the direction within :data:`MIN_FACING`
+    and their projections along it have disjoint interiors (:func:`_separated`): the
+    pair is then the graph of a function over the plane
+    across that direction, so it never meets itself, and the crease rule of the
+    module docstring holds for it as for a terrain's patch (its proof asks no more of
+    a patch than to be such a graph, along any direction). A pixel whose four corner
+    rays first hit the two flats of a pair is covered by the rule with the pair as its
+    patch.
+
+    Returns
+    -------
+    flat : (f,) int64
+        The flat of each triangle, -1 for none.
+    pairs : (P,) int64
+        The pairs, sorted, each as ``a * F + b`` for its flats ``a < b`` (``F`` the
+        number of flats).
+    edges : (m, 6) int64
+        The edges of the flats that are not inside one: its two vertices, the
+        third vertex of each triangle on it (the second -1 for a boundary edge: one
+        triangle, three or more, or two that make no pair), then the flats on either
+        side (-1 for none).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    none = (np.full(len(f), -1, dtype=np.int64), np.zeros(0, dtype=np.int64),
+            np.zeros((0, 6), dtype=np.int64))
+    if len(f) < 4:
+        return none
+    _, vid = np.unique(v, axis=0, return_inverse=True)
+    fid = vid.reshape(-1)[f]
+    tri = v[f]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    size = np.linalg.norm(normal, axis=1)
+    ok = size > 0
+    unit = normal / np.where(ok, size, 1.0)[:, None]
+    offset = np.einsum("ij,ij->i", unit, tri[:, 0])
+    scale = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) or 1.0
+    # every use of every edge, grouped by edge (vertex ids)
+    n = len(f)
+    rows = [np.stack([f[:, a], f[:, b], f[:, c], fid[:, a], fid[:, b], np.arange(n)], axis=1)
+            for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1))]
+    e = np.concatenate(rows)
+    key = np.stack([np.minimum(e[:, 3], e[:, 4]), np.maximum(e[:, 3], e[:, 4])], axis=1)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.reshape(-1)
+    order = np.argsort(inverse, kind="stable")
+    e, inverse = e[order], inverse[order]
+    two = counts[inverse] == 2
+    first = np.r_[True, inverse[1:] != inverse[:-1]]
+    pos = np.flatnonzero(two & first)  # the first use of each edge of two triangles
+    ta, tb = e[pos, 5], e[pos + 1, 5]
+    dot = np.einsum("ij,ij->i", unit[ta], unit[tb])
+    sign = np.where(dot < 0, -1.0, 1.0)
+    same = ok[ta] & ok[tb] & (np.abs(dot) >= 1.0 - FLAT_TOLERANCE) \
+        & (np.abs(offset[ta] - sign * offset[tb]) <= FLAT_TOLERANCE * scale)
+    graph = coo_matrix((np.ones(int(same.sum())), (ta[same], tb[same])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    big = (np.bincount(label) >= 2)[label] & ok
+    flat = np.full(n, -1, dtype=np.int64)
+    flat[big] = np.unique(label[big], return_inverse=True)[1].reshape(-1)
+    nf = int(flat.max()) + 1 if big.any() else 0
+    if nf < 2:
+        return flat, none[1], none[2]
+    # pairs: flats meeting at an edge of two triangles, a graph along a bisector
+    fa, fb = flat[ta], flat[tb]
+    meet = ~same & (fa >= 0) & (fb >= 0) & (fa != fb)
+    keys, where = np.unique(np.minimum(fa, fb)[meet] * nf + np.maximum(fa, fb)[meet],
+                            return_index=True)
+    on_edge = e[pos[meet][where], 0]  # a vertex of a shared edge of each pair
+    order = np.argsort(flat, kind="stable")
+    bounds = np.searchsorted(flat[order], np.arange(nf + 1))
+    members = [order[bounds[k]:bounds[k + 1]] for k in range(nf)]
+    flat_normal = np.array([unit[m[np.argmax(size[m])]] for m in members])
+    simple = np.zeros(nf, dtype=np.int8)  # 0 unknown, 1 one-to-one in its plane, -1 not
+    good = np.zeros(len(keys), dtype=bool)
+    for k, (key, vertex) in enumerate(zip(keys, on_edge, strict=True)):
+        a_, b_ = int(key // nf), int(key % nf)
+        for g in (a_, b_):
+            if simple[g] == 0:
+                simple[g] = 1 if _one_layer(tri[members[g]], flat_normal[g]) else -1
+        if simple[a_] > 0 and simple[b_] > 0:
+            ta_, tb_ = tri[members[a_]], tri[members[b_]]
+            good[k] = _separated(ta_, tb_, flat_normal[a_], flat_normal[b_], v[vertex], scale)
+    pairs = keys[good]
+    # the edges: a pair's crease (both third vertices), or a boundary of a flat
+    pair_key = np.minimum(fa, fb) * nf + np.maximum(fa, fb)
+    crease = meet & np.isin(pair_key, pairs)
+    out = [np.stack([e[pos, 0], e[pos, 1], e[pos, 2], e[pos + 1, 2], fa, fb], axis=1)[crease]]
+    # the other uses of edges touching a flat, each a boundary edge of that flat (an edge
+    # inside a flat is no boundary: its two triangles are one plane)
+    inside = np.zeros(len(e), dtype=bool)
+    inside[pos[same & (fa == fb)]] = True
+    inside[pos[same & (fa == fb)] + 1] = True
+    paired = np.zeros(len(e), dtype=bool)
+    paired[pos[crease]] = True
+    paired[pos[crease] + 1] = True
+    rest = ~inside & ~paired & (flat[e[:, 5]] >= 0)
+    out.append(np.stack([e[rest, 0], e[rest, 1], e[rest, 2], np.full(rest.sum(), -1),
+                         flat[e[rest, 5]], np.full(rest.sum(), -1)], axis=1))
+    return flat, pairs.astype(np.int64), np.concatenate(out).astype(np.int64)
+
+
+def _one_layer(tri: np.ndarray, normal: np.ndarray) -> bool:
+    """Whether planar triangles ``(k, 3, 3)`` (unit ``normal``) have disjoint interiors in
+    their plane (the test of :func:`height_field_patches`, along the normal)."""
+    import shapely
+
+    helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
+    ax = np.cross(normal, helper)
+    ax /= np.linalg.norm(ax)
+    ay = np.cross(normal, ax)
+    flat = np.stack([tri @ ax, tri @ ay], axis=2)
+    e1, e2 = flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0]
+    projected = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    area = projected.sum()
+    union = shapely.union_all(shapely.polygons(flat)).area
+    return abs(union - area) <= min(INJECTIVE_TOLERANCE * area, 1e-6 * projected.min())
+
+
+def _separated(ta: np.ndarray, tb: np.ndarray, na: np.ndarray, nb: np.ndarray,
+               point: np.ndarray, scale: float) -> bool:
+    """Whether two planar flats (triangles ``ta``, ``tb``, unit normals ``na``, ``nb``),
+    each one layer in its plane and meeting along the line of their planes through
+    ``point``, are one graph along a bisector ``d`` of their normals: both face ``d``
+    within :data:`MIN_FACING`, and their projections along ``d`` have disjoint
+    interiors. The plane through the line along ``d`` has each flat mostly on one side
+    of it, one on each; projected along ``d`` (which lies in that plane) a triangle keeps
+    to its side of the line's image, so only the triangles reaching across the plane
+    can meet the other flat's images: those pairs are intersected (shapely), each
+    overlap allowed a millionth of the smaller triangle (float rounding)."""
+
+    line = np.cross(na, nb)
+    if np.linalg.norm(line) == 0:
+        return False
+    line /= np.linalg.norm(line)
+    tol = 1e-12 * scale
+    for d in (na + nb, na - nb):
+        d = d / np.linalg.norm(d)
+        if min(abs(float(na @ d)), abs(float(nb @ d))) < MIN_FACING:
+            continue
+        m = np.cross(d, line)
+        sa, sb = (ta - point) @ m, (tb - point) @ m  # (k, 3) per vertex
+        if sa.sum() > 0:  # a on the negative side, b on the positive
+            sa, sb = -sa, -sb
+        if sb.sum() <= 0:
+            continue  # both on one side: this bisector folds them onto each other
+        wrong_a = (sa > tol).any(axis=1)
+        wrong_b = (sb < -tol).any(axis=1)
+        if not wrong_a.any() and not wrong_b.any():
+            return True
+        helper = np.eye(3)[int(np.argmin(np.abs(d)))]
+        ax = np.cross(d, helper)
+        ax /= np.linalg.norm(ax)
+        ay = np.cross(d, ax)
+        pa = np.stack([ta @ ax, ta @ ay], axis=2)
+        pb = np.stack([tb @ ax, tb @ ay], axis=2)
+        if _images_meet(pa[wrong_a], pb) or _images_meet(pa, pb[wrong_b]):
+            continue
+        return True
+    return False
+
+
+def _images_meet(p: np.ndarray, q: np.ndarray) -> bool:
+    """Whether any of the 2D triangles ``p`` (k, 3, 2) overlaps any of ``q`` by more than a
+    millionth of the smaller one's area."""
+    import shapely
+
+    if len(p) == 0 or len(q) == 0:
+        return False
+    lo_p, hi_p = p.min(axis=1), p.max(axis=1)
+    lo_q, hi_q = q.min(axis=1), q.max(axis=1)
+    i, j = np.nonzero(((lo_p[:, None] < hi_q[None]) & (lo_q[None] < hi_p[:, None])).all(axis=2))
+    if len(i) == 0:
+        return False
+    a, b = shapely.polygons(p[i]), shapely.polygons(q[j])
+    inter = shapely.area(shapely.intersection(a, b))
+    return bool((inter > 1e-6 * np.minimum(shapely.area(a), shapely.area(b))).any())
 
 
 def _components(fid: np.ndarray, avail: np.ndarray) -> list[np.ndarray]:
@@ -222,15 +429,23 @@ def _patch_edges(f: np.ndarray, fid: np.ndarray, patch: np.ndarray) -> np.ndarra
 
 
 @njit_cached()
-def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack,
+def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack, pa, pb,
                 blocked, crease, disabled):  # pragma: no cover
     """One frame's images of the patches' edges (see the module docstring).
 
-    Sets ``blocked[i, j]`` where a boundary edge's image meets pixel ``(i, j)``
-    widened by ``slack`` pixels; raises ``crease[i, j]`` to the largest distance
-    at the ends of each crease's part within pixel ``(i, j)`` widened by
-    ``slack``; sets ``disabled[p]`` for a patch with an edge within ``reach`` of
-    the eye. Parts of edges nearer than ``z0`` along the view are cut off.
+    ``edges`` (m, 6): two vertices, the third vertex of each triangle on the
+    edge (the second -1: a boundary edge), the patch (or flat) of each (the
+    second -1 for none). ``pa``, ``pb`` (H, W): the patch of each pixel, as
+    the two groups its corners hit (a patch: both the same; a pair of flats:
+    both flats; -1: not a candidate). An edge matters to a pixel when one of
+    its groups is one of the pixel's. Sets ``blocked[i, j]`` where such an
+    edge's image meets pixel ``(i, j)`` widened by ``slack`` pixels, unless it
+    is a crease of the pixel's patch (its groups are the pixel's two, and its
+    triangles lie on either side of the plane through the eye and the edge);
+    then raises ``crease[i, j]`` to the largest distance at the ends of its
+    part within the pixel widened by ``slack``. Sets ``disabled[g]`` for a
+    group with an edge within ``reach`` of the eye. Parts of edges nearer than
+    ``z0`` along the view are cut off.
     """
     kx = 0.5 / hx
     ky = 0.5 / hy
@@ -251,8 +466,11 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack,
         dd = d0 * d0 + d1 * d1 + d2 * d2
         t = 0.0 if dd == 0 else min(1.0, max(0.0, -(a0 * d0 + a1 * d1 + a2 * d2) / dd))
         c0, c1, c2 = a0 + t * d0, a1 + t * d1, a2 + t * d2
+        ga, gb = edges[k, 4], edges[k, 5]
         if math.sqrt(c0 * c0 + c1 * c1 + c2 * c2) <= reach:
-            disabled[edges[k, 4]] = True
+            disabled[ga] = True
+            if gb >= 0:
+                disabled[gb] = True
             continue
         is_crease = False
         if edges[k, 3] >= 0:
@@ -299,24 +517,26 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack,
             i1 = int(math.floor(max(min(h - 1.0, max(ra, rb) + slack), -1.0)))
             if i0 > i1:
                 continue
-            if is_crease:
-                # per pixel of the column, the part within its rows (widened by slack):
-                # the row is monotone along the segment too
-                for i in range(i0, i1 + 1):
-                    top, bottom = i - slack, i + 1 + slack
-                    t0, t1 = _within(top, bottom, (0.5 - top / h) / ky, (0.5 - bottom / h) / ky,
-                                     ra, rb, ay_, az_, dy, dz, lo, hi)
-                    if t0 > t1:
-                        continue
-                    far = max(math.sqrt((a0 + t0 * d0) ** 2 + (a1 + t0 * d1) ** 2
-                                        + (a2 + t0 * d2) ** 2),
-                              math.sqrt((a0 + t1 * d0) ** 2 + (a1 + t1 * d1) ** 2
-                                        + (a2 + t1 * d2) ** 2))
-                    if far > crease[i, j]:
-                        crease[i, j] = far
-            else:
-                for i in range(i0, i1 + 1):
+            for i in range(i0, i1 + 1):
+                qa, qb = pa[i, j], pb[i, j]
+                if qa < 0 or not (ga == qa or ga == qb or (gb >= 0 and (gb == qa or gb == qb))):
+                    continue  # not the pixel's patch: its edges do not bound it
+                if not is_crease or not ((ga == qa and gb == qb) or (ga == qb and gb == qa)):
                     blocked[i, j] = True
+                    continue
+                # the crease's part within the pixel's rows (widened by slack): the row is
+                # monotone along the segment too
+                top, bottom = i - slack, i + 1 + slack
+                t0, t1 = _within(top, bottom, (0.5 - top / h) / ky, (0.5 - bottom / h) / ky,
+                                 ra, rb, ay_, az_, dy, dz, lo, hi)
+                if t0 > t1:
+                    continue
+                far = max(math.sqrt((a0 + t0 * d0) ** 2 + (a1 + t0 * d1) ** 2
+                                    + (a2 + t0 * d2) ** 2),
+                          math.sqrt((a0 + t1 * d0) ** 2 + (a1 + t1 * d1) ** 2
+                                    + (a2 + t1 * d2) ** 2))
+                if far > crease[i, j]:
+                    crease[i, j] = far
 
 
 @njit_cached()

@@ -177,7 +177,7 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from ._patches import height_field_patches
+from ._patches import flat_pairs, height_field_patches
 from ._validate import InputError, as_positive_int, check_memory
 from .cameras import PerspectiveCamera
 from .scene import Scene
@@ -459,6 +459,12 @@ class OccluderScene:
         self._vertices, self._faces = v, f
         self._patch, self._patch_edges = height_field_patches(v, f)
         self._n_patches = int(self._patch.max()) + 1 if len(self._patch) else 0
+        e = self._patch_edges
+        self._patch_edges6 = np.concatenate(
+            [e, np.where(e[:, 3] >= 0, e[:, 4], -1)[:, None]], axis=1)
+        # creases between planar flats (a wall and the floor): pairs of flats as patches
+        self._flat, self._flat_pairs, self._flat_edges = flat_pairs(v, f)
+        self._n_flats = int(self._flat.max()) + 1 if len(self._flat) else 0
         self._facet = np.concatenate(facet)
         raw_solid = np.concatenate(solid)
         # solid ids: dense, and labels offset past the facet labels
@@ -672,10 +678,12 @@ def _near_cut(size: float, hx: float, hy: float) -> tuple[float, float]:
     return z0, 3 * z0 * float(np.sqrt(1 + 9 * hx * hx + 9 * hy * hy))
 
 
-def _patch_depths(occ: OccluderScene, depth: np.ndarray, corner_tri: np.ndarray,
+def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tri: np.ndarray,
                   eye: np.ndarray, basis, xs: np.ndarray, ys: np.ndarray, hx: float,
                   hy: float, size: float, margin: float) -> None:
-    """The crease rule (:mod:`viscore._patches`) on the pixels without depth, in place:
+    """The crease rule (:mod:`viscore._patches`) on the pixels without depth, in place, for
+    one layer of patches ``(patch of each triangle, edges, count)`` (the height-field
+    patches, or a layer of crease pairs):
     a pixel whose four corner rays (cast by the tiles' subdivision: ``corner_tri``,
     (H + 1, W + 1), the triangle each first hit, -1 a miss, -2 not cast; ``xs``, ``ys``
     the corners' camera-plane coordinates) first hit one patch, with no boundary edge of
@@ -704,40 +712,49 @@ def _patch_depths(occ: OccluderScene, depth: np.ndarray, corner_tri: np.ndarray,
     grid_t = np.full((h + 1, w + 1), np.inf)
     grid_p = np.full((h + 1, w + 1), -1, dtype=np.int64)
     grid_t[ci[good], cj[good]] = t[good]
-    grid_p[ci[good], cj[good]] = occ._patch[tri[good]]
-    # only the patches a corner of a pixel without depth hits: another patch's boundary
-    # or crease could only block a pixel or raise its depth
-    seen = np.zeros(occ._n_patches + 1, dtype=bool)
-    near_todo = np.zeros((h + 1, w + 1), dtype=bool)
-    for a in (0, 1):
-        for b in (0, 1):
-            near_todo[a:h + a, b:w + b] |= todo
-    seen[grid_p[near_todo]] = True  # -1 (none) lands on the extra last entry
-    edges = occ._patch_edges[seen[:-1][occ._patch_edges[:, 4]]]
+    group, edges, n_groups, pairs = layer
+    grid_p[ci[good], cj[good]] = group[tri[good]]
+    # each pixel's patch: its corners' one patch, or the two flats of a pair
+    corners = np.stack([grid_p[:-1, :-1], grid_p[:-1, 1:], grid_p[1:, :-1], grid_p[1:, 1:]])
+    pa, pb = corners.min(axis=0), corners.max(axis=0)
+    two = ((corners == pa) | (corners == pb)).all(axis=0) & (pa >= 0) & todo
+    if pairs is None:  # height-field patches: one patch
+        two &= pa == pb
+    else:  # flats: two of them, a pair
+        key = pa * n_groups + pb
+        at = np.clip(np.searchsorted(pairs, key), 0, max(len(pairs) - 1, 0))
+        two &= (pa != pb) & (len(pairs) > 0) & (pairs[at] == key if len(pairs) else False)
+    if not two.any():
+        return
+    pa, pb = np.where(two, pa, -1), np.where(two, pb, -1)
+    # only the edges of the pixels' patches: another's could only block a pixel or raise
+    # its depth
+    seen = np.zeros(n_groups + 1, dtype=bool)
+    seen[pa[two]] = True
+    seen[pb[two]] = True
+    edges = edges[seen[edges[:, 4]] | seen[edges[:, 5]]]  # -1 lands on the extra last entry
     blocked = np.zeros((h, w), dtype=bool)
     crease = np.zeros((h, w))
-    disabled = np.zeros(occ._n_patches, dtype=bool)
+    disabled = np.zeros(n_groups, dtype=bool)
     z0, reach = _near_cut(size, hx, hy)
     patch_frame(occ._vertices, edges, np.asarray(eye, dtype=np.float64), r, u, f,
-                hx, hy, w, h, z0, reach, _SEGMENT_SLACK, blocked, crease, disabled)
+                hx, hy, w, h, z0, reach, _SEGMENT_SLACK, pa, pb, blocked, crease, disabled)
     # a patch passing within reach of the eye inside a triangle (not at an edge): the cut
     # of that triangle at z0 could bound its image on the screen; not used either
-    disabled[_near_patches(occ, eye, reach)] = True
-    p = grid_p[:-1, :-1]
-    one = ((p >= 0) & (p == grid_p[:-1, 1:]) & (p == grid_p[1:, :-1]) & (p == grid_p[1:, 1:])
-           & todo & ~blocked)
-    one &= ~disabled[np.where(p >= 0, p, 0)]
+    disabled[_near_patches(occ, group, eye, reach)] = True
+    one = two & ~blocked & ~disabled[np.maximum(pa, 0)] & ~disabled[np.maximum(pb, 0)]
     far = np.maximum(np.maximum(grid_t[:-1, :-1], grid_t[:-1, 1:]),
                      np.maximum(grid_t[1:, :-1], grid_t[1:, 1:]))
     depth[one] = np.maximum(far, crease)[one] + margin
 
 
-def _near_patches(occ: OccluderScene, eye: np.ndarray, reach: float) -> np.ndarray:
+def _near_patches(occ: OccluderScene, patch: np.ndarray, eye: np.ndarray, reach: float
+                  ) -> np.ndarray:
     """Patches with a triangle whose interior lies within ``reach`` of the eye (the foot
     of the eye on the triangle's plane inside the triangle, the plane that near)."""
     plane = occ._tri_plane
     height = plane[:, :3] @ eye - plane[:, 3]  # signed distance to each plane (unit normal)
-    k = np.flatnonzero((np.abs(height) <= reach) & (occ._tri_norm > 0) & (occ._patch >= 0))
+    k = np.flatnonzero((np.abs(height) <= reach) & (occ._tri_norm > 0) & (patch >= 0))
     if len(k) == 0:  # no plane that near: then the foot of the eye on the triangle
         return np.zeros(0, dtype=np.int64)
     v = occ._vertices[occ._faces[k]]
@@ -748,7 +765,7 @@ def _near_patches(occ: OccluderScene, eye: np.ndarray, reach: float) -> np.ndarr
     a = np.einsum("ij,ij->i", np.cross(foot, e2), n) / occ._tri_norm[k]
     b = np.einsum("ij,ij->i", np.cross(e1, foot), n) / occ._tri_norm[k]
     near = (a >= 0) & (b >= 0) & (a + b <= 1)
-    return np.unique(occ._patch[k[near]])
+    return np.unique(patch[k[near]])
 
 
 def _full_corner_depth(occ: OccluderScene, camera: PerspectiveCamera, width: int,
@@ -896,8 +913,15 @@ class ConservativeDepthBuffer:
                                 corner, coef, child_i, child_j)
             ti, tj = child_i[:n], child_j[:n]
             s //= 2
-        if occ._n_patches and not np.isfinite(depth).all():
-            _patch_depths(occ, depth, corner_tri.reshape(rows + 1, stride)[:h + 1, :w + 1],
+        layers = ([(occ._patch, occ._patch_edges6, occ._n_patches, None)]
+                  if occ._n_patches else []) \
+            + ([(occ._flat, occ._flat_edges, occ._n_flats, occ._flat_pairs)]
+               if len(occ._flat_pairs) else [])
+        for layer in layers:
+            if np.isfinite(depth).all():
+                break
+            _patch_depths(occ, layer, depth,
+                          corner_tri.reshape(rows + 1, stride)[:h + 1, :w + 1],
                           eye, basis, xs, ys, hx, hy, size, margin)
         return cls(depth=depth, camera=camera, hits=hits, rays=rays)
 

@@ -1,0 +1,121 @@
+"""The depth buffer's crease rule between planar flats (viscore._patches.flat_pairs): a
+wall meeting the floor, two faces of a box. Pixels across such a crease are covered, never
+nearer than the flats, and a crease seen as a silhouette stays open."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from viscore import PerspectiveCamera, Scene
+from viscore._patches import flat_pairs
+from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
+
+
+def _corner():
+    """A floor 10 x 10 (y up) and a wall 10 wide and 4 high on its far edge (z = 10),
+    each a flat of two triangles, sharing the edge along the crease."""
+    v = np.array([[0, 0, 0], [10, 0, 0], [10, 0, 10], [0, 0, 10], [10, 4, 10], [0, 4, 10]],
+                 dtype=np.float64)
+    f = np.array([[0, 1, 2], [0, 2, 3], [3, 2, 4], [3, 4, 5]])
+    return trimesh.Trimesh(v, f, process=False)
+
+
+def _without_pairs(occ: OccluderScene) -> OccluderScene:
+    occ._flat_pairs = occ._flat_pairs[:0]
+    return occ
+
+
+def test_a_wall_and_its_floor_are_a_pair_and_a_box_behind_the_crease_is_culled():
+    corner = _corner()
+    flat, pairs, edges = flat_pairs(corner.vertices, corner.faces)
+    assert flat.tolist() == [0, 0, 1, 1] and pairs.tolist() == [0 * 2 + 1]
+    creases = edges[edges[:, 3] >= 0]
+    assert len(creases) == 1 and sorted(creases[0, :2].tolist()) == [2, 3]
+    cam = PerspectiveCamera((5, 1.7, 2), (0, -0.05, 1), up=(0, 1, 0), fov=60, resolution=256,
+                            height=144)
+    box = ([[4, -2, 11]], [[6, 1, 12]])  # beyond the wall, reaching under the floor's level
+    with_pairs = ConservativeDepthBuffer.from_occluders(OccluderScene([corner]), cam)
+    without = ConservativeDepthBuffer.from_occluders(_without_pairs(OccluderScene([corner])),
+                                                     cam)
+    assert with_pairs.occluded(*box)[0] and not without.occluded(*box)[0]
+    assert with_pairs.covered.sum() > without.covered.sum()
+    world = trimesh.util.concatenate([corner, trimesh.creation.box(bounds=np.vstack(box))])
+    o, d = cam.rays()
+    _, tri = Scene(world).first_hit(o, d)
+    assert not (tri >= len(corner.faces)).any()  # the truth: hidden
+
+
+def test_a_crease_seen_as_a_silhouette_blocks_its_pixels():
+    """Two faces of a wedge seen so that one is behind the other's edge: the edge is a
+    silhouette of the pair (a boundary), and a box seen just past it is never culled."""
+    # a roof ridge along x: two slopes meeting at y = 3 over z = 5; the eye above the far
+    # slope's plane extension sees only the near slope; a box behind the ridge, its top
+    # showing over the ridge
+    v = np.array([[0, 0, 0], [10, 0, 0], [10, 3, 5], [0, 3, 5], [10, 0, 10], [0, 0, 10]],
+                 dtype=np.float64)
+    f = np.array([[0, 1, 2], [0, 2, 3], [3, 2, 4], [3, 4, 5]])
+    roof = trimesh.Trimesh(v, f, process=False)
+    assert len(flat_pairs(roof.vertices, roof.faces)[1]) == 1
+    cam = PerspectiveCamera((5, 2, -8), (0, 0.05, 1), up=(0, 1, 0), fov=60, resolution=256,
+                            height=144)
+    box = ([[4, 2, 12]], [[6, 5, 13]])
+    buf = ConservativeDepthBuffer.from_occluders(OccluderScene([roof]), cam)
+    world = trimesh.util.concatenate([roof, trimesh.creation.box(bounds=np.vstack(box))])
+    o, d = cam.rays()
+    _, tri = Scene(world).first_hit(o, d)
+    assert (tri >= len(roof.faces)).any()  # the truth: its top shows over the ridge
+    assert not buf.occluded(*box)[0]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_rooms_of_boxes_never_nearer_and_nothing_seen_is_culled(seed):
+    """Random blocks standing in a hall (closed boxes: every face a flat, every edge
+    between two faces a crease or a silhouette; the hall's inside meeting at concave
+    creases, where a pixel's farthest point is on the crease), seen from random eyes among
+    them: every
+    covered pixel's rays meet the blocks no farther than its depth, the pairs cover pixels
+    the other rules leave open, and no culled box shows in a full-resolution id image."""
+    rng = np.random.default_rng(seed)
+    hall = trimesh.creation.box(bounds=[[-30, 0, -30], [30, 12, 30]])
+    hall.invert()  # its inside: a floor, walls and a ceiling meeting at concave creases
+    blocks = [hall]
+    eye = np.r_[rng.uniform(-25, 25), rng.choice([1.7, 4.0, 10.0]), rng.uniform(-25, 25)]
+    while len(blocks) < 26:
+        lo = np.r_[rng.uniform(-28, 24), 0.0, rng.uniform(-28, 24)]
+        hi = lo + np.r_[rng.uniform(1, 6), rng.uniform(1, 8), rng.uniform(1, 6)]
+        if not ((lo - 0.5 < eye) & (eye < hi + 0.5)).all():  # not around the eye
+            blocks.append(trimesh.creation.box(bounds=[lo, hi]))
+    world = trimesh.util.concatenate(blocks)
+    scene = Scene(world)
+    aim = np.r_[rng.uniform(-20, 20), 0.0, rng.uniform(-20, 20)] - eye
+    cam = PerspectiveCamera(eye, aim, up=(0, 1, 0), fov=80, resolution=192, height=108)
+    occ = OccluderScene([world])
+    buf = ConservativeDepthBuffer.from_occluders(occ, cam)
+    plain = ConservativeDepthBuffer.from_occluders(_without_pairs(OccluderScene([world])), cam)
+    assert (buf.covered >= plain.covered).all()
+    assert buf.covered.sum() > plain.covered.sum()  # the pairs cover creases
+    pixels = np.argwhere(buf.covered & ~plain.covered)
+    h, w = buf.shape
+    f, r, u = cam.basis
+    i, j = pixels[:, 0], pixels[:, 1]
+    px = (j[:, None] + rng.random((len(j), 24))) / w
+    py = (i[:, None] + rng.random((len(i), 24))) / h
+    d = (f + ((px - 0.5) * 2 * cam._half)[..., None] * r
+         + ((0.5 - py) * 2 * cam._half_vertical)[..., None] * u).reshape(-1, 3)
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    t, _ = scene.first_hit(np.broadcast_to(cam.position, d.shape), d)
+    hits = t.reshape(len(i), 24)
+    assert np.isfinite(hits).all()
+    assert (hits <= buf.depth[i, j][:, None]).all()
+    centre = np.column_stack([rng.uniform(-29, 29, 1500), rng.uniform(0.5, 6, 1500),
+                              rng.uniform(-29, 29, 1500)])
+    half = rng.uniform(0.1, 1.5, (1500, 3))
+    lo, hi = centre - half, centre + half
+    culled = buf.occluded(lo, hi)
+    occludees = [trimesh.creation.box(bounds=[a, b])
+                 for a, b in zip(lo[culled], hi[culled], strict=True)]
+    if occludees:
+        both = trimesh.util.concatenate([world] + occludees)
+        o, d = cam.rays()
+        _, tri = Scene(both).first_hit(o, d)
+        assert not (tri >= len(world.faces)).any()
