@@ -364,7 +364,8 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int | None = None,
     covered = int(np.prod(raw[:, 3:] - raw[:, :3], axis=1).sum())
     out = boxes_mesh(corners)
     # share of the mesh volume; of the inner-voxel volume when the mesh has no volume
-    solid_volume = abs(float(mesh.volume)) if closed else inner * cell_volume
+    with np.errstate(divide="ignore", invalid="ignore"):  # trimesh's centre of a flat mesh
+        solid_volume = abs(float(mesh.volume)) if closed else inner * cell_volume
     volume_share = (float(covered * cell_volume / solid_volume)
                     if covered and solid_volume > 0 else 0.0)
     return Occluder(

@@ -176,7 +176,9 @@ def _hull(points: np.ndarray) -> trimesh.Trimesh | None:
         unit = trimesh.convex.convex_hull((points - centre) / size)
     except Exception:  # noqa: BLE001 - qhull on flat input: no piece
         return None
-    if len(unit.faces) < 4 or not unit.volume > 1e-12:
+    with np.errstate(divide="ignore", invalid="ignore"):  # trimesh's centre of a flat hull
+        volume = unit.volume
+    if len(unit.faces) < 4 or not volume > 1e-12:
         return None
     if not (unit.is_watertight and unit.is_winding_consistent):
         return None  # trimesh drops qhull's zero-area faces: a thin hull can come back open
@@ -519,7 +521,8 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
     index = np.argwhere(inner)
     centres = vox.grid.centers(index)
     cell_volume = float(np.float64(pitch) ** 3)
-    solid_volume = abs(float(mesh.volume)) if closed else len(index) * cell_volume
+    with np.errstate(divide="ignore", invalid="ignore"):  # trimesh's centre of a flat mesh
+        solid_volume = abs(float(mesh.volume)) if closed else len(index) * cell_volume
 
     # candidates: boxes first (as 12-triangle solids), then hulls
     box_meshes = [boxes_mesh(b[None]) for b in boxes]
