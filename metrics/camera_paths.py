@@ -72,6 +72,29 @@ _MIN_CLEARANCE_CELLS = 1.0
 #: stays below a 1.7 m eye; a van does not).
 _HEAD_ROOM = 0.9
 
+#: A walkable floor faces up: the cosine of its normal with the up axis is at least this
+#: (a slope of at most 60 degrees).
+_WALKABLE = 0.5
+
+#: Headroom a floor needs to be stood on, in eye heights (a door's lintel at 2.04 m over
+#: its threshold passes a 1.7 m eye).
+_STAND_ROOM = 1.2
+
+#: Largest height step between the floors of neighbouring cells walked across, in eye
+#: heights (a stair, a kerb; not a car's roof).
+_STEP = 0.5
+
+#: The street map is walked only when at least this share of its free cells stands on an
+#: upward-facing surface (an indoor level seen from above is roofs and ceilings seen from
+#: behind, and its free cells are the void around it), and under this share of the
+#: level's floors (:func:`_floor_space`) is under a ceiling (a building with a roof, whose
+#: street map is the roof); otherwise the walk goes on the floors.
+_ON_FLOOR = 0.5
+
+#: The floors are walked only when their largest connected region covers at least this
+#: share of the map's cells that hold anything (not the tops of loose boxes on nothing).
+_FLOOR_SHARE = 0.25
+
 #: Largest camera path file read, bytes (about a million cameras).
 _MAX_PATH_BYTES = 256 << 20
 
@@ -302,7 +325,9 @@ def _height_map(objects: SceneObjects, up: np.ndarray):
     frame (basis, origin, cell size, shape), the height along
     ``up`` of the first hit of one ray cast down through each cell centre (the
     scene's lowest point where the ray misses), and the ground level: the 5th
-    percentile of those heights.
+    percentile of those heights. The frame ends with ``top``, the height the
+    rays start from, and the cosine of the first hit's normal with ``up``
+    (NaN on a miss) comes last.
     """
     e1, e2 = _horizontal_basis(up)
 
@@ -323,28 +348,128 @@ def _height_map(objects: SceneObjects, up: np.ndarray):
     aa, bb = np.meshgrid(ga, gb, indexing="ij")
     origins = aa.reshape(-1, 1) * e1 + bb.reshape(-1, 1) * e2 + top * up
     scene, _ = objects.combined
-    dist, _ = scene.first_hit(origins, np.broadcast_to(-up, origins.shape))
+    dist, tri = scene.first_hit(origins, np.broadcast_to(-up, origins.shape))
     # a miss is the scene's lowest level: nothing stands there (a scene without a
     # ground plane has its ground where its objects stand, not on their tops)
     height = np.where(np.isfinite(dist), top - dist, h.min()).reshape(na, nb)
     ground = float(np.percentile(height, 5))
-    return (e1, e2, a.min(), b.min(), cell, (na, nb)), height, ground
+    facing = np.full(len(tri), np.nan)
+    facing[tri >= 0] = _unit_normals(scene, tri[tri >= 0]) @ up
+    return (e1, e2, a.min(), b.min(), cell, (na, nb), top), height, ground, \
+        facing.reshape(na, nb)
 
 
-def _edge_marks(objects: SceneObjects, up: np.ndarray, frame, level: float) -> np.ndarray:
+def _unit_normals(scene, triangles: np.ndarray) -> np.ndarray:
+    """Unit normals ``(k, 3)`` of some triangles of a :class:`viscore.Scene` (as wound)."""
+    v = scene.vertices[scene.faces[triangles]]
+    n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+
+
+def _floor_space(objects: SceneObjects, up: np.ndarray, frame, eye_height: float):
+    """Free cells on the level's floors, their clearance, the tall cells, and each cell's
+    floor height and headroom (NaN and 0 off the floors).
+
+    Rays cast down through every cell centre find every surface in the cell's
+    column (:meth:`viscore.Scene.all_hits`); a surface facing up
+    (:data:`_WALKABLE`) with :data:`_STAND_ROOM` eye heights free above it
+    (to the next surface up, or open sky) is a floor. Floors of neighbouring
+    cells (four-connected) are joined when their heights differ by at most
+    :data:`_STEP` eye heights, and the largest set so joined is walked (the
+    lowest of those at least half its size): the floors under an indoor
+    level's ceilings, a town's streets (a roof, a car's top, a ledge are sets
+    of their own). A cell holds at most one floor
+    of it (the lowest); it is free unless something stands in it between a
+    step over that floor and the eye (:func:`_edge_marks`). Tall cells are
+    the others.
+    """
+    from scipy import ndimage
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    e1, e2, a0, b0, cell, shape, top = frame
+    na, nb = shape
+    ga = a0 + (np.arange(na) + 0.5) * cell
+    gb = b0 + (np.arange(nb) + 0.5) * cell
+    aa, bb = np.meshgrid(ga, gb, indexing="ij")
+    origins = aa.reshape(-1, 1) * e1 + bb.reshape(-1, 1) * e2 + top * up
+    scene, _ = objects.combined
+    hits = scene.all_hits(origins, np.tile(-up, (len(origins), 1)))
+    floor = np.full(shape, np.nan)
+    head = np.zeros(shape)
+    if len(hits.ray) == 0:
+        return np.zeros(shape, bool), np.zeros(shape), np.ones(shape, bool), floor, head
+    z = top - hits.t
+    first = np.r_[True, hits.ray[1:] != hits.ray[:-1]]
+    room = np.where(first, np.inf, np.r_[np.inf, z[:-1]] - z)
+    stand = (_unit_normals(scene, hits.triangle) @ up >= _WALKABLE) \
+        & (room >= _STAND_ROOM * eye_height)
+    ray, z, room = hits.ray[stand], z[stand], room[stand]
+    n = len(ray)
+    if n == 0:
+        return np.zeros(shape, bool), np.zeros(shape), np.ones(shape, bool), floor, head
+    # join floors of neighbouring cells within a step: each floor to the nearest in height
+    # of the next cell's floors (sorted by cell, then height)
+    step = _STEP * eye_height
+    span = float(z.max() - z.min()) + 4 * step + 1.0
+    key = ray * span + (z - z.min())
+    order = np.argsort(key, kind="stable")
+    ia, ib = ray // nb, ray % nb
+    pairs = []
+    for da, db in ((1, 0), (0, 1)):
+        na_, nb_ = ia + da, ib + db
+        inside = (na_ < na) & (nb_ < nb)
+        target = (na_ * nb + nb_)
+        at = np.searchsorted(key[order], target * span + (z - z.min()))
+        for c in (at - 1, at):
+            m = order[np.clip(c, 0, n - 1)]
+            good = inside & (ray[m] == target) & (np.abs(z[m] - z) <= step)
+            pairs.append(np.stack([np.flatnonzero(good), m[good]], axis=1))
+    pairs = np.concatenate(pairs)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    # the largest set, or the lowest of those at least half its size (a building's floors
+    # rather than its roof, the streets rather than the rooftops)
+    sizes = np.bincount(label)
+    near = np.flatnonzero(sizes >= 0.5 * sizes.max())
+    median = [float(np.median(z[label == k])) for k in near]
+    main = label == int(near[int(np.argmin(median))])
+    held = np.zeros(na * nb, bool)
+    if main.sum() < _FLOOR_SHARE * np.count_nonzero(hits.count):
+        return held.reshape(shape), np.zeros(shape), np.ones(shape, bool), floor, head
+    # the lowest floor of the walked set in each cell (hits run top down: the last)
+    r, z, room = ray[main], z[main], room[main]
+    last = np.r_[r[1:] != r[:-1], True]
+    floor.reshape(-1)[r[last]] = z[last]
+    head.reshape(-1)[r[last]] = room[last]
+    held[r] = True
+    held = held.reshape(shape)
+    level = np.where(held, floor + step, np.inf)
+    blocked = ~held | _edge_marks(objects, up, frame, level,
+                                  np.where(held, floor + np.minimum(head, eye_height), -np.inf))
+    clearance = ndimage.distance_transform_edt(np.pad(~blocked, 1))[1:-1, 1:-1]
+    return ~blocked, clearance, blocked, floor, head
+
+
+def _edge_marks(objects: SceneObjects, up: np.ndarray, frame, level: float | np.ndarray,
+                ceiling: np.ndarray | None = None) -> np.ndarray:
     """Cells of the map holding a point of an edge higher than ``level`` along ``up``.
 
     One ray per cell centre misses things thinner than a cell (a pole, a
     fence, a thin wall between two centres); every triangle edge of the
     objects that reach above ``level`` is sampled at a quarter of a cell and
-    the cells of its samples above ``level`` are marked. Returns the
+    the cells of its samples above ``level`` are marked. ``level`` may be one
+    per cell, and a ``ceiling`` per cell then marks only the samples under
+    it (something standing between a floor and the eye). Returns the
     ``(na, nb)`` bool mask.
     """
-    e1, e2, a0, b0, cell, shape = frame
+    e1, e2, a0, b0, cell, shape = frame[:6]
     marks = np.zeros(shape, dtype=bool)
+    per_cell = np.ndim(level) > 0
+    lowest = float(np.min(level)) if per_cell else float(level)
     corners = np.stack([objects.lower, objects.upper], axis=1)  # (n, 2, 3)
     reach = (np.where(up >= 0, corners[:, 1], corners[:, 0]) @ up)
-    tall = np.flatnonzero(reach > level)
+    tall = np.flatnonzero(reach > lowest)
     step = cell / 4
     budget = 4_000_000  # samples per batch
     for mesh_id in np.unique(objects.mesh_ids[tall]):
@@ -358,7 +483,7 @@ def _edge_marks(objects: SceneObjects, up: np.ndarray, frame, level: float) -> n
             w = (np.einsum("kij,nj->kni", mats[:, :3, :3], v) + mats[:, None, :3, 3])
             p0 = w[:, edges[:, 0]].reshape(-1, 3)
             p1 = w[:, edges[:, 1]].reshape(-1, 3)
-            high = np.maximum(p0 @ up, p1 @ up) > level
+            high = np.maximum(p0 @ up, p1 @ up) > lowest
             p0, p1 = p0[high], p1[high]
             d = p1 - p0
             flat = d - np.outer(d @ up, up)
@@ -369,9 +494,14 @@ def _edge_marks(objects: SceneObjects, up: np.ndarray, frame, level: float) -> n
                 first = np.concatenate([[0], np.cumsum(c)[:-1]])
                 t = (np.arange(len(which)) - first[which]) / np.maximum(c[which] - 1, 1)
                 pts = p0[lo:][which] + t[:, None] * d[lo:][which]
-                pts = pts[pts @ up > level]
+                if not per_cell:
+                    pts = pts[pts @ up > level]
                 ia = np.clip(((pts @ e1 - a0) / cell).astype(np.int64), 0, shape[0] - 1)
                 ib = np.clip(((pts @ e2 - b0) / cell).astype(np.int64), 0, shape[1] - 1)
+                if per_cell:
+                    h = pts @ up
+                    keep = (h > level[ia, ib]) & (h < ceiling[ia, ib])
+                    ia, ib = ia[keep], ib[keep]
                 marks[ia, ib] = True
     return marks
 
@@ -524,6 +654,17 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     the largest connected free region, visited in a nearest-neighbour tour,
     joined by least-cost routes that keep to the middle of the free space
     (:func:`skimage.graph.route_through_array`).
+
+    That street map is one layer: seen from above, an indoor level is its roof
+    (or the backs of its ceilings), so its free cells were the roof or the void
+    around the level. The level's floors are therefore found too
+    (:func:`_floor_space`: every surface in each cell's column, facing up with
+    room to stand over it, joined across cells within a step), and walked
+    instead when the street map's free cells mostly stand on nothing, or when
+    the floors are mostly under a ceiling; then every street camera is an eye
+    height over a floor, the elevated ones under the ceiling, and the eye
+    height is the one asked for. A town's streets (open sky) keep the street
+    map, camera for camera.
     """
     frames = as_positive_int(frames, "frames", maximum=100_000)
     seed = as_seed(seed)
@@ -534,13 +675,14 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
         raise InputError("up: zero-length vector")
     up = up / np.linalg.norm(up)
     rng = np.random.default_rng(seed)
-    frame, height, ground = _height_map(objects, up)
-    e1, e2, a0, b0, cell, shape = frame
+    frame, height, ground, facing = _height_map(objects, up)
+    e1, e2, a0, b0, cell, shape = frame[:6]
     top = float(height.max())
     # a scene lower than an eye (a model in other units than metres, or smaller
     # than a person): the eye goes down to half its height above the ground (a
     # twentieth of its width if that is more: a flat scene), so that the street
     # frames look at it rather than over it
+    requested = eye_height
     eye_height = min(eye_height, max(0.5 * (top - ground), 0.05 * cell * max(shape)))
     free, clearance = _free_space(objects, up, frame, height, ground, eye_height)
     n_far = frames // 10
@@ -550,6 +692,16 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     # tallest point (a scene whose eye went down with its size)
     tall = height > ground + max(min(3 * eye_height, 0.5 * (top - ground)),
                                  0.15 * (top - ground))
+    floor, head = np.full(shape, ground), np.full(shape, np.inf)
+    # the level's floors: walked instead when the street map's free cells stand on
+    # nothing (an indoor level's void around it, the pits of a rough terrain), or when
+    # its floors are indoors, under a roof the street map would walk on
+    on = _floor_space(objects, up, frame, requested)
+    void = not free.any() or np.mean(facing[free] >= _WALKABLE) < _ON_FLOOR
+    indoors = on[0].any() and np.mean(np.isfinite(on[4][on[0]])) >= _ON_FLOOR
+    if on[0].any() and (void or indoors):  # with room for the eye asked for: it goes back up
+        free, clearance, tall, floor, head = on
+        eye_height = requested
     route = _route(free, clearance, tall, rng, waypoints=max(3, min(12, frames // 8 + 2)))
 
     def world(cells: np.ndarray, level: np.ndarray | float) -> np.ndarray:
@@ -559,6 +711,10 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
 
     def horizontal(d2: np.ndarray) -> np.ndarray:
         return d2[:, :1] * e1 + d2[:, 1:] * e2
+
+    def at(grid: np.ndarray, cells: np.ndarray) -> np.ndarray:
+        i, j = np.clip(np.round(cells).astype(int), 0, np.array(shape) - 1).T
+        return grid[i, j]
 
     cams: list[PathCamera] = []
     if len(route) >= 2:
@@ -573,12 +729,14 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
             to_wall = np.array([ia[i, j] - pts[k, 0], ib[i, j] - pts[k, 1]])
             if np.linalg.norm(to_wall) > 0:
                 forward[k] = horizontal((to_wall / np.linalg.norm(to_wall))[None])[0]
-        positions = world(pts, ground + eye_height)
+        positions = world(pts, at(floor, pts) + eye_height)
         cams += [_pose(p, f, up, fov, "camera") for p, f in zip(positions, forward, strict=True)]
-        # elevated pass: back along the route, rising, looking ahead and down
+        # elevated pass: back along the route, rising, looking ahead and down (under the
+        # ceiling, on a level's floors)
         pts, tangent = _resample(route, n_high, 1.0, 0.0)
         rise = np.linspace(0.25, 0.9, max(1, n_high)) * max(top - ground, 4 * eye_height)
-        positions = world(pts, ground + eye_height + rise)
+        rise = np.clip(np.minimum(rise, at(head, pts) - 1.2 * eye_height), 0.0, None)
+        positions = world(pts, at(floor, pts) + eye_height + rise)
         down = np.tan(np.radians(25.0))
         forward = horizontal(tangent) - down * up
         cams += [_pose(p, f, up, fov, "camera") for p, f in zip(positions, forward, strict=True)]

@@ -580,3 +580,46 @@ def test_culling_runtimes_generate_each_distinct_mesh_once(monkeypatch, caplog):
     assert len(calls) == 3 and info["depth-buffer:test-counted"]["occluders"] == 3
     said = [r.getMessage() for r in caplog.records if "open" in r.getMessage()]
     assert said == ["test-counted: 3 of 3 meshes: each of them: open"]
+
+
+def _two_rooms():
+    """Two rooms 10 x 3 x 8 side by side along x (y up), under one roof slab, joined by a
+    door 1.5 wide in their shared wall, standing on nothing; a crate in each."""
+    t = trimesh.transformations.translation_matrix
+    scene = trimesh.Scene()
+
+    def box(name, lo, hi):
+        scene.add_geometry(trimesh.creation.box(bounds=[lo, hi]), geom_name=name, node_name=name)
+
+    box("floor", (0, -0.2, 0), (20, 0, 8))
+    box("roof", (0, 3, 0), (20, 3.2, 8))
+    box("west", (-0.2, 0, 0), (0, 3, 8))
+    box("east", (20, 0, 0), (20.2, 3, 8))
+    box("south", (0, 0, -0.2), (20, 3, 0))
+    box("north", (0, 0, 8), (20, 3, 8.2))
+    box("middle-a", (9.9, 0, 0), (10.1, 3, 3.25))
+    box("middle-b", (9.9, 0, 4.75), (10.1, 3, 8))
+    box("crate-a", (3, 0, 3), (4, 1, 4))
+    box("crate-b", (15, 0, 5), (16, 1, 6))
+    del t
+    return load_scene_objects(scene)
+
+
+def test_camera_path_walks_the_floors_of_an_indoor_level():
+    """A level seen from above is its roof, and its street map's free cells are the void
+    around it: the street cameras stand on its floors instead, an eye height over a floor
+    under the ceiling, inside the rooms, never in a wall or a crate."""
+    objects = _two_rooms()
+    path = camera_path(objects, frames=40, seed=0)
+    street = np.array([p.position for p in path[:28]])  # 70% street level
+    scene, owner = objects.combined
+    down, tri_down = scene.first_hit(street, np.tile([0.0, -1.0, 0.0], (len(street), 1)))
+    up_, tri_up = scene.first_hit(street, np.tile([0.0, 1.0, 0.0], (len(street), 1)))
+    np.testing.assert_allclose(down, 1.7, atol=1e-9)  # on the floor, not a crate
+    assert (owner[tri_down] == objects.names.index("floor")).all()
+    assert (owner[tri_up] == objects.names.index("roof")).all()  # under the ceiling
+    assert (street[:, 0] > 0).all() and (street[:, 0] < 20).all()
+    assert (street[:, 2] > 0).all() and (street[:, 2] < 8).all()
+    assert len({bool(x < 10) for x in street[:, 0]}) == 2  # both rooms, through the door
+    elevated = np.array([p.position for p in path[28:36]])
+    assert (elevated[:, 1] < 3.0).all()  # under the ceiling too
