@@ -64,7 +64,7 @@ from viscore.generators import (
     frusta_method,
     occluder_objects,
 )
-from viscore.generators.level_objects import level_objects
+from viscore.generators.level_objects import UP_AXES, level_objects
 from viscore.generators.scene_occluders import file_occluder, method_indices
 from viscore.metrics.culling import (
     DEFAULT_HEIGHT,
@@ -122,8 +122,11 @@ def add_parser(sub, common) -> None:
                     "image), the triangles rendered and the overhead per frame.")
     c.add_argument("scene", nargs="?", default="city", metavar="SCENE",
                    help="glTF/GLB file (every mesh node is an object), another mesh file "
-                        "(one object), or a built-in culling scene: city, city-dense "
-                        "(default city)")
+                        "(a single-mesh level, split into parts as occlude splits it), or a "
+                        "built-in culling scene: city, city-dense (default city)")
+    c.add_argument("--up", choices=UP_AXES, default=None,
+                   help="up axis of a single-mesh level (default: guessed and printed; glTF "
+                        "is +Y up)")
     c.add_argument("--frames", type=int, default=None,
                    help=f"cameras of the generated path (default {DEFAULT_FRAMES}); with "
                         "--path, the first N of the file (default all)")
@@ -359,7 +362,7 @@ def run_cull(args) -> int:
     check_culling_memory(width, height)
     if args.path is None:
         _check_frames_memory(frames or DEFAULT_FRAMES, f"--frames {frames or DEFAULT_FRAMES}")
-    level = level_objects(args.scene, names=names if threshold is None else None)
+    level = level_objects(args.scene, up=args.up, names=names if threshold is None else None)
     objects = level.objects
     if level.kind != "gltf":
         _log.info("%s: %s split into %d parts (%d connected components), %s up (%s)",

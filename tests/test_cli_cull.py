@@ -413,3 +413,24 @@ def test_cull_out_may_not_be_the_working_directory(run, street, tmp_path, capsys
         assert run(scene, "--out", out, *_SMALL) == 2
         assert "--out" in _one_line(capsys)
     assert sorted(p.name for p in work.iterdir()) == ["keep.txt"]
+
+
+def test_cull_takes_the_up_axis_of_a_single_mesh_level(run, tmp_path, capsys, monkeypatch):
+    """--up as occlude takes it: a PLY level lying along z is walked with z up when told
+    (the guess would pick the floor's axis anyway; told otherwise, the walk follows), and a
+    glTF, +Y up by the specification, refuses another axis."""
+    monkeypatch.chdir(tmp_path)
+    floor = trimesh.creation.box(bounds=[[-12, -12, -0.2], [12, 12, 0]])
+    wall = trimesh.creation.box(bounds=[[-5, -0.5, 0], [5, 0.5, 6]])
+    trimesh.util.concatenate([floor, wall]).export(tmp_path / "map.ply")
+    code = run("map.ply", "--up", "z", "--frames", 4, "--methods", "bbox", "--width", 64,
+               "--height", 36, "--json", "--out", "o-z")
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    cams = json.loads((tmp_path / "o-z" / "cameras.json").read_text())
+    assert all(abs(c["up"][2]) == 1.0 for c in cams)
+    scene = trimesh.Scene()
+    scene.add_geometry(floor, geom_name="floor", node_name="floor")
+    (tmp_path / "map.glb").write_bytes(scene.export(file_type="glb"))
+    assert run("map.glb", "--up", "z", "--frames", 2, "--out", "o-g") == 2
+    assert "up" in capsys.readouterr().err

@@ -231,7 +231,8 @@ def test_default_methods_guaranteed():
 
 # ----------------------------------------------------------------------------- refusals
 def test_occlude_all_refused_exit_0_no_scene(tmp_path, capsys):
-    """Open quads: aabb-skins makes nothing. Exit 0, each object refused, no .tscn/.glb."""
+    """Open quads: aabb-skins makes nothing. Exit 0, each object refused (one line for the
+    two, for one reason), no .tscn/.glb."""
     scene = trimesh.Scene()
     quad = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])
     for k in range(2):
@@ -242,7 +243,8 @@ def test_occlude_all_refused_exit_0_no_scene(tmp_path, capsys):
     out = tmp_path / "out"
     assert _run(glb, "-o", out, "--methods", "aabb-skins") == 0
     err = capsys.readouterr().err
-    assert err.count("refused panel") == 2 and "empty occluder" in err
+    assert err.count("refused") == 1 and "empty occluder" in err
+    assert "refused 2 objects for aabb-skins (panel0, panel1; listed in occlude.json)" in err
     assert not (out / "aabb-skins.tscn").exists() and not (out / "aabb-skins.glb").exists()
     doc = json.loads((out / "occlude.json").read_text())
     assert doc["methods"]["aabb-skins"]["objects"] == 0

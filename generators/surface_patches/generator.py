@@ -634,8 +634,9 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     boxes_claim = box_info.get("conservative_guaranteed") if box_info else None
     empty_reason = None
     if not out_f:
-        planar = ("no planar region of two or more faces and at least min_area of the face "
-                  "area (curved regions contribute nothing)" if not found else
+        planar = (f"no planar region of two or more faces and at least {min_area:g} of the "
+                  "face area (curved regions contribute nothing)" if not found else
+                  "no patch keeps a triangle inside its region" if budget is None else
                   f"no patch fits a budget of {budget}")
         empty_reason = f"{planar}, and {box_reason}"
         if ground == "auto" and not curtain_cands:
@@ -644,6 +645,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         if sheets == "auto":
             empty_reason += ("; " + sheets_skipped if sheets_skipped else
                              "; no curved open sheet" if not chunks else
+                             "; no sheet chunk has a measure" if budget is None else
                              f"; no sheet chunk fits a budget of {budget}")
         _log.warning("surface-patches: no occluder for %s: %s",
                      mesh.metadata.get("name", "the mesh"), empty_reason)
