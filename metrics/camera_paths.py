@@ -87,7 +87,7 @@ _STEP = 0.5
 #: The street map is walked only when at least this share of its free cells stands on an
 #: upward-facing surface (an indoor level seen from above is roofs and ceilings seen from
 #: behind, and its free cells are the void around it), and under this share of the
-#: level's floors (:func:`_floor_space`) is under a ceiling (a building with a roof, whose
+#: level's floors (:func:`_floors`) is under a ceiling (a building with a roof, whose
 #: street map is the roof); otherwise the walk goes on the floors.
 _ON_FLOOR = 0.5
 
@@ -342,11 +342,9 @@ def _height_map(objects: SceneObjects, up: np.ndarray):
     cell = max(a.max() - a.min(), b.max() - b.min()) / _GRID_CELLS
     na = max(2, int(np.ceil((a.max() - a.min()) / cell)))
     nb = max(2, int(np.ceil((b.max() - b.min()) / cell)))
-    ga = a.min() + (np.arange(na) + 0.5) * cell
-    gb = b.min() + (np.arange(nb) + 0.5) * cell
     top = h.max() + 0.01 * (h.max() - h.min() + cell)
-    aa, bb = np.meshgrid(ga, gb, indexing="ij")
-    origins = aa.reshape(-1, 1) * e1 + bb.reshape(-1, 1) * e2 + top * up
+    frame = (e1, e2, a.min(), b.min(), cell, (na, nb), top)
+    origins = _column_origins(frame, up)
     scene, _ = objects.combined
     dist, tri = scene.first_hit(origins, np.broadcast_to(-up, origins.shape))
     # a miss is the scene's lowest level: nothing stands there (a scene without a
@@ -355,8 +353,15 @@ def _height_map(objects: SceneObjects, up: np.ndarray):
     ground = float(np.percentile(height, 5))
     facing = np.full(len(tri), np.nan)
     facing[tri >= 0] = _unit_normals(scene, tri[tri >= 0]) @ up
-    return (e1, e2, a.min(), b.min(), cell, (na, nb), top), height, ground, \
-        facing.reshape(na, nb)
+    return frame, height, ground, facing.reshape(na, nb)
+
+
+def _column_origins(frame, up: np.ndarray) -> np.ndarray:
+    """``(na nb, 3)``: the map's cell centres at the height ``top`` its rays start from."""
+    e1, e2, a0, b0, cell, (na, nb), top = frame
+    aa, bb = np.meshgrid(a0 + (np.arange(na) + 0.5) * cell, b0 + (np.arange(nb) + 0.5) * cell,
+                         indexing="ij")
+    return aa.reshape(-1, 1) * e1 + bb.reshape(-1, 1) * e2 + top * up
 
 
 def _unit_normals(scene, triangles: np.ndarray) -> np.ndarray:
@@ -366,9 +371,9 @@ def _unit_normals(scene, triangles: np.ndarray) -> np.ndarray:
     return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
 
 
-def _floor_space(objects: SceneObjects, up: np.ndarray, frame, eye_height: float):
-    """Free cells on the level's floors, their clearance, the tall cells, and each cell's
-    floor height and headroom (NaN and 0 off the floors).
+def _floors(objects: SceneObjects, up: np.ndarray, frame, eye_height: float):
+    """The level's walked floors: the cells that hold one, each cell's floor height and
+    headroom (NaN and 0 elsewhere).
 
     Rays cast down through every cell centre find every surface in the cell's
     column (:meth:`viscore.Scene.all_hits`); a surface facing up
@@ -378,27 +383,21 @@ def _floor_space(objects: SceneObjects, up: np.ndarray, frame, eye_height: float
     :data:`_STEP` eye heights, and the largest set so joined is walked (the
     lowest of those at least half its size): the floors under an indoor
     level's ceilings, a town's streets (a roof, a car's top, a ledge are sets
-    of their own). A cell holds at most one floor
-    of it (the lowest); it is free unless something stands in it between a
-    step over that floor and the eye (:func:`_edge_marks`). Tall cells are
-    the others.
+    of their own). A cell holds at most one floor of it (the lowest). None is
+    walked when the largest set covers under :data:`_FLOOR_SHARE` of the cells
+    that hold anything.
     """
-    from scipy import ndimage
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    e1, e2, a0, b0, cell, shape, top = frame
+    shape, top = frame[5], frame[6]
     na, nb = shape
-    ga = a0 + (np.arange(na) + 0.5) * cell
-    gb = b0 + (np.arange(nb) + 0.5) * cell
-    aa, bb = np.meshgrid(ga, gb, indexing="ij")
-    origins = aa.reshape(-1, 1) * e1 + bb.reshape(-1, 1) * e2 + top * up
-    scene, _ = objects.combined
-    hits = scene.all_hits(origins, np.tile(-up, (len(origins), 1)))
+    held = np.zeros(na * nb, bool)
     floor = np.full(shape, np.nan)
     head = np.zeros(shape)
-    if len(hits.ray) == 0:
-        return np.zeros(shape, bool), np.zeros(shape), np.ones(shape, bool), floor, head
+    origins = _column_origins(frame, up)
+    scene, _ = objects.combined
+    hits = scene.all_hits(origins, np.tile(-up, (len(origins), 1)))
     z = top - hits.t
     first = np.r_[True, hits.ray[1:] != hits.ray[:-1]]
     room = np.where(first, np.inf, np.r_[np.inf, z[:-1]] - z)
@@ -407,7 +406,7 @@ def _floor_space(objects: SceneObjects, up: np.ndarray, frame, eye_height: float
     ray, z, room = hits.ray[stand], z[stand], room[stand]
     n = len(ray)
     if n == 0:
-        return np.zeros(shape, bool), np.zeros(shape), np.ones(shape, bool), floor, head
+        return held.reshape(shape), floor, head
     # join floors of neighbouring cells within a step: each floor to the nearest in height
     # of the next cell's floors (sorted by cell, then height)
     step = _STEP * eye_height
@@ -434,21 +433,29 @@ def _floor_space(objects: SceneObjects, up: np.ndarray, frame, eye_height: float
     near = np.flatnonzero(sizes >= 0.5 * sizes.max())
     median = [float(np.median(z[label == k])) for k in near]
     main = label == int(near[int(np.argmin(median))])
-    held = np.zeros(na * nb, bool)
     if main.sum() < _FLOOR_SHARE * np.count_nonzero(hits.count):
-        return held.reshape(shape), np.zeros(shape), np.ones(shape, bool), floor, head
+        return held.reshape(shape), floor, head
     # the lowest floor of the walked set in each cell (hits run top down: the last)
     r, z, room = ray[main], z[main], room[main]
     last = np.r_[r[1:] != r[:-1], True]
     floor.reshape(-1)[r[last]] = z[last]
     head.reshape(-1)[r[last]] = room[last]
     held[r] = True
-    held = held.reshape(shape)
-    level = np.where(held, floor + step, np.inf)
+    return held.reshape(shape), floor, head
+
+
+def _floor_free(objects: SceneObjects, up: np.ndarray, frame, held: np.ndarray,
+                floor: np.ndarray, head: np.ndarray, eye_height: float):
+    """Free cells on the walked floors (:func:`_floors`), their clearance in cells, and the
+    tall cells (the others): a cell with a floor is free unless something stands in it
+    between a step over the floor and the eye (:func:`_edge_marks`)."""
+    from scipy import ndimage
+
+    level = np.where(held, floor + _STEP * eye_height, np.inf)
     blocked = ~held | _edge_marks(objects, up, frame, level,
                                   np.where(held, floor + np.minimum(head, eye_height), -np.inf))
     clearance = ndimage.distance_transform_edt(np.pad(~blocked, 1))[1:-1, 1:-1]
-    return ~blocked, clearance, blocked, floor, head
+    return ~blocked, clearance, blocked
 
 
 def _edge_marks(objects: SceneObjects, up: np.ndarray, frame, level: float | np.ndarray,
@@ -498,7 +505,7 @@ def _edge_marks(objects: SceneObjects, up: np.ndarray, frame, level: float | np.
                     pts = pts[pts @ up > level]
                 ia = np.clip(((pts @ e1 - a0) / cell).astype(np.int64), 0, shape[0] - 1)
                 ib = np.clip(((pts @ e2 - b0) / cell).astype(np.int64), 0, shape[1] - 1)
-                if per_cell:
+                if per_cell:  # between each cell's floor (a step over it) and its ceiling
                     h = pts @ up
                     keep = (h > level[ia, ib]) & (h < ceiling[ia, ib])
                     ia, ib = ia[keep], ib[keep]
@@ -658,7 +665,7 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     That street map is one layer: seen from above, an indoor level is its roof
     (or the backs of its ceilings), so its free cells were the roof or the void
     around the level. The level's floors are therefore found too
-    (:func:`_floor_space`: every surface in each cell's column, facing up with
+    (:func:`_floors`: every surface in each cell's column, facing up with
     room to stand over it, joined across cells within a step), and walked
     instead when the street map's free cells mostly stand on nothing, or when
     the floors are mostly under a ceiling; then every street camera is an eye
@@ -696,12 +703,14 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     # the level's floors: walked instead when the street map's free cells stand on
     # nothing (an indoor level's void around it, the pits of a rough terrain), or when
     # its floors are indoors, under a roof the street map would walk on
-    on = _floor_space(objects, up, frame, requested)
+    held, on_floor, on_head = _floors(objects, up, frame, requested)
     void = not free.any() or np.mean(facing[free] >= _WALKABLE) < _ON_FLOOR
-    indoors = on[0].any() and np.mean(np.isfinite(on[4][on[0]])) >= _ON_FLOOR
-    if on[0].any() and (void or indoors):  # with room for the eye asked for: it goes back up
-        free, clearance, tall, floor, head = on
-        eye_height = requested
+    indoors = held.any() and np.mean(np.isfinite(on_head[held])) >= _ON_FLOOR
+    if held.any() and (void or indoors):
+        walk = _floor_free(objects, up, frame, held, on_floor, on_head, requested)
+        if walk[0].any():  # with room for the eye asked for: it goes back up
+            (free, clearance, tall), floor, head = walk, on_floor, on_head
+            eye_height = requested
     route = _route(free, clearance, tall, rng, waypoints=max(3, min(12, frames // 8 + 2)))
 
     def world(cells: np.ndarray, level: np.ndarray | float) -> np.ndarray:
@@ -735,7 +744,7 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
         # ceiling, on a level's floors)
         pts, tangent = _resample(route, n_high, 1.0, 0.0)
         rise = np.linspace(0.25, 0.9, max(1, n_high)) * max(top - ground, 4 * eye_height)
-        rise = np.clip(np.minimum(rise, at(head, pts) - 1.2 * eye_height), 0.0, None)
+        rise = np.clip(np.minimum(rise, at(head, pts) - _STAND_ROOM * eye_height), 0.0, None)
         positions = world(pts, at(floor, pts) + eye_height + rise)
         down = np.tan(np.radians(25.0))
         forward = horizontal(tangent) - down * up
