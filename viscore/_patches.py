@@ -114,8 +114,6 @@ def height_field_patches(vertices: np.ndarray, faces: np.ndarray
         patch triangle on it (the second -1 for an edge with one patch
         triangle: a boundary edge), then the patch.
     """
-    import shapely
-
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
     patch = np.full(len(f), -1, dtype=np.int64)
@@ -148,13 +146,7 @@ def height_field_patches(vertices: np.ndarray, faces: np.ndarray
                 if np.abs(unit @ unit[0]).min() > 1.0 - 1e-12:  # planar: regions do it
                     continue
                 flat = tri[members][:, :, keep]
-                projected = 0.5 * np.abs(normal[members, axis])
-                area = projected.sum()
-                union = shapely.union_all(shapely.polygons(flat)).area
-                # overlap allowed: a millionth of the smallest triangle (float noise of
-                # the union's area), and never more than INJECTIVE_TOLERANCE of the whole
-                tol = min(INJECTIVE_TOLERANCE * area, 1e-6 * projected.min())
-                if abs(union - area) <= tol:
+                if _one_to_one(flat, 0.5 * np.abs(normal[members, axis])):
                     patch[members] = count
                     count += 1
                 else:
@@ -240,8 +232,8 @@ def flat_pairs(vertices: np.ndarray, faces: np.ndarray
     # pairs: flats meeting at an edge of two triangles, a graph along a bisector
     fa, fb = flat[ta], flat[tb]
     meet = ~same & (fa >= 0) & (fb >= 0) & (fa != fb)
-    keys, where = np.unique(np.minimum(fa, fb)[meet] * nf + np.maximum(fa, fb)[meet],
-                            return_index=True)
+    pair_key = np.minimum(fa, fb) * nf + np.maximum(fa, fb)
+    keys, where = np.unique(pair_key[meet], return_index=True)
     on_edge = e[pos[meet][where], 0]  # a vertex of a shared edge of each pair
     order = np.argsort(flat, kind="stable")
     bounds = np.searchsorted(flat[order], np.arange(nf + 1))
@@ -259,7 +251,6 @@ def flat_pairs(vertices: np.ndarray, faces: np.ndarray
             good[k] = _separated(ta_, tb_, flat_normal[a_], flat_normal[b_], v[vertex], scale)
     pairs = keys[good]
     # the edges: a pair's crease (both third vertices), or a boundary of a flat
-    pair_key = np.minimum(fa, fb) * nf + np.maximum(fa, fb)
     crease = meet & np.isin(pair_key, pairs)
     out = [np.stack([e[pos, 0], e[pos, 1], e[pos, 2], e[pos + 1, 2], fa, fb], axis=1)[crease]]
     # the other uses of edges touching a flat, each a boundary edge of that flat (an edge
@@ -276,21 +267,32 @@ def flat_pairs(vertices: np.ndarray, faces: np.ndarray
     return flat, pairs.astype(np.int64), np.concatenate(out).astype(np.int64)
 
 
-def _one_layer(tri: np.ndarray, normal: np.ndarray) -> bool:
-    """Whether planar triangles ``(k, 3, 3)`` (unit ``normal``) have disjoint interiors in
-    their plane (the test of :func:`height_field_patches`, along the normal)."""
+def _one_to_one(flat: np.ndarray, projected: np.ndarray) -> bool:
+    """Whether projected triangles ``flat`` (k, 3, 2) of areas ``projected`` have disjoint
+    interiors: the area of their union (shapely) is the sum of theirs, up to a millionth
+    of the smallest triangle (float noise of the union's area) and never more than
+    :data:`INJECTIVE_TOLERANCE` of the whole."""
     import shapely
 
-    helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
-    ax = np.cross(normal, helper)
-    ax /= np.linalg.norm(ax)
-    ay = np.cross(normal, ax)
-    flat = np.stack([tri @ ax, tri @ ay], axis=2)
-    e1, e2 = flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0]
-    projected = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
     area = projected.sum()
     union = shapely.union_all(shapely.polygons(flat)).area
     return abs(union - area) <= min(INJECTIVE_TOLERANCE * area, 1e-6 * projected.min())
+
+
+def _across(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit axes across the unit direction ``d``."""
+    ax = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
+    ax /= np.linalg.norm(ax)
+    return ax, np.cross(d, ax)
+
+
+def _one_layer(tri: np.ndarray, normal: np.ndarray) -> bool:
+    """Whether planar triangles ``(k, 3, 3)`` (unit ``normal``) have disjoint interiors in
+    their plane (the test of :func:`height_field_patches`, along the normal)."""
+    ax, ay = _across(normal)
+    flat = np.stack([tri @ ax, tri @ ay], axis=2)
+    e1, e2 = flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0]
+    return _one_to_one(flat, 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]))
 
 
 def _separated(ta: np.ndarray, tb: np.ndarray, na: np.ndarray, nb: np.ndarray,
@@ -324,10 +326,7 @@ def _separated(ta: np.ndarray, tb: np.ndarray, na: np.ndarray, nb: np.ndarray,
         wrong_b = (sb < -tol).any(axis=1)
         if not wrong_a.any() and not wrong_b.any():
             return True
-        helper = np.eye(3)[int(np.argmin(np.abs(d)))]
-        ax = np.cross(d, helper)
-        ax /= np.linalg.norm(ax)
-        ay = np.cross(d, ax)
+        ax, ay = _across(d)
         pa = np.stack([ta @ ax, ta @ ay], axis=2)
         pb = np.stack([tb @ ax, tb @ ay], axis=2)
         if _images_meet(pa[wrong_a], pb) or _images_meet(pa, pb[wrong_b]):

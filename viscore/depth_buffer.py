@@ -682,12 +682,14 @@ def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tr
                   eye: np.ndarray, basis, xs: np.ndarray, ys: np.ndarray, hx: float,
                   hy: float, size: float, margin: float) -> None:
     """The crease rule (:mod:`viscore._patches`) on the pixels without depth, in place, for
-    one layer of patches ``(patch of each triangle, edges, count)`` (the height-field
-    patches, or a layer of crease pairs):
+    one kind of patch, ``layer`` = ``(group of each triangle, edges (m, 6), groups,
+    pairs)``: the height-field patches (``pairs`` None: a pixel's corners on one patch),
+    or the planar flats (``pairs`` the sorted keys of the flats' pairs: a pixel's corners
+    on the two flats of a pair):
     a pixel whose four corner rays (cast by the tiles' subdivision: ``corner_tri``,
     (H + 1, W + 1), the triangle each first hit, -1 a miss, -2 not cast; ``xs``, ``ys``
     the corners' camera-plane coordinates) first hit one patch, with no boundary edge of
-    a patch across it, gets the largest of the corners' distances to their triangles'
+    that patch across it, gets the largest of the corners' distances to their triangles'
     planes and of the crease distances in the pixel. A crease between two triangles
     splits the tiles across it down to pixels, so its pixels' corners are cast; no ray
     is cast here."""
@@ -721,9 +723,9 @@ def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tr
     if pairs is None:  # height-field patches: one patch
         two &= pa == pb
     else:  # flats: two of them, a pair
-        key = pa * n_groups + pb
-        at = np.clip(np.searchsorted(pairs, key), 0, max(len(pairs) - 1, 0))
-        two &= (pa != pb) & (len(pairs) > 0) & (pairs[at] == key if len(pairs) else False)
+        key = pa * n_groups + pb  # the flats' layer is used only when it has a pair
+        at = np.clip(np.searchsorted(pairs, key), 0, len(pairs) - 1)
+        two &= (pa != pb) & (pairs[at] == key)
     if not two.any():
         return
     pa, pb = np.where(two, pa, -1), np.where(two, pb, -1)
