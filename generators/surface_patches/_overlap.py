@@ -143,11 +143,9 @@ def candidate_bitmaps(mesh, rings: list[np.ndarray], box_loops: list[np.ndarray]
                               MEASURE_RESOLUTION)
     if not box_loops and not tris:
         return maps
-    patches = maps[:len(rings)]
-    boxes = maps[len(rings):len(rings) + len(box_loops)]
+    patches, boxes, tris = np.split(maps, [len(rings), len(rings) + len(box_loops)])
     boxes = boxes.reshape(-1, 6, *maps.shape[1:]).any(axis=1)
-    ends = np.cumsum([len(chunk) for chunk in sheets], dtype=np.int64)
-    chunks = [maps[len(rings) + len(box_loops) + e - len(c):len(rings) + len(box_loops) + e]
-              .any(axis=0) for c, e in zip(sheets, ends, strict=True)]
-    return np.concatenate([patches, boxes, np.asarray(chunks, dtype=bool).reshape(
-        -1, *maps.shape[1:])])
+    if sheets:  # each chunk's triangles, OR-ed (a chunk has one triangle at least)
+        starts = np.cumsum([0] + [len(chunk) for chunk in sheets[:-1]])
+        tris = np.logical_or.reduceat(tris, starts, axis=0)
+    return np.concatenate([patches, boxes, tris])

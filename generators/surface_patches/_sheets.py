@@ -18,8 +18,10 @@ sec. 4.5: value per triangle, by occlusion measure):
    open part (:func:`viscore._patches.height_field_patches`: triangles
    joined across edges, facing one way along an axis, whose projections do
    not overlap, and not all in one plane), the same sets the conservative
-   depth buffer's crease rule covers across their seams. Faces of closed
-   parts are left to the boxes.
+   depth buffer's crease rule covers across their seams, but for those mostly
+   made of large planar regions (a brush's top and its bevels, which the
+   regions' pieces cover); then the edge-connected sets of the open faces in
+   no patch and no region. Faces of closed parts are left to the boxes.
 2. Chunks: each sheet cut by a square grid across its mean normal into cells
    of about :data:`SHEET_CHUNK` triangles (a triangle goes by its centroid),
    each cell's triangles split into their edge-connected sets; chunks side
@@ -94,7 +96,7 @@ def sheet_chunks(vertices: np.ndarray, faces: np.ndarray, open_faces: np.ndarray
         sorted, in row-major order of their cells. The height-field patches
         come first, in the order :func:`viscore._patches.height_field_patches`
         numbers them; then the edge-connected sets of two or more of the faces
-        in none (steep strips, a fold's triangles) and not ``planar``, each a
+        in none (steep strips, a fold's triangles) and in no ``region``, each a
         sheet.
 
     Examples

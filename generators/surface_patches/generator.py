@@ -551,9 +551,10 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     t0 = time.perf_counter()
     chunks, sheets_skipped = _sheet_candidates(vertices, faces, closed, region_of,
                                                sheets=sheets, floor=floor, budget=budget)
-    for members in chunks:  # one stage each: the chunk's own triangles, after the boxes
-        values.append(np.array([chunk_measure(vertices[faces[members]])]))
-        counts.append(np.array([len(members)], dtype=np.int64))
+    sheet_tris = [vertices[faces[members]] for members in chunks]
+    for tri in sheet_tris:  # one stage each: the chunk's own triangles, after the boxes
+        values.append(np.array([chunk_measure(tri)]))
+        counts.append(np.array([len(tri)], dtype=np.int64))
     timing["sheets"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -564,7 +565,6 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         rings = [frame[0] + loop[:, :1] * frame[1] + loop[:, 1:2] * frame[2]
                  for (frame, _, _), ch in zip(cands, chains, strict=True)
                  for loop in [ch.stage_ring(0) * grid]]
-        sheet_tris = [vertices[faces[members]] for members in chunks]
         stages = select_with_overlap(values, counts,
                                      candidate_bitmaps(mesh, rings, box_faces(corners),
                                                        sheet_tris),
