@@ -368,10 +368,10 @@ def _corner_depths(cam, lo, hi):
 
 
 def _pixel_bounds(buf, lo, hi, nearest):
-    """(n, H, W) the plain rule's distance bound per box and pixel: the box's nearest
-    distance when it lies in front of the eye's plane; else the larger of its Euclidean
-    distance and its in-view part's least forward depth (``nearest``) times the secant of
-    the pixel's ray nearest the view axis."""
+    """(n, H, W) the plain rule's distance bound per box and pixel: the larger of the box's
+    Euclidean distance and a least forward depth times the secant of the pixel's ray nearest
+    the view axis: the box's own when it lies in front of the eye's plane and inside the
+    screen's edges; else its in-view part's (``nearest``)."""
     cam = buf.camera
     h, w = buf.shape
 
@@ -384,10 +384,17 @@ def _pixel_bounds(buf, lo, hi, nearest):
                   + least(h, cam._half_vertical)[:, None] ** 2)
     gap = np.maximum(lo - cam.position, 0) + np.maximum(cam.position - hi, 0)
     dist = np.linalg.norm(gap, axis=1)
-    front = (_corner_depths(cam, lo, hi) > 0).all(axis=1)
-    out = np.where(front[:, None, None], dist[:, None, None],
-                   np.maximum(dist[:, None, None], nearest[:, None, None] * sec[None]))
-    return out * np.where(front, 1.0, 1 - 1e-12)[:, None, None]
+    depth = _corner_depths(cam, lo, hi)
+    front = (depth > 0).all(axis=1)
+    rel = _corners(lo, hi) - cam.position
+    with np.errstate(divide="ignore", invalid="ignore"):
+        col = ((rel @ cam.basis[1]) / depth * (0.5 / cam._half) + 0.5) * w
+        row = (0.5 - (rel @ cam.basis[2]) / depth * (0.5 / cam._half_vertical)) * h
+    inside = front & (col >= 0).all(axis=1) & (col <= w).all(axis=1) & (row >= 0).all(
+        axis=1) & (row <= h).all(axis=1)
+    least_depth = np.where(inside, depth.min(axis=1), nearest)
+    return np.maximum(dist[:, None, None],
+                      least_depth[:, None, None] * sec[None] * (1 - 1e-12))
 
 
 def test_box_crossing_the_eye_plane_is_tested_by_its_part_in_view():
@@ -656,3 +663,20 @@ def test_clipped_part_depth_and_rectangle_against_a_linear_program(rng):
         assert (col >= rect[k, 2]).all() and (col < rect[k, 3] + 1).all()
         assert (row >= rect[k, 0]).all() and (row < rect[k, 1] + 1).all()
     assert found > 30 and (~ok).sum() > 5
+
+
+def test_off_axis_box_behind_a_wall_is_culled_by_its_forward_depth():
+    """A wall across the view at forward depth 10, and boxes 0.2 behind it far off the
+    view axis (x / z from 0.75 to 0.98, one reaching past the screen's edge). Through
+    their pixels the wall lies up to 14.0 away, farther than the boxes' Euclidean
+    distance (12.97): only the per-pixel bound, forward depth 10.2 times each ray's
+    secant, shows them behind the wall. A box in front of the wall is kept."""
+    wall = trimesh.creation.box(bounds=[[-50, -50, 9.9], [50, 50, 10]])
+    cam = PerspectiveCamera((0, 0, 0), (0, 0, 1), up=(0, 1, 0), fov=90, resolution=1280,
+                            height=720)
+    buf = ConservativeDepthBuffer.from_occluders(wall, cam, width=320, height=180)
+    lo = np.array([[8.0, -0.5, 10.2], [8.0, -0.5, 10.2], [8.0, -0.5, 9.0]])
+    hi = np.array([[10.0, 0.5, 10.6], [14.0, 0.5, 10.6], [10.0, 0.5, 9.5]])
+    gap = np.maximum(lo, 0)
+    assert (np.linalg.norm(gap[:2], axis=1) < 13.0).all()  # nearer than the wall's 14.0
+    assert buf.occluded(lo, hi).tolist() == [True, True, False]

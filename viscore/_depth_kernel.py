@@ -426,11 +426,11 @@ def thin_rectangles(lo, hi, eye, r, u, f, hx, hy, w, h, rect):
 def occluded_boxes(lo, hi, eye, r, u, f, hx, hy, slack, depth, out):
     """Set ``out[k]`` for the boxes hidden in the buffer: the eye outside, the screen
     rectangle (widened by ``slack`` pixels) meeting the screen, and every pixel it touches
-    nearer than the box's nearest point. A box with a corner on or behind the eye's plane
-    is tested by its part in the view pyramid (:func:`_clipped_screen`), against, per
-    pixel, the larger of the box's distance and that part's least forward depth times
-    the secant of the pixel's ray nearest the view axis (a lower bound of the distance of
-    every point of the part a ray through the pixel meets)."""
+    nearer than a lower bound of the distance at which a ray through the pixel meets the
+    box: the larger of the box's distance and its least forward depth times the secant of
+    the pixel's ray nearest the view axis. A box with a corner on or behind the eye's plane,
+    or reaching beyond the screen, is tested by its part in the view pyramid
+    (:func:`_clipped_screen`), with that part's least forward depth."""
     h, w = depth.shape
     for k in range(lo.shape[0]):
         d2 = 0.0
@@ -441,10 +441,16 @@ def occluded_boxes(lo, hi, eye, r, u, f, hx, hy, slack, depth, out):
         if not near > 0:
             continue
         ok, rmin, rmax, cmin, cmax = _box_screen(lo, hi, k, eye, r, u, f, hx, hy, w, h)
+        # the box's least forward depth: a ray through a pixel meets it no nearer than
+        # that times the ray's secant, a bound that grows with the pixel's distance from
+        # the view axis where the Euclidean distance to the box does not
         zmin = 0.0
-        if not ok:
-            # a corner on or behind the eye's plane: the part in the view pyramid, at its
-            # least forward depth
+        for a in range(3):
+            zmin += min(f[a] * (lo[k, a] - eye[a]), f[a] * (hi[k, a] - eye[a]))
+        if not ok or cmin < 0.0 or cmax > w or rmin < 0.0 or rmax > h:
+            # a corner on or behind the eye's plane, or beyond the screen's edge: the part
+            # in the view pyramid, at its least forward depth (the part behind the screen's
+            # edge may be nearer than any a pixel sees)
             ok, rmin, rmax, cmin, cmax, zmin = _clipped_screen(lo, hi, k, eye, r, u, f,
                                                                hx, hy, w, h)
             if not ok:

@@ -940,16 +940,24 @@ class ConservativeDepthBuffer:
         -------
         rect : (n, 4) int64
             ``row0, row1, col0, col1`` inclusive, clipped to the buffer; of the
-            part in the view pyramid for a box crossing the eye's plane.
+            part in the view pyramid for a box crossing the eye's plane or
+            reaching beyond the screen's edge.
         nearest : (n,) float64
             Distance from the eye to the nearest point of the box (0 when the
-            box contains the eye); for a box crossing the eye's plane, the
-            least forward depth of its part in the view pyramid (a lower bound
-            of that part's distance).
+            box contains the eye); for a box crossing the eye's plane or the
+            screen's edge, the least forward depth of its part in the view
+            pyramid (a lower bound of that part's distance).
         testable : (n,) bool
             The box (or its part in the view pyramid) strictly in front of the
             eye's plane, the eye outside it, and the clipped rectangle not
             empty; only these can be culled.
+
+        Notes
+        -----
+        :meth:`occluded` compares each pixel of ``rect`` with the larger of the
+        box's distance and a least forward depth (the box's, or for a box
+        crossing the eye's plane or the screen's edge its part's,
+        ``nearest``) times the secant of the pixel's ray nearest the view axis.
         """
         lo, hi = _as_boxes(lower, upper)
         cam = self.camera
@@ -959,7 +967,10 @@ class ConservativeDepthBuffer:
                                       w, h)
         gap = np.maximum(lo - eye, 0) + np.maximum(eye - hi, 0)
         nearest = np.sqrt(np.einsum("ij,ij->i", gap, gap))
-        across = np.flatnonzero(~front & (nearest > 0))
+        with np.errstate(invalid="ignore"):
+            beyond = front & ((bounds[:, 0] < 0) | (bounds[:, 1] > h) | (bounds[:, 2] < 0)
+                              | (bounds[:, 3] > w))
+        across = np.flatnonzero((~front | beyond) & (nearest > 0))
         if len(across):  # the part of each in the view pyramid, at its least forward depth
             from ._depth_kernel import clipped_rectangles
 
@@ -972,7 +983,7 @@ class ConservativeDepthBuffer:
             bounds[across[ok]] = part[ok]
             nearest[across[ok]] = zmin[ok]
             front = front.copy()
-            front[across[ok]] = True
+            front[across] = ok
         with np.errstate(invalid="ignore"):
             r0, r1, c0, c1 = np.floor(bounds + [-_RECT_SLACK, _RECT_SLACK, -_RECT_SLACK,
                                                  _RECT_SLACK]).T
