@@ -15,7 +15,9 @@ folder, each one occluder set in world space, conservative only when the
 file says so), the camera
 path (:func:`viscore.metrics.culling.camera_path` or ``--path``) and the
 simulation against the ray-cast ground truth
-(:func:`viscore.metrics.culling.simulate_culling`). Every argument is checked
+(:func:`viscore.metrics.culling.simulate_culling`), with each object tested through its
+box or, with ``--bounds clusters[:N]``, through the boxes of its triangle clusters
+(:func:`viscore.occludee_bounds.object_cluster_boxes`). Every argument is checked
 before any work (``--methods`` and ``--frusta-method`` by their generators' own rules
 across options, :func:`viscore.generators.check_method`; the scene, the occluder files and
 the camera path are read, the output folder checked, the frames capped at
@@ -81,12 +83,16 @@ from viscore.metrics.culling import (
 from viscore import InputError, provenance
 from viscore._atomic import fsync_path, swap_folder
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
+from viscore.occludee_bounds import MAX_CLUSTERS, object_cluster_boxes
 
 from ._common import RateEstimate, check_output_folder, dumps, emit, file_mode
 from .study.store import lock_exclusive
 
 #: Frames of a generated camera path when ``--frames`` is not given.
 DEFAULT_FRAMES = 100
+
+#: Clusters per object of ``--bounds clusters`` without a count.
+DEFAULT_CLUSTERS = 64
 
 #: Largest image side accepted by ``--width`` and ``--height``, pixels.
 MAX_SIDE = 8192
@@ -170,6 +176,12 @@ def add_parser(sub, common) -> None:
     c.add_argument("--rank", choices=["faces", "eq4"], default="faces",
                    help="ranking of the solids: as their best face by eq. 3 (default) or the "
                         "paper's f_solid of eq. 4")
+    c.add_argument("--bounds", default="box", metavar="box|clusters[:N]",
+                   help="what a runtime tests of an object: its box (default, as an engine "
+                        "tests an instance), or the boxes of up to N clusters of its "
+                        f"triangles (default N {DEFAULT_CLUSTERS}), the object culled when "
+                        "all of them are: a level exported as a few big chunks, whose boxes "
+                        "hold the eye, can then be culled where its visible parts are hidden")
     c.add_argument("--per-object", action="store_true",
                    help="make every method's occluders object by object; by default "
                         f"{', '.join(JOINED_METHODS)} is made once over the occluder objects "
@@ -193,6 +205,22 @@ def _names(text: str | None, option: str) -> list[str] | None:
 def _methods(text: str | None, option: str = "--methods") -> list[str]:
     methods = _names(_default_methods() if text is None else text, option)
     return list(dict.fromkeys(check_method(m, option).label for m in methods))
+
+
+def _bounds(text: str) -> int:
+    """``--bounds``: the clusters per object (1 for ``box``)."""
+    kind, _, count = str(text).strip().partition(":")
+    if kind == "box" and not count:
+        return 1
+    if kind == "clusters":
+        if not count:
+            return DEFAULT_CLUSTERS
+        try:
+            return as_positive_int(int(count), "--bounds clusters:N", maximum=MAX_CLUSTERS)
+        except ValueError:
+            pass
+    raise InputError(f"--bounds: expected box, clusters or clusters:N (N from 1 to "
+                     f"{MAX_CLUSTERS}), got {text!r}")
 
 
 def _out_dir(text: str) -> Path:
@@ -315,7 +343,9 @@ def _table(doc: dict) -> str:
     gt = doc["ground_truth"]
     lines = [f"{doc['scene']}: {s['objects']:,} objects ({s['triangles']:,} triangles), "
              f"{doc['occluder_objects']} with occluders, {s['frames']} frames at "
-             f"{s['width']} x {s['height']} (frusta from {doc['frusta_method']})",
+             f"{s['width']} x {s['height']} (frusta from {doc['frusta_method']}"
+             + ("" if doc.get("bounds", {}).get("kind", "box") == "box" else
+                f"; objects tested by {doc['bounds']['boxes']:,} cluster boxes") + ")",
              f"{'runtime':<28} {'culled':>7} {'false':>6} {'triangles/frame':>16} "
              f"{'overhead ms':>12} {'conservative':>12}"]
     for name, t in doc["totals"].items():
@@ -357,6 +387,7 @@ def run_cull(args) -> int:
         raise InputError(f"--frusta-method: expected one method, got {args.frusta_method!r}")
     source = source[0]
     names = _names(args.occluders, "--occluders")
+    clusters = _bounds(args.bounds)
     files = _occluder_files(args.occluder_files, methods)
     out = _out_dir(args.out)
     check_culling_memory(width, height)
@@ -384,7 +415,7 @@ def run_cull(args) -> int:
         doc = _simulate(args, objects, indices, path, folder, progress=progress, seed=seed,
                         frames=frames, methods=methods, source=source, active=active,
                         reduction=reduction, width=width, height=height, files=files,
-                        flat=level.flat)
+                        flat=level.flat, clusters=clusters)
     emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
          "(replay with --path)")
     return 0
@@ -437,7 +468,7 @@ def _check_frames_memory(frames: int, what: str) -> None:
 
 def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: bool, seed: int,
               frames, methods, source, active, reduction, width, height,
-              files: dict | None = None, flat=None) -> dict:
+              files: dict | None = None, flat=None, clusters: int = 1) -> dict:
     """The work and the files of :func:`run_cull`; returns the JSON document."""
     from tqdm import tqdm
 
@@ -453,15 +484,18 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
                                           frusta_source=source, cap=args.cap,
                                           rank=args.rank, progress=tick, files=files,
                                           joined=() if args.per_object else None, flat=flat)
+    bounds = None if clusters == 1 else object_cluster_boxes(objects, clusters)
     with tqdm(total=len(path), desc="frames", unit="frame", disable=not progress,
               leave=False) as bar:
         tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
-                                  progress=tick)
+                                  progress=tick, bounds=bounds)
     doc = {"scene": args.scene, "occluder_objects": len(indices),
            "frusta_method": source, "methods": methods,
            "occluder_files": {name: occ.params["file"] for name, occ in (files or {}).items()},
            "seed": seed, "per_object": bool(args.per_object),
+           "bounds": ({"kind": "box"} if bounds is None else
+                      {"kind": "clusters", "clusters": clusters, "boxes": len(bounds[2])}),
            "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
            **result.to_json(),
            "runtimes": info, "provenance": provenance()}

@@ -246,10 +246,33 @@ class CullingResult:
         }
 
 
+def _check_bounds(bounds, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``bounds`` of :func:`simulate_culling` as arrays, checked: one line on a mismatch."""
+    try:
+        lower, upper, owner = bounds
+    except (TypeError, ValueError):
+        raise InputError("bounds: expected (lower, upper, owner)") from None
+    lower = np.asarray(lower, dtype=np.float64)
+    upper = np.asarray(upper, dtype=np.float64)
+    owner = np.asarray(owner)
+    c = len(owner)
+    if (lower.shape != (c, 3) or upper.shape != (c, 3) or owner.ndim != 1
+            or not np.issubdtype(owner.dtype, np.integer)):
+        raise InputError(f"bounds: expected (c, 3) lower and upper and (c,) integer owner, "
+                         f"got {lower.shape}, {upper.shape} and {owner.shape}")
+    if not np.isfinite(lower).all() or not np.isfinite(upper).all() or (lower > upper).any():
+        raise InputError("bounds: boxes must be finite with lower <= upper")
+    if c == 0 or owner[0] < 0 or owner[-1] >= n or (np.diff(owner) < 0).any():
+        raise InputError(f"bounds: owner must be non-decreasing object indices in [0, {n})")
+    return lower, upper, owner.astype(np.int64)
+
+
 def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
                      path: Sequence[PathCamera], *, width: int = DEFAULT_WIDTH,
                      height: int = DEFAULT_HEIGHT,
-                     progress: Callable[[int], None] | None = None) -> CullingResult:
+                     progress: Callable[[int], None] | None = None,
+                     bounds: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+                     ) -> CullingResult:
     """Run every culling runtime along a camera path against the ray-cast ground truth.
 
     Parameters
@@ -267,6 +290,14 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
         fields of view are horizontal.
     progress : callable, optional
         Called with 1 after each frame (a progress bar's ``update``).
+    bounds : (lower, upper, owner), optional
+        Occludee bounds tighter than each object's box: ``(c, 3)`` boxes and
+        the ``(c,)`` non-decreasing object index of each, every object with at
+        least one (:func:`viscore.occludee_bounds.object_cluster_boxes`).
+        Runtimes then get these boxes, and an object is culled when every one
+        of its boxes in the view frustum is; view frustum culling keeps an
+        object when its box and one of its boxes may intersect the frustum.
+        Default: each object's own box.
 
     Returns
     -------
@@ -305,6 +336,8 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     scene, triangle_object = objects.combined
     n = len(objects)
     lower, upper, tris = objects.lower, objects.upper, objects.triangles
+    if bounds is not None:
+        b_lower, b_upper, owner = _check_bounds(bounds, n)
     names = list(runtimes)
     count = len(cameras)
     in_view_n = np.zeros(count, np.int64)
@@ -323,19 +356,27 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
         visible = np.zeros(n, dtype=bool)
         visible[np.unique(triangle_object[hit])] = True
         in_view = view_frustum_mask(camera, lower, upper)
-        idx = np.flatnonzero(in_view)
+        if bounds is None:
+            idx = np.flatnonzero(in_view)
+            lo, hi, starts = lower[idx], upper[idx], None
+        else:
+            keep = np.flatnonzero(in_view[owner])
+            keep = keep[view_frustum_mask(camera, b_lower[keep], b_upper[keep])]
+            idx, starts = np.unique(owner[keep], return_index=True)
+            lo, hi = b_lower[keep], b_upper[keep]
         in_view_n[f], in_view_t[f] = len(idx), int(tris[idx].sum())
         visible_n[f], visible_t[f] = int(visible.sum()), int(tris[visible].sum())
-        lo, hi = lower[idx], upper[idx]
         for name in names:
             if f == 0:  # warm-up, untimed: compiling the kernels is not a frame's overhead
                 runtimes[name].cull(camera, lo, hi)
             start = time.perf_counter()
             mask = np.asarray(runtimes[name].cull(camera, lo, hi), dtype=bool)
             elapsed = time.perf_counter() - start
-            if mask.shape != (len(idx),):
+            if mask.shape != (len(lo),):
                 raise ValueError(f"runtime {name!r}: cull returned shape {mask.shape}, "
-                                 f"expected ({len(idx)},)")
+                                 f"expected ({len(lo)},)")
+            if starts is not None:  # an object is culled when all its boxes are
+                mask = np.logical_and.reduceat(mask, starts) if len(mask) else mask
             culled = idx[mask]
             false = culled[visible[culled]]
             rendered = tris[idx].sum() - tris[culled].sum()

@@ -1,0 +1,153 @@
+"""Cluster bounds of occludees: boxes that hold every triangle, and a chunk culled through them."""
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+from viscore.cli.main import main
+from viscore.metrics.culling import (
+    PathCamera,
+    depth_buffer_runtime,
+    no_culling,
+    simulate_culling,
+)
+
+from viscore import InputError
+from viscore.occludee_bounds import cluster_boxes, object_cluster_boxes
+from viscore.scene_graph import load_scene_objects
+
+UP = np.array([0.0, 1.0, 0.0])
+
+
+def _pose(position, forward, fov=90.0):
+    return PathCamera(position=np.asarray(position, float), forward=np.asarray(forward, float),
+                      up=UP, fov=fov)
+
+
+def test_cluster_boxes_hold_every_triangle_and_part_separated_pieces():
+    mesh = trimesh.creation.icosphere(subdivisions=3)
+    lo, hi = cluster_boxes(mesh.vertices, mesh.faces, 16)
+    assert 1 < len(lo) <= 16
+    tri = mesh.triangles
+    inside = ((tri.min(axis=1)[:, None] >= lo[None] - 1e-12)
+              & (tri.max(axis=1)[:, None] <= hi[None] + 1e-12)).all(axis=2)
+    assert inside.any(axis=1).all()  # every triangle lies in some cluster's box
+    assert np.allclose(lo.min(axis=0), mesh.bounds[0]) and np.allclose(hi.max(axis=0),
+                                                                       mesh.bounds[1])
+    # two unit cubes 10 apart: two clusters are the two cubes' boxes exactly
+    pair = trimesh.util.concatenate([trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]]),
+                                     trimesh.creation.box(bounds=[[10, 0, 0], [11, 1, 1]])])
+    lo, hi = cluster_boxes(pair.vertices, pair.faces, 2)
+    order = np.argsort(lo[:, 0])
+    assert lo[order].tolist() == [[0, 0, 0], [10, 0, 0]]
+    assert hi[order].tolist() == [[1, 1, 1], [11, 1, 1]]
+    # one cluster is the mesh's box; a single triangle is never split
+    lo, hi = cluster_boxes(pair.vertices, pair.faces, 1)
+    assert lo.tolist() == [[0, 0, 0]] and hi.tolist() == [[11, 1, 1]]
+    assert len(cluster_boxes([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], 8)[0]) == 1
+
+
+def test_object_cluster_boxes_follow_instances():
+    box = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+    scene = trimesh.Scene()
+    scene.add_geometry(box, geom_name="b", node_name="a")
+    scene.add_geometry(box, geom_name="b", node_name="c",
+                       transform=trimesh.transformations.translation_matrix([5, 0, 0]))
+    scene.add_geometry(trimesh.creation.icosphere(subdivisions=2), geom_name="s",
+                       node_name="d",  # turned: its clusters' boxes turn out of its own
+                       transform=trimesh.transformations.rotation_matrix(np.pi / 6, [0, 1, 0]))
+    objects = load_scene_objects(scene)
+    lo, hi, owner = object_cluster_boxes(objects, 4)
+    assert owner.tolist() == sorted(owner.tolist()) and set(owner.tolist()) == {0, 1, 2}
+    for i in range(3):
+        mine = owner == i
+        # every cluster box inside the object's box, and together they reach its sides
+        assert (lo[mine] >= objects.lower[i] - 1e-12).all()
+        assert (hi[mine] <= objects.upper[i] + 1e-12).all()
+        assert np.allclose(lo[mine].min(axis=0), objects.lower[i])
+        assert np.allclose(hi[mine].max(axis=0), objects.upper[i])
+        # and every world triangle lies in one of them
+        tri = objects.object_triangles(i)
+        inside = ((tri.min(axis=1)[:, None] >= lo[mine][None] - 1e-9)
+                  & (tri.max(axis=1)[:, None] <= hi[mine][None] + 1e-9)).all(axis=2)
+        assert inside.any(axis=1).all()
+    with pytest.raises(InputError, match="clusters"):
+        object_cluster_boxes(objects, 0)
+
+
+def _chunk_scene(layout: str):
+    """A wall in front of the camera and one object of two cubes (a chunk of a level).
+
+    The camera at the origin looks along +z at a 2 m wall 3 m ahead. ``hidden``: one cube
+    5 m ahead behind the wall, the other 5 m behind the eye (out of view), so the chunk's
+    box holds the eye and no box test can cull it. ``beside``: the cube ahead is beside the
+    wall, in view. ``half``: both cubes ahead, one behind the wall, one beside it.
+    """
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.creation.box(bounds=[[-1, -1, 2.9], [1, 1, 3.1]]),
+                       geom_name="wall", node_name="wall")
+    behind_wall = [[-0.5, -0.5, 5], [0.5, 0.5, 6]]
+    beside_wall = [[-3.5, -0.5, 5], [-2.5, 0.5, 6]]
+    behind_eye = [[-0.5, -0.5, -6], [0.5, 0.5, -5]]
+    cubes = {"hidden": [behind_wall, behind_eye], "beside": [beside_wall, behind_eye],
+             "half": [behind_wall, beside_wall]}[layout]
+    chunk = trimesh.util.concatenate([trimesh.creation.box(bounds=b) for b in cubes])
+    scene.add_geometry(chunk, geom_name="chunk", node_name="chunk")
+    return load_scene_objects(scene)
+
+
+@pytest.mark.parametrize("layout", ["hidden", "beside", "half"])
+def test_a_chunk_is_culled_through_its_clusters_only_when_all_are_hidden(layout):
+    objects = _chunk_scene(layout)
+    wall = trimesh.creation.box(bounds=[[-0.95, -0.95, 2.95], [0.95, 0.95, 3.05]])
+    runtimes = {"none": no_culling(), "depth": depth_buffer_runtime([wall])}
+    poses = [_pose((0, 0, 0), (0, 0, 1))]
+    box = simulate_culling(objects, runtimes, poses, width=96, height=54)
+    clusters = simulate_culling(objects, runtimes, poses, width=96, height=54,
+                                bounds=object_cluster_boxes(objects, 2))
+    hidden = layout == "hidden"
+    assert box.visible[0] == (1 if hidden else 2)
+    if layout != "half":
+        assert box.runtimes["depth"].culled.tolist() == [0]  # the chunk's box holds the eye
+    assert clusters.runtimes["depth"].culled.tolist() == [1 if hidden else 0]
+    assert clusters.runtimes["depth"].false_culls.tolist() == [0]
+    assert clusters.runtimes["none"].culled.tolist() == [0]
+    assert box.in_view.tolist() == clusters.in_view.tolist() == [2]
+
+
+def test_simulate_culling_refuses_bad_bounds():
+    objects = _chunk_scene("hidden")
+    poses = [_pose((0, 0, 0), (0, 0, 1))]
+    lo, hi, owner = object_cluster_boxes(objects, 2)
+    for bad, match in [((lo, hi), "expected"), ((lo, hi[:1], owner), "expected"),
+                       ((lo, hi, owner[::-1]), "non-decreasing"),
+                       ((lo, hi, owner + 5), "non-decreasing"),
+                       ((hi, lo, owner), "lower <= upper")]:
+        with pytest.raises(InputError, match=match):
+            simulate_culling(objects, {"none": no_culling()}, poses, width=32, height=18,
+                             bounds=bad)
+
+
+def test_cull_cli_bounds_option(tmp_path, capsys):
+    scene = trimesh.Scene()
+    for i in range(4):  # four walls of a yard and a long chunk across it
+        scene.add_geometry(trimesh.creation.box(extents=[20, 0.5, 4]), geom_name=f"w{i}",
+                           node_name=f"w{i}", transform=trimesh.transformations.rotation_matrix(
+                               i * np.pi / 2, [0, 1, 0]) @ trimesh.transformations.
+                           translation_matrix([0, 2, 10]) @ trimesh.transformations.
+                           rotation_matrix(np.pi / 2, [1, 0, 0]))
+    scene.add_geometry(trimesh.creation.box(extents=[1, 1, 1]), geom_name="c", node_name="c")
+    level = tmp_path / "yard.glb"
+    scene.export(level)
+    out = tmp_path / "run"
+    assert main(["cull", str(level), "--frames", "3", "--methods", "aabb-skins", "--bounds",
+                 "clusters:8", "--width", "160", "--height", "90", "--out", str(out), "--json",
+                 "--quiet"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["bounds"]["kind"] == "clusters" and doc["bounds"]["clusters"] == 8
+    assert doc["bounds"]["boxes"] > doc["settings"]["objects"]
+    for bad in ["clusters:0", "clusters:x", "sphere", "box:3"]:
+        assert main(["cull", "--bounds", bad, "--out", str(tmp_path / "x"), "--quiet"]) == 2
+        assert "--bounds" in capsys.readouterr().err
+        assert not (tmp_path / "x").exists()
