@@ -157,11 +157,13 @@ CASES = {
         lambda m: generate_planar_sections(m, voxels=24, **_PLANAR), False),
     ("planar-sections", "box-off-the-grid"): (
         _box_off_the_grid, lambda m: generate_planar_sections(m, voxels=8, **_PLANAR), True),
+    # no budget: a budget that holds these small meshes would keep them as they are
     ("surface-patches", "stepped-wall"): (
         lambda: _stepped_wall(10 * _eps(_stepped_wall(0.0))),
-        lambda m: generate_surface_patches(m), True),
+        lambda m: generate_surface_patches(m, budget=None), True),
     ("surface-patches", "hollow-box"): (lambda: _hollow_box(2.0, 1.6),
-                                        lambda m: generate_surface_patches(m), True),
+                                        lambda m: generate_surface_patches(m, budget=None),
+                                        True),
 }
 
 

@@ -300,7 +300,7 @@ def test_ground_curtains_need_a_sealed_space():
     assert box.info["curtain_candidates"] == 0 and box.info["ground_parts"] == 0
     assert sheet.info["curtain_candidates"] == 0
     lone = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 1]], [[0, 1, 2]], process=False)
-    empty = generate_surface_patches(lone, ground="auto", up="z")
+    empty = generate_surface_patches(lone, ground="auto", up="z", budget=None)
     assert empty.triangles == 0 and "no open part seals" in empty.info["empty_reason"]
     whole = generate_surface_patches(hill, ground="auto", up="z", budget=64,
                                      selection="separate")
@@ -330,3 +330,20 @@ def test_ground_curtains_refuse_a_part_with_an_overhang(monkeypatch):
     eps = 1e-5 * float(np.linalg.norm(ball.extents))
     hits, _ = _violations(ball, bad, side, np.tile([1.0, 0.0, 0.0], (n, 1)), eps)
     assert hits > 0
+
+
+def test_a_budget_that_holds_the_input_keeps_it_as_it_is():
+    """Nothing within a surface covers more than the surface: the window wall's 8
+    triangles under a budget of 8 or more are the occluder, vertex for vertex (P = R = 1
+    on any protocol), degenerate faces left out; a budget of 7 searches the regions."""
+    wall = _wall_with_window()
+    sliver = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[0, 1, 2]], process=False)
+    mesh = trimesh.util.concatenate([wall, sliver])  # 9 faces, one of zero area
+    occ = generate_surface_patches(mesh, budget=8)
+    assert occ.info["whole_input"] is True and occ.info["conservative_guaranteed"] is True
+    assert occ.triangles == 8
+    np.testing.assert_array_equal(np.sort(occ.mesh.triangles.reshape(-1, 9), axis=0),
+                                  np.sort(wall.triangles.reshape(-1, 9), axis=0))
+    assert len(occ.parts["polygons"]) == 8
+    smaller = generate_surface_patches(mesh, budget=7)
+    assert smaller.info["whole_input"] is False and smaller.triangles <= 7

@@ -340,7 +340,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         rim'``); ``sheet_candidates`` and ``sheets`` (chunks offered and
         kept), ``sheet_faces`` (input faces kept as they are),
         ``sheets_skipped`` (why no sheet was looked for, or None);
-        ``seconds_steps``.
+        ``whole_input`` (True when the budget held the whole input, kept as
+        it is); ``seconds_steps``.
 
     Raises
     ------
@@ -360,7 +361,9 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     closed parts' bounding box): a curved open surface (a sphere with a hole,
     a dome) gets neither. May end under the budget, or empty (no planar
     region large enough and no box); an empty result logs one warning line
-    saying why (``info["empty_reason"]``).
+    saying why (``info["empty_reason"]``). A ``budget`` that holds every
+    non-degenerate triangle of the input gets them as they are
+    (``info["whole_input"]`` True): nothing within the surface covers more.
 
     The guarantee. Every occluder triangle lies in the plane of a region,
     inside the union of the region's triangles projected into that plane,
@@ -467,6 +470,10 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
               "min_area": min_area, "chain": chain, "boxes": boxes, "ground": ground,
               "up": up, "selection": selection, "sheets": sheets}
     timing = {}
+    if budget is not None:
+        whole = _whole_input(vertices, faces, budget, params, diag, start)
+        if whole is not None:
+            return whole
 
     t0 = time.perf_counter()
     regions = plane_regions(vertices, faces, tolerance=plane_tolerance * diag)
@@ -650,7 +657,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         _log.warning("surface-patches: no occluder for %s: %s",
                      mesh.metadata.get("name", "the mesh"), empty_reason)
     info = {"conservative_guaranteed": bool(not len(kept_boxes) or boxes_claim is True),
-            "regions": len(regions), "regions_used": used,
+            "whole_input": False, "regions": len(regions), "regions_used": used,
             "candidates": found, "polygons": patch_polygons,
             "area_kept": area / total if total > 0 else 0.0, "dropped_triangles": dropped,
             "plane_tolerance": plane_tolerance * diag, "erosion": EROSION * diag,
@@ -669,6 +676,39 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
             "seconds_steps": timing}
     return Occluder(mesh=occ_mesh, method="surface-patches", params=params, double_sided=True,
                     seconds=time.perf_counter() - start, parts={"polygons": polygons},
+                    info=info)
+
+
+def _whole_input(vertices: np.ndarray, faces: np.ndarray, budget: int, params: dict,
+                 diag: float, start: float) -> Occluder | None:
+    """The input's own triangles when the budget holds every one of them, else None.
+
+    No occluder within the input's surface covers more than the surface itself, and its
+    own triangles are conservative from every viewpoint; so a budget of at least the
+    input's (non-degenerate) triangles is spent on them as they are. A low-poly game level
+    under a per-object budget is the usual case: Quake's E1M1, 14,743 triangles over 96
+    occluder objects at 260 each.
+    """
+    tri = vertices[faces]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    keep = np.flatnonzero(area > 0)
+    if len(keep) == 0 or len(keep) > budget:
+        return None
+    mesh = trimesh.Trimesh(vertices, faces[keep], process=False)
+    mesh.remove_unreferenced_vertices()
+    info = {"conservative_guaranteed": True, "whole_input": True, "regions": 0,
+            "regions_used": 0, "candidates": 0, "polygons": 0, "area_kept": 1.0,
+            "dropped_triangles": 0, "plane_tolerance": params["plane_tolerance"] * diag,
+            "erosion": 0.0, "grid": GRID * diag, "eps": CONSERVATIVE_EPS_RELATIVE * diag,
+            "closed_faces": 0, "box_candidates": 0, "boxes": 0, "boxes_guaranteed": None,
+            "box_pitch": None, "empty_reason": None, "curtain_candidates": 0, "curtains": 0,
+            "ground_parts": 0, "ground_parts_layered": 0, "up": None,
+            "guarantee": "every viewpoint", "sheet_candidates": 0, "sheets": 0,
+            "sheet_faces": int(len(keep)),
+            "sheets_skipped": f"the budget {budget} holds the input's {len(keep)} triangles",
+            "seconds_steps": {}}
+    return Occluder(mesh=mesh, method="surface-patches", params=params, double_sided=True,
+                    seconds=time.perf_counter() - start, parts={"polygons": list(tri[keep])},
                     info=info)
 
 
