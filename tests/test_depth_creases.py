@@ -22,6 +22,12 @@ def _corner():
 
 def _without_pairs(occ: OccluderScene) -> OccluderScene:
     occ._flat_pairs = occ._flat_pairs[:0]
+    occ._region_creases = False  # the line rule of two regions covers such creases too
+    return occ
+
+
+def _without_region_creases(occ: OccluderScene) -> OccluderScene:
+    occ._region_creases = False
     return occ
 
 
@@ -119,3 +125,88 @@ def test_rooms_of_boxes_never_nearer_and_nothing_seen_is_culled(seed):
         o, d = cam.rays()
         _, tri = Scene(both).first_hit(o, d)
         assert not (tri >= len(world.faces)).any()
+
+
+def _wall_on_a_floor():
+    """A floor 20 x 30 (y up) and, standing on it at z = 10, a wall 10 wide and 4 high of
+    its own (no edge shared: the floor goes on behind the wall, a T-junction)."""
+    floor = trimesh.Trimesh([[-5, 0, 0], [15, 0, 0], [15, 0, 30], [-5, 0, 30]],
+                            [[0, 1, 2], [0, 2, 3]], process=False)
+    wall = trimesh.Trimesh([[0, 0, 10], [10, 0, 10], [10, 4, 10], [0, 4, 10]],
+                           [[0, 1, 2], [0, 2, 3]], process=False)
+    return trimesh.util.concatenate([floor, wall])
+
+
+def test_a_wall_standing_on_a_floor_covers_its_foot_and_a_box_behind_it_is_culled():
+    """No flat pair (the wall and the floor share no edge), so only the line rule of two
+    regions covers the pixels along the wall's foot: with it a box behind the wall, below
+    the floor's level, is culled; without it the foot is a line of open pixels."""
+    level = _wall_on_a_floor()
+    assert len(flat_pairs(level.vertices, level.faces)[1]) == 0
+    cam = PerspectiveCamera((5.3, 1.7, 2.1), (0, -0.05, 1), up=(0, 1, 0), fov=60,
+                            resolution=256, height=144)
+    box = ([[4, -2, 11]], [[6, 1, 12]])
+    on = ConservativeDepthBuffer.from_occluders(OccluderScene([level]), cam)
+    off = ConservativeDepthBuffer.from_occluders(
+        _without_region_creases(OccluderScene([level])), cam)
+    assert on.occluded(*box)[0] and not off.occluded(*box)[0]
+    assert on.covered.sum() > off.covered.sum()
+    assert (on.covered >= off.covered).all()
+    world = trimesh.util.concatenate([level, trimesh.creation.box(bounds=np.vstack(box))])
+    o, d = cam.rays()
+    _, tri = Scene(world).first_hit(o, d)
+    assert not (tri >= len(level.faces)).any()  # the truth: hidden
+
+
+def test_a_wall_with_a_gap_under_it_keeps_its_foot_open():
+    """The same wall lifted 0.05 off the floor: its lower edge is not on the floor's plane,
+    so the pixels along it stay open and a box seen through the gap is never culled."""
+    level = _wall_on_a_floor()
+    level.vertices[4:, 1] += np.where(level.vertices[4:, 1] == 0, 0.05, 0.0)
+    cam = PerspectiveCamera((5.3, 0.025, 2.1), (0, 0, 1), up=(0, 1, 0), fov=60,
+                            resolution=256, height=144)  # the eye at the gap's height
+    box = ([[4, 0.001, 12]], [[6, 0.04, 13]])  # behind the wall, in the gap's height
+    buf = ConservativeDepthBuffer.from_occluders(OccluderScene([level]), cam)
+    world = trimesh.util.concatenate([level, trimesh.creation.box(bounds=np.vstack(box))])
+    o, d = cam.rays()
+    _, tri = Scene(world).first_hit(o, d)
+    assert (tri >= len(level.faces)).any()  # the truth: seen through the gap
+    assert not buf.occluded(*box)[0]
+
+
+@pytest.mark.parametrize("seed", [3, 4, 5])
+def test_blocks_on_a_floor_region_creases_never_nearer(seed):
+    """Blocks standing on a floor of its own, from random eyes: the pixels the line rule
+    of two regions adds are never nearer than the blocks and the floor (24 rays per pixel),
+    and it adds some."""
+    rng = np.random.default_rng(seed)
+    floor = trimesh.Trimesh([[-30, 0, -30], [30, 0, -30], [30, 0, 30], [-30, 0, 30]],
+                            [[0, 2, 1], [0, 3, 2]], process=False)
+    eye = np.r_[rng.uniform(-25, 25), rng.choice([1.7, 4.0, 10.0]), rng.uniform(-25, 25)]
+    blocks = [floor]
+    while len(blocks) < 26:
+        lo = np.r_[rng.uniform(-28, 24), 0.0, rng.uniform(-28, 24)]
+        hi = lo + np.r_[rng.uniform(1, 6), rng.uniform(1, 8), rng.uniform(1, 6)]
+        if not ((lo - 0.5 < eye) & (eye < hi + 0.5)).all():
+            blocks.append(trimesh.creation.box(bounds=[lo, hi]))
+    world = trimesh.util.concatenate(blocks)
+    scene = Scene(world)
+    aim = np.r_[rng.uniform(-20, 20), 0.0, rng.uniform(-20, 20)] - eye
+    cam = PerspectiveCamera(eye, aim, up=(0, 1, 0), fov=80, resolution=192, height=108)
+    on = ConservativeDepthBuffer.from_occluders(OccluderScene([world]), cam)
+    off = ConservativeDepthBuffer.from_occluders(
+        _without_region_creases(OccluderScene([world])), cam)
+    assert (on.covered >= off.covered).all() and on.covered.sum() > off.covered.sum()
+    pixels = np.argwhere(on.covered & ~off.covered)
+    h, w = on.shape
+    f, r, u = cam.basis
+    i, j = pixels[:, 0], pixels[:, 1]
+    px = (j[:, None] + rng.random((len(j), 24))) / w
+    py = (i[:, None] + rng.random((len(i), 24))) / h
+    d = (f + ((px - 0.5) * 2 * cam._half)[..., None] * r
+         + ((0.5 - py) * 2 * cam._half_vertical)[..., None] * u).reshape(-1, 3)
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    t, _ = scene.first_hit(np.broadcast_to(cam.position, d.shape), d)
+    hits = t.reshape(len(i), 24)
+    assert np.isfinite(hits).all()
+    assert (hits <= on.depth[i, j][:, None]).all()

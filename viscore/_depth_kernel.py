@@ -497,3 +497,149 @@ def _nearest_to_centre(i, n, half):  # pragma: no cover
     if (i / n - 0.5) * ((i + 1) / n - 0.5) <= 0.0:
         return 0.0
     return min(a, b)
+
+
+@njit_cached()
+def _plane_distance(pl, eye, r, u, f, x, y):  # pragma: no cover
+    """Distance from the eye along the direction x r + y u + f to plane ``pl`` (n.x =
+    offset, slack) pushed its slack away from the eye; inf when the ray does not meet it
+    in front of the eye."""
+    num = pl[3] - (pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2])
+    num = num + pl[4] if num > 0 else num - pl[4]
+    den = 0.0
+    for a in range(3):
+        den += pl[a] * (x * r[a] + y * u[a] + f[a])
+    t = num / den if den != 0.0 else -1.0
+    return t * math.sqrt(x * x + y * y + 1.0) if t > 0 else np.inf
+
+
+@njit_cached()
+def region_creases(depth, facet, region, stride, region_plane, region_ok, segments,
+                   seg_start, seg3d, xs, ys, eye, r, u, f, tol, on_tol, margin, slack):
+    """Fill the pixels still without depth whose corners hit two coplanar regions that
+    meet along a line through the pixel (a wall standing on a floor, two walls at a
+    corner, with or without a shared edge). Returns the pixels filled.
+
+    A pixel qualifies when its four corner rays hit regions ``A`` and ``B`` (planes not
+    parallel, the eye off both), the image of their planes' line ``L`` separates the
+    corners that hit ``A`` from those that hit ``B``, and every boundary segment of
+    either region that meets the pixel (widened by ``slack``) lies on ``L`` (both ends
+    within ``on_tol`` of both planes). Then on each side of ``L``'s image the pixel's
+    rays meet that side's region: the side is convex, a corner of it hits the region,
+    and no boundary of the region crosses it; the distance to a plane over a convex
+    set of directions is largest at a vertex, so the depth is the largest over the
+    side's corners and the two points where ``L``'s image crosses the pixel's edges
+    (the plane pushed by its slack; plus ``margin``).
+    """
+    h, w = depth.shape
+    filled = 0
+    cidx = np.empty(4, dtype=np.int64)
+    cx = np.empty(4)
+    cy = np.empty(4)
+    side = np.empty(4)
+    lab = np.empty(4, dtype=np.int64)
+    for i in range(h):
+        for j in range(w):
+            if depth[i, j] < np.inf:
+                continue
+            # corners in order around the pixel: top-left, top-right, bottom-right,
+            # bottom-left
+            cidx[0] = i * stride + j
+            cidx[1] = i * stride + j + 1
+            cidx[2] = (i + 1) * stride + j + 1
+            cidx[3] = (i + 1) * stride + j
+            cx[0] = xs[j]
+            cx[1] = xs[j + 1]
+            cx[2] = xs[j + 1]
+            cx[3] = xs[j]
+            cy[0] = ys[i]
+            cy[1] = ys[i]
+            cy[2] = ys[i + 1]
+            cy[3] = ys[i + 1]
+            good = True
+            for k in range(4):
+                if facet[cidx[k]] < 0:  # a miss, or not cast
+                    good = False
+                    break
+                lab[k] = region[cidx[k]]
+                if lab[k] < 0 or not region_ok[lab[k]]:
+                    good = False
+                    break
+            if not good:
+                continue
+            ga = lab[0]
+            gb = -1
+            for k in range(1, 4):
+                if lab[k] != ga:
+                    if gb < 0:
+                        gb = lab[k]
+                    elif lab[k] != gb:
+                        good = False
+            if not good or gb < 0:
+                continue
+            pa = region_plane[ga]
+            pb = region_plane[gb]
+            ha = pa[3] - (pa[0] * eye[0] + pa[1] * eye[1] + pa[2] * eye[2])
+            hb = pb[3] - (pb[0] * eye[0] + pb[1] * eye[1] + pb[2] * eye[2])
+            if abs(ha) <= tol or abs(hb) <= tol:
+                continue
+            cross = (pa[1] * pb[2] - pa[2] * pb[1]) ** 2 + (pa[2] * pb[0] - pa[0] * pb[2]) ** 2 \
+                + (pa[0] * pb[1] - pa[1] * pb[0]) ** 2
+            if cross < 1e-12:
+                continue
+            # the plane through the eye and L: m . d = 0 where both planes are as far
+            m0 = ha * pb[0] - hb * pa[0]
+            m1 = ha * pb[1] - hb * pa[1]
+            m2 = ha * pb[2] - hb * pa[2]
+            sa = 0.0  # the sign of A's side
+            for k in range(4):
+                d0 = f[0] + cx[k] * r[0] + cy[k] * u[0]
+                d1 = f[1] + cx[k] * r[1] + cy[k] * u[1]
+                d2 = f[2] + cx[k] * r[2] + cy[k] * u[2]
+                side[k] = m0 * d0 + m1 * d1 + m2 * d2
+                if side[k] == 0.0:
+                    good = False
+                    break
+                sg = 1.0 if side[k] > 0 else -1.0
+                want = sg if lab[k] == ga else -sg
+                if sa == 0.0:
+                    sa = want
+                elif want != sa:
+                    good = False
+                    break
+            if not good:
+                continue
+            # every boundary segment of A or B meeting the pixel lies on L
+            for g in (ga, gb):
+                for s in range(seg_start[g], seg_start[g + 1]):
+                    if not _crosses(segments, s, s + 1, i - slack, i + 1 + slack, j - slack,
+                                    j + 1 + slack):
+                        continue
+                    for e in range(2):
+                        p0 = seg3d[s, e, 0]
+                        p1 = seg3d[s, e, 1]
+                        p2 = seg3d[s, e, 2]
+                        if abs(pa[0] * p0 + pa[1] * p1 + pa[2] * p2 - pa[3]) > on_tol \
+                                or abs(pb[0] * p0 + pb[1] * p1 + pb[2] * p2 - pb[3]) > on_tol:
+                            good = False
+                    if not good:
+                        break
+                if not good:
+                    break
+            if not good:
+                continue
+            t = 0.0
+            for k in range(4):
+                pl = pa if lab[k] == ga else pb
+                t = max(t, _plane_distance(pl, eye, r, u, f, cx[k], cy[k]))
+                n = (k + 1) % 4
+                if (side[k] > 0) != (side[n] > 0):  # L's image crosses this edge
+                    lam = side[k] / (side[k] - side[n])
+                    x = cx[k] + lam * (cx[n] - cx[k])
+                    y = cy[k] + lam * (cy[n] - cy[k])
+                    t = max(t, max(_plane_distance(pa, eye, r, u, f, x, y),
+                                   _plane_distance(pb, eye, r, u, f, x, y)))
+            if t < np.inf:
+                depth[i, j] = t + margin
+                filled += 1
+    return filled

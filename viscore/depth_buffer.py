@@ -76,6 +76,24 @@ distances at the ends of the creases' parts in the pixel (proof in
 :mod:`viscore._patches`). A crease splits the tiles across it down to
 pixels, so those pixels' corners are already cast.
 
+Two regions along their line
+----------------------------
+A wall standing on a floor that goes on behind it shares no edge with the
+floor (a T-junction: no flat pair), and walls modelled apart meet at a corner
+without one; each such foot or corner is a line of open pixels. Planes of
+one large facet are regions too (:data:`_LONE_FACET_SHARE`), and a last rule
+(:func:`viscore._depth_kernel.region_creases`) takes a pixel still without
+depth whose four corner rays hit two regions ``A`` and ``B`` when the image
+of their planes' line ``L`` separates the corners on ``A`` from those on
+``B`` and every boundary segment of either region that meets the pixel lies
+on ``L`` (both ends within :data:`_CREASE_TOLERANCE` of both planes). Then
+each side of ``L``'s image is a convex part of the pixel with a corner in its
+region and no boundary of that region crossing it, so every ray through it
+meets the region, no farther than the largest distance to the region's plane
+at the part's vertices: its corners and the two points where ``L``'s image
+crosses the pixel's edges. A wall lifted off the floor, whose lower edge is
+not on the floor's plane, keeps its foot open.
+
 How a pixel gets a depth
 ------------------------
 Hierarchically, by area subdivision (Warnock [4]_, and the pyramid of
@@ -118,16 +136,24 @@ widened by :data:`DEPTH_MARGIN_RELATIVE`.
 
 Occludee test ([1]_ sec. 6)
 ---------------------------
-The box's eight corners are projected; the buffer pixels its screen rectangle
-touches (clipped to the screen) are compared with the box's nearest distance
-to the eye. The box is culled iff every one of those pixels holds a depth
-nearer than that distance: then every ray from the eye through the box meets
-an occluder before the box. Boxes containing the eye, and boxes wholly off the
-screen are never culled (view-frustum culling is the caller's). The rectangle
-is widened by ``1e-9`` pixel against the rounding of the projection.
+The box's eight corners are projected; each buffer pixel its screen rectangle
+touches (clipped to the screen) is compared with a lower bound of the distance
+at which a ray through the pixel can meet the box: the larger of the box's
+nearest distance to the eye and its least forward depth ``f . (p - eye)``
+times the secant of the pixel's ray nearest the view axis (far off the axis
+the second is the larger: a box 0.2 behind a wall at forward depth 10 and
+x / z from 0.75 to 0.98 is 12.97 from the eye, while the wall lies up to 14.0
+away through its pixels). The box is culled iff every one of those pixels
+holds a depth nearer than its bound: then every ray from the eye through the
+box meets an occluder before the box. Boxes containing the eye, and boxes
+wholly off the screen are never culled (view-frustum culling is the
+caller's). The rectangle is widened by ``1e-9`` pixel against the rounding of
+the projection.
 
 A box with a corner on or behind the eye's plane (a table beside a camera at
-floor height, a wall the camera walks along) has no bounded projection, but a
+floor height, a wall the camera walks along), or one reaching past the
+screen's edge (whose nearest part may lie off the screen), is tested by its
+part in the view: the first has no bounded projection, but a
 ray from the eye only meets its part inside the view pyramid (the four side
 planes through the eye and the image edges). That part is a convex polytope
 whose vertices are among the box corners inside the pyramid, the crossings of
@@ -136,8 +162,9 @@ pyramid's four edge rays; its rectangle is that of those vertices (a
 perspective projection maps it onto the convex hull of theirs), and its
 least forward depth ``f . (p - eye)`` bounds the Euclidean distance of every
 point of it from below. The box is culled iff that part is not empty, does
-not reach the eye, and every pixel of its rectangle is nearer than that
-depth (the side planes are widened by ``1e-9``, relative: a superset).
+not reach the eye, and every pixel of its rectangle is nearer than its bound
+with that part's least forward depth (the side planes are widened by
+``1e-9``, relative: a superset).
 Frustum culling stays the caller's: a box with no part in the pyramid is not
 culled here.
 
@@ -275,6 +302,16 @@ _REGION_TOLERANCE = 1e-11
 #: crosses it (the boundary is projected in float64).
 _SEGMENT_SLACK = 1e-3
 
+#: A plane of one planar facet is a region too when the facet holds at least this share
+#: of the occluders' area (a wall, a floor); smaller lone facets (of curved surfaces) are
+#: left to the convex-piece rule.
+_LONE_FACET_SHARE = 1e-4
+
+#: Largest distance, as a fraction of the scene's size, of a region boundary's end from
+#: both planes of a crease for the boundary to count as lying on their line
+#: (:func:`viscore._depth_kernel.region_creases`).
+_CREASE_TOLERANCE = 1e-9
+
 
 def _plane_regions(tri: np.ndarray, unit: np.ndarray, twice: np.ndarray, facet: np.ndarray,
                    bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -286,7 +323,9 @@ def _plane_regions(tri: np.ndarray, unit: np.ndarray, twice: np.ndarray, facet: 
 
     Triangles lying in one plane (up to :data:`_REGION_TOLERANCE` of the scene's
     size, either orientation), whatever their connectivity or the occluder they
-    come from, form a region when they span more than one planar facet. Its
+    come from, form a region when they span more than one planar facet, or one facet
+    of at least :data:`_LONE_FACET_SHARE` of the occluders' area (so that the crease
+    rule, :func:`viscore._depth_kernel.region_creases`, knows its boundary). Its
     union is taken in the plane (shapely ``union_all``, exact noding) and its
     boundary (outer rings and holes) kept as 3D segments.
 
@@ -327,10 +366,11 @@ def _plane_regions(tri: np.ndarray, unit: np.ndarray, twice: np.ndarray, facet: 
     order = np.argsort(group, kind="stable")
     bounds = np.flatnonzero(np.r_[True, group[order][1:] != group[order][:-1], True])
     planes, segs, start = [], [], [0]
+    large = _LONE_FACET_SHARE * float(twice[ok].sum())
     for a, b in zip(bounds[:-1], bounds[1:], strict=True):  # a loop over planes
         members = idx[order[a:b]]
-        if len(members) < 2 or len(np.unique(facet[members])) < 2:
-            continue  # one facet: the convex-piece rule covers it already
+        if len(np.unique(facet[members])) < 2 and float(twice[members].sum()) < large:
+            continue  # one small facet: the convex-piece rule covers it already
         seed = members[np.argmax(twice[members])]
         n = normal[seed]
         o = tri[seed, 0]
@@ -343,7 +383,7 @@ def _plane_regions(tri: np.ndarray, unit: np.ndarray, twice: np.ndarray, facet: 
         xy = np.stack([local @ u, local @ w], axis=2)
         polys = shapely.polygons(xy)
         polys = polys[shapely.area(polys) > 0]
-        if len(polys) < 2:
+        if len(polys) < 1:
             continue
         union = shapely.union_all(polys)
         rings = []
@@ -515,6 +555,9 @@ class OccluderScene:
             _plane_regions(tri, n, norm, self._facet, self.scene.bounds)
         self._segment_region = np.repeat(np.arange(len(self._region_plane)),
                                          np.diff(self._segment_start))
+        #: whether pixels across the line of two regions get depths (the crease rule of
+        #: :func:`viscore._depth_kernel.region_creases`; off only to measure it)
+        self._region_creases = True
 
     def _grid(self, w: int, h: int, hx: float, hy: float, cols: int, rows: int,
               tile: int) -> tuple:
@@ -866,7 +909,13 @@ class ConservativeDepthBuffer:
         >>> buf.shape, bool(buf.covered.all()), buf.rays   # one 16 x 16 tile: 4 rays
         ((9, 16), True, 4)
         """
-        from ._depth_kernel import settle_tiles, store_hits, thin_rectangles, tile_corners
+        from ._depth_kernel import (
+            region_creases,
+            settle_tiles,
+            store_hits,
+            thin_rectangles,
+            tile_corners,
+        )
 
         w, h, eye, basis, hx, hy = _frame(camera, width, height)
         tile = min(_TILE, 1 << int(np.ceil(np.log2(max(w, h)))))
@@ -925,6 +974,11 @@ class ConservativeDepthBuffer:
             _patch_depths(occ, layer, depth,
                           corner_tri.reshape(rows + 1, stride)[:h + 1, :w + 1],
                           eye, basis, xs, ys, hx, hy, size, margin)
+        if occ._region_creases and len(occ._region_plane) > 1 \
+                and not np.isfinite(depth).all():
+            region_creases(depth, facet, region, stride, occ._region_plane, region_ok,
+                           segments, occ._segment_start, occ._segments, xs, ys, eye, r, u, f,
+                           tol, _CREASE_TOLERANCE * size, margin, _SEGMENT_SLACK)
         return cls(depth=depth, camera=camera, hits=hits, rays=rays)
 
     def screen_rectangles(self, lower: npt.ArrayLike, upper: npt.ArrayLike
