@@ -31,6 +31,24 @@ def _without_region_creases(occ: OccluderScene) -> OccluderScene:
     return occ
 
 
+def _assert_never_nearer(scene, cam, buf, mask, rng, rays: int = 24) -> None:
+    """Every pixel of ``mask``: ``rays`` random rays through it hit the scene, no farther
+    than the pixel's depth."""
+    pixels = np.argwhere(mask)
+    h, w = buf.shape
+    f, r, u = cam.basis
+    i, j = pixels[:, 0], pixels[:, 1]
+    px = (j[:, None] + rng.random((len(j), rays))) / w
+    py = (i[:, None] + rng.random((len(i), rays))) / h
+    d = (f + ((px - 0.5) * 2 * cam._half)[..., None] * r
+         + ((0.5 - py) * 2 * cam._half_vertical)[..., None] * u).reshape(-1, 3)
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    t, _ = scene.first_hit(np.broadcast_to(cam.position, d.shape), d)
+    hits = t.reshape(len(i), rays)
+    assert np.isfinite(hits).all()
+    assert (hits <= buf.depth[i, j][:, None]).all()
+
+
 def test_a_wall_and_its_floor_are_a_pair_and_a_box_behind_the_crease_is_culled():
     corner = _corner()
     flat, pairs, edges = flat_pairs(corner.vertices, corner.faces)
@@ -100,19 +118,7 @@ def test_rooms_of_boxes_never_nearer_and_nothing_seen_is_culled(seed):
     plain = ConservativeDepthBuffer.from_occluders(_without_pairs(OccluderScene([world])), cam)
     assert (buf.covered >= plain.covered).all()
     assert buf.covered.sum() > plain.covered.sum()  # the pairs cover creases
-    pixels = np.argwhere(buf.covered & ~plain.covered)
-    h, w = buf.shape
-    f, r, u = cam.basis
-    i, j = pixels[:, 0], pixels[:, 1]
-    px = (j[:, None] + rng.random((len(j), 24))) / w
-    py = (i[:, None] + rng.random((len(i), 24))) / h
-    d = (f + ((px - 0.5) * 2 * cam._half)[..., None] * r
-         + ((0.5 - py) * 2 * cam._half_vertical)[..., None] * u).reshape(-1, 3)
-    d /= np.linalg.norm(d, axis=1)[:, None]
-    t, _ = scene.first_hit(np.broadcast_to(cam.position, d.shape), d)
-    hits = t.reshape(len(i), 24)
-    assert np.isfinite(hits).all()
-    assert (hits <= buf.depth[i, j][:, None]).all()
+    _assert_never_nearer(scene, cam, buf, buf.covered & ~plain.covered, rng)
     centre = np.column_stack([rng.uniform(-29, 29, 1500), rng.uniform(0.5, 6, 1500),
                               rng.uniform(-29, 29, 1500)])
     half = rng.uniform(0.1, 1.5, (1500, 3))
@@ -197,16 +203,4 @@ def test_blocks_on_a_floor_region_creases_never_nearer(seed):
     off = ConservativeDepthBuffer.from_occluders(
         _without_region_creases(OccluderScene([world])), cam)
     assert (on.covered >= off.covered).all() and on.covered.sum() > off.covered.sum()
-    pixels = np.argwhere(on.covered & ~off.covered)
-    h, w = on.shape
-    f, r, u = cam.basis
-    i, j = pixels[:, 0], pixels[:, 1]
-    px = (j[:, None] + rng.random((len(j), 24))) / w
-    py = (i[:, None] + rng.random((len(i), 24))) / h
-    d = (f + ((px - 0.5) * 2 * cam._half)[..., None] * r
-         + ((0.5 - py) * 2 * cam._half_vertical)[..., None] * u).reshape(-1, 3)
-    d /= np.linalg.norm(d, axis=1)[:, None]
-    t, _ = scene.first_hit(np.broadcast_to(cam.position, d.shape), d)
-    hits = t.reshape(len(i), 24)
-    assert np.isfinite(hits).all()
-    assert (hits <= on.depth[i, j][:, None]).all()
+    _assert_never_nearer(scene, cam, on, on.covered & ~off.covered, rng)

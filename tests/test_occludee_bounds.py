@@ -6,23 +6,15 @@ import numpy as np
 import pytest
 import trimesh
 from viscore.cli.main import main
-from viscore.metrics.culling import (
-    PathCamera,
-    depth_buffer_runtime,
-    no_culling,
-    simulate_culling,
-)
+from viscore.metrics import culling
 
 from viscore import InputError
 from viscore.occludee_bounds import cluster_boxes, object_cluster_boxes
 from viscore.scene_graph import load_scene_objects
 
-UP = np.array([0.0, 1.0, 0.0])
-
-
-def _pose(position, forward, fov=90.0):
-    return PathCamera(position=np.asarray(position, float), forward=np.asarray(forward, float),
-                      up=UP, fov=fov)
+#: The one camera of the chunk scenes: at the origin, looking along +z, y up.
+EYE = culling.PathCamera(position=np.zeros(3), forward=np.array([0.0, 0.0, 1.0]),
+                         up=np.array([0.0, 1.0, 0.0]), fov=90.0)
 
 
 def test_cluster_boxes_hold_every_triangle_and_part_separated_pieces():
@@ -101,10 +93,10 @@ def _chunk_scene(layout: str):
 def test_a_chunk_is_culled_through_its_clusters_only_when_all_are_hidden(layout):
     objects = _chunk_scene(layout)
     wall = trimesh.creation.box(bounds=[[-0.95, -0.95, 2.95], [0.95, 0.95, 3.05]])
-    runtimes = {"none": no_culling(), "depth": depth_buffer_runtime([wall])}
-    poses = [_pose((0, 0, 0), (0, 0, 1))]
-    box = simulate_culling(objects, runtimes, poses, width=96, height=54)
-    clusters = simulate_culling(objects, runtimes, poses, width=96, height=54,
+    runtimes = {"none": culling.no_culling(), "depth": culling.depth_buffer_runtime([wall])}
+    poses = [EYE]
+    box = culling.simulate_culling(objects, runtimes, poses, width=96, height=54)
+    clusters = culling.simulate_culling(objects, runtimes, poses, width=96, height=54,
                                 bounds=object_cluster_boxes(objects, 2))
     hidden = layout == "hidden"
     assert box.visible[0] == (1 if hidden else 2)
@@ -118,15 +110,15 @@ def test_a_chunk_is_culled_through_its_clusters_only_when_all_are_hidden(layout)
 
 def test_simulate_culling_refuses_bad_bounds():
     objects = _chunk_scene("hidden")
-    poses = [_pose((0, 0, 0), (0, 0, 1))]
+    poses = [EYE]
     lo, hi, owner = object_cluster_boxes(objects, 2)
     for bad, match in [((lo, hi), "expected"), ((lo, hi[:1], owner), "expected"),
                        ((lo, hi, owner[::-1]), "non-decreasing"),
                        ((lo, hi, owner + 5), "non-decreasing"),
                        ((hi, lo, owner), "lower <= upper")]:
         with pytest.raises(InputError, match=match):
-            simulate_culling(objects, {"none": no_culling()}, poses, width=32, height=18,
-                             bounds=bad)
+            culling.simulate_culling(objects, {"none": culling.no_culling()}, poses,
+                                     width=32, height=18, bounds=bad)
 
 
 def test_cull_cli_bounds_option(tmp_path, capsys):
