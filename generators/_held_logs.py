@@ -120,7 +120,9 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
 
     Notes
     -----
-    One record per distinct text, in the order the texts first came, at the
+    A text that begins with ``label`` and a colon loses that beginning (the
+    line starts with the label already). One record per distinct text, in the
+    order the texts first came, at the
     highest level that text came at, through the logger that made it first:
     ``hierarchy: 29 of 57 nodes: <text>`` when several parts gave it,
     ``hierarchy node 12: <text>`` when one did.
@@ -140,6 +142,8 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
     groups: dict[str, list] = {}
     for part, record in held:
         text = record.getMessage()
+        if text.startswith(label + ": "):  # the label once: not "aabb-skins: ... aabb-skins:"
+            text = text[len(label) + 2:]
         own = (names or {}).get(part)
         key = text.replace(own, _EACH) if own else text
         group = groups.setdefault(key, [record, set(), text])

@@ -414,3 +414,23 @@ def test_occlude_runs_a_height_field_method_on_the_flat_objects_only(tmp_path):
 
     up = np.tile([0.0, 1.0, 0.0], (len(placed), 1))
     assert Scene(sheet).any_hit(placed.astype(np.float64) - [0, 1e-4, 0], up).all()
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_occlude_says_a_warning_every_mesh_gives_once(tmp_path, caplog, jobs):
+    """Six open boxes (no bottom face): aabb-skins warns for each that it is not closed.
+    The run says it once with the count, whether the jobs ran here or in processes."""
+    scene = trimesh.Scene()
+    for k in range(6):
+        box = trimesh.creation.box(extents=(2 + 0.1 * k, 2, 2))
+        box.update_faces(box.face_normals[:, 1] > -0.5)  # open at the bottom
+        scene.add_geometry(box, geom_name=f"m{k}", node_name=f"o{k}",
+                           transform=T.translation_matrix((4 * k, 1, 0)))
+    glb = tmp_path / "open.glb"
+    scene.export(glb)
+    level = level_objects(glb)
+    with caplog.at_level("WARNING"):
+        occlude_level(level, tmp_path, methods=["aabb-skins"], jobs=jobs)
+    said = [r.getMessage() for r in caplog.records if "not closed" in r.getMessage()]
+    assert said == [s for s in said if s.startswith("aabb-skins: 6 of 6 meshes: ")]
+    assert len(said) == 1 and "aabb-skins: aabb-skins" not in said[0]

@@ -76,8 +76,23 @@ def test_report_parts_groups_texts_that_name_their_own_part(caplog):
     held = list(zip([0, 1, 2, 1], records, strict=True))
     report_parts(held, 4, what="meshes", label="aabb-skins", one="mesh", names=names)
     said = [r.getMessage() for r in caplog.records]
-    assert said == ["aabb-skins: 3 of 4 meshes: aabb-skins: each of them is not closed",
+    assert said == ["aabb-skins: 3 of 4 meshes: each of them is not closed",
                     "aabb-skins mesh 1: town.gltf:GLTF_22 is tiny"]
     caplog.clear()
     report_parts(held, 4, what="meshes", label="aabb-skins", one="mesh")  # names unknown
     assert len(caplog.records) == 4
+
+
+def test_report_parts_says_its_label_once():
+    log = logging.getLogger("viscore.example")
+    log.setLevel(logging.INFO)
+    with held_records() as records:
+        log.warning("aabb-skins: mesh is not closed")
+        log.warning("aabb-skins: mesh is not closed")
+        log.warning("solid-frusta: aabb-skins: tiny")
+    with held_records() as said:
+        report_parts(list(zip([0, 1, 1], records, strict=True)), 3, what="meshes",
+                     label="aabb-skins", one="mesh")
+    assert [r.getMessage() for r in said] == [
+        "aabb-skins: 2 of 3 meshes: mesh is not closed",
+        "aabb-skins mesh 1: solid-frusta: aabb-skins: tiny"]
