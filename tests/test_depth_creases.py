@@ -204,3 +204,28 @@ def test_blocks_on_a_floor_region_creases_never_nearer(seed):
         _without_region_creases(OccluderScene([world])), cam)
     assert (on.covered >= off.covered).all() and on.covered.sum() > off.covered.sum()
     _assert_never_nearer(scene, cam, on, on.covered & ~off.covered, rng)
+
+
+def test_a_pillar_against_a_wall_behind_it_covers_its_silhouette():
+    """A pillar 3 m in front of a wide wall: the pixels along its sides see the pillar at
+    some corners and the wall at others. The wall has no boundary there, so every ray of
+    such a pixel meets it: a box behind the wall, just behind the pillar's edge, is culled
+    with the region rule and not without; the truth hides it."""
+    wall = trimesh.Trimesh([[-20, 0, 10], [20, 0, 10], [20, 8, 10], [-20, 8, 10]],
+                           [[0, 1, 2], [0, 2, 3]], process=False)
+    pillar = trimesh.creation.box(bounds=[[-0.5, 0, 6.5], [0.5, 6, 7.5]])
+    level = trimesh.util.concatenate([wall, pillar])
+    cam = PerspectiveCamera((0.1, 2.0, 0.0), (0, 0, 1), up=(0, 1, 0), fov=60, resolution=256,
+                            height=144)
+    box = ([[-1.2, 1, 11]], [[1.2, 3, 12]])  # behind the wall, wider than the pillar's image
+    on = ConservativeDepthBuffer.from_occluders(OccluderScene([level]), cam)
+    off = ConservativeDepthBuffer.from_occluders(
+        _without_region_creases(OccluderScene([level])), cam)
+    assert on.occluded(*box)[0] and not off.occluded(*box)[0]
+    assert (on.covered >= off.covered).all() and on.covered.sum() > off.covered.sum()
+    _assert_never_nearer(Scene(level), cam, on, on.covered & ~off.covered,
+                         np.random.default_rng(7))
+    world = trimesh.util.concatenate([level, trimesh.creation.box(bounds=np.vstack(box))])
+    o, d = cam.rays()
+    _, tri = Scene(world).first_hit(o, d)
+    assert not (tri >= len(level.faces)).any()  # the truth: hidden

@@ -514,16 +514,49 @@ def _plane_distance(pl, eye, r, u, f, x, y):  # pragma: no cover
 
 
 @njit_cached()
+def _crosses_side(segments, k, r0, r1, c0, c1, a0, ar, ac, slack):  # pragma: no cover
+    """Whether segment ``k`` (row, column of both ends; NaN: not in front of the eye)
+    meets the closed rectangle rows ``r0..r1``, columns ``c0..c1`` where
+    ``a0 + ar row + ac col >= -slack`` (a side of a line, ``(ar, ac)`` of unit length)."""
+    ra = segments[k, 0]
+    ca = segments[k, 1]
+    rb = segments[k, 2]
+    cb = segments[k, 3]
+    if not (ra == ra):
+        return False
+    dr = rb - ra
+    dc = cb - ca
+    t0, t1 = _clip(-dc, ca - c0, 0.0, 1.0)
+    t0, t1 = _clip(dc, c1 - ca, t0, t1)
+    t0, t1 = _clip(-dr, ra - r0, t0, t1)
+    t0, t1 = _clip(dr, r1 - ra, t0, t1)
+    t0, t1 = _clip(-(ar * dr + ac * dc), a0 + ar * ra + ac * ca + slack, t0, t1)
+    return t0 <= t1
+
+
+@njit_cached()
 def region_creases(depth, facet, region, stride, region_plane, region_ok, segments,
-                   seg_start, seg3d, xs, ys, eye, r, u, f, tol, on_tol, margin, slack):
-    """Fill the pixels still without depth whose corners hit two coplanar regions that
-    meet along a line through the pixel (a wall standing on a floor, two walls at a
-    corner, with or without a shared edge). Returns the pixels filled.
+                   seg_start, seg3d, xs, ys, hx, hy, eye, r, u, f, tol, on_tol, margin, slack):
+    """Fill the pixels still without depth whose rays all meet a coplanar region behind
+    whatever a corner hits first (a pillar's silhouette against the wall behind it), or
+    whose corners hit two coplanar regions that meet along a line through the pixel (a
+    wall standing on a floor, two walls at a corner, with or without a shared edge).
+    Returns the pixels filled.
+
+    The background: every corner ray hits something, one of them first hits region
+    ``R``, no boundary segment of ``R`` meets the pixel (widened by ``slack``), and all
+    four corner rays meet ``R``'s plane in front of the eye. The rays meet the plane in a
+    convex quadrilateral with a point of ``R`` at a corner; a point of it outside ``R``
+    would put a boundary point of ``R`` inside it, whose image lies in the pixel. So
+    every ray of the pixel meets ``R``, no farther than the largest distance to its plane
+    at the corners (the coplanar rule of :func:`settle_tiles` with one corner in ``R``
+    instead of four); the nearest such bound over the corners' regions is kept.
 
     A pixel qualifies when its four corner rays hit regions ``A`` and ``B`` (planes not
     parallel, the eye off both), the image of their planes' line ``L`` separates the
     corners that hit ``A`` from those that hit ``B``, and every boundary segment of
-    either region that meets the pixel (widened by ``slack``) lies on ``L`` (both ends
+    ``A`` that meets ``A``'s side of the pixel, and of ``B`` that meets ``B``'s side
+    (each widened by ``slack`` pixels; :func:`_crosses_side`), lies on ``L`` (both ends
     within ``on_tol`` of both planes). Then on each side of ``L``'s image the pixel's
     rays meet that side's region: the side is convex, a corner of it hits the region,
     and no boundary of the region crosses it; the distance to a plane over a convex
@@ -562,9 +595,29 @@ def region_creases(depth, facet, region, stride, region_plane, region_ok, segmen
                     good = False
                     break
                 lab[k] = region[cidx[k]]
+            if not good:
+                continue
+            # a background: one region a corner hits, no boundary of it crossing the pixel
+            best = np.inf
+            for k in range(4):
+                g = lab[k]
+                if g < 0 or not region_ok[g] or (k > 0 and g == lab[0]) \
+                        or (k > 1 and g == lab[1]) or (k > 2 and g == lab[2]):
+                    continue
+                t = 0.0
+                for q in range(4):
+                    t = max(t, _plane_distance(region_plane[g], eye, r, u, f, cx[q], cy[q]))
+                if t < best and not _crosses(segments, seg_start[g], seg_start[g + 1],
+                                             i - slack, i + 1 + slack, j - slack,
+                                             j + 1 + slack):
+                    best = t
+            if best < np.inf:
+                depth[i, j] = best + margin
+                filled += 1
+                continue
+            for k in range(4):
                 if lab[k] < 0 or not region_ok[lab[k]]:
                     good = False
-                    break
             if not good:
                 continue
             ga = lab[0]
@@ -609,11 +662,24 @@ def region_creases(depth, facet, region, stride, region_plane, region_ok, segmen
                     break
             if not good:
                 continue
-            # every boundary segment of A or B meeting the pixel lies on L
+            # L's image on the buffer, as a distance in pixels from it, positive on A's side
+            mr = m0 * r[0] + m1 * r[1] + m2 * r[2]
+            mu = m0 * u[0] + m1 * u[1] + m2 * u[2]
+            mf = m0 * f[0] + m1 * f[1] + m2 * f[2]
+            ac = sa * mr * 2.0 * hx / w
+            ar = -sa * mu * 2.0 * hy / h
+            a0 = sa * (mf - mr * hx + mu * hy)
+            norm = math.sqrt(ac * ac + ar * ar)
+            if not norm > 0.0:
+                continue
+            # every boundary segment of A meeting A's side of the pixel, and of B meeting
+            # B's side, lies on L
             for g in (ga, gb):
+                sg = 1.0 if g == ga else -1.0
                 for s in range(seg_start[g], seg_start[g + 1]):
-                    if not _crosses(segments, s, s + 1, i - slack, i + 1 + slack, j - slack,
-                                    j + 1 + slack):
+                    if not _crosses_side(segments, s, i - slack, i + 1 + slack, j - slack,
+                                         j + 1 + slack, sg * a0 / norm, sg * ar / norm,
+                                         sg * ac / norm, slack):
                         continue
                     for e in range(2):
                         p0 = seg3d[s, e, 0]

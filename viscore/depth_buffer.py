@@ -76,6 +76,20 @@ distances at the ends of the creases' parts in the pixel (proof in
 :mod:`viscore._patches`). A crease splits the tiles across it down to
 pixels, so those pixels' corners are already cast.
 
+A region behind
+---------------
+The coplanar rule asks all four corners to hit the region. One is enough:
+when a corner ray first hits region ``R``, all four corner rays meet ``R``'s
+plane in front of the eye and no boundary segment of ``R`` meets the pixel,
+the rays meet the plane in a convex quadrilateral with a point of ``R`` at a
+corner, and a point of it outside ``R`` would put a boundary point of ``R``
+inside it, whose image lies in the pixel. So every ray through the pixel
+meets ``R``, no farther than the largest corner distance to its plane. This
+covers the silhouette of a pillar, a crate or a wall's top against the floor
+or the wall behind it (:func:`viscore._depth_kernel.region_creases`, tried
+first on the pixels left without depth; the nearest such bound over the
+corners' regions is kept).
+
 Two regions along their line
 ----------------------------
 A wall standing on a floor that goes on behind it shares no edge with the
@@ -85,8 +99,10 @@ one large facet are regions too (:data:`_LONE_FACET_SHARE`), and a last rule
 (:func:`viscore._depth_kernel.region_creases`) takes a pixel still without
 depth whose four corner rays hit two regions ``A`` and ``B`` when the image
 of their planes' line ``L`` separates the corners on ``A`` from those on
-``B`` and every boundary segment of either region that meets the pixel lies
-on ``L`` (both ends within :data:`_CREASE_TOLERANCE` of both planes). Then
+``B`` and every boundary segment of ``A`` that meets ``A``'s side of the pixel,
+and of ``B`` that meets ``B``'s side, lies on ``L`` (both ends within
+:data:`_CREASE_TOLERANCE` of both planes): a floor's far edge seen behind the
+wall, on the wall's side, does not matter. Then
 each side of ``L``'s image is a convex part of the pixel with a corner in its
 region and no boundary of that region crossing it, so every ray through it
 meets the region, no farther than the largest distance to the region's plane
@@ -977,8 +993,8 @@ class ConservativeDepthBuffer:
         if occ._region_creases and len(occ._region_plane) > 1 \
                 and not np.isfinite(depth).all():
             region_creases(depth, facet, region, stride, occ._region_plane, region_ok,
-                           segments, occ._segment_start, occ._segments, xs, ys, eye, r, u, f,
-                           tol, _CREASE_TOLERANCE * size, margin, _SEGMENT_SLACK)
+                           segments, occ._segment_start, occ._segments, xs, ys, hx, hy, eye,
+                           r, u, f, tol, _CREASE_TOLERANCE * size, margin, _SEGMENT_SLACK)
         return cls(depth=depth, camera=camera, hits=hits, rays=rays)
 
     def screen_rectangles(self, lower: npt.ArrayLike, upper: npt.ArrayLike
