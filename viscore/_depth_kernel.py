@@ -158,15 +158,21 @@ def _crosses(segments, a, b, r0, r1, c0, c1):
             continue
         if max(ra, rb) < r0 or min(ra, rb) > r1 or max(ca, cb) < c0 or min(ca, cb) > c1:
             continue
-        dr = rb - ra
-        dc = cb - ca
-        t0, t1 = _clip(-dc, ca - c0, 0.0, 1.0)
-        t0, t1 = _clip(dc, c1 - ca, t0, t1)
-        t0, t1 = _clip(-dr, ra - r0, t0, t1)
-        t0, t1 = _clip(dr, r1 - ra, t0, t1)
+        t0, t1 = _in_rectangle(ra, ca, rb - ra, cb - ca, r0, r1, c0, c1)
         if t0 <= t1:
             return True
     return False
+
+
+@njit_cached()
+def _in_rectangle(ra, ca, dr, dc, r0, r1, c0, c1):  # pragma: no cover
+    """The parameter range (t0, t1) of the segment from (ra, ca) along (dr, dc), t in
+    [0, 1], inside the closed rectangle rows r0..r1, columns c0..c1 (Liang-Barsky);
+    empty when t0 > t1."""
+    t0, t1 = _clip(-dc, ca - c0, 0.0, 1.0)
+    t0, t1 = _clip(dc, c1 - ca, t0, t1)
+    t0, t1 = _clip(-dr, ra - r0, t0, t1)
+    return _clip(dr, r1 - ra, t0, t1)
 
 
 @njit_cached()
@@ -526,10 +532,7 @@ def _crosses_side(segments, k, r0, r1, c0, c1, a0, ar, ac, slack):  # pragma: no
         return False
     dr = rb - ra
     dc = cb - ca
-    t0, t1 = _clip(-dc, ca - c0, 0.0, 1.0)
-    t0, t1 = _clip(dc, c1 - ca, t0, t1)
-    t0, t1 = _clip(-dr, ra - r0, t0, t1)
-    t0, t1 = _clip(dr, r1 - ra, t0, t1)
+    t0, t1 = _in_rectangle(ra, ca, dr, dc, r0, r1, c0, c1)
     t0, t1 = _clip(-(ar * dr + ac * dc), a0 + ar * ra + ac * ca + slack, t0, t1)
     return t0 <= t1
 
