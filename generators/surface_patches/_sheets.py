@@ -68,9 +68,19 @@ LARGE_REGION = 0.1
 MEASURE_PIXELS = 64
 
 
+def face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(f,)`` area of each face.
+
+    >>> face_areas(np.eye(3), [[0, 1, 2]]).round(4).tolist()
+    [0.866]
+    """
+    tri = np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=np.int64)]
+    return 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+
+
 def sheet_chunks(vertices: np.ndarray, faces: np.ndarray, open_faces: np.ndarray, *,
-                 region: np.ndarray | None = None, chunk: int = SHEET_CHUNK
-                 ) -> list[list[np.ndarray]]:
+                 region: np.ndarray | None = None, chunk: int = SHEET_CHUNK,
+                 area: np.ndarray | None = None) -> list[list[np.ndarray]]:
     """The sheets among ``open_faces``, each as its chunks of face indices.
 
     Parameters
@@ -88,6 +98,8 @@ def sheet_chunks(vertices: np.ndarray, faces: np.ndarray, open_faces: np.ndarray
         are never offered outside a patch.
     chunk : int, optional
         Triangles per chunk, about (default :data:`SHEET_CHUNK`).
+    area : (f,) float, optional
+        Each face's area, when the caller has it (default: computed here).
 
     Returns
     -------
@@ -118,8 +130,7 @@ def sheet_chunks(vertices: np.ndarray, faces: np.ndarray, open_faces: np.ndarray
     if len(open_faces) == 0:
         return []
     region = np.full(len(f), -1, np.int64) if region is None else np.asarray(region, np.int64)
-    tri = v[f]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    area = face_areas(v, f) if area is None else np.asarray(area, dtype=np.float64)
     planar = region >= 0
     region_area = np.bincount(region[planar], weights=area[planar],
                               minlength=int(region.max()) + 1 if planar.any() else 0)

@@ -114,7 +114,7 @@ from ._inner_boxes import (
     use_box_source,
 )
 from ._overlap import candidate_bitmaps, select_with_overlap
-from ._sheets import SHEET_MAX_FACES, chunk_measure, sheet_chunks
+from ._sheets import SHEET_MAX_FACES, chunk_measure, face_areas, sheet_chunks
 
 __all__ = ["generate_surface_patches", "use_box_source", "DEFAULT_BUDGET", "PLANE_TOLERANCE",
            "GRID", "EROSION", "MIN_AREA", "BOXES", "SHEETS"]
@@ -470,8 +470,9 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
               "min_area": min_area, "chain": chain, "boxes": boxes, "ground": ground,
               "up": up, "selection": selection, "sheets": sheets}
     timing = {}
+    area = face_areas(vertices, faces)
     if budget is not None:
-        whole = _whole_input(vertices, faces, budget, params, diag, start)
+        whole = _whole_input(vertices, faces, area, budget, params, diag, start)
         if whole is not None:
             return whole
 
@@ -556,7 +557,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     timing["boxes"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    chunks, sheets_skipped = _sheet_candidates(vertices, faces, closed, region_of,
+    chunks, sheets_skipped = _sheet_candidates(vertices, faces, area, closed, region_of,
                                                sheets=sheets, floor=floor, budget=budget)
     sheet_tris = [vertices[faces[members]] for members in chunks]
     for tri in sheet_tris:  # one stage each: the chunk's own triangles, after the boxes
@@ -679,8 +680,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
                     info=info)
 
 
-def _whole_input(vertices: np.ndarray, faces: np.ndarray, budget: int, params: dict,
-                 diag: float, start: float) -> Occluder | None:
+def _whole_input(vertices: np.ndarray, faces: np.ndarray, area: np.ndarray, budget: int,
+                 params: dict, diag: float, start: float) -> Occluder | None:
     """The input's own triangles when the budget holds every one of them, else None.
 
     No occluder within the input's surface covers more than the surface itself, and its
@@ -689,11 +690,10 @@ def _whole_input(vertices: np.ndarray, faces: np.ndarray, budget: int, params: d
     under a per-object budget is the usual case: Quake's E1M1, 14,743 triangles over 96
     occluder objects at 260 each.
     """
-    tri = vertices[faces]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
     keep = np.flatnonzero(area > 0)
     if len(keep) == 0 or len(keep) > budget:
         return None
+    tri = vertices[faces[keep]]
     mesh = trimesh.Trimesh(vertices, faces[keep], process=False)
     mesh.remove_unreferenced_vertices()
     info = {"conservative_guaranteed": True, "whole_input": True, "regions": 0,
@@ -708,25 +708,24 @@ def _whole_input(vertices: np.ndarray, faces: np.ndarray, budget: int, params: d
             "sheets_skipped": f"the budget {budget} holds the input's {len(keep)} triangles",
             "seconds_steps": {}}
     return Occluder(mesh=mesh, method="surface-patches", params=params, double_sided=True,
-                    seconds=time.perf_counter() - start, parts={"polygons": list(tri[keep])},
+                    seconds=time.perf_counter() - start, parts={"polygons": list(tri)},
                     info=info)
 
 
-def _sheet_candidates(vertices: np.ndarray, faces: np.ndarray, closed: np.ndarray,
-                      region: np.ndarray, *, sheets: str, floor: float, budget: int | None
-                      ) -> tuple[list[np.ndarray], str | None]:
+def _sheet_candidates(vertices: np.ndarray, faces: np.ndarray, area: np.ndarray,
+                      closed: np.ndarray, region: np.ndarray, *, sheets: str, floor: float,
+                      budget: int | None) -> tuple[list[np.ndarray], str | None]:
     """Step 7: the sheet chunks offered (face indices): those of the sheets of at least
     ``floor`` area, with no more triangles than ``budget``, the :data:`MAX_CANDIDATES`
-    largest; and why none was looked for, or None."""
+    largest; and why none was looked for, or None. ``area``: each face's area."""
     if sheets == "off":
         return [], None
     open_faces = np.flatnonzero(~closed)
     if len(open_faces) > SHEET_MAX_FACES:
         return [], (f"sheets: its open parts have {len(open_faces):,} faces, over the "
                     f"{SHEET_MAX_FACES:,} sheets are looked for in")
-    tri = vertices[faces]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    chunks = [m for sheet in sheet_chunks(vertices, faces, open_faces, region=region)
+    chunks = [m for sheet in sheet_chunks(vertices, faces, open_faces, region=region,
+                                          area=area)
               if sum(area[m].sum() for m in sheet) >= max(floor, 1e-300)
               for m in sheet if budget is None or len(m) <= budget]
     if len(chunks) > MAX_CANDIDATES:  # the largest; crumbs cost time only
