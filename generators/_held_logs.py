@@ -14,9 +14,12 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import TypeVar
 
-__all__ = ["held_records", "release", "report_parts"]
+__all__ = ["held_records", "release", "report_parts", "call_held"]
+
+T = TypeVar("T")
 
 #: Stands for a part's own name while texts are grouped (:func:`report_parts`).
 _EACH = "\x00each\x00"
@@ -90,6 +93,28 @@ def held_records() -> Iterator[list[logging.LogRecord]]:
         for filterer in filterers:
             with contextlib.suppress(ValueError):
                 filterer.filters.remove(hold)
+
+
+def call_held(func: Callable[..., T], /, *args, **kwargs
+              ) -> tuple[T, list[logging.LogRecord]]:
+    """``func(*args, **kwargs)`` and the records it logged, held back (:func:`held_records`)
+    for the caller to say; on an error the records are said as they were, then the error
+    raised.
+
+    Examples
+    --------
+    >>> log = logging.getLogger("viscore.example"); log.setLevel(logging.INFO)
+    >>> value, records = call_held(lambda: log.warning("said later") or 3)
+    >>> value, [r.getMessage() for r in records]
+    (3, ['said later'])
+    """
+    records: list[logging.LogRecord] = []
+    try:
+        with held_records() as records:
+            return func(*args, **kwargs), records
+    except BaseException:
+        release(list(records))
+        raise
 
 
 def release(records: Sequence[logging.LogRecord]) -> None:

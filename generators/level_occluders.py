@@ -92,7 +92,7 @@ from viscore._validate import as_positive_int, as_seed
 from viscore.mesh_io import ply_bytes
 from viscore.scene_graph import geometry_digest
 
-from ._held_logs import held_records, release, report_parts
+from ._held_logs import call_held, report_parts
 from ._pool import worker_init as _worker_init
 from .level_objects import FLAT_RATIO, LevelObjects, default_methods
 from .registry import generate, parse_method
@@ -248,13 +248,8 @@ def _run_job(vertices: np.ndarray, faces: np.ndarray, name: str, method: str,
     """A job as a process pool or a dask worker runs it (arrays in, no trimesh pickled);
     what the generator logs comes back in the result (``logs``), said once by the run."""
     mesh = trimesh.Trimesh(vertices, faces, process=False)
-    records: list[logging.LogRecord] = []
-    try:
-        with held_records() as records:
-            job = occluder_of_mesh(mesh, method, name=name, budget=budget, seed=seed)
-    except BaseException:
-        release(list(records))
-        raise
+    job, records = call_held(occluder_of_mesh, mesh, method, name=name, budget=budget,
+                             seed=seed)
     return replace(job, logs=tuple((r.levelno, r.name, r.getMessage()) for r in records))
 
 

@@ -62,7 +62,7 @@ from viscore import InputError
 from viscore._validate import as_positive, as_positive_int, as_seed
 from viscore.scene_graph import SceneObjects
 
-from ._held_logs import held_records, release, report_parts
+from ._held_logs import call_held, release, report_parts
 from .occluder import Occluder
 from .registry import REGISTRY, generate, get_generator, parse_method
 
@@ -279,15 +279,9 @@ def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, 
 def generate_held(objects: SceneObjects, mesh_id: int, method: str, *, seed: int = 0,
                   **params) -> tuple[Occluder, list[logging.LogRecord]]:
     """One distinct mesh's occluder (in its own frame) and the log records its generation
-    made, held back (:func:`viscore.generators._held_logs.held_records`) for the caller to
+    made, held back (:func:`viscore.generators._held_logs.call_held`) for the caller to
     say; on an error the records are said as they were, then the error raised."""
-    records: list[logging.LogRecord] = []
-    try:
-        with held_records() as records:
-            return generate(method, objects.meshes[mesh_id], seed=seed, **params), records
-    except BaseException:
-        release(list(records))
-        raise
+    return call_held(generate, method, objects.meshes[mesh_id], seed=seed, **params)
 
 
 #: Methods whose culling runtime is generated once over the occluder objects together
