@@ -344,7 +344,7 @@ def _table(doc: dict) -> str:
     lines = [f"{doc['scene']}: {s['objects']:,} objects ({s['triangles']:,} triangles), "
              f"{doc['occluder_objects']} with occluders, {s['frames']} frames at "
              f"{s['width']} x {s['height']} (frusta from {doc['frusta_method']}"
-             + ("" if doc.get("bounds", {}).get("kind", "box") == "box" else
+             + ("" if doc["bounds"]["kind"] == "box" else
                 f"; objects tested by {doc['bounds']['boxes']:,} cluster boxes") + ")",
              f"{'runtime':<28} {'culled':>7} {'false':>6} {'triangles/frame':>16} "
              f"{'overhead ms':>12} {'conservative':>12}"]

@@ -95,13 +95,20 @@ def store_hits(need, tri, tri_facet, tri_solid, tri_region, n_facets, solid_plan
 
 
 @njit_cached()
+def _pushed_offset(pl, eye):  # pragma: no cover
+    """The signed distance ``offset - n . eye`` from the eye to plane ``pl`` (n.x =
+    offset, slack), the plane pushed its slack away from the eye."""
+    num = pl[3] - (pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2])
+    return num + pl[4] if num > 0 else num - pl[4]
+
+
+@njit_cached()
 def _coefficient(pl, eye, r, u, f, coef, p):
     """Row ``p`` of ``coef``: plane ``pl`` (n.x = offset, slack) pushed ``slack`` away
     from the eye, as (a, b, c) with the plane at parameter 1 / (a x + b y + c) along the
     direction x r + y u + f from the eye. A ray that meets a facet lying within ``slack``
     of its plane meets it no farther than the pushed plane."""
-    num = pl[3] - (pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2])
-    num = num + pl[4] if num > 0 else num - pl[4]
+    num = _pushed_offset(pl, eye)
     coef[p, 0] = (pl[0] * r[0] + pl[1] * r[1] + pl[2] * r[2]) / num
     coef[p, 1] = (pl[0] * u[0] + pl[1] * u[1] + pl[2] * u[2]) / num
     coef[p, 2] = (pl[0] * f[0] + pl[1] * f[1] + pl[2] * f[2]) / num
@@ -510,8 +517,7 @@ def _plane_distance(pl, eye, r, u, f, x, y):  # pragma: no cover
     """Distance from the eye along the direction x r + y u + f to plane ``pl`` (n.x =
     offset, slack) pushed its slack away from the eye; inf when the ray does not meet it
     in front of the eye."""
-    num = pl[3] - (pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2])
-    num = num + pl[4] if num > 0 else num - pl[4]
+    num = _pushed_offset(pl, eye)
     den = 0.0
     for a in range(3):
         den += pl[a] * (x * r[a] + y * u[a] + f[a])

@@ -571,8 +571,9 @@ class OccluderScene:
             _plane_regions(tri, n, norm, self._facet, self.scene.bounds)
         self._segment_region = np.repeat(np.arange(len(self._region_plane)),
                                          np.diff(self._segment_start))
-        #: whether pixels across the line of two regions get depths (the crease rule of
-        #: :func:`viscore._depth_kernel.region_creases`; off only to measure it)
+        #: whether pixels still open get depths from a region behind them or from two
+        #: regions along their line (:func:`viscore._depth_kernel.region_creases`; off
+        #: only to measure those rules)
         self._region_creases = True
 
     def _grid(self, w: int, h: int, hx: float, hy: float, cols: int, rows: int,
