@@ -1,10 +1,13 @@
-"""The depth buffer's crease rule between planar flats (viscore._patches.flat_pairs): a
-wall meeting the floor, two faces of a box. Pixels across such a crease are covered, never
-nearer than the flats, and a crease seen as a silhouette stays open."""
+"""The depth buffer's rules across creases and silhouettes: planar flats that share an edge
+(viscore._patches.flat_pairs: a wall meeting the floor, two faces of a box), two regions
+along their planes' line and a region behind (viscore._depth_kernel.region_creases: a wall
+standing on a floor, a pillar before a wall). Pixels they cover are never nearer than the
+occluders, and a crease seen as a silhouette, or a gap under a wall, stays open."""
 
 import numpy as np
 import pytest
 import trimesh
+from test_depth_patches import _sampled_first_hits
 
 from viscore import PerspectiveCamera, Scene
 from viscore._patches import flat_pairs
@@ -35,16 +38,8 @@ def _assert_never_nearer(scene, cam, buf, mask, rng, rays: int = 24) -> None:
     """Every pixel of ``mask``: ``rays`` random rays through it hit the scene, no farther
     than the pixel's depth."""
     pixels = np.argwhere(mask)
-    h, w = buf.shape
-    f, r, u = cam.basis
+    hits = _sampled_first_hits(scene, cam, buf.shape, pixels, rng, per=rays)
     i, j = pixels[:, 0], pixels[:, 1]
-    px = (j[:, None] + rng.random((len(j), rays))) / w
-    py = (i[:, None] + rng.random((len(i), rays))) / h
-    d = (f + ((px - 0.5) * 2 * cam._half)[..., None] * r
-         + ((0.5 - py) * 2 * cam._half_vertical)[..., None] * u).reshape(-1, 3)
-    d /= np.linalg.norm(d, axis=1)[:, None]
-    t, _ = scene.first_hit(np.broadcast_to(cam.position, d.shape), d)
-    hits = t.reshape(len(i), rays)
     assert np.isfinite(hits).all()
     assert (hits <= buf.depth[i, j][:, None]).all()
 
