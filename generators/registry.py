@@ -83,6 +83,7 @@ from .surface_patches.generator import MIN_AREA as SURFACE_MIN_AREA
 from .surface_patches.generator import PLANE_TOLERANCE as SURFACE_PLANE_TOLERANCE
 from .surface_patches.generator import SELECTIONS as SURFACE_SELECTIONS
 from .surface_patches.generator import SHEETS as SURFACE_SHEETS
+from .surface_patches.generator import WELDS as SURFACE_WELDS
 from .surface_patches.generator import use_box_source as use_surface_box_source
 from .terrain_drape import generate_terrain_drape
 from .terrain_drape.generator import RESOLUTION as TERRAIN_RESOLUTION
@@ -391,6 +392,10 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
                 GeneratorOption("sheets", str, "auto",
                                 "also offer curved open sheets (terrain, vaults) as their own "
                                 "triangles, in chunks of about 64", choices=SURFACE_SHEETS),
+                GeneratorOption("weld", str, "auto",
+                                "move patch vertices the erosion left beside a crease of the "
+                                "input onto the line of its two planes, so that the depth "
+                                "buffer covers the crease", choices=SURFACE_WELDS),
             ),
             conservative=True, min_budget=1),
         GeneratorSpec(

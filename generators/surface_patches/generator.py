@@ -61,7 +61,14 @@ single-sided sheets, open rooms) where the volume methods find no inside:
    selection: a part of the input's surface is conservative from every
    viewpoint, and the conservative depth buffer covers a sheet across its
    creases (:mod:`viscore._patches`). Beyond the papers, which simplify
-   closed solids.
+   closed solids;
+8. welding (``weld='auto'``, :mod:`._crease_weld`): the erosion of step 2
+   leaves a seam on either side of every crease where two regions of the
+   input meet (a wall's corner, a facade of several planes), and the
+   conservative depth buffer sees through each; a kept patch's vertices
+   beside such a crease move onto the line of the two planes, so that the
+   patches meet there (on the UCSD level, 2,860 triangles: 11.1% of objects
+   culled before, the level's own 14,481 triangles 25.6%).
 
 References
 ----------
@@ -103,6 +110,7 @@ from .._convex_bands import grid_bands
 from .._plane_regions import plane_regions
 from .._polygon_chain import refine_chain, simplification_chain
 from ..occluder import Occluder
+from ._crease_weld import crease_lines, weld_points, welded_ring
 from ._ground_curtains import curtain_regions
 from ._inner_boxes import (
     TRIANGLES_PER_BOX,
@@ -158,6 +166,9 @@ SHEETS = ("auto", "off")
 
 #: Values of ``ground``: curtains under open ground, or none.
 GROUNDS = ("off", "auto")
+
+#: Choices of ``weld``: patches moved onto the input's creases, or left eroded.
+WELDS = ("auto", "off")
 
 #: Choices of ``selection``: values discounted by the soup's overlap, or taken one by one.
 SELECTIONS = ("overlap", "separate")
@@ -254,7 +265,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
                              min_area: float = MIN_AREA, chain: str = "optimal",
                              boxes: str = "auto", ground: str = "off",
                              up: str = "auto", selection: str = "overlap",
-                             sheets: str = "auto") -> Occluder:
+                             sheets: str = "auto", weld: str = "auto") -> Occluder:
     """Double-sided occluder in the input's own planar surface, conservative on any input.
 
     Parameters
@@ -310,6 +321,13 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         as their own triangles, in chunks (:mod:`._sheets`; module
         docstring, step 7), when the open parts have at most
         :data:`._sheets.SHEET_MAX_FACES` faces. ``'off'``: none.
+    weld : {'auto', 'off'}, optional
+        ``'auto'`` (default): a patch vertex that the erosion left beside a
+        crease of the input (an edge the region shares with a face of
+        another plane) is moved onto the line of the two planes
+        (:mod:`._crease_weld`; module docstring, step 8), so that the
+        patches on either side meet and the conservative depth buffer
+        covers the crease. ``'off'``: patches keep the erosion's seams.
 
     Returns
     -------
@@ -341,7 +359,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         kept), ``sheet_faces`` (input faces kept as they are),
         ``sheets_skipped`` (why no sheet was looked for, or None);
         ``whole_input`` (True when the budget held the whole input, kept as
-        it is); ``seconds_steps``.
+        it is); ``welded`` (patches moved onto creases); ``seconds_steps``.
 
     Raises
     ------
@@ -457,6 +475,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
                          f"got {selection!r}")
     if sheets not in SHEETS:
         raise InputError(f"sheets: expected one of {', '.join(SHEETS)}, got {sheets!r}")
+    if weld not in WELDS:
+        raise InputError(f"weld: expected one of {', '.join(WELDS)}, got {weld!r}")
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise InputError("mesh: expected a non-empty trimesh.Trimesh")
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
@@ -468,7 +488,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         raise InputError("mesh: zero extent")
     params = {"budget": budget, "seed": seed, "plane_tolerance": plane_tolerance,
               "min_area": min_area, "chain": chain, "boxes": boxes, "ground": ground,
-              "up": up, "selection": selection, "sheets": sheets}
+              "up": up, "selection": selection, "sheets": sheets, "weld": weld}
     timing = {}
     area = face_areas(vertices, faces)
     if budget is not None:
@@ -487,8 +507,9 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     cands = []  # (frame, exact union, hole-free piece in grid units)
     region_of = np.full(len(faces), -1, dtype=np.int64)  # faces of regions giving pieces
     sources = []  # per candidate, the input faces of its planar region (None: a curtain)
+    cand_region = []  # per candidate, its region's index in regions (-1: a curtain)
     used = 0
-    for reg in regions:
+    for k, reg in enumerate(regions):
         if reg.area < floor or reg.area <= 0 or len(reg.faces) < MIN_FACES:
             continue
         frame = reg.frame
@@ -507,6 +528,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         used += 1
         cands += [(frame, union, piece) for piece in pieces]
         sources += [reg.faces] * len(pieces)
+        cand_region += [k] * len(pieces)
     timing["pieces"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -520,6 +542,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
             pieces = _region_pieces(region, erosion=EROSION * diag, grid=grid, floor=floor)
             cands += [(frame, region, piece) for piece in pieces or ()]
             sources += [None] * len(pieces or ())
+            cand_region += [-1] * len(pieces or ())
     curtain_cands = len(cands) - planar_cands
     is_curtain = np.arange(len(cands)) >= planar_cands
     timing["curtains"] = time.perf_counter() - t0
@@ -531,6 +554,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
                                   kind="stable")[:MAX_CANDIDATES])
         cands = [cands[i] for i in keep]
         sources = [sources[i] for i in keep]
+        cand_region = [cand_region[i] for i in keep]
         is_curtain = is_curtain[keep]
     chains, values, counts = [], [], []
     search_from = np.sort([-p.area for _, _, p in cands])[:MAX_SEARCH]
@@ -593,10 +617,15 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
                         for src, s in zip(sources, stages, strict=True)], dtype=bool)
     stages = np.where(doubled, -1, stages)
 
+    t0 = time.perf_counter()
+    creases, planes = ({}, None) if weld == "off" else _region_creases(vertices, faces,
+                                                                        regions, grid)
+    reach = EROSION * diag + 2 * grid  # a vertex of the erosion's rim, snapped
     out_v, out_f, polygons = [], [], []
-    offset = dropped = curtains_kept = 0
+    offset = dropped = curtains_kept = welded = 0
     area = 0.0
-    for (frame, union, _), ch, s, curtain in zip(cands, chains, stages, is_curtain, strict=True):
+    for (frame, union, _), ch, s, curtain, k in zip(cands, chains, stages, is_curtain,
+                                                    cand_region, strict=True):
         if s < 0:
             continue
         curtains_kept += int(curtain)
@@ -612,12 +641,21 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         used_v, inv = np.unique(tri, return_inverse=True)
         o, u, v = frame[0], frame[1], frame[2]
         pts = xy[used_v]
-        out_v.append(o + pts[:, :1] * u + pts[:, 1:2] * v)
+        world = o + pts[:, :1] * u + pts[:, 1:2] * v
+        loop = ch.stage_ring(int(s)) * grid
+        ring = o + loop[:, :1] * u + loop[:, 1:2] * v
+        if k >= 0 and k in creases:  # onto the creases the erosion left (._crease_weld)
+            moved = weld_points(world, k, creases, planes, reach=reach)
+            moved_xy = np.stack([(moved - o) @ u, (moved - o) @ v], axis=1)
+            if welded_ring(pts, moved_xy, inv.reshape(-1, 3), union, tolerance=grid):
+                world, pts = moved, moved_xy
+                ring = weld_points(ring, k, creases, planes, reach=reach)
+                welded += 1
+        out_v.append(world)
         out_f.append(inv.reshape(-1, 3) + offset)
         offset += len(used_v)
-        loop = ch.stage_ring(int(s)) * grid
-        polygons.append(o + loop[:, :1] * u + loop[:, 1:2] * v)
-        area += float(shapely.area(shapely.polygons(xy[tri])).sum())
+        polygons.append(ring)
+        area += float(shapely.area(shapely.polygons(pts[inv.reshape(-1, 3)])).sum())
     patch_polygons = len(polygons)
     if len(kept_boxes):
         box_mesh = boxes_mesh(kept_boxes)
@@ -636,6 +674,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     else:
         occ_mesh = trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64),
                                    process=False)
+    timing["weld"] = time.perf_counter() - t0
     if dropped:
         _log.warning("surface-patches: %d chain triangles left their region and were dropped",
                      dropped)
@@ -674,7 +713,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
                           if curtains_kept else "every viewpoint"),
             "sheet_candidates": len(chunks), "sheets": len(kept_chunks),
             "sheet_faces": int(len(sheet_faces)), "sheets_skipped": sheets_skipped,
-            "seconds_steps": timing}
+            "welded": welded, "seconds_steps": timing}
     return Occluder(mesh=occ_mesh, method="surface-patches", params=params, double_sided=True,
                     seconds=time.perf_counter() - start, parts={"polygons": polygons},
                     info=info)
@@ -706,10 +745,22 @@ def _whole_input(vertices: np.ndarray, faces: np.ndarray, area: np.ndarray, budg
             "guarantee": "every viewpoint", "sheet_candidates": 0, "sheets": 0,
             "sheet_faces": int(len(keep)),
             "sheets_skipped": f"the budget {budget} holds the input's {len(keep)} triangles",
-            "seconds_steps": {}}
+            "welded": 0, "seconds_steps": {}}
     return Occluder(mesh=mesh, method="surface-patches", params=params, double_sided=True,
                     seconds=time.perf_counter() - start, parts={"polygons": list(tri)},
                     info=info)
+
+
+def _region_creases(vertices: np.ndarray, faces: np.ndarray, regions: list, grid: float
+                    ) -> tuple[dict, np.ndarray]:
+    """Each region's creases (:func:`._crease_weld.crease_lines`) and the regions' planes
+    ``(r, 4)``: unit normal and offset, through each region's origin."""
+    face_region = np.full(len(faces), -1, dtype=np.int64)
+    for k, reg in enumerate(regions):  # a loop over regions, each face in one
+        face_region[reg.faces] = k
+    planes = np.array([[*reg.normal, float(reg.normal @ reg.origin)] for reg in regions],
+                      dtype=np.float64).reshape(-1, 4)
+    return crease_lines(vertices, faces, face_region, planes, grid=grid), planes
 
 
 def _sheet_candidates(vertices: np.ndarray, faces: np.ndarray, area: np.ndarray,
