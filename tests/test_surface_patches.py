@@ -347,3 +347,16 @@ def test_a_budget_that_holds_the_input_keeps_it_as_it_is():
     assert len(occ.parts["polygons"]) == 8
     smaller = generate_surface_patches(mesh, budget=7)
     assert smaller.info["whole_input"] is False and smaller.triangles <= 7
+
+
+def test_a_budget_larger_than_the_candidate_cap_is_spent():
+    # 450 treads of a staircase, each its own plane: more pieces than MAX_CANDIDATES (400)
+    from viscore.generators.surface_patches.generator import MAX_CANDIDATES
+
+    treads = trimesh.util.concatenate([_quad(k, 0, k + 1, 1, z=0.1 * k) for k in range(450)])
+    assert 450 > MAX_CANDIDATES
+    # 898 (under the 900 triangles that would keep the input whole): 449 of the treads
+    occ = generate_surface_patches(treads, budget=898, boxes="off", sheets="off")
+    assert occ.info["polygons"] == 449 and occ.triangles == 898
+    smaller = generate_surface_patches(treads, budget=600, boxes="off", sheets="off")
+    assert smaller.info["polygons"] == 300 and smaller.triangles == 600
