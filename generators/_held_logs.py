@@ -150,7 +150,8 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
     order the texts first came, at the
     highest level that text came at, through the logger that made it first:
     ``hierarchy: 29 of 57 nodes: <text>`` when several parts gave it,
-    ``hierarchy node 12: <text>`` when one did.
+    ``hierarchy node 12: <text>`` when one did (``label: <text>`` when ``names`` gives
+    its name and the text holds it, ``label node <name>: <text>`` when it does not).
 
     Examples
     --------
@@ -178,8 +179,14 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
     for key, (record, which, text) in groups.items():
         logger = logging.getLogger(record.name)
         if len(which) == 1:
-            logger.log(record.levelno, "%s %s %d: %s", label,
-                       what.rstrip("s") if one is None else one, next(iter(which)), text)
+            part = next(iter(which))
+            own = (names or {}).get(part)
+            if own and own in text:  # the text names its part: not "mesh 6: ...:Cube.001: ..."
+                logger.log(record.levelno, "%s: %s", label, text)
+            else:
+                logger.log(record.levelno, "%s %s %s: %s", label,
+                           what.rstrip("s") if one is None else one,
+                           own or str(part), text)
         else:
             logger.log(record.levelno, "%s: %d of %d %s: %s", label, len(which), parts, what,
                        key.replace(_EACH, "each of them"))

@@ -77,10 +77,18 @@ def test_report_parts_groups_texts_that_name_their_own_part(caplog):
     report_parts(held, 4, what="meshes", label="aabb-skins", one="mesh", names=names)
     said = [r.getMessage() for r in caplog.records]
     assert said == ["aabb-skins: 3 of 4 meshes: each of them is not closed",
-                    "aabb-skins mesh 1: town.gltf:GLTF_22 is tiny"]
+                    "aabb-skins: town.gltf:GLTF_22 is tiny"]
     caplog.clear()
     report_parts(held, 4, what="meshes", label="aabb-skins", one="mesh")  # names unknown
     assert len(caplog.records) == 4
+    # one part whose text does not name it: named by its name, not its index
+    caplog.clear()
+    with held_records() as records:
+        _LOG.warning("no inside voxel")
+    report_parts([(2, records[0])], 4, what="meshes", label="aabb-skins", one="mesh",
+                 names=names)
+    assert [r.getMessage() for r in caplog.records] == [
+        "aabb-skins mesh town.gltf:GLTF_2: no inside voxel"]
 
 
 def test_report_parts_says_its_label_once():
