@@ -224,3 +224,27 @@ def test_a_pillar_against_a_wall_behind_it_covers_its_silhouette():
     o, d = cam.rays()
     _, tri = Scene(world).first_hit(o, d)
     assert not (tri >= len(level.faces)).any()  # the truth: hidden
+
+
+def test_a_region_behind_works_when_it_is_the_only_region():
+    """The same rule when the wall is the scene's only region: a round pillar's triangles
+    are lone facets under _LONE_FACET_SHARE of the area, so they are no regions."""
+    wall = trimesh.Trimesh([[-400, 0, 10], [400, 0, 10], [400, 8, 10], [-400, 8, 10]],
+                           [[0, 1, 2], [0, 2, 3]], process=False)
+    pillar = trimesh.creation.capsule(height=6.0, radius=0.3, count=[32, 32])
+    # jittered: no two of its triangles in one plane
+    pillar.vertices += np.random.default_rng(1).uniform(-0.01, 0.01, pillar.vertices.shape)
+    pillar.apply_transform(trimesh.transformations.rotation_matrix(-np.pi / 2, [1, 0, 0]))
+    pillar.apply_translation([0, 3.0, 7.0])
+    level = trimesh.util.concatenate([wall, pillar])
+    occ = OccluderScene([level])
+    assert len(occ._region_plane) == 1
+    cam = PerspectiveCamera((0.02, 2.0, 0.0), (0, 0, 1), up=(0, 1, 0), fov=60,
+                            resolution=256, height=144)
+    box = ([[-0.6, 2, 11]], [[0.6, 4, 12]])  # behind the wall, wider than the pillar's image
+    on = ConservativeDepthBuffer.from_occluders(occ, cam)
+    off = ConservativeDepthBuffer.from_occluders(
+        _without_region_creases(OccluderScene([level])), cam)
+    assert on.occluded(*box)[0] and not off.occluded(*box)[0]
+    _assert_never_nearer(Scene(level), cam, on, on.covered & ~off.covered,
+                         np.random.default_rng(8))

@@ -991,7 +991,7 @@ class ConservativeDepthBuffer:
             _patch_depths(occ, layer, depth,
                           corner_tri.reshape(rows + 1, stride)[:h + 1, :w + 1],
                           eye, basis, xs, ys, hx, hy, size, margin)
-        if occ._region_creases and len(occ._region_plane) > 1 \
+        if occ._region_creases and len(occ._region_plane) \
                 and not np.isfinite(depth).all():
             region_creases(depth, facet, region, stride, occ._region_plane, region_ok,
                            segments, occ._segment_start, occ._segments, xs, ys, hx, hy, eye,
