@@ -406,10 +406,12 @@ def test_camera_path_never_inside_an_object(scene):
 
 
 def test_surface_patches_joined_over_objects_closes_the_seams():
-    """Two rooms side by side, each a closed box: cut object by object, surface-patches'
-    roofs are eroded inside each box and leave a real gap over the shared wall, which the
-    depth buffer keeps open; joined (the default of culling_runtimes) the two roofs are one
-    region and one polygon, and a box under the seam is culled from above."""
+    """Two rooms side by side, each a closed box: cut object by object without welding,
+    surface-patches' roofs are eroded inside each box and leave a real gap over the shared
+    wall, which the depth buffer keeps open; joined (the default of culling_runtimes) the
+    two roofs are one region and one polygon, and a box under the seam is culled from
+    above. Welded (the default), each roof ends on its room's edges, so the roofs cut apart
+    meet over the wall too."""
     from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
 
     scene = trimesh.Scene()
@@ -437,11 +439,13 @@ def test_surface_patches_joined_over_objects_closes_the_seams():
     # it is, seams and all)
     joined = joined_occluder(objects, both, "surface-patches", budget=20)
     separate = list(scene_occluders(objects, both, "surface-patches", budget=10).values())
+    eroded = list(scene_occluders(objects, both, "surface-patches", budget=10,
+                                  weld="off").values())
     assert not joined.info["whole_input"] and not separate[0].info["whole_input"]
     culled = [ConservativeDepthBuffer.from_occluders(OccluderScene(occ), cam, width=64,
                                                      height=64).occluded(*under_seam)[0]
-              for occ in ([joined], separate)]
-    assert culled == [True, False]
+              for occ in ([joined], separate, eroded)]
+    assert culled == [True, True, False]
 
 
 def test_scene_occluders_say_a_warning_every_mesh_gives_once(caplog):
