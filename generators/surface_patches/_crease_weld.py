@@ -41,7 +41,8 @@ MIN_SINE = 1e-3
 
 
 def crease_lines(vertices: np.ndarray, faces: np.ndarray, face_region: np.ndarray,
-                 planes: np.ndarray, *, grid: float) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+                 planes: np.ndarray, *, grid: float, wanted: np.ndarray | None = None
+                 ) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     """The creases of each region: edges it shares with a face of another plane.
 
     Parameters
@@ -54,6 +55,8 @@ def crease_lines(vertices: np.ndarray, faces: np.ndarray, face_region: np.ndarra
         Each region's unit normal and offset (``n . x = offset``).
     grid : float
         World units within which two vertices are one (matched by position).
+    wanted : (w,) int, optional
+        The regions whose creases are wanted (default all).
 
     Returns
     -------
@@ -87,6 +90,9 @@ def crease_lines(vertices: np.ndarray, faces: np.ndarray, face_region: np.ndarra
     partner = np.concatenate([rb[ok], ra[ok]])
     flat = ends.reshape(-1, 2)
     seg_edges = np.concatenate([ea[ok], eb[ok]])
+    if wanted is not None:
+        mine = np.isin(own, wanted)
+        own, partner, seg_edges = own[mine], partner[mine], seg_edges[mine]
     segments = vertices[flat[seg_edges]]  # (k, 2, 3)
     out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     if len(own) == 0:

@@ -619,8 +619,10 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     stages = np.where(doubled, -1, stages)
 
     t0 = time.perf_counter()
-    creases, planes = ({}, None) if weld == "off" else _region_creases(vertices, faces,
-                                                                        regions, grid)
+    wanted = np.unique(np.array([k for k, s in zip(cand_region, stages, strict=True)
+                                 if s >= 0 and k >= 0], dtype=np.int64))
+    creases, planes = ({}, None) if weld == "off" or not len(wanted) else \
+        _region_creases(vertices, faces, regions, grid, wanted)
     reach = EROSION * diag + 2 * grid  # a vertex of the erosion's rim, snapped
     out_v, out_f, polygons = [], [], []
     offset = dropped = curtains_kept = welded = 0
@@ -760,16 +762,17 @@ def _candidate_cap(budget: int | None) -> int:
     return MAX_CANDIDATES if budget is None else max(MAX_CANDIDATES, int(budget))
 
 
-def _region_creases(vertices: np.ndarray, faces: np.ndarray, regions: list, grid: float
-                    ) -> tuple[dict, np.ndarray]:
-    """Each region's creases (:func:`._crease_weld.crease_lines`) and the regions' planes
-    ``(r, 4)``: unit normal and offset, through each region's origin."""
+def _region_creases(vertices: np.ndarray, faces: np.ndarray, regions: list, grid: float,
+                    wanted: np.ndarray) -> tuple[dict, np.ndarray]:
+    """The ``wanted`` regions' creases (:func:`._crease_weld.crease_lines`) and every
+    region's plane ``(r, 4)``: unit normal and offset, through the region's origin."""
     face_region = np.full(len(faces), -1, dtype=np.int64)
     for k, reg in enumerate(regions):  # a loop over regions, each face in one
         face_region[reg.faces] = k
     planes = np.array([[*reg.normal, float(reg.normal @ reg.origin)] for reg in regions],
                       dtype=np.float64).reshape(-1, 4)
-    return crease_lines(vertices, faces, face_region, planes, grid=grid), planes
+    return crease_lines(vertices, faces, face_region, planes, grid=grid,
+                        wanted=wanted), planes
 
 
 def _sheet_candidates(vertices: np.ndarray, faces: np.ndarray, area: np.ndarray,
