@@ -359,7 +359,31 @@ def _table(doc: dict) -> str:
                  "first, the same for all); false: culled objects visible in the ray-cast "
                  "object-id image, summed over frames; overhead: mean per frame; "
                  "conservative: the runtime's guarantee, '-' where it culled nothing")
+    hint = _bounds_hint(doc)
+    if hint:
+        lines.append(hint)
     return "\n".join(lines)
+
+
+def _bounds_hint(doc: dict) -> str | None:
+    """A line suggesting ``--bounds clusters`` when the box leaves more than half of what
+    the truth hides (over 20%) to every guaranteed runtime, else None.
+
+    A level exported as a few big chunks is the usual cause: a chunk's box holds the eye
+    or reaches past every occluder. On the dust map (20 frames) the best guaranteed
+    runtime culls 6.2% of the objects with boxes and 19.7% with clusters, the truth hiding
+    41.0% and 36.5%; even the level's own triangles cull 6.2% with boxes.
+    """
+    if doc["bounds"]["kind"] != "box":
+        return None
+    hidden = doc["ground_truth"]["hidden_share"]
+    best = max((t["culled_share"] for name, t in doc["totals"].items()
+                if name != "none" and t["conservative"]), default=0.0)
+    if hidden <= 0.2 or best >= 0.5 * hidden:
+        return None
+    return (f"hint: the guaranteed runtimes cull at most {best:.1%} of the objects where the "
+            f"truth hides {hidden:.1%}; if the level's objects are a few big chunks, "
+            "--bounds clusters tests each through the boxes of its triangles' clusters")
 
 
 def _conservative_cell(total: dict) -> str:
