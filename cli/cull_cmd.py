@@ -16,12 +16,16 @@ file says so), the camera
 path (:func:`viscore.metrics.culling.camera_path` or ``--path``) and the
 simulation against the ray-cast ground truth
 (:func:`viscore.metrics.culling.simulate_culling`), with each object tested through its
-box or, with ``--bounds clusters[:N]``, through the boxes of its triangle clusters
-(:func:`viscore.occludee_bounds.object_cluster_boxes`). Every argument is checked
-before any work (``--methods`` and ``--frusta-method`` by their generators' own rules
-across options, :func:`viscore.generators.check_method`; the scene, the occluder files and
-the camera path are read, the output folder checked, the frames capped at
-:data:`MAX_FRAMES` and their memory estimated, for ``--frames`` and ``--path`` alike).
+box or through the boxes of its triangle clusters
+(:func:`viscore.occludee_bounds.object_cluster_boxes`): ``--bounds auto`` (the default)
+splits the objects whose box diagonal is at least :data:`AUTO_MIN_SIZE` of the level's
+(chunks of a level exported in a few pieces, whose boxes hold the eye), ``clusters[:N]``
+every object, ``box`` none (the paper's test, sec. 6 of Papaioannou et al. 2006).
+Every argument is checked before any work (``--methods`` and ``--frusta-method`` by
+their generators' own rules across options, :func:`viscore.generators.check_method`;
+the scene, the occluder files and the camera path are read, the output folder checked,
+the frames capped at :data:`MAX_FRAMES` and their memory estimated, for ``--frames``
+and ``--path`` alike).
 Then the output folder is made if missing and locked for this process alone (a second
 ``cull`` on it is refused with one line; :func:`viscore.cli.study.store.lock_exclusive`,
 the lock of a study folder), and what a killed run left beside or in it is removed. A run
@@ -58,6 +62,7 @@ import stat
 import tempfile
 from pathlib import Path
 
+import numpy as np
 from viscore.generators import (
     JOINED_METHODS,
     REGISTRY,
@@ -91,8 +96,12 @@ from .study.store import lock_exclusive
 #: Frames of a generated camera path when ``--frames`` is not given.
 DEFAULT_FRAMES = 100
 
-#: Clusters per object of ``--bounds clusters`` without a count.
+#: Clusters per object of ``--bounds clusters`` and ``auto`` without a count.
 DEFAULT_CLUSTERS = 64
+
+#: ``--bounds auto``: objects from this fraction of the level's diagonal are tested
+#: through their clusters (chunks of the level), smaller ones through their box.
+AUTO_MIN_SIZE = 0.1
 
 #: Largest image side accepted by ``--width`` and ``--height``, pixels.
 MAX_SIDE = 8192
@@ -176,12 +185,14 @@ def add_parser(sub, common) -> None:
     c.add_argument("--rank", choices=["faces", "eq4"], default="faces",
                    help="ranking of the solids: as their best face by eq. 3 (default) or the "
                         "paper's f_solid of eq. 4")
-    c.add_argument("--bounds", default="box", metavar="box|clusters[:N]",
-                   help="what a runtime tests of an object: its box (default, as an engine "
-                        "tests an instance), or the boxes of up to N clusters of its "
-                        f"triangles (default N {DEFAULT_CLUSTERS}), the object culled when "
-                        "all of them are: a level exported as a few big chunks, whose boxes "
-                        "hold the eye, can then be culled where its visible parts are hidden")
+    c.add_argument("--bounds", default="auto", metavar="auto|box|clusters[:N]",
+                   help="what a runtime tests of an object: its box (as an engine tests an "
+                        "instance, and as the paper does), or the boxes of up to N clusters "
+                        f"of its triangles (default N {DEFAULT_CLUSTERS}), the object culled "
+                        "when all of them are: a level exported as a few big chunks, whose "
+                        "boxes hold the eye, can then be culled where its visible parts are "
+                        "hidden; auto (default): clusters for objects of at least "
+                        f"{AUTO_MIN_SIZE:g} of the level's diagonal, the box for the others")
     c.add_argument("--per-object", action="store_true",
                    help="make every method's occluders object by object; by default "
                         f"{', '.join(JOINED_METHODS)} is made once over the occluder objects "
@@ -207,20 +218,21 @@ def _methods(text: str | None, option: str = "--methods") -> list[str]:
     return list(dict.fromkeys(check_method(m, option).label for m in methods))
 
 
-def _bounds(text: str) -> int:
-    """``--bounds``: the clusters per object (1 for ``box``)."""
+def _bounds(text: str) -> tuple[str, int]:
+    """``--bounds``: its kind (``box``, ``clusters``, ``auto``) and clusters per object."""
     kind, _, count = str(text).strip().partition(":")
     if kind == "box" and not count:
-        return 1
-    if kind == "clusters":
+        return kind, 1
+    if kind in ("clusters", "auto"):
         if not count:
-            return DEFAULT_CLUSTERS
+            return kind, DEFAULT_CLUSTERS
         try:
-            return as_positive_int(int(count), "--bounds clusters:N", maximum=MAX_CLUSTERS)
+            return kind, as_positive_int(int(count), f"--bounds {kind}:N",
+                                         maximum=MAX_CLUSTERS)
         except ValueError:
             pass
-    raise InputError(f"--bounds: expected box, clusters or clusters:N (N from 1 to "
-                     f"{MAX_CLUSTERS}), got {text!r}")
+    raise InputError(f"--bounds: expected auto, box, clusters, auto:N or clusters:N (N from "
+                     f"1 to {MAX_CLUSTERS}), got {text!r}")
 
 
 def _out_dir(text: str) -> Path:
@@ -345,7 +357,8 @@ def _table(doc: dict) -> str:
              f"{doc['occluder_objects']} with occluders, {s['frames']} frames at "
              f"{s['width']} x {s['height']} (frusta from {doc['frusta_method']}"
              + ("" if doc["bounds"]["kind"] == "box" else
-                f"; objects tested by {doc['bounds']['boxes']:,} cluster boxes") + ")",
+                f"; {doc['bounds']['split_objects']:,} objects tested by their clusters, "
+                f"{doc['bounds']['boxes']:,} boxes in all") + ")",
              f"{'runtime':<28} {'culled':>7} {'false':>6} {'triangles/frame':>16} "
              f"{'overhead ms':>12} {'conservative':>12}"]
     for name, t in doc["totals"].items():
@@ -366,15 +379,16 @@ def _table(doc: dict) -> str:
 
 
 def _bounds_hint(doc: dict) -> str | None:
-    """A line suggesting ``--bounds clusters`` when the box leaves more than half of what
-    the truth hides (over 20%) to every guaranteed runtime, else None.
+    """A line suggesting ``--bounds clusters`` when the boxes (``box``, or ``auto``'s
+    unsplit objects) leave more than half of what the truth hides (over 20%) to every
+    guaranteed runtime, else None.
 
     A level exported as a few big chunks is the usual cause: a chunk's box holds the eye
     or reaches past every occluder. On the dust map (20 frames) the best guaranteed
     runtime culls 6.2% of the objects with boxes and 19.7% with clusters, the truth hiding
     41.0% and 36.5%; even the level's own triangles cull 6.2% with boxes.
     """
-    if doc["bounds"]["kind"] != "box":
+    if doc["bounds"]["kind"] == "clusters":
         return None
     hidden = doc["ground_truth"]["hidden_share"]
     best = max((t["culled_share"] for name, t in doc["totals"].items()
@@ -411,7 +425,7 @@ def run_cull(args) -> int:
         raise InputError(f"--frusta-method: expected one method, got {args.frusta_method!r}")
     source = source[0]
     names = _names(args.occluders, "--occluders")
-    clusters = _bounds(args.bounds)
+    bound_kind, clusters = _bounds(args.bounds)
     files = _occluder_files(args.occluder_files, methods)
     out = _out_dir(args.out)
     check_culling_memory(width, height)
@@ -439,7 +453,8 @@ def run_cull(args) -> int:
         doc = _simulate(args, objects, indices, path, folder, progress=progress, seed=seed,
                         frames=frames, methods=methods, source=source, active=active,
                         reduction=reduction, width=width, height=height, files=files,
-                        flat=level.flat, clusters=clusters)
+                        flat=level.flat, clusters=clusters,
+                        bound_kind=bound_kind)
     emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
          "(replay with --path)")
     return 0
@@ -492,7 +507,8 @@ def _check_frames_memory(frames: int, what: str) -> None:
 
 def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: bool, seed: int,
               frames, methods, source, active, reduction, width, height,
-              files: dict | None = None, flat=None, clusters: int = 1) -> dict:
+              files: dict | None = None, flat=None, clusters: int = 1,
+              bound_kind: str = "box") -> dict:
     """The work and the files of :func:`run_cull`; returns the JSON document."""
     from tqdm import tqdm
 
@@ -508,7 +524,11 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
                                           frusta_source=source, cap=args.cap,
                                           rank=args.rank, progress=tick, files=files,
                                           joined=() if args.per_object else None, flat=flat)
-    bounds = None if clusters == 1 else object_cluster_boxes(objects, clusters)
+    bounds = None if clusters == 1 else object_cluster_boxes(
+        objects, clusters, min_size=AUTO_MIN_SIZE if bound_kind == "auto" else None)
+    split = 0 if bounds is None else int(np.count_nonzero(np.bincount(bounds[2]) > 1))
+    if bounds is not None and not split:
+        bounds, bound_kind = None, "box"  # no object was split: every test is the box
     with tqdm(total=len(path), desc="frames", unit="frame", disable=not progress,
               leave=False) as bar:
         tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)
@@ -519,7 +539,9 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
            "occluder_files": {name: occ.params["file"] for name, occ in (files or {}).items()},
            "seed": seed, "per_object": bool(args.per_object),
            "bounds": ({"kind": "box"} if bounds is None else
-                      {"kind": "clusters", "clusters": clusters, "boxes": len(bounds[2])}),
+                      {"kind": bound_kind, "clusters": clusters, "boxes": len(bounds[2]),
+                       "split_objects": split,
+                       **({"min_size": AUTO_MIN_SIZE} if bound_kind == "auto" else {})}),
            "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
            **result.to_json(),
            "runtimes": info, "provenance": provenance()}

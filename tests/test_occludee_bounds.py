@@ -68,6 +68,35 @@ def test_object_cluster_boxes_follow_instances():
         object_cluster_boxes(objects, 0)
 
 
+def test_object_cluster_boxes_split_only_objects_of_min_size():
+    scene = trimesh.Scene()  # a 20 m chunk of two slabs and two small spheres
+    chunk = trimesh.util.concatenate([trimesh.creation.box(bounds=[[0, 0, 0], [2, 1, 1]]),
+                                      trimesh.creation.box(bounds=[[18, 0, 0], [20, 1, 1]])])
+    scene.add_geometry(chunk, geom_name="chunk", node_name="chunk")
+    ball = trimesh.creation.icosphere(subdivisions=2)
+    for x in (5, 12):
+        scene.add_geometry(ball, geom_name="ball", node_name=f"ball{x}",
+                           transform=trimesh.transformations.translation_matrix([x, 3, 0]))
+    objects = load_scene_objects(scene)
+    c = objects.names.index("chunk")
+    balls = [i for i in range(3) if i != c]
+    every = object_cluster_boxes(objects, 8)
+    assert (np.bincount(every[2])[balls] == 8).all()  # without min_size: all split
+    lo, hi, owner = object_cluster_boxes(objects, 8, min_size=0.25)
+    counts = np.bincount(owner)
+    assert counts[c] > 1 and (counts[balls] == 1).all()
+    for i in balls:  # a small object's one box is its own box
+        assert np.allclose(lo[owner == i], objects.lower[i])
+        assert np.allclose(hi[owner == i], objects.upper[i])
+    # the chunk's split is the one it gets without min_size
+    assert np.array_equal(lo[owner == c], every[0][every[2] == c])
+    # above the largest object's share, nothing is split
+    assert np.bincount(object_cluster_boxes(objects, 8, min_size=1.0)[2]).tolist() == [1, 1, 1]
+    for bad in (0, 1.5, float("nan")):
+        with pytest.raises(InputError, match="min_size"):
+            object_cluster_boxes(objects, 8, min_size=bad)
+
+
 def _chunk_scene(layout: str):
     """A wall in front of the camera and one object of two cubes (a chunk of a level).
 
@@ -139,7 +168,13 @@ def test_cull_cli_bounds_option(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert doc["bounds"]["kind"] == "clusters" and doc["bounds"]["clusters"] == 8
     assert doc["bounds"]["boxes"] > doc["settings"]["objects"]
-    for bad in ["clusters:0", "clusters:x", "sphere", "box:3"]:
+    # the default, auto: the long walls (0.7 of the yard's diagonal) split, the cube not
+    assert main(["cull", str(level), "--frames", "3", "--methods", "aabb-skins", "--width",
+                 "160", "--height", "90", "--out", str(out), "--json", "--quiet"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["bounds"]["kind"] == "auto" and doc["bounds"]["split_objects"] == 4
+    assert doc["bounds"]["boxes"] > doc["settings"]["objects"]
+    for bad in ["clusters:0", "clusters:x", "sphere", "box:3", "auto:0"]:
         assert main(["cull", "--bounds", bad, "--out", str(tmp_path / "x"), "--quiet"]) == 2
         assert "--bounds" in capsys.readouterr().err
         assert not (tmp_path / "x").exists()

@@ -29,12 +29,13 @@ References
 from __future__ import annotations
 
 import heapq
+import itertools
 from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
-from ._validate import InputError, as_positive_int
+from ._validate import InputError, as_fraction, as_positive_int
 
 if TYPE_CHECKING:  # pragma: no cover - hints only
     from .scene_graph import SceneObjects
@@ -85,9 +86,11 @@ def cluster_boxes(vertices: npt.ArrayLike, faces: npt.ArrayLike, clusters: int
     lo_t, hi_t = tri.min(axis=1), tri.max(axis=1)
     centre = tri.mean(axis=1)
 
+    made = itertools.count()  # ties split in the order made: the same boxes every run
+
     def entry(group: np.ndarray) -> tuple:
         span = np.ptp(centre[group], axis=0) if len(group) > 1 else np.zeros(3)
-        return (-float(span.max()), id(group), group, int(np.argmax(span)))
+        return (-float(span.max()), next(made), group, int(np.argmax(span)))
 
     heap = [entry(np.arange(len(f)))]
     done = []
@@ -106,7 +109,8 @@ def cluster_boxes(vertices: npt.ArrayLike, faces: npt.ArrayLike, clusters: int
     return lower, upper
 
 
-def object_cluster_boxes(objects: SceneObjects, clusters: int
+def object_cluster_boxes(objects: SceneObjects, clusters: int, *,
+                         min_size: float | None = None
                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World boxes of every object's triangle clusters (:func:`cluster_boxes`).
 
@@ -115,6 +119,10 @@ def object_cluster_boxes(objects: SceneObjects, clusters: int
     objects : SceneObjects
     clusters : int
         Most clusters per object.
+    min_size : float, optional
+        Only objects whose bounding-box diagonal is at least this fraction of the
+        level's (the box of all objects) are split; the others keep their own
+        box as their one cluster. In (0, 1]; default: every object is split.
 
     Returns
     -------
@@ -134,13 +142,22 @@ def object_cluster_boxes(objects: SceneObjects, clusters: int
         ``clusters`` not an integer in [1, :data:`MAX_CLUSTERS`].
     """
     clusters = as_positive_int(clusters, "clusters", maximum=MAX_CLUSTERS)
-    local = [cluster_boxes(m.vertices, m.faces, clusters) for m in objects.meshes]
+    split = np.ones(len(objects.mesh_ids), dtype=bool)
+    if min_size is not None:
+        min_size = as_fraction(min_size, "min_size", open_low=True)
+        level = float(np.linalg.norm(objects.bounds[1] - objects.bounds[0]))
+        split = np.linalg.norm(objects.upper - objects.lower, axis=1) >= min_size * level
+    wanted = set(objects.mesh_ids[split].tolist())
+    local = [cluster_boxes(m.vertices, m.faces, clusters if i in wanted else 1)
+             for i, m in enumerate(objects.meshes)]
     corner = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], dtype=bool)
     lowers, uppers, owners = [], [], []
     for i, mesh_id in enumerate(objects.mesh_ids):
         lo, hi = local[int(mesh_id)]
         if len(lo) == 0:
             continue
+        if not split[i]:  # its own box, as exact as the unsplit test
+            lo, hi = lo.min(axis=0, keepdims=True), hi.max(axis=0, keepdims=True)
         pts = np.where(corner[None], hi[:, None, :], lo[:, None, :])  # (k, 8, 3)
         m = objects.transforms[i]
         world = pts @ m[:3, :3].T + m[:3, 3]
