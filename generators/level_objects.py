@@ -7,7 +7,9 @@ get occluders is chosen by size, never the flat ground alone. The rules are
 in :mod:`viscore.generators.level_occluders`, which makes the occluders; a
 glTF of a single object is split as a single mesh is, and a flat object far
 larger than the rest of the level (:data:`LEVEL_SPAN`: an outer ground
-plane around a town) does not set the scale of the size threshold.
+plane around a town) or a sky around it
+(:meth:`viscore.scene_graph.SceneObjects.sky`) does not set the scale of the
+size threshold. A sky gets no occluders: nothing of the level lies behind it.
 
 References
 ----------
@@ -239,7 +241,7 @@ def _choose(objects: SceneObjects, up: str, min_size: float | None,
     box, part = objects.built_bounds(axis)
     if part:
         built = float(np.linalg.norm(box[1] - box[0]))
-        _log.info("%s: flat objects span %.4g world units around non-flat ones of %.4g; "
+        _log.info("%s: flat objects or a sky span %.4g world units around the rest of %.4g; "
                   "object sizes are fractions of the latter", objects.source, level, built)
         level = built
     sizes = diag / level
@@ -250,8 +252,9 @@ def _choose(objects: SceneObjects, up: str, min_size: float | None,
         refused = {objects.names[i]: "not named in --occluders"
                    for i in range(len(objects)) if i not in set(chosen.tolist())}
         return sizes, flat, chosen, refused
-    mask = sizes >= min_size
-    solid = ~flat
+    sky = objects.sky()
+    mask = (sizes >= min_size) & ~sky
+    solid = ~flat & ~sky
     if mask.any() and not (mask & solid).any() and solid.any():
         lo, hi = objects.lower[solid].min(axis=0), objects.upper[solid].max(axis=0)
         limit = min(min_size * float(np.linalg.norm(hi - lo)),
@@ -262,9 +265,10 @@ def _choose(objects: SceneObjects, up: str, min_size: float | None,
                   objects.source, int(extra.sum()), limit)
         mask |= extra
     chosen = np.flatnonzero(mask).astype(np.int64)
-    refused = {objects.names[i]: (f"too small: its bounding-box diagonal is {sizes[i]:.2%} of "
-                                  f"the level's, under the threshold of {min_size:.2%}")
-               for i in np.flatnonzero(~mask)}
+    refused = {objects.names[i]: (
+        "a sky: it surrounds the rest of the level from afar, so nothing lies behind it"
+        if sky[i] else f"too small: its bounding-box diagonal is {sizes[i]:.2%} of the "
+        f"level's, under the threshold of {min_size:.2%}") for i in np.flatnonzero(~mask)}
     return sizes, flat, chosen, refused
 
 

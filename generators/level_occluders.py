@@ -45,7 +45,9 @@ none is, those at least :data:`FALLBACK_SHARE` of the largest non-flat
 object's diagonal). When flat objects make the level's diagonal more than
 :data:`LEVEL_SPAN` times the non-flat objects' (an outer ground plane 2 km
 across around a town 180 m across), the threshold is a fraction of the
-latter. A glTF holding a single object (a map exported as one mesh) is split
+latter; so is it when a sky (:meth:`viscore.scene_graph.SceneObjects.sky`: an object
+surrounding the rest from afar) makes it so, and a sky gets no occluders. A glTF holding
+a single object (a map exported as one mesh) is split
 into parts as a single mesh is.
 
 A method for height fields (``GeneratorSpec.inputs``, ``terrain-drape``) runs on

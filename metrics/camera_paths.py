@@ -321,7 +321,8 @@ def _height_map(objects: SceneObjects, up: np.ndarray):
     """Top heights of the scene seen from above on a horizontal grid, and the ground level.
 
     The grid spans the level's built part
-    (:meth:`viscore.scene_graph.SceneObjects.built_bounds`). Returns the grid
+    (:meth:`viscore.scene_graph.SceneObjects.built_bounds`), its heights the
+    objects' but a sky's (:meth:`viscore.scene_graph.SceneObjects.sky`). Returns the grid
     frame (basis, origin, cell size, shape), the height along
     ``up`` of the first hit of one ray cast down through each cell centre (the
     scene's lowest point where the ray misses), and the ground level: the 5th
@@ -334,7 +335,12 @@ def _height_map(objects: SceneObjects, up: np.ndarray):
     def corners(box):
         return np.array([[x, y, z] for x in box[:, 0] for y in box[:, 1] for z in box[:, 2]])
 
-    h = corners(objects.bounds) @ up
+    # heights without a sky around the level: the rays start under its dome, and the
+    # elevated frames rise over the level, not to the sky
+    sky = objects.sky()
+    keep = ~sky if sky.any() and not sky.all() else np.ones(len(sky), dtype=bool)
+    h = corners(np.stack([objects.lower[keep].min(axis=0),
+                          objects.upper[keep].max(axis=0)])) @ up
     # the map covers the level's built part: an outer ground plane or a sea far wider
     # than the town on it would make every street a few cells of empty ground
     built = corners(objects.built_bounds(up)[0])
@@ -647,7 +653,7 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     -----
     Free space is found by casting one vertical ray down per cell of a
     256-cell grid over the scene's footprint (its built part, without an
-    outer ground plane or sea that spans over
+    outer ground plane, sea or sky that spans over
     :data:`viscore.scene_graph.LEVEL_SPAN` times the rest:
     :meth:`viscore.scene_graph.SceneObjects.built_bounds`): a cell is free
     when nothing in it rises above 90% of the eye height over the ground (the 5th

@@ -512,6 +512,53 @@ def test_camera_path_walks_the_town_not_the_wide_ground_around_it():
     np.testing.assert_array_equal(small.built_bounds()[0], small.bounds)
 
 
+def test_a_sky_dome_neither_sets_the_level_nor_gets_occluders(tmp_path):
+    """A half-sphere sky 4 km across around a town of 200 m (Godot and three.js scenes
+    ship one): the sky is found, the houses are sized against the town (all of them got
+    refused as under 2% of the sky's diagonal), the path's street and elevated cameras stay
+    under 3 house heights (they rose toward the dome), and the sky gets no occluder. A big terrain
+    under the town, whose vertices reach the houses, is no sky."""
+    from viscore.generators.level_objects import level_objects
+
+    from viscore.occludee_bounds import object_cluster_boxes
+
+    town = _town_on_a_wide_ground(100.0)
+    scene = trimesh.Scene()
+    for i, name in enumerate(town.names):
+        scene.add_geometry(town.object_mesh(i), geom_name=name, node_name=name)
+    dome = trimesh.creation.icosphere(subdivisions=3, radius=2000.0)
+    dome = dome.slice_plane([0, -1, 0], [0, 1, 0])  # the upper half, open below
+    scene.add_geometry(dome, geom_name="sky", node_name="sky")
+    level_file = tmp_path / "town-sky.glb"
+    scene.export(level_file)
+    level = level_objects(level_file)
+    objects = level.objects
+    sky = objects.names.index("sky")
+    assert np.flatnonzero(objects.sky()).tolist() == [sky]
+    assert "sky" in level.refused["sky"]
+    houses = [i for i, n in enumerate(objects.names) if n.startswith("house")]
+    assert set(houses) <= set(level.chosen.tolist())
+    box, part = objects.built_bounds()
+    assert part and box[1][1] <= 6 + 1e-9 and box[1][0] < 150
+    eyes = np.array([p.position for p in camera_path(objects, frames=20, seed=0)])
+    assert eyes[:18, 1].max() < 18 and eyes[:, 1].max() < 100  # street, elevated; far
+    # --bounds auto sizes objects against the town too: a house is 7% of it (0.4% of the sky)
+    owner = object_cluster_boxes(objects, 8, min_size=0.05)[2]
+    assert (np.bincount(owner, minlength=len(objects))[houses] > 1).all()
+    # no sky: a hill whose vertices come down to the houses
+    hill = trimesh.creation.icosphere(subdivisions=3, radius=2000.0)
+    hill.apply_translation([0, -2000.0, 0])
+    scene.delete_geometry("sky")
+    scene.add_geometry(hill, geom_name="hill", node_name="hill")
+    assert not load_scene_objects(scene).sky().any()
+    # nor is a mountain far off to one side, though none of it comes near the town
+    scene.delete_geometry("hill")
+    scene.add_geometry(trimesh.creation.icosphere(subdivisions=2, radius=800.0),
+                       geom_name="far", node_name="far",
+                       transform=trimesh.transformations.translation_matrix([3000, 0, 0]))
+    assert not load_scene_objects(scene).sky().any()
+
+
 def test_height_field_methods_get_the_flat_objects_only():
     """culling_runtimes(flat=...): terrain-drape (inputs 'height-fields') makes occluders
     for the flat objects among the occluder objects, the others' methods for all."""

@@ -121,7 +121,8 @@ def object_cluster_boxes(objects: SceneObjects, clusters: int, *,
         Most clusters per object.
     min_size : float, optional
         Only objects whose bounding-box diagonal is at least this fraction of the
-        level's (the box of all objects) are split; the others keep their own
+        level's (the box of its built part,
+        :meth:`~viscore.scene_graph.SceneObjects.built_bounds`) are split; the others keep their own
         box as their one cluster. In (0, 1]; default: every object is split.
 
     Returns
@@ -145,7 +146,8 @@ def object_cluster_boxes(objects: SceneObjects, clusters: int, *,
     split = np.ones(len(objects.mesh_ids), dtype=bool)
     if min_size is not None:
         min_size = as_fraction(min_size, "min_size", open_low=True)
-        level = float(np.linalg.norm(objects.bounds[1] - objects.bounds[0]))
+        box = objects.built_bounds()[0]  # without an outer ground plane or a sky
+        level = float(np.linalg.norm(box[1] - box[0]))
         split = np.linalg.norm(objects.upper - objects.lower, axis=1) >= min_size * level
     wanted = set(objects.mesh_ids[split].tolist())
     local = [cluster_boxes(m.vertices, m.faces, clusters if i in wanted else 1)

@@ -178,6 +178,8 @@ FLAT_RATIO = 0.1
 #: the non-flat objects' box (an outer ground plane, a sea around a town) does not set
 #: the level's extent: its built part is the non-flat objects' box.
 LEVEL_SPAN = 2.0
+#: Largest objects checked by :meth:`SceneObjects.sky` (a sky box around a sky dome).
+SKY_CANDIDATES = 3
 
 
 @dataclass(frozen=True, eq=False)
@@ -247,18 +249,57 @@ class SceneObjects:
             u) > 1 else np.delete(extent, int(np.argmax(u)), axis=1).max(axis=1)
         return along < FLAT_RATIO * across
 
+    def sky(self) -> np.ndarray:
+        """``(n,) bool``: objects that surround the rest of the level from afar (a sky
+        dome or sky box): the object's box holds the centre of the box of the other
+        objects, and every vertex lies farther from that box than :data:`LEVEL_SPAN`
+        times its diagonal.
+
+        Only the :data:`SKY_CANDIDATES` objects of largest box are checked, largest
+        first, each against the objects not yet found to be sky; the first that is not
+        a sky ends the search. A level of one object has none.
+
+        Examples
+        --------
+        >>> import trimesh
+        >>> scene = trimesh.Scene()
+        >>> _ = scene.add_geometry(trimesh.creation.box(extents=[2, 2, 2]), node_name="house")
+        >>> _ = scene.add_geometry(trimesh.creation.icosphere(radius=500.0), node_name="sky")
+        >>> objects = load_scene_objects(scene)
+        >>> [objects.names[i] for i in np.flatnonzero(objects.sky())]
+        ['sky']
+        """
+        sky = np.zeros(len(self), dtype=bool)
+        order = np.argsort(-np.linalg.norm(self.upper - self.lower, axis=1), kind="stable")
+        for i in order[:SKY_CANDIDATES]:
+            rest = ~sky
+            rest[i] = False
+            if not rest.any():
+                break
+            lo, hi = self.lower[rest].min(axis=0), self.upper[rest].max(axis=0)
+            v = self.object_vertices(int(i))
+            gap = np.linalg.norm(np.maximum(0.0, np.maximum(lo - v, v - hi)), axis=1)
+            centre = (lo + hi) / 2
+            around = bool(np.all((self.lower[i] <= centre) & (centre <= self.upper[i])))
+            if not (len(v) and around) or gap.min() <= LEVEL_SPAN * float(
+                    np.linalg.norm(hi - lo)):
+                break
+            sky[i] = True
+        return sky
+
     def built_bounds(self, up: npt.ArrayLike | None = None) -> tuple[np.ndarray, bool]:
         """``(2, 3)`` the box of the level's built part, and whether it is not the whole.
 
-        The non-flat objects' box when flat ones (an outer ground plane, a sea
-        around a town) make the whole box's diagonal more than
-        :data:`LEVEL_SPAN` times its diagonal; otherwise :attr:`bounds`.
+        The box of the objects that are neither flat nor sky (:meth:`sky`) when
+        the others (an outer ground plane, a sea around a town, a sky dome)
+        make the whole box's diagonal more than :data:`LEVEL_SPAN` times its
+        diagonal; otherwise :attr:`bounds`.
         """
         whole = self.bounds
-        flat = self.flat(up)
-        if flat.all() or not flat.any():
+        outer = self.flat(up) | self.sky()
+        if outer.all() or not outer.any():
             return whole, False
-        built = np.stack([self.lower[~flat].min(axis=0), self.upper[~flat].max(axis=0)])
+        built = np.stack([self.lower[~outer].min(axis=0), self.upper[~outer].max(axis=0)])
         span = float(np.linalg.norm(built[1] - built[0]))
         if span > 0 and float(np.linalg.norm(whole[1] - whole[0])) > LEVEL_SPAN * span:
             return built, True
