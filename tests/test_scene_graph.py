@@ -427,3 +427,17 @@ def test_cull_cli_node_cycle_exits_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "\n" not in err
     assert err.startswith("viscore: error: ") and "node 0 ('a') is its own descendant" in err
+
+
+@pytest.mark.parametrize("required", ["EXT_meshopt_compression", "KHR_draco_mesh_compression"])
+def test_compressed_geometry_is_refused_by_name(tmp_path, required):
+    """A glTF that requires meshopt or Draco decoding is refused with one line naming the
+    extension (trimesh's reader failed with "list index out of range")."""
+    nodes = [{"name": "box", "mesh": 0}]
+    path = _write(tmp_path, "packed.glb", _glb(nodes, [0], extensionsUsed=[required],
+                                               extensionsRequired=[required]))
+    with pytest.raises(InputError, match=f"compressed with {required}"):
+        load_scene_objects(path)
+    # used but not required (the file holds plain geometry too): read as usual
+    path = _write(tmp_path, "plain.glb", _glb(nodes, [0], extensionsUsed=[required]))
+    assert load_scene_objects(path).names == ("box",)

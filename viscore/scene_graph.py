@@ -581,6 +581,21 @@ def _gltf_json(data: bytes, fmt: str, label: str) -> tuple[dict, tuple[int, int,
     return header, layout
 
 
+#: Required glTF extensions that compress geometry, which trimesh's reader cannot decode.
+_COMPRESSIONS = ("EXT_meshopt_compression", "KHR_draco_mesh_compression")
+
+
+def _refuse_compressed(header: dict, fmt: str, label: str) -> None:
+    """One line for a glTF whose geometry needs a decoder we do not have (its
+    ``extensionsRequired`` names meshopt or Draco compression, glTF 2.0 sec. 3.12)."""
+    required = header.get("extensionsRequired")
+    names = [n for n in _COMPRESSIONS if isinstance(required, list) and n in required]
+    if names:
+        raise InputError(f"{label}: its geometry is compressed with {' and '.join(names)}, "
+                         f"which viscore cannot decode; export the {fmt.upper()} without "
+                         "mesh compression (gltf-transform and gltfpack can write one)")
+
+
 def _mesh_library(data: bytes, header: dict, fmt: str, layout: tuple[int, int, int],
                   label: str) -> bytes:
     """The same file with its node hierarchy replaced by one root node per glTF mesh.
@@ -916,6 +931,7 @@ def _load_gltf(path: Path, label: str) -> SceneObjects:
     fmt = _suffix(path.name)
     data = _read_regular_file(path, label)
     header, layout = _gltf_json(data, fmt, label)
+    _refuse_compressed(header, fmt, label)
     tree = _node_hierarchy(header, label)
     library = _mesh_library(data, header, fmt, layout, label)
     del data
