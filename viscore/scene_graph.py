@@ -56,6 +56,8 @@ import numpy.typing as npt
 import trimesh
 
 from ._validate import InputError, check_memory
+from .gltf_meshopt import EXTENSION as MESHOPT
+from .gltf_meshopt import decode_meshopt_glb
 from .mesh_io import (
     _BYTES_PER_TRIANGLE,
     _describe_without_triangles,
@@ -582,14 +584,17 @@ def _gltf_json(data: bytes, fmt: str, label: str) -> tuple[dict, tuple[int, int,
 
 
 #: Required glTF extensions that compress geometry, which trimesh's reader cannot decode.
-_COMPRESSIONS = ("EXT_meshopt_compression", "KHR_draco_mesh_compression")
+_COMPRESSIONS = (MESHOPT, "KHR_draco_mesh_compression")
 
 
 def _refuse_compressed(header: dict, fmt: str, label: str) -> None:
     """One line for a glTF whose geometry needs a decoder we do not have (its
-    ``extensionsRequired`` names meshopt or Draco compression, glTF 2.0 sec. 3.12)."""
+    ``extensionsRequired`` names Draco compression, or meshopt compression outside a
+    GLB, which :func:`viscore.gltf_meshopt.decode_meshopt_glb` decodes; glTF 2.0
+    sec. 3.12)."""
     required = header.get("extensionsRequired")
-    names = [n for n in _COMPRESSIONS if isinstance(required, list) and n in required]
+    names = [n for n in _COMPRESSIONS if isinstance(required, list) and n in required
+             and not (fmt == "glb" and n == MESHOPT)]
     if names:
         raise InputError(f"{label}: its geometry is compressed with {' and '.join(names)}, "
                          f"which viscore cannot decode; export the {fmt.upper()} without "
@@ -932,6 +937,11 @@ def _load_gltf(path: Path, label: str) -> SceneObjects:
     data = _read_regular_file(path, label)
     header, layout = _gltf_json(data, fmt, label)
     _refuse_compressed(header, fmt, label)
+    if fmt == "glb":  # meshopt-compressed views and normalized positions made plain
+        plain, _ = decode_meshopt_glb(data, header, layout[2], label)
+        if plain is not data:
+            data = plain
+            header, layout = _gltf_json(data, fmt, label)
     tree = _node_hierarchy(header, label)
     library = _mesh_library(data, header, fmt, layout, label)
     del data
