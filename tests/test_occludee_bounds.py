@@ -69,9 +69,9 @@ def test_object_cluster_boxes_follow_instances():
 
 
 def test_object_cluster_boxes_split_only_objects_of_min_size():
-    scene = trimesh.Scene()  # a 20 m chunk of two slabs and two small spheres
-    chunk = trimesh.util.concatenate([trimesh.creation.box(bounds=[[0, 0, 0], [2, 1, 1]]),
-                                      trimesh.creation.box(bounds=[[18, 0, 0], [20, 1, 1]])])
+    scene = trimesh.Scene()  # a 20 m chunk of two pillars (not flat) and two small spheres
+    chunk = trimesh.util.concatenate([trimesh.creation.box(bounds=[[0, 0, 0], [2, 3, 1]]),
+                                      trimesh.creation.box(bounds=[[18, 0, 0], [20, 3, 1]])])
     scene.add_geometry(chunk, geom_name="chunk", node_name="chunk")
     ball = trimesh.creation.icosphere(subdivisions=2)
     for x in (5, 12):
