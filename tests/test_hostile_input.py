@@ -1573,3 +1573,16 @@ def test_cull_valid_odd_scenes(workdir):
         if rc == 0:
             assert sorted(p.name for p in out.iterdir()) == ["cameras.json", "cull.json",
                                                              "triangles.png"]
+
+
+def test_a_mistyped_builtin_name_gets_a_suggestion(tmp_path):
+    """The data folder's file names use underscores; the scenes' names hyphens."""
+    from viscore import load_mesh
+
+    with pytest.raises(InputError, match="did you mean 'building-church'"):
+        load_mesh(str(tmp_path / "building_church.ply"))
+    with pytest.raises(InputError, match="did you mean 'fat-torus'"):
+        load_mesh("fat_torus")
+    with pytest.raises(InputError) as err:
+        load_mesh("nothing-like-it")
+    assert "did you mean" not in str(err.value)

@@ -438,8 +438,13 @@ def load_mesh(source: str | os.PathLike | trimesh.Trimesh) -> trimesh.Trimesh:
             try:
                 os.stat(path)
             except FileNotFoundError:
+                import difflib
+
+                close = difflib.get_close_matches(Path(label).stem.replace("_", "-"),
+                                                  scene_names(), n=1, cutoff=0.8)
+                hint = f"; did you mean {close[0]!r}?" if close else ""
                 raise InputError(f"{label}: no such file, and not a built-in scene "
-                                 f"(built-in: {', '.join(scene_names())})") from None
+                                 f"(built-in: {', '.join(scene_names())}){hint}") from None
             except OSError as exc:  # a file used as a folder, a folder we may not enter
                 raise _refuse_path(path, label, exc) from None
     readable = set(trimesh.available_formats()) | {"off"}
