@@ -84,6 +84,27 @@ def test_a_meshopt_compressed_level_loads_as_the_plain_one(tmp_path):
     assert sum(len(g.faces) for g in again.geometry.values()) == len(rock.faces)
 
 
+@pytest.mark.parametrize("change, match", [
+    (lambda h: h.update(bufferViews=5), "bufferViews must be a list"),
+    (lambda h: h["bufferViews"].__setitem__(1, 7), "bufferViews must be a list"),
+    (lambda h: h["bufferViews"][0].update(extensions=3), "extensions must be an object"),
+    (lambda h: h["bufferViews"][0]["extensions"][EXT].update(filter="OCTAHEDRAL"),
+     "needs byteStride 4 or 8"),
+    (lambda h: h["bufferViews"][0]["extensions"][EXT].update(count=-1), "count must be"),
+    (lambda h: h["bufferViews"][0]["extensions"][EXT].update(count=10**9), "does not decode"),
+    (lambda h: h["bufferViews"][0]["extensions"][EXT].update(byteStride=6), "does not decode"),
+])
+def test_malformed_meshopt_json_is_refused_in_one_line(tmp_path, change, match):
+    data = _packed_level(trimesh.creation.icosphere(subdivisions=1))
+    length = struct.unpack("<I", data[12:16])[0]
+    header = json.loads(data[20:20 + length])
+    change(header)
+    path = tmp_path / "bad.glb"
+    path.write_bytes(_glb(header, data[20 + length + 8:]))
+    with pytest.raises(InputError, match=match):
+        load_scene_objects(path)
+
+
 @pytest.mark.parametrize("kwargs, match", [
     ({"cut": 40}, "does not decode|past the binary chunk"),
     ({"mode_v": "SPLINES"}, "unknown mode"),

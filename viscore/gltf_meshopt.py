@@ -81,6 +81,10 @@ def _decode_view(ext: dict, blob: memoryview, label: str, index: int) -> bytes:
         raise InputError(f"{label}: {EXTENSION}: {where} has an unknown mode {mode!r}")
     if mode == "ATTRIBUTES" and filt not in filters:
         raise InputError(f"{label}: {EXTENSION}: {where} has an unknown filter {filt!r}")
+    strides = {"OCTAHEDRAL": (4, 8), "QUATERNION": (8,)}  # the extension's rules
+    if mode == "ATTRIBUTES" and filt in strides and stride not in strides[filt]:
+        raise InputError(f"{label}: {EXTENSION}: {where}: filter {filt} needs byteStride "
+                         f"{' or '.join(map(str, strides[filt]))}, got {stride}")
     if mode != "ATTRIBUTES" and stride not in (2, 4):
         raise InputError(f"{label}: {EXTENSION}: {where}: index byteStride must be 2 or 4, "
                          f"got {stride}")
@@ -207,8 +211,15 @@ def decode_meshopt_glb(data: bytes, header: dict, end: int, label: str
     """
     views = header.get("bufferViews")
     buffers = header.get("buffers")
-    used = [isinstance(v, dict) and EXTENSION in (v.get("extensions") or {})
-            for v in views or []]
+    if views is not None and not (isinstance(views, list)
+                                  and all(isinstance(v, dict) for v in views)):
+        raise InputError(f"{label}: not a valid GLB file (bufferViews must be a list of "
+                         "objects)")
+    for i, view in enumerate(views or []):
+        if not isinstance(view.get("extensions", {}), dict):
+            raise InputError(f"{label}: not a valid GLB file (bufferView {i}'s extensions "
+                             "must be an object)")
+    used = [EXTENSION in (v.get("extensions") or {}) for v in views or []]
     if not any(used) and not _normalized_positions(header):
         return data, header
     inside = isinstance(buffers, list) and buffers and isinstance(buffers[0], dict) \
