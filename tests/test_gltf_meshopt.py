@@ -84,6 +84,10 @@ def test_a_meshopt_compressed_level_loads_as_the_plain_one(tmp_path):
     assert sum(len(g.faces) for g in again.geometry.values()) == len(rock.faces)
 
 
+def _ext(header: dict, view: int) -> dict:
+    return header["bufferViews"][view]["extensions"][EXT]
+
+
 @pytest.mark.parametrize("change, match", [
     (lambda h: h.update(bufferViews=5), "bufferViews must be a list"),
     (lambda h: h["bufferViews"].__setitem__(1, 7), "bufferViews must be a list"),
@@ -91,8 +95,24 @@ def test_a_meshopt_compressed_level_loads_as_the_plain_one(tmp_path):
     (lambda h: h["bufferViews"][0]["extensions"][EXT].update(filter="OCTAHEDRAL"),
      "needs byteStride 4 or 8"),
     (lambda h: h["bufferViews"][0]["extensions"][EXT].update(count=-1), "count must be"),
-    (lambda h: h["bufferViews"][0]["extensions"][EXT].update(count=10**9), "does not decode"),
-    (lambda h: h["bufferViews"][0]["extensions"][EXT].update(byteStride=6), "does not decode"),
+    (lambda h: _ext(h, 0).update(count=10**9), "more than the ATTRIBUTES codec can give"),
+    (lambda h: _ext(h, 0).update(count=4_000_000, byteStride=256), "more than the ATTRIB"),
+    (lambda h: _ext(h, 0).update(byteStride=6), "multiple of 4 up to 256, got 6"),
+    (lambda h: _ext(h, 0).update(byteStride=260), "multiple of 4 up to 256, got 260"),
+    (lambda h: _ext(h, 1).update(count=_ext(h, 1)["count"] - 1), "not a multiple of 3"),
+    (lambda h: _ext(h, 1).update(filter="OCTAHEDRAL"), "is for ATTRIBUTES, not TRIANGLES"),
+    (lambda h: _ext(h, 1).update(mode="INDICES"), "does not start with the INDICES codec"),
+    (lambda h: _ext(h, 0).update(filter=["NONE"]), "unknown filter"),
+    (lambda h: _ext(h, 0).update(mode=["ATTRIBUTES"]), "unknown mode"),
+    (lambda h: _ext(h, 0).update(count="42"), "count must be an integer"),
+    (lambda h: _ext(h, 0).update(buffer=False), "not in the GLB's binary chunk"),
+    (lambda h: _ext(h, 0).update(buffer=[0]), "not in the GLB's binary chunk"),
+    (lambda h: h["bufferViews"][0]["extensions"].update({EXT: [1]}), "not in the GLB's bin"),
+    (lambda h: h["buffers"].__setitem__(1, 7), "buffers must be a list of objects"),
+    (lambda h: h["buffers"][0].update(extensions={EXT: {"fallback": True}}),
+     "must lie in the GLB's binary chunk"),
+    (lambda h: h["bufferViews"][0].update(byteStride=16), "has byteStride 16 but its"),
+    (lambda h: h["bufferViews"].append({"buffer": [0], "byteLength": 4}), "names no buffer"),
 ])
 def test_malformed_meshopt_json_is_refused_in_one_line(tmp_path, change, match):
     data = _packed_level(trimesh.creation.icosphere(subdivisions=1))
@@ -117,10 +137,24 @@ def test_bad_meshopt_data_is_refused_in_one_line(tmp_path, kwargs, match):
         load_scene_objects(path)
 
 
-def test_normalized_positions_are_scaled_as_gltf_says(tmp_path):
-    """KHR_mesh_quantization: unsigned-short positions normalized to [0, 1] and scaled back
-    by the node (10 x), read to within the quantization step (trimesh alone read them as
-    integers up to 65535)."""
+def test_views_that_decode_past_the_limit_are_refused(tmp_path, monkeypatch):
+    """Each view's size is checked against what its codec can give, and all of them
+    against MAX_DECODED (a few bytes of JSON pointing many views at one stream must not
+    allocate gigabytes): the rock's positions (504 bytes) fit under 1,000, its indices
+    (960 more) do not."""
+    import viscore.gltf_meshopt as gm
+
+    path = tmp_path / "rock.glb"
+    path.write_bytes(_packed_level(trimesh.creation.icosphere(subdivisions=1)))
+    assert len(load_scene_objects(path).meshes[0].faces) == 80
+    monkeypatch.setattr(gm, "MAX_DECODED", 1000)
+    with pytest.raises(InputError, match="decode to more than"):
+        load_scene_objects(path)
+
+
+def _crate(change=None) -> bytes:
+    """A GLB of a crate 1 x 0.5 x 0.25 whose unsigned-short positions are normalized to
+    [0, 1] (KHR_mesh_quantization) and scaled back by its node (10 x)."""
     box = trimesh.creation.box(bounds=[[0, 0, 0], [1, 0.5, 0.25]])
     q = np.round(box.vertices * 65535).astype("<u2")
     f = np.asarray(box.faces, dtype="<u2").reshape(-1)
@@ -143,7 +177,49 @@ def test_normalized_positions_are_scaled_as_gltf_says(tmp_path):
         "extensionsUsed": ["KHR_mesh_quantization"],
         "extensionsRequired": ["KHR_mesh_quantization"],
     }
+    if change is not None:
+        change(header)
+    return _glb(header, blob)
+
+
+def test_normalized_positions_are_scaled_as_gltf_says(tmp_path):
+    """Read to within the quantization step (trimesh alone read them as integers up to
+    65535)."""
     path = tmp_path / "crate.glb"
-    path.write_bytes(_glb(header, blob))
+    path.write_bytes(_crate())
     objects = load_scene_objects(path)
     np.testing.assert_allclose(objects.upper[0] - objects.lower[0], [10, 5, 2.5], atol=1e-3)
+
+
+@pytest.mark.parametrize("change, match", [
+    (lambda h: h["accessors"][0].update(type="VEC2"), "has type 'VEC2', not VEC3"),
+    (lambda h: h["accessors"][0].update(sparse={"count": 1}), "is sparse"),
+    (lambda h: h["bufferViews"][0].update(byteLength=8), "reads past its buffer view"),
+    (lambda h: h["accessors"][0].update(byteOffset=10**18), "reads past its buffer view"),
+    (lambda h: h["bufferViews"][0].update(byteStride=1), "byteStride must be an integer >= 6"),
+    (lambda h: h["accessors"][0].update(bufferView=True), "bufferView must be an integer"),
+    (lambda h: h["accessors"][0].update(bufferView=9), "not in the GLB's binary chunk"),
+    (lambda h: h.pop("buffers"), "buffer views but no buffers"),
+])
+def test_malformed_normalized_positions_are_refused_in_one_line(tmp_path, change, match):
+    path = tmp_path / "crate.glb"
+    path.write_bytes(_crate(change))
+    with pytest.raises(InputError, match=match):
+        load_scene_objects(path)
+
+
+@pytest.mark.parametrize("change", [
+    lambda h: h.update(meshes=5),
+    lambda h: h["meshes"][0].update(primitives=5),
+    lambda h: h["meshes"][0]["primitives"][0].update(attributes=[1]),
+    lambda h: h["accessors"][0].update(componentType=[5123]),
+    lambda h: h.update(accessors={"0": {}}),
+])
+def test_the_quantization_scan_skips_json_of_another_shape(change):
+    """The scan for normalized positions runs on every GLB: JSON of another shape is left
+    to the reader (which says what is wrong) instead of raising TypeError here."""
+    data = _crate(change)
+    length = struct.unpack("<I", data[12:16])[0]
+    header = json.loads(data[20:20 + length])
+    plain, out = decode_meshopt_glb(data, header, 20 + length, "crate.glb")
+    assert plain is data and out is header
