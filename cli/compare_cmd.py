@@ -249,10 +249,12 @@ def run_compare(args) -> int:
                    "interval, bootstrap probability of being better):\n\n"
                    + paired_markdown(paired))
         if culling:
-            doc["culling"] = {"scene": "city", "frames": culling_frames, "rows": culling}
+            doc["culling"] = {"scene": "city", "frames": culling_frames, "bounds": "auto",
+                              "rows": culling}
             md += (f"\nCulling on the built-in city ({culling_frames} frames at 640 x 360; each "
-                   "method's occluders feed a conservative depth buffer; false culls are objects "
-                   "culled yet visible in the ray-cast object-id image):\n\n"
+                   "method's occluders feed a conservative depth buffer; objects are tested as "
+                   "`viscore cull` tests them by default, `--bounds auto`; false culls are "
+                   "objects culled yet visible in the ray-cast object-id image):\n\n"
                    + _culling_markdown(culling))
         write_atomic(out / "results.json", dumps(doc).encode())
         write_atomic(out / "results.csv", table_csv(rows).encode())
@@ -294,7 +296,7 @@ def _culling(methods: list[str], out: Path, *, frames: int, seed: int,
     """
     from .bench.cull import culling_column
 
-    key = {"methods": methods, "frames": frames, "seed": seed,
+    key = {"methods": methods, "frames": frames, "seed": seed, "bounds": "auto",
            "version": provenance().get("viscore")}
     path = out / "culling.json"
     try:

@@ -2,10 +2,13 @@
 
 import json
 
+import numpy as np
 import pytest
 import trimesh
 from viscore.cli import cull_cmd
 from viscore.cli import main as cli_main
+
+from viscore import InputError
 
 
 @pytest.fixture
@@ -158,6 +161,36 @@ def test_bench_cull_and_culling_column_on_a_small_scene(street):
     assert set(column) == {"aabb-skins", "bbox"}
     assert column["aabb-skins"]["false_culls"] == 0 and column["aabb-skins"]["conservative"]
     assert 0 <= column["bbox"]["culled_share"] <= 1
+
+
+def test_culling_column_tests_objects_as_cull_does_by_default(street, monkeypatch):
+    """compare's culling column splits the level's chunks as `cull --bounds auto` does: the
+    street's wall (0.66 of its diagonal) is tested through its clusters, the box and the
+    trees (under 0.1) through their boxes; bounds='box' tests every object by its box."""
+    from viscore.cli.bench.cull import culling_column
+    from viscore.metrics import culling
+
+    from viscore.scene_graph import load_scene_objects
+
+    scene, _ = street
+    seen = []
+    real = culling.simulate_culling
+
+    def spy(*args, bounds=None, **kwargs):
+        seen.append(bounds)
+        return real(*args, bounds=bounds, **kwargs)
+
+    monkeypatch.setattr(culling, "simulate_culling", spy)
+    auto = culling_column(["bbox"], scene=str(scene), frames=2, width=32, height=18)
+    box = culling_column(["bbox"], scene=str(scene), frames=2, width=32, height=18,
+                         bounds="box")
+    names = load_scene_objects(scene).names
+    owners = dict(zip(names, np.bincount(seen[0][2], minlength=len(names)), strict=True))
+    assert owners.pop("wall") > 1 and set(owners.values()) == {1}, owners
+    assert seen[1] is None
+    assert 0 <= auto["bbox"]["culled_share"] <= 1 and 0 <= box["bbox"]["culled_share"] <= 1
+    with pytest.raises(InputError, match="bounds"):
+        culling_column(["bbox"], scene=str(scene), frames=2, bounds="clusters")
 
 
 def test_cull_default_chooses_objects_as_occlude_does(run, tmp_path, capsys, monkeypatch):

@@ -10,7 +10,8 @@ buffer of a 1280 x 720 screen, occluder skins [2]_ sec. 7) with the same
 
 :func:`culling_column` gives ``compare`` its culling column: for each method,
 the share of in-view objects its occluders cull through the depth buffer
-along the city's path, and the false culls against the ray-cast truth.
+along the city's path (objects tested as ``viscore cull`` tests them by
+default), and the false culls against the ray-cast truth.
 
 References
 ----------
@@ -29,6 +30,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from viscore import InputError
 from viscore._validate import as_positive_int, as_seed
 
 #: Targets of issue 13, milliseconds per frame on one core.
@@ -140,13 +142,18 @@ def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed:
 
 
 def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int = 24,
-                   width: int = 640, height: int = 360, seed: int = 0) -> dict[str, dict]:
+                   width: int = 640, height: int = 360, seed: int = 0,
+                   bounds: str = "auto") -> dict[str, dict]:
     """Culled share and false culls of each method's occluders on a culling scene.
 
     Each method's occluders (for the scene's objects above the default size
     threshold) feed a conservative depth buffer (a quarter of the screen's
     side) along the scene's generated path; the ray-cast ground truth is
-    ``width`` x ``height`` (sub-pixel objects are a limit of it).
+    ``width`` x ``height`` (sub-pixel objects are a limit of it). Objects are
+    tested as ``viscore cull`` tests them by default (``bounds='auto'``: the
+    chunks of the level, objects from ``AUTO_MIN_SIZE`` of its diagonal,
+    through the boxes of their triangle clusters, the others through their
+    box), or all through their box (``'box'``, the paper's test).
 
     Parameters
     ----------
@@ -158,6 +165,8 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
         Path length and ground-truth image size (default 24 frames at 640 x 360).
     seed : int, optional
         Seed of the path and the generators.
+    bounds : {'auto', 'box'}, optional
+        How occludees are tested (default ``'auto'``).
 
     Returns
     -------
@@ -169,18 +178,28 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
     Raises
     ------
     InputError
-        Unknown method, bad sizes.
+        Unknown method, bad sizes, unknown ``bounds``.
     """
     from viscore.generators import culling_runtimes, occluder_objects
     from viscore.metrics.culling import camera_path, simulate_culling
 
+    from viscore.occludee_bounds import object_cluster_boxes
     from viscore.scene_graph import load_scene_objects
 
+    from ..cull_cmd import AUTO_MIN_SIZE, DEFAULT_CLUSTERS
+
+    if bounds not in ("auto", "box"):
+        raise InputError(f"bounds: expected 'auto' or 'box', got {bounds!r}")
     objects = load_scene_objects(scene)
     indices = occluder_objects(objects)
     runtimes, _ = culling_runtimes(objects, indices, list(methods), seed=seed, frusta=False)
     path = camera_path(objects, frames=frames, seed=seed)
-    result = simulate_culling(objects, runtimes, path, width=width, height=height)
+    boxes = None if bounds == "box" else object_cluster_boxes(
+        objects, DEFAULT_CLUSTERS, min_size=AUTO_MIN_SIZE)
+    if boxes is not None and not (np.bincount(boxes[2]) > 1).any():
+        boxes = None  # no object was split: every test is the box (as cull does)
+    result = simulate_culling(objects, runtimes, path, width=width, height=height,
+                              bounds=boxes)
     totals = result.totals()
     return {m: {key: totals[f"depth-buffer:{m}"][key]
                 for key in ("culled_share", "false_culls", "conservative", "overhead_ms")}
