@@ -54,8 +54,7 @@ def add_parser(sub, common) -> None:
                    help="output folder; its parent must exist (a killed run resumes in it)")
     c.add_argument("--methods", default=None,
                    help="comma-separated methods or variants NAME:option=value (default: "
-                        + ",".join(default_methods()) + "; surface-patches,aabb-skins when "
-                        "surface-patches is registered)")
+                        + ",".join(default_methods()) + ")")
     pick = c.add_mutually_exclusive_group()
     pick.add_argument("--min-size", type=float, default=None,
                       help="objects whose bounding-box diagonal is at least this fraction of "
