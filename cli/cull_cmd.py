@@ -505,6 +505,20 @@ def _check_frames_memory(frames: int, what: str) -> None:
     check_memory(float(frames) * _BYTES_PER_FRAME, what)
 
 
+def occludee_boxes(objects, kind: str, clusters: int) -> tuple[tuple | None, str, int]:
+    """The occludee bounds of ``--bounds KIND:CLUSTERS`` for
+    :func:`~viscore.metrics.culling.simulate_culling`: None (every object tested through
+    its box) or :func:`~viscore.occludee_bounds.object_cluster_boxes` (``auto``: only the
+    objects from :data:`AUTO_MIN_SIZE` of the level's diagonal split); with the kind in
+    effect (``box`` when no object was split) and the number of split objects."""
+    bounds = None if clusters == 1 else object_cluster_boxes(
+        objects, clusters, min_size=AUTO_MIN_SIZE if kind == "auto" else None)
+    split = 0 if bounds is None else int(np.count_nonzero(np.bincount(bounds[2]) > 1))
+    if bounds is None or not split:
+        return None, "box", 0  # no object was split: every test is the box
+    return bounds, kind, split
+
+
 def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: bool, seed: int,
               frames, methods, source, active, reduction, width, height,
               files: dict | None = None, flat=None, clusters: int = 1,
@@ -524,11 +538,7 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
                                           frusta_source=source, cap=args.cap,
                                           rank=args.rank, progress=tick, files=files,
                                           joined=() if args.per_object else None, flat=flat)
-    bounds = None if clusters == 1 else object_cluster_boxes(
-        objects, clusters, min_size=AUTO_MIN_SIZE if bound_kind == "auto" else None)
-    split = 0 if bounds is None else int(np.count_nonzero(np.bincount(bounds[2]) > 1))
-    if bounds is not None and not split:
-        bounds, bound_kind = None, "box"  # no object was split: every test is the box
+    bounds, bound_kind, split = occludee_boxes(objects, bound_kind, clusters)
     with tqdm(total=len(path), desc="frames", unit="frame", disable=not progress,
               leave=False) as bar:
         tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)

@@ -183,10 +183,9 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
     from viscore.generators import culling_runtimes, occluder_objects
     from viscore.metrics.culling import camera_path, simulate_culling
 
-    from viscore.occludee_bounds import object_cluster_boxes
     from viscore.scene_graph import load_scene_objects
 
-    from ..cull_cmd import AUTO_MIN_SIZE, DEFAULT_CLUSTERS
+    from ..cull_cmd import DEFAULT_CLUSTERS, occludee_boxes
 
     if bounds not in ("auto", "box"):
         raise InputError(f"bounds: expected 'auto' or 'box', got {bounds!r}")
@@ -194,10 +193,7 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
     indices = occluder_objects(objects)
     runtimes, _ = culling_runtimes(objects, indices, list(methods), seed=seed, frusta=False)
     path = camera_path(objects, frames=frames, seed=seed)
-    boxes = None if bounds == "box" else object_cluster_boxes(
-        objects, DEFAULT_CLUSTERS, min_size=AUTO_MIN_SIZE)
-    if boxes is not None and not (np.bincount(boxes[2]) > 1).any():
-        boxes = None  # no object was split: every test is the box (as cull does)
+    boxes, _, _ = occludee_boxes(objects, bounds, DEFAULT_CLUSTERS if bounds == "auto" else 1)
     result = simulate_culling(objects, runtimes, path, width=width, height=height,
                               bounds=boxes)
     totals = result.totals()
