@@ -233,9 +233,10 @@ def _position_rows(header: dict, raw: memoryview, index: int, label: str) -> np.
     return np.maximum(values / scale, -1.0).astype("<f4")
 
 
-def _dequantize_positions(header: dict, bin_: bytearray, label: str) -> None:
-    """Normalized integer ``POSITION`` accessors rewritten as float32 (module docstring)."""
-    found = _normalized_positions(header)
+def _dequantize_positions(header: dict, bin_: bytearray, found: list[int], label: str
+                          ) -> None:
+    """The normalized integer ``POSITION`` accessors ``found`` rewritten as float32
+    (module docstring)."""
     if not found:
         return
     raw = memoryview(bytes(bin_))
@@ -297,7 +298,8 @@ def decode_meshopt_glb(data: bytes, header: dict, end: int, label: str
             raise InputError(f"{label}: not a valid GLB file (bufferView {i}'s extensions "
                              "must be an object)")
     used = [EXTENSION in (v.get("extensions") or {}) for v in views or []]
-    if not any(used) and not _normalized_positions(header):
+    positions = _normalized_positions(header)
+    if not any(used) and not positions:
         return data, header
     if buffers is not None and not (isinstance(buffers, list)
                                     and all(isinstance(b, dict) for b in buffers)):
@@ -359,7 +361,7 @@ def decode_meshopt_glb(data: bytes, header: dict, end: int, label: str
     out["bufferViews"] = new_views
     out["accessors"] = [dict(a) if isinstance(a, dict) else a
                         for a in _list(header.get("accessors"))]
-    _dequantize_positions(out, bin_, label)
+    _dequantize_positions(out, bin_, positions, label)
     _pad(bin_, 4)
     out["buffers"] = [dict(buffers[i]) for i in keep]
     out["buffers"][0]["byteLength"] = len(bin_)
