@@ -58,6 +58,7 @@ import trimesh
 from ._validate import InputError, check_memory
 from .gltf_meshopt import EXTENSION as MESHOPT
 from .gltf_meshopt import decode_meshopt_glb
+from .hidden_nodes import hidden_reason
 from .mesh_io import (
     _BYTES_PER_TRIANGLE,
     _describe_without_triangles,
@@ -892,6 +893,7 @@ def _gltf_objects(header: dict, tree: _Hierarchy, library: trimesh.Scene, label:
     geometries = _mesh_geometries(library, count)
     taken = set(tree.names)
     product: dict[int, np.ndarray | None] = {}  # world transform without near-identities
+    hidden: dict[int, str | None] = {-1: None}  # why a node is not drawn (inherited)
     objects = []
     with np.errstate(all="ignore"):  # non-finite or huge transforms: refused afterwards
         for v in tree.order:
@@ -902,6 +904,7 @@ def _gltf_objects(header: dict, tree: _Hierarchy, library: trimesh.Scene, label:
             if not np.abs(local - _EYE).max() <= _NEAR_IDENTITY:
                 above = local if above is None else np.dot(above, local)
             product[v] = above
+            hidden[v] = hidden[tree.parent[v]] or hidden_reason(node)
             if "mesh" not in node:
                 continue
             mesh = node["mesh"]
@@ -912,23 +915,41 @@ def _gltf_objects(header: dict, tree: _Hierarchy, library: trimesh.Scene, label:
             geoms = geometries[mesh]
             if len(geoms) == 1:
                 world = local if tree.depth[v] == 1 else below
-                objects.append((tree.names[v], geoms[0], world))
+                objects.append((tree.names[v], geoms[0], world, hidden[v]))
                 continue
             for k, geom in enumerate(geoms):  # one object per primitive
                 name = trimesh.util.unique_name(f"{tree.names[v]}_{k}", taken)
                 taken.add(name)
-                objects.append((name, geom, below))
-    names, geoms, mats = [], [], []
-    for name, geom, world in sorted(objects, key=lambda o: o[0]):
-        g = library.geometry.get(geom)
-        if not isinstance(g, trimesh.Trimesh) or len(g.faces) == 0:
-            continue
-        names.append(name)
-        geoms.append(geom)
-        mats.append(world)
-    if not names:
+                objects.append((name, geom, below, hidden[v]))
+    objects = [o for o in sorted(objects, key=lambda o: o[0])
+               if isinstance(g := library.geometry.get(o[1]), trimesh.Trimesh) and len(g.faces)]
+    if not objects:
         raise InputError(f"{label}: {_describe_without_triangles(library)}")
-    return names, geoms, _repair_rigid(np.array(mats, dtype=np.float64).reshape(-1, 4, 4))
+    drawn = [o for o in objects if o[3] is None]
+    if not drawn:
+        _log.warning("%s: every mesh node is marked as not drawn (%s); reading them all",
+                     label, _hidden_summary(objects))
+        drawn = objects
+    elif len(drawn) < len(objects):
+        _log.warning("%s: left out %s marked as not drawn: %s", label,
+                     _count(len(objects) - len(drawn), "mesh node"),
+                     _hidden_summary([o for o in objects if o[3] is not None]))
+    names = [o[0] for o in drawn]
+    geoms = [o[1] for o in drawn]
+    mats = np.array([o[2] for o in drawn], dtype=np.float64).reshape(-1, 4, 4)
+    return names, geoms, _repair_rigid(mats)
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n:,} {noun}" + ("" if n == 1 else "s")
+
+
+def _hidden_summary(objects: list, shown: int = 4) -> str:
+    """``'__collision__' (a collision name), ...`` for the first ``shown`` hidden objects."""
+    parts = [f"{_quote(name)} ({why})" for name, _, _, why in objects[:shown]]
+    if len(objects) > shown:
+        parts.append(f"and {len(objects) - shown:,} more")
+    return ", ".join(parts)
 
 
 def _load_gltf(path: Path, label: str) -> SceneObjects:
@@ -972,7 +993,13 @@ def load_scene_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trime
         frames (copies exported without instancing), share one entry of
         ``meshes``, named after the first. A glTF mesh with several
         primitives gives one object per primitive, named ``<node>_<k>``
-        (``k`` the primitive's position; made unique if taken).
+        (``k`` the primitive's position; made unique if taken). Nodes the
+        file marks as not drawn (:func:`viscore.hidden_nodes.hidden_reason`:
+        ``KHR_node_visibility``, ``extras.visible`` false, Godot's
+        ``-colonly``/``-navmesh``/``-noimp``/``-occonly`` hints, Unreal's
+        ``UCX_`` prefixes, collision names) and their subtrees are left out,
+        with a logged warning naming them; when every mesh node is so
+        marked, all are read.
 
     Raises
     ------
