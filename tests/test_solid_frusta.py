@@ -189,3 +189,17 @@ def test_hull_refuses_a_hull_that_comes_back_open(monkeypatch):
     holed = trimesh.Trimesh(box.vertices, box.faces[1:], process=False)
     monkeypatch.setattr(trimesh.convex, "convex_hull", lambda pts: holed)
     assert _hull(points) is None
+
+
+def test_flat_hull_is_no_piece_and_warns_nothing():
+    # 40 coplanar points: qhull returns a hull of zero volume, whose centre of mass
+    # trimesh divides by it; that is viscore's business, not a warning for the user
+    import warnings
+
+    rng = np.random.default_rng(0)
+    flat = np.c_[rng.random((40, 2)), np.zeros(40)]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert _hull(flat) is None
+        assert _hull(np.c_[flat[:, :2], rng.random(40)]) is not None  # a solid is kept
+    assert [str(w.message) for w in caught] == []

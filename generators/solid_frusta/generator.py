@@ -172,11 +172,13 @@ def _hull(points: np.ndarray) -> trimesh.Trimesh | None:
     centre, size = 0.5 * (lo + hi), float(np.linalg.norm(hi - lo))
     if not size > 0:
         return None
-    try:
-        unit = trimesh.convex.convex_hull((points - centre) / size)
-    except Exception:  # noqa: BLE001 - qhull on flat input: no piece
-        return None
-    with np.errstate(divide="ignore", invalid="ignore"):  # trimesh's centre of a flat hull
+    # trimesh's centre of mass of a flat hull divides by its zero volume, in
+    # convex_hull (its orientation check) and in .volume: not a user's concern
+    with np.errstate(divide="ignore", invalid="ignore"):
+        try:
+            unit = trimesh.convex.convex_hull((points - centre) / size)
+        except Exception:  # noqa: BLE001 - qhull on flat input: no piece
+            return None
         volume = unit.volume
     if len(unit.faces) < 4 or not volume > 1e-12:
         return None
