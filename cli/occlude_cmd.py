@@ -9,8 +9,9 @@ option, and its generator's own rules across options),
 ``--up``, ``-o`` (its parent must exist and be writable), ``--scheduler`` (by
 connecting), then the level itself (read, split, objects chosen; an unknown
 ``--occluders`` name). Then ``DIR`` is made if missing and locked for this
-process alone (:func:`viscore.cli.study.store.lock_exclusive` on
-``DIR/.lock``): a second run on the same folder is refused with one line.
+process alone (:func:`viscore.cli.study.store.lock_exclusive` on ``DIR``
+itself, so nothing is left in it): a second run on the same folder is refused
+with one line.
 
 Outputs in ``DIR``: ``<method>.tscn`` and ``<method>.glb`` per method that
 covered an object, ``occlude.json`` (written last), and the finished jobs under
@@ -36,7 +37,7 @@ from viscore._validate import as_positive_int
 
 from ._common import check_output_folder, emit
 from .study.runner import JOBS_PER_CORE, connect_scheduler
-from .study.store import LOCK_NAME, lock_exclusive
+from .study.store import lock_exclusive
 
 _log = logging.getLogger(__name__)
 
@@ -148,9 +149,8 @@ def run_occlude(args) -> int:
             out.mkdir(exist_ok=True)
         except OSError as exc:
             raise OSError(exc.errno, exc.strerror, str(out)) from None
-        fd = lock_exclusive(out / LOCK_NAME,
-                            busy=f"-o {out}: another occlude is writing this folder (it holds "
-                                 f"{out / LOCK_NAME}); wait for it to finish or choose another -o")
+        fd = lock_exclusive(out, busy=f"-o {out}: another occlude is writing this folder; "
+                                      "wait for it to finish or choose another -o")
         bar = _Bar(enabled=not (quiet or args.json))
         try:
             made = occlude_level(level, out, methods=methods, budget=budget, seed=args.seed,

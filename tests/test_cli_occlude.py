@@ -300,13 +300,16 @@ def test_occlude_second_run_on_locked_folder_exit_2(tmp_path, capsys):
     glb = _glb_level(tmp_path / "level.glb")
     out = tmp_path / "out"
     out.mkdir()
-    fd = lock_exclusive(out / ".lock", busy="held")
+    fd = lock_exclusive(out, busy="held")
     try:
         assert _run(glb, "-o", out, "--methods", "bbox") == 2
     finally:
         os.close(fd)
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "another occlude" in err[0]
+    # once the folder is free the run goes through and leaves no lock file behind
+    assert _run(glb, "-o", out, "--methods", "bbox") == 0
+    assert not (out / ".lock").exists() and (out / "occlude.json").is_file()
 
 
 @pytest.mark.parametrize("argv, words", [
