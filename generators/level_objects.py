@@ -214,8 +214,10 @@ def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str) -> tuple[SceneObject
         f = faces[order[bounds[k]:bounds[k + 1]]]
         used, inverse = np.unique(f, return_inverse=True)
         part = trimesh.Trimesh(vertices[used], inverse.reshape(-1, 3), process=False)
-        meshes.append(part)
         names.append(f"{stem}_part{k + 1:0{width}d}")
+        # named as a glTF level's meshes are ('file:node'), for the generators' messages
+        part.metadata["name"] = f"{label}:{names[-1]}"
+        meshes.append(part)
     lower = np.array([m.vertices.min(axis=0) for m in meshes])
     upper = np.array([m.vertices.max(axis=0) for m in meshes])
     up_vec = np.eye(3)[UP_AXES.index(up)]

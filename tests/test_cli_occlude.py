@@ -166,6 +166,10 @@ def test_level_objects_obj_split_and_up_guessed(tmp_path, caplog):
     chosen = [level.objects.names[i] for i in level.chosen]
     assert chosen == ["map_part1", "map_part2", "map_part3", "map_part4"]
     assert "too small" in level.refused["map_part5"]
+    # each part's mesh is named 'file:part', as a glTF level's meshes are 'file:node', so
+    # the generators' messages about several parts say "each of them"
+    assert [m.metadata["name"] for m in level.objects.meshes][:2] == [
+        f"{obj}:map_part1", f"{obj}:map_part2"]
     np.testing.assert_array_equal(level.to_godot, np.eye(4))
     out = tmp_path / "out"
     with caplog.at_level("INFO"):
