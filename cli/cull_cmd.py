@@ -354,7 +354,10 @@ def _table(doc: dict) -> str:
     s = doc["settings"]
     gt = doc["ground_truth"]
     lines = [f"{doc['scene']}: {s['objects']:,} objects ({s['triangles']:,} triangles), "
-             f"{doc['occluder_objects']} with occluders, {s['frames']} frames at "
+             f"{doc['occluder_objects']} with occluders, "
+             + (f"{len(doc['see_through_objects']):,} see-through (the truth's rays pass "
+                "them; no occluders), " if doc.get("see_through_objects") else "")
+             + f"{s['frames']} frames at "
              f"{s['width']} x {s['height']} (frusta from {doc['frusta_method']}"
              + ("" if doc["bounds"]["kind"] == "box" else
                 f"; {doc['bounds']['split_objects']:,} objects tested by their clusters, "
@@ -545,6 +548,7 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
                                   progress=tick, bounds=bounds)
     doc = {"scene": args.scene, "occluder_objects": len(indices),
+           "see_through_objects": [objects.names[i] for i in np.flatnonzero(objects.see_through)],
            "frusta_method": source, "methods": methods,
            "occluder_files": {name: occ.params["file"] for name, occ in (files or {}).items()},
            "seed": seed, "per_object": bool(args.per_object),

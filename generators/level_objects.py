@@ -10,6 +10,8 @@ larger than the rest of the level (:data:`LEVEL_SPAN`: an outer ground
 plane around a town) or a sky around it
 (:meth:`viscore.scene_graph.SceneObjects.sky`) does not set the scale of the
 size threshold. A sky gets no occluders: nothing of the level lies behind it.
+Nor does a see-through object (a transparent glTF material, alpha blended or
+alpha tested: glass, water, leaves), which Godot's occluder bake skips too.
 
 References
 ----------
@@ -199,8 +201,10 @@ def _split_parts(mesh: trimesh.Trimesh) -> tuple[np.ndarray, int]:
     return rank[part_of_face], n
 
 
-def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str) -> tuple[SceneObjects, int]:
-    """A single mesh split into parts (:func:`_split_parts`) as a :class:`SceneObjects`."""
+def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool = False
+                ) -> tuple[SceneObjects, int]:
+    """A single mesh split into parts (:func:`_split_parts`) as a :class:`SceneObjects`;
+    every part is see-through when the mesh is."""
     parts, components = _split_parts(mesh)
     count = int(parts.max()) + 1
     stem = Path(label).stem or "level"
@@ -229,8 +233,13 @@ def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str) -> tuple[SceneObject
     for arr in arrays.values():
         arr.flags.writeable = False
     objects = SceneObjects(names=tuple(names), meshes=tuple(meshes), mesh_names=tuple(names),
-                           source=label, **arrays)
+                           source=label, see_through=np.full(count, see_through), **arrays)
     return objects, components
+
+
+#: Why an object with a transparent material gets no occluder.
+SEE_THROUGH_REFUSAL = ("see-through: its material is transparent (glTF alphaMode BLEND or "
+                       "MASK), and what lies behind it shows; engines bake no occluder from it")
 
 
 def _choose(objects: SceneObjects, up: str, min_size: float | None,
@@ -255,8 +264,9 @@ def _choose(objects: SceneObjects, up: str, min_size: float | None,
                    for i in range(len(objects)) if i not in set(chosen.tolist())}
         return sizes, flat, chosen, refused
     sky = objects.sky()
-    mask = (sizes >= min_size) & ~sky
-    solid = ~flat & ~sky
+    clear = objects.see_through
+    mask = (sizes >= min_size) & ~sky & ~clear
+    solid = ~flat & ~sky & ~clear
     if mask.any() and not (mask & solid).any() and solid.any():
         lo, hi = objects.lower[solid].min(axis=0), objects.upper[solid].max(axis=0)
         limit = min(min_size * float(np.linalg.norm(hi - lo)),
@@ -269,7 +279,8 @@ def _choose(objects: SceneObjects, up: str, min_size: float | None,
     chosen = np.flatnonzero(mask).astype(np.int64)
     refused = {objects.names[i]: (
         "a sky: it surrounds the rest of the level from afar, so nothing lies behind it"
-        if sky[i] else f"too small: its bounding-box diagonal is {sizes[i]:.2%} of the "
+        if sky[i] else SEE_THROUGH_REFUSAL if clear[i]
+        else f"too small: its bounding-box diagonal is {sizes[i]:.2%} of the "
         f"level's, under the threshold of {min_size:.2%}") for i in np.flatnonzero(~mask)}
     return sizes, flat, chosen, refused
 
@@ -350,7 +361,8 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
         objects = load_scene_objects(source)
         kind, components, up, guessed, reason = "gltf", 0, "y", False, "glTF is +Y up"
         if len(objects) == 1 and names is None:  # a map exported as one mesh: its parts
-            objects, components = _mesh_level(objects.object_mesh(0), objects.source, up)
+            objects, components = _mesh_level(objects.object_mesh(0), objects.source, up,
+                                              see_through=bool(objects.see_through[0]))
             kind = "gltf-mesh"
     else:
         label = (str(source.metadata.get("name", "mesh")) if isinstance(source, trimesh.Trimesh)

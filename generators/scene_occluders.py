@@ -99,6 +99,7 @@ def occluder_objects(objects: SceneObjects, *, size_threshold: float | None = No
     size_threshold : float, optional
         Bounding-box diagonal, world units, from which an object gets an
         occluder. Default :data:`SIZE_FACTOR` x the median object's diagonal.
+        A see-through object (``objects.see_through``) never passes it.
     names : sequence of str, optional
         Object names; when given, exactly these objects (``size_threshold``
         is then not used).
@@ -128,12 +129,15 @@ def occluder_objects(objects: SceneObjects, *, size_threshold: float | None = No
         threshold = SIZE_FACTOR * float(np.median(size))
     else:
         threshold = as_positive(size_threshold, "size_threshold")
-    chosen = np.flatnonzero(size >= threshold)
+    chosen = np.flatnonzero((size >= threshold) & ~objects.see_through)
     if len(chosen) == 0:
         what = ("size_threshold" if size_threshold is not None else
                 f"the default size threshold ({SIZE_FACTOR} x the median object's diagonal)")
+        solid = ~objects.see_through
+        largest = float(size[solid].max()) if solid.any() else 0.0
         raise InputError(f"{what}: no object of {objects.source} is {threshold:.4g} or larger "
-                         f"(the largest is {size.max():.4g}, world units)")
+                         f"(the largest is {largest:.4g}, world units"
+                         + (", see-through objects left out" if not solid.all() else "") + ")")
     return chosen.astype(np.int64)
 
 

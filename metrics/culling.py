@@ -76,6 +76,7 @@ if TYPE_CHECKING:  # pragma: no cover - hints only
     from viscore.scene_graph import SceneObjects
 
 __all__ = ["RuntimeFrames", "CullingResult", "simulate_culling", "check_culling_memory",
+           "visible_objects",
            "DEFAULT_WIDTH", "DEFAULT_HEIGHT",
            # kept for old import paths (defined in .camera_paths, .culling_runtimes, .plots)
            "PathCamera", "camera_path", "read_camera_path", "camera_path_json",
@@ -267,6 +268,63 @@ def _check_bounds(bounds, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return lower, upper, owner.astype(np.int64)
 
 
+#: Most see-through surfaces a truth ray passes before it stops (glass panes, water
+#: layers, leaves): far more than a level stacks in front of anything.
+MAX_SEE_THROUGH_LAYERS = 64
+
+
+def visible_objects(scene, triangle_object: np.ndarray, see_through: np.ndarray,
+                    origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Which objects the rays see: ``(n,) bool``, True for at least one ray.
+
+    Each ray stops at its first hit on an opaque object; a see-through object
+    (``see_through``: glass, water, cut-out leaves) it meets before that is
+    seen and passed, the ray going on ``RAY_STEP_RELATIVE`` x the scene's
+    diagonal past it, for at most :data:`MAX_SEE_THROUGH_LAYERS` such surfaces
+    (a ray still going then stops, seeing nothing more). Without see-through
+    objects this is one first-hit pass.
+
+    Parameters
+    ----------
+    scene : Scene
+        Every object in one Embree scene (``SceneObjects.combined``).
+    triangle_object : (F,) int
+        Object of each triangle of ``scene``.
+    see_through : (n,) bool
+        Objects rays pass through.
+    origins, directions : (m, 3) or (1, 3) float
+        The rays, world units (one origin row is broadcast).
+    """
+    from viscore.constants import RAY_STEP_RELATIVE
+
+    n = len(see_through)
+    visible = np.zeros(n, dtype=bool)
+    t, tri = scene.first_hit(origins, directions)
+    obj = np.where(tri >= 0, triangle_object[np.maximum(tri, 0)], -1)
+    visible[np.unique(obj[obj >= 0])] = True
+    if not see_through.any():
+        return visible
+    d = np.asarray(directions, dtype=np.float64)
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.broadcast_to(np.asarray(origins, dtype=np.float64), d.shape)
+    step = RAY_STEP_RELATIVE * scene.diagonal
+    live = np.flatnonzero(obj >= 0)
+    live = live[see_through[obj[live]]]
+    travelled = t
+    for _ in range(MAX_SEE_THROUGH_LAYERS):
+        if len(live) == 0:
+            break
+        start = travelled[live] + step
+        t, tri = scene.first_hit(o[live] + d[live] * start[:, None], d[live])
+        hit = tri >= 0
+        live, t = live[hit], start[hit] + t[hit]
+        obj = triangle_object[tri[hit]]
+        visible[np.unique(obj)] = True
+        travelled[live] = t
+        live = live[see_through[obj]]
+    return visible
+
+
 def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
                      path: Sequence[PathCamera], *, width: int = DEFAULT_WIDTH,
                      height: int = DEFAULT_HEIGHT,
@@ -312,18 +370,21 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
 
     Notes
     -----
-    Per frame: the ground truth casts one ray per pixel centre of a
-    ``width`` x ``height`` image through the scene (all objects in one Embree
-    scene) and maps each first hit to its object; objects with at least one
-    pixel are visible. An object visible only between pixel centres (smaller
-    than a pixel, or seen through a gap narrower than one) counts as hidden:
-    that is the limit of the ground truth, and a false cull of such an object
-    is not counted. View frustum culling is then applied, identically for every
-    runtime (:func:`view_frustum_mask`), and each runtime gets the surviving
-    boxes; its ``cull`` call is timed (``time.perf_counter``) as its overhead
-    (on the first frame after one untimed call, so that compiling a runtime's
-    kernels is not counted). A culled object that is visible is a false cull.
-    Deterministic given the runtimes; the overheads vary from run to run.
+    Per frame: the ground truth casts one ray per pixel centre of a ``width`` x
+    ``height`` image through the scene (all objects in one Embree scene) and
+    maps each first hit to its object; objects with at least one pixel are
+    visible. A ray passes through see-through objects (``objects.see_through``:
+    transparent glTF materials), seeing each, and stops at the first opaque one
+    (:func:`visible_objects`). An object visible only between pixel centres
+    (smaller than a pixel, or seen through a gap narrower than one) counts as
+    hidden: that is the limit of the ground truth, and a false cull of such an
+    object is not counted. View frustum culling is then applied, identically
+    for every runtime (:func:`view_frustum_mask`), and each runtime gets the
+    surviving boxes; its ``cull`` call is timed (``time.perf_counter``) as its
+    overhead (on the first frame after one untimed call, so that compiling a
+    runtime's kernels is not counted). A culled object that is visible is a
+    false cull. Deterministic given the runtimes; the overheads vary from run
+    to run.
     """
     if not runtimes:
         raise InputError("runtimes: expected at least one runtime")
@@ -350,11 +411,9 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     for f, pose in enumerate(cameras):
         camera = pose.camera(width, height)
         origins, directions = camera.rays()
-        _, tri = scene.first_hit(origins, directions)
+        visible = visible_objects(scene, triangle_object, objects.see_through, origins,
+                                  directions)
         del origins, directions
-        hit = tri[tri >= 0]
-        visible = np.zeros(n, dtype=bool)
-        visible[np.unique(triangle_object[hit])] = True
         in_view = view_frustum_mask(camera, lower, upper)
         if bounds is None:
             idx = np.flatnonzero(in_view)

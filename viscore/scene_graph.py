@@ -211,6 +211,10 @@ class SceneObjects:
         The scene's up axis: +Y for glTF, +Z otherwise.
     source : str
         File or scene name the objects came from.
+    see_through : (n,) bool
+        Objects drawn with a transparent glTF material (``alphaMode`` ``BLEND``
+        or ``MASK``: glass, water, foliage cut-outs), which Godot's occluder
+        bake skips; all False when not given (a mesh file has no materials).
 
     Notes
     -----
@@ -230,6 +234,13 @@ class SceneObjects:
     triangles: np.ndarray
     up: np.ndarray
     source: str
+    see_through: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        flags = (np.zeros(len(self.names), dtype=bool) if self.see_through is None
+                 else np.array(self.see_through, dtype=bool).reshape(len(self.names)))
+        flags.flags.writeable = False
+        object.__setattr__(self, "see_through", flags)
 
     def __len__(self) -> int:
         return len(self.names)
@@ -411,7 +422,11 @@ def geometry_digest(mesh: trimesh.Trimesh) -> bytes:
 
 def _scene_objects(names: list[str], geoms: list[str], mats: np.ndarray, geometry: dict,
                    label: str, up) -> SceneObjects:
-    """Check the world transforms and build the :class:`SceneObjects` (objects in given order)."""
+    """Check the world transforms and build the :class:`SceneObjects` (objects in given order).
+
+    An object is see-through when its geometry's material (as trimesh read it)
+    has glTF ``alphaMode`` ``BLEND`` or ``MASK``.
+    """
     if not np.isfinite(mats).all():
         bad = names[int(np.flatnonzero(~np.isfinite(mats).all(axis=(1, 2)))[0])]
         raise InputError(f"{label}: node {bad!r} has a transform with NaN or infinite values")
@@ -478,9 +493,26 @@ def _scene_objects(names: list[str], geoms: list[str], mats: np.ndarray, geometr
         arr.flags.writeable = False
     up_vec = np.array(up, dtype=np.float64)
     up_vec.flags.writeable = False
+    see_through = np.array([transparent_material(geometry[g]) for g in geoms], dtype=bool)
     return SceneObjects(names=tuple(names), mesh_ids=mesh_ids, transforms=mats, meshes=meshes,
                         mesh_names=tuple(mesh_names), lower=lower, upper=upper,
-                        triangles=triangles, up=up_vec, source=label)
+                        triangles=triangles, up=up_vec, source=label, see_through=see_through)
+
+
+#: glTF alpha modes drawn see-through: alpha blending and alpha testing (cut-outs), the
+#: two Godot imports as transparent materials and leaves out of its occluder bake.
+TRANSPARENT_ALPHA_MODES = ("BLEND", "MASK")
+
+
+def transparent_material(geometry) -> bool:
+    """Whether a geometry's material, as trimesh read it from glTF, draws it see-through.
+
+    True for ``alphaMode`` ``BLEND`` or ``MASK`` (:data:`TRANSPARENT_ALPHA_MODES`);
+    False for ``OPAQUE``, no material, or a geometry that is not a mesh.
+    """
+    material = getattr(getattr(geometry, "visual", None), "material", None)
+    mode = getattr(material, "alphaMode", None)
+    return str(mode).upper() in TRANSPARENT_ALPHA_MODES if mode else False
 
 
 # ----------------------------------------------------------- glTF: JSON and URIs

@@ -51,6 +51,7 @@ import trimesh
 
 from viscore import InputError, validate_mesh
 from viscore._validate import as_points
+from viscore.scene_graph import transparent_material
 
 from ..occluder import Occluder
 
@@ -62,10 +63,6 @@ GODOT_TARGET_INDEX_COUNT = 36
 #: Default bake distance as a share of the bounding-box diagonal: Godot's default
 #: ``bake_simplification_distance`` is 0.1 m, about 1% of a 10 m building's diagonal.
 DEFAULT_DISTANCE_SHARE = 0.01
-
-#: glTF alpha modes Godot imports as transparent materials (alpha blend, alpha scissor).
-_TRANSPARENT_ALPHA_MODES = ("BLEND", "MASK")
-
 
 def bake_surface(vertices: np.ndarray, faces: np.ndarray, distance: float
                  ) -> tuple[np.ndarray, np.ndarray, float]:
@@ -129,12 +126,6 @@ def bake_surface(vertices: np.ndarray, faces: np.ndarray, distance: float
     return vertices[used], inverse.reshape(-1, 3).astype(np.int64), error
 
 
-def _is_transparent(geometry) -> bool:
-    material = getattr(getattr(geometry, "visual", None), "material", None)
-    mode = getattr(material, "alphaMode", None)
-    return str(mode).upper() in _TRANSPARENT_ALPHA_MODES if mode else False
-
-
 def _surfaces(mesh) -> tuple[list[tuple[np.ndarray, np.ndarray]], int]:
     """World-space (vertices, faces) per surface, and the number of transparent ones dropped."""
     if isinstance(mesh, trimesh.Trimesh):
@@ -147,7 +138,7 @@ def _surfaces(mesh) -> tuple[list[tuple[np.ndarray, np.ndarray]], int]:
             geometry = mesh.geometry[name]
             if not isinstance(geometry, trimesh.Trimesh) or len(geometry.faces) == 0:
                 continue
-            if _is_transparent(geometry):
+            if transparent_material(geometry):
                 dropped += 1
                 continue
             out.append((trimesh.transform_points(geometry.vertices, transform),
