@@ -481,3 +481,15 @@ def test_cull_table_suggests_clusters_only_when_the_box_leaves_most_hidden_objec
     assert cull_cmd._bounds_hint(doc("clusters", 0.41, 0.062)) is None
     # a runtime without the guarantee does not count
     assert "--bounds clusters" in cull_cmd._bounds_hint(doc("box", 0.41, 0.3, False))
+
+
+def test_cull_single_mesh_of_one_part_says_so(run, tmp_path, capsys):
+    # a map whose components all join into one part: one object, nothing to cull behind it
+    mesh = trimesh.util.concatenate([trimesh.creation.box(bounds=[[0, 0, 0], [10, 1, 10]]),
+                                     trimesh.creation.box(bounds=[[2, 1, 2], [2.1, 1.1, 2.1]])])
+    path = tmp_path / "map.obj"
+    mesh.export(path)
+    assert run(path, "--frames", 2, "--methods", "bbox", "--frusta-method", "bbox", "--width",
+               32, "--height", 18, "--out", tmp_path / "out") == 0
+    err = capsys.readouterr().err
+    assert "stays one object (its 2 connected components join into one part)" in err

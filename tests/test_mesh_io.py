@@ -1,3 +1,5 @@
+import logging
+
 import numpy as np
 import pytest
 import trimesh
@@ -336,6 +338,22 @@ def test_validate_mesh_few_slivers_dropped():
     f = np.vstack([sphere.faces, [[n, n + 1, 0]]])
     out = validate_mesh(trimesh.Trimesh(v, f, process=False))
     assert len(out.faces) == 1280 and out.metadata["dropped_degenerate_faces"] == 1
+
+
+def test_validate_mesh_needles_of_a_game_map_dropped_with_a_warning(caplog):
+    # a map of 1280 faces with 40 needles (3%: long, 1e-14 high), as exported game maps
+    # carry: dropped, said once; the map is not refused
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    n = len(sphere.vertices)
+    x = np.linspace(-0.5, 0.5, 40)
+    needles = np.stack([np.c_[x, 0 * x, 0 * x], np.c_[x + 1, 0 * x, 0 * x],
+                        np.c_[x + 0.5, 0 * x + 1e-14, 0 * x]], axis=1).reshape(-1, 3)
+    v = np.vstack([sphere.vertices, needles])
+    f = np.vstack([sphere.faces, n + np.arange(120).reshape(40, 3)])
+    with caplog.at_level(logging.WARNING, logger="viscore.mesh_validation"):
+        out = validate_mesh(trimesh.Trimesh(v, f, process=False), name="map")
+    assert len(out.faces) == 1280 and out.metadata["dropped_degenerate_faces"] == 40
+    assert "map: dropped 40 of 1320 faces as smaller than float32 resolves" in caplog.text
 
 
 # ---------------------------------------------------------------- save_mesh

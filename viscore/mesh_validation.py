@@ -38,11 +38,16 @@ _MAX_OFFSET_RATIO = 1e8
 
 #: Largest share of the non-degenerate faces that may be too small for float32
 #: after the mesh is scaled to unit size (area below
-#: ``DEGENERATE_AREA_RELATIVE`` x diagonal^2, i.e. sides under ~1e-7 of the
-#: mesh's extent, a few float32 ulps): beyond it the mesh is refused rather
-#: than silently reduced (e.g. a model plus one vertex 1e30 away, whose faces
-#: all collapse). A few slivers in a CAD mesh stay well below it and are dropped.
-_MAX_COLLAPSED_SHARE = 0.01
+#: ``DEGENERATE_AREA_RELATIVE`` x diagonal^2: a few float32 ulps, sides under
+#: ~1e-7 of the mesh's extent, or needles whose height is): beyond it the mesh
+#: is refused rather than reduced to a remnant (a model plus one vertex 1e30
+#: away, whose faces all collapse). Below it they are dropped: slivers of a CAD
+#: mesh, and the needles of a game map, 1.3% of the faces of a 12 km one.
+_MAX_COLLAPSED_SHARE = 0.5
+
+#: Share of the non-degenerate faces dropped as too small for float32 above which
+#: the drop is said in a warning (under it, at debug level).
+_WARN_COLLAPSED_SHARE = 0.01
 
 def validate_mesh(mesh: trimesh.Trimesh, *, name: str = "mesh") -> trimesh.Trimesh:
     """Check a triangle soup and return a cleaned copy.
@@ -141,7 +146,11 @@ def validate_mesh(mesh: trimesh.Trimesh, *, name: str = "mesh") -> trimesh.Trime
             "extent is dominated by far-away vertices; remove them or split the mesh")
     keep = ~degenerate & ~too_small
     dropped = int((~keep).sum())
-    if dropped:
+    if real and too_small.sum() > _WARN_COLLAPSED_SHARE * real:
+        _log.warning("%s: dropped %d of %d faces as smaller than float32 resolves at the "
+                     "mesh's extent %.3g (slivers, or sides under ~1e-7 of it); they hide "
+                     "nothing at that scale", name, int(too_small.sum()), real, diagonal)
+    elif dropped:
         _log.debug("%s: dropped %d degenerate face(s) of %d", name, dropped, len(faces))
     if not keep.any():
         raise InputError(f"{name}: every face is degenerate (zero area)")
