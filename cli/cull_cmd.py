@@ -59,6 +59,7 @@ import glob
 import logging
 import os
 import stat
+import sys
 import tempfile
 from pathlib import Path
 
@@ -456,7 +457,8 @@ def run_cull(args) -> int:
         indices = occluder_objects(objects, size_threshold=threshold, names=names)
     else:
         indices = level.chosen
-    progress = not (args.quiet or args.json)
+    # bars only on a terminal: redirected to a file, each redraw is another line of it
+    progress = not (args.quiet or args.json) and sys.stderr.isatty()
     with _OutFolder(out) as folder:  # this process alone, from here to the files
         doc = _simulate(args, objects, indices, path, folder, progress=progress, seed=seed,
                         frames=frames, methods=methods, source=source, active=active,

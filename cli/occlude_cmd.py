@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import logging
 import os
+import sys
 
 from viscore.generators import REGISTRY, check_method, parse_method
 from viscore.generators.level_objects import MIN_SIZE, UP_AXES, default_methods, level_objects
@@ -151,7 +152,7 @@ def run_occlude(args) -> int:
             raise OSError(exc.errno, exc.strerror, str(out)) from None
         fd = lock_exclusive(out, busy=f"-o {out}: another occlude is writing this folder; "
                                       "wait for it to finish or choose another -o")
-        bar = _Bar(enabled=not (quiet or args.json))
+        bar = _Bar(enabled=not (quiet or args.json) and sys.stderr.isatty())  # a terminal
         try:
             made = occlude_level(level, out, methods=methods, budget=budget, seed=args.seed,
                                  jobs=jobs, scheduler=client, progress=bar)

@@ -739,8 +739,8 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
         unsure = [i for i, o in occluders(m).items() if not _guaranteed(o, m)]
         conservative = not unsure  # no occluder: it culls nothing
         if not occ:
-            _log.warning("%s made no occluder for the %d objects: %s culls nothing", m,
-                         len(indices), name)
+            _log.warning("%s made no occluder for the %s: %s culls nothing", m,
+                         "object" if len(indices) == 1 else f"{len(indices):,} objects", name)
             runtimes[name] = Runtime(cull=no_culling().cull, conservative=conservative)
         elif any("hierarchy" in o.parts for o in occ):
             source_fn = _hierarchy_source(occ, lambda camera: camera.shape[1])

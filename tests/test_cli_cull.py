@@ -493,3 +493,5 @@ def test_cull_single_mesh_of_one_part_says_so(run, tmp_path, capsys):
                32, "--height", 18, "--out", tmp_path / "out") == 0
     err = capsys.readouterr().err
     assert "stays one object (its 2 connected components join into one part)" in err
+    # stderr is not a terminal here: no progress bars redrawn into it
+    assert "frames:" not in err and "occluders:" not in err and "\r" not in err

@@ -589,8 +589,9 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
         reason = (f"{lead}: no wall found (the inward rays of all the area escape: open or "
                   f"single-sided geometry), so the extent-based voxel {extent_pitch:.4g}")
     elif limited:
-        bound = (f"automatic sizing's cap of {max_cells:,.0f} cells (give a voxel size to go "
-                 "finer)" if capped else "memory guard")
+        bound = (f"automatic sizing's cap of {max_cells:,.0f} cells (a voxel size goes "
+                 "finer: --voxel-size, or the method option as in "
+                 "'aabb-skins:voxel-size=...')" if capped else "memory guard")
         reason = (f"{lead}: its walls of {wall_q:.4g} (the {quantile:.0%} area quantile) "
                   f"need voxels under {wall_pitch:.4g}, but the finest grid within the "
                   f"{bound} has voxels of {pitch:.4g}: {1 - resolved:.0%} of the wall "
