@@ -141,8 +141,9 @@ def add_parser(sub, common) -> None:
                         "(a single-mesh level, split into parts as occlude splits it), or a "
                         "built-in culling scene: city, city-dense (default city)")
     c.add_argument("--up", choices=UP_AXES, default=None,
-                   help="up axis of a single-mesh level (default: guessed and printed; glTF "
-                        "is +Y up)")
+                   help="up axis of the level (default: guessed and printed for a single "
+                        "mesh; +Y for glTF, as its specification says: give z for a file "
+                        "written Z-up)")
     c.add_argument("--frames", type=int, default=None,
                    help=f"cameras of the generated path (default {DEFAULT_FRAMES}); with "
                         "--path, the first N of the file (default all)")

@@ -71,8 +71,9 @@ def add_parser(sub, common) -> None:
     run.add_argument("--scheduler", default=None,
                      help="dask.distributed scheduler address: run the jobs on that cluster")
     c.add_argument("--up", choices=UP_AXES, default=None,
-                   help="up axis of a single-mesh level (default: guessed and printed; glTF "
-                        "is +Y up)")
+                   help="up axis of the level (default: guessed and printed for a single "
+                        "mesh; +Y for glTF, as its specification says: give z for a file "
+                        "written Z-up)")
     c.set_defaults(run=run_occlude)
 
 

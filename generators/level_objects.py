@@ -21,6 +21,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 from collections.abc import Sequence
@@ -298,7 +299,8 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
         STL) or ``trimesh.Trimesh``, split into parts (module docstring).
     up : str, optional
         ``'x'``, ``'y'`` or ``'z'``, the level's up axis. Default: +Y for
-        glTF, guessed by :func:`guess_up` for a single mesh.
+        glTF (another axis overrides it, for files written Z-up; the Godot
+        frame stays the glTF's), guessed by :func:`guess_up` for a single mesh.
     min_size : float, optional
         Bounding-box diagonal, fraction of the level's, from which an object
         gets occluders; in (0, 1]. Default :data:`MIN_SIZE` (0.02). Not used
@@ -314,9 +316,8 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
     ------
     InputError
         A file :func:`viscore.scene_graph.load_scene_objects` or
-        :func:`viscore.load_mesh` refuses; ``up`` not an axis, or not ``y``
-        for glTF; ``min_size`` outside (0, 1]; both ``min_size`` and
-        ``names``; a name no object has.
+        :func:`viscore.load_mesh` refuses; ``up`` not an axis; ``min_size``
+        outside (0, 1]; both ``min_size`` and ``names``; a name no object has.
 
     Notes
     -----
@@ -355,11 +356,15 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
             or (not Path(os.fspath(source)).exists()
                 and os.fspath(source) in culling_scene_names())))
     if gltf:
-        if up not in (None, "y"):
-            raise InputError(f"up: {source} is glTF, +Y up by its specification; "
-                             f"--up {up} is refused for it")
         objects = load_scene_objects(source)
-        kind, components, up, guessed, reason = "gltf", 0, "y", False, "glTF is +Y up"
+        kind, guessed, components = "gltf", False, 0
+        if up in (None, "y"):
+            up, reason = "y", "glTF is +Y up"
+        else:  # a file written +Z up (three.js and Blender scenes that skip the rotation)
+            reason = f"given as {up}, over glTF's +Y"
+            axis = np.eye(3)[UP_AXES.index(up)]
+            axis.flags.writeable = False
+            objects = dataclasses.replace(objects, up=axis)
         if len(objects) == 1 and names is None:  # a map exported as one mesh: its parts
             objects, components = _mesh_level(objects.object_mesh(0), objects.source, up,
                                               see_through=bool(objects.see_through[0]))
@@ -376,7 +381,8 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
         objects, components = _mesh_level(mesh, label, up)
         kind = "mesh"
     sizes, flat, chosen, refused = _choose(objects, up, min_size, names)
-    to_godot = _TO_GODOT[up].copy()
+    # Godot reads a glTF in its own frame whatever its up: its occluders stay in that frame
+    to_godot = (np.eye(4) if kind.startswith("gltf") else _TO_GODOT[up]).copy()
     to_godot.flags.writeable = False
     return LevelObjects(objects=objects, up=up, up_guessed=guessed, up_reason=reason,
                         to_godot=to_godot, kind=kind, components=components, sizes=sizes,

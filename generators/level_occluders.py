@@ -25,14 +25,16 @@ left are grouped by single linkage under the same gap, each group one part
 (they may still be too small to get an occluder). Parts are named
 ``<file stem>_part<k>``, numbered by their first face in the file.
 
-Up axis. glTF is +Y up by its specification and a ``--up`` other than ``y``
-is refused for it. A single mesh has no convention; when ``up`` is not given
-it is guessed (:func:`guess_up`): the axis along which the level is clearly
-thinnest (a map is wider than tall); else the axis with the largest net
-face area (open game geometry: roofs and ground face up, nothing faces
-down); else the axis most face area faces. The occluder files are always in
-Godot's +Y-up frame: a +Z-up level is turned by -90 degrees about X (a
-+X-up one by +90 degrees about Z), recorded as ``to_godot``.
+Up axis. glTF is +Y up by its specification; a ``--up`` other than ``y``
+sets the level's up for files written otherwise (a Z-up three.js scene), and
+the occluders stay in the glTF's frame, the one Godot reads. A single mesh
+has no convention; when ``up`` is not given it is guessed
+(:func:`guess_up`): the axis along which the level is clearly thinnest (a
+map is wider than tall); else the axis with the largest net face area (open
+game geometry: roofs and ground face up, nothing faces down); else the axis
+most face area faces. The occluder files are always in Godot's +Y-up frame:
+a +Z-up single-mesh level is turned by -90 degrees about X (a +X-up one by
++90 degrees about Z), recorded as ``to_godot``.
 
 Choosing objects. By default an object gets occluders when its bounding-box
 diagonal is at least :data:`MIN_SIZE` of the level's. A flat object (its

@@ -451,7 +451,7 @@ def test_cull_out_may_not_be_the_working_directory(run, street, tmp_path, capsys
 def test_cull_takes_the_up_axis_of_a_single_mesh_level(run, tmp_path, capsys, monkeypatch):
     """--up as occlude takes it: a PLY level lying along z is walked with z up when told
     (the guess would pick the floor's axis anyway; told otherwise, the walk follows), and a
-    glTF, +Y up by the specification, refuses another axis."""
+    glTF, +Y up by the specification, takes another axis when told."""
     monkeypatch.chdir(tmp_path)
     floor = trimesh.creation.box(bounds=[[-12, -12, -0.2], [12, 12, 0]])
     wall = trimesh.creation.box(bounds=[[-5, -0.5, 0], [5, 0.5, 6]])
@@ -465,8 +465,15 @@ def test_cull_takes_the_up_axis_of_a_single_mesh_level(run, tmp_path, capsys, mo
     scene = trimesh.Scene()
     scene.add_geometry(floor, geom_name="floor", node_name="floor")
     (tmp_path / "map.glb").write_bytes(scene.export(file_type="glb"))
-    assert run("map.glb", "--up", "z", "--frames", 2, "--out", "o-g") == 2
-    assert "up" in capsys.readouterr().err
+    # a glTF written +Z up (the floor lies in z): told so, it is walked z up too
+    assert run("map.glb", "--up", "z", "--frames", 4, "--methods", "bbox", "--width", 64,
+               "--height", 36, "--json", "--out", "o-g") == 0
+    cams = json.loads((tmp_path / "o-g" / "cameras.json").read_text())
+    assert all(abs(c["up"][2]) == 1.0 for c in cams)
+    assert run("map.glb", "--frames", 4, "--methods", "bbox", "--width", 64, "--height", 36,
+               "--json", "--out", "o-y") == 0  # and +Y by default, as the specification says
+    cams = json.loads((tmp_path / "o-y" / "cameras.json").read_text())
+    assert all(abs(c["up"][1]) == 1.0 for c in cams)
 
 
 def test_cull_table_suggests_clusters_only_when_the_box_leaves_most_hidden_objects():

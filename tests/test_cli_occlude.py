@@ -210,7 +210,7 @@ def test_guess_up_open_geometry_faces_up():
 def test_level_objects_invalid_input(tmp_path):
     glb = _glb_level(tmp_path / "level.glb")
     with pytest.raises(InputError, match="up"):
-        level_objects(glb, up="z")
+        level_objects(glb, up="w")
     with pytest.raises(InputError, match="min_size"):
         level_objects(glb, min_size=0)
     with pytest.raises(InputError, match="no object named"):
@@ -323,7 +323,6 @@ def test_occlude_second_run_on_locked_folder_exit_2(tmp_path, capsys):
     (["--jobs", "100000"], "--jobs"),
     (["--min-size", "0"], "--min-size"),
     (["--min-size", "1.5"], "--min-size"),
-    (["--up", "z"], "+Y"),
     (["--occluders", "nosuch"], "nosuch"),
     (["--min-size", "0.1", "--occluders", "wall"], "not allowed"),
     (["--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"], "not allowed"),
@@ -441,3 +440,14 @@ def test_occlude_says_a_warning_every_mesh_gives_once(tmp_path, caplog, jobs):
     said = [r.getMessage() for r in caplog.records if "not closed" in r.getMessage()]
     assert said == [s for s in said if s.startswith("aabb-skins: 6 of 6 meshes: ")]
     assert len(said) == 1 and "aabb-skins: aabb-skins" not in said[0]
+
+
+def test_gltf_written_z_up_takes_up_z(tmp_path):
+    # three.js and Blender scenes written +Z up: --up z sets the level's up (camera path,
+    # flat ground), while the occluders stay in the frame Godot reads the glTF in
+    glb = _glb_level(tmp_path / "level.glb")
+    level = level_objects(glb, up="z")
+    assert level.up == "z" and not level.up_guessed and "over glTF's +Y" in level.up_reason
+    assert level.objects.up.tolist() == [0.0, 0.0, 1.0]
+    np.testing.assert_array_equal(level.to_godot, np.eye(4))
+    assert level_objects(glb).objects.up.tolist() == [0.0, 1.0, 0.0]
