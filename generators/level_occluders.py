@@ -252,6 +252,7 @@ def _run_job(vertices: np.ndarray, faces: np.ndarray, name: str, method: str,
     """A job as a process pool or a dask worker runs it (arrays in, no trimesh pickled);
     what the generator logs comes back in the result (``logs``), said once by the run."""
     mesh = trimesh.Trimesh(vertices, faces, process=False)
+    mesh.metadata["name"] = name  # the generators' messages name it as the run does
     job, records = call_held(occluder_of_mesh, mesh, method, name=name, budget=budget,
                              seed=seed)
     return replace(job, logs=tuple((r.levelno, r.name, r.getMessage()) for r in records))
