@@ -451,3 +451,16 @@ def test_gltf_written_z_up_takes_up_z(tmp_path):
     assert level.objects.up.tolist() == [0.0, 0.0, 1.0]
     np.testing.assert_array_equal(level.to_godot, np.eye(4))
     assert level_objects(glb).objects.up.tolist() == [0.0, 1.0, 0.0]
+
+
+def test_job_messages_name_the_mesh():
+    # an open mesh (a box without its top): aabb-skins says it is not closed, naming the
+    # mesh as the run does, so that the run can group the lines ("each of them ...")
+    from viscore.generators.level_occluders import _run_job
+
+    box = trimesh.creation.box()
+    top = box.face_normals[:, 2] > 0.5
+    job = _run_job(np.asarray(box.vertices), np.asarray(box.faces[~top]), "wallA",
+                   "aabb-skins", None, 0)
+    texts = [text for _, _, text in job.logs]
+    assert any("wallA is not closed" in t for t in texts), texts
