@@ -239,8 +239,9 @@ def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool
 
 
 #: Why an object with a transparent material gets no occluder.
-SEE_THROUGH_REFUSAL = ("see-through: its material is transparent (glTF alphaMode BLEND or "
-                       "MASK), and what lies behind it shows; engines bake no occluder from it")
+SEE_THROUGH_REFUSAL = ("see-through: its material is blended or cut out (glTF alphaMode BLEND "
+                       "or MASK, with some alpha under opaque), and what lies behind it "
+                       "shows; engines bake no occluder from it")
 
 
 def _choose(objects: SceneObjects, up: str, min_size: float | None,

@@ -2,6 +2,7 @@
 
 import dataclasses
 
+import numpy as np
 import pytest
 import trimesh
 from test_culling import _cull_all, _pose
@@ -17,18 +18,24 @@ _PRIM = {"attributes": {"POSITION": 0}, "indices": 1}
 
 
 def test_gltf_blend_and_mask_materials_are_see_through(tmp_path):
-    meshes = [{"primitives": [_PRIM]},                            # no material: opaque
-              {"primitives": [{**_PRIM, "material": 0}]},         # OPAQUE
-              {"primitives": [{**_PRIM, "material": 1}]},         # BLEND: glass
-              {"primitives": [{**_PRIM, "material": 2}]}]         # MASK: leaves
-    materials = [{"alphaMode": "OPAQUE"}, {"alphaMode": "BLEND"}, {"alphaMode": "MASK"}]
+    def alpha(a):
+        return {"pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, a]}}
+
+    materials = [{"alphaMode": "OPAQUE", **alpha(0.2)},   # opaque whatever its alpha
+                 {"alphaMode": "BLEND", **alpha(0.3)},    # glass
+                 {"alphaMode": "BLEND"},                  # blended, but alpha 1: opaque
+                 {"alphaMode": "MASK", **alpha(0.0)},     # cut away: an invisible wall
+                 {"alphaMode": "MASK", **alpha(0.6)}]     # over the 0.5 cutoff: opaque
+    names = ["a_plain", "b_opaque", "c_glass", "d_blended_opaque", "e_invisible", "f_kept"]
+    meshes = [{"primitives": [_PRIM]}] + [{"primitives": [{**_PRIM, "material": k}]}
+                                          for k in range(len(materials))]
     nodes = [{"name": n, "mesh": m, "translation": [3.0 * m, 0.0, 0.0]}
-             for m, n in enumerate(["a_plain", "b_opaque", "c_glass", "d_leaves"])]
-    path = _write(tmp_path, "level.glb", _glb(nodes, [0, 1, 2, 3], meshes=meshes,
+             for m, n in enumerate(names)]
+    path = _write(tmp_path, "level.glb", _glb(nodes, range(len(nodes)), meshes=meshes,
                                               materials=materials))
     objects = load_scene_objects(path)
-    assert objects.names == ("a_plain", "b_opaque", "c_glass", "d_leaves")
-    assert objects.see_through.tolist() == [False, False, True, True]
+    assert objects.names == tuple(names)
+    assert objects.see_through.tolist() == [False, False, True, False, True, False]
     # the same box geometry is stored once; the flag belongs to the object
     assert len(objects.meshes) == 1
 
@@ -38,7 +45,8 @@ def _glass_scene(panes: int):
     scene = trimesh.Scene()
     for k in range(panes):
         glass = trimesh.creation.box(bounds=[[-5, 0, -3.05 + k], [5, 6, -2.95 + k]])
-        glass.visual = trimesh.visual.TextureVisuals(material=PBRMaterial(alphaMode="BLEND"))
+        glass.visual = trimesh.visual.TextureVisuals(material=PBRMaterial(
+            alphaMode="BLEND", baseColorFactor=[0.8, 0.9, 1.0, 0.25]))
         scene.add_geometry(glass, geom_name=f"glass{k}", node_name=f"glass{k}")
     scene.add_geometry(trimesh.creation.box(bounds=[[-0.5, 0, 4.5], [0.5, 1, 5.5]]),
                        geom_name="box", node_name="box")
@@ -77,6 +85,25 @@ def _as_scene(objects):
     for i, name in enumerate(objects.names):
         mesh = objects.object_mesh(i)
         if objects.see_through[i]:
-            mesh.visual = trimesh.visual.TextureVisuals(material=PBRMaterial(alphaMode="BLEND"))
+            mesh.visual = trimesh.visual.TextureVisuals(material=PBRMaterial(
+                alphaMode="BLEND", baseColorFactor=[0.8, 0.9, 1.0, 0.25]))
         scene.add_geometry(mesh, geom_name=name, node_name=name)
     return scene
+
+
+@pytest.mark.parametrize("least, clear", [(249, False), (10, True)])
+def test_blended_texture_alpha_decides(least, clear):
+    # a ground exported with blending on but every texel near opaque (alpha >= 249/255)
+    # is drawn opaque; one clear texel makes the surface see-through
+    from PIL import Image
+
+    pixels = np.full((8, 8, 4), 255, dtype=np.uint8)
+    pixels[..., 3] = 250
+    pixels[3, 4, 3] = least
+    ground = trimesh.creation.box(bounds=[[-5, -0.1, -5], [5, 0, 5]])
+    ground.visual = trimesh.visual.TextureVisuals(
+        uv=np.zeros((len(ground.vertices), 2)),
+        material=PBRMaterial(alphaMode="BLEND", baseColorTexture=Image.fromarray(pixels)))
+    scene = trimesh.Scene()
+    scene.add_geometry(ground, geom_name="ground", node_name="ground")
+    assert load_scene_objects(scene).see_through.tolist() == [clear]

@@ -212,9 +212,10 @@ class SceneObjects:
     source : str
         File or scene name the objects came from.
     see_through : (n,) bool
-        Objects drawn with a transparent glTF material (``alphaMode`` ``BLEND``
-        or ``MASK``: glass, water, foliage cut-outs), which Godot's occluder
-        bake skips; all False when not given (a mesh file has no materials).
+        Objects drawn see-through by their glTF material
+        (:func:`see_through_material`: ``alphaMode`` ``BLEND`` or ``MASK`` with
+        some alpha under opaque: glass, water, foliage cut-outs); all False
+        when not given (a mesh file has no materials).
 
     Notes
     -----
@@ -425,7 +426,7 @@ def _scene_objects(names: list[str], geoms: list[str], mats: np.ndarray, geometr
     """Check the world transforms and build the :class:`SceneObjects` (objects in given order).
 
     An object is see-through when its geometry's material (as trimesh read it)
-    has glTF ``alphaMode`` ``BLEND`` or ``MASK``.
+    draws it so (:func:`see_through_material`).
     """
     if not np.isfinite(mats).all():
         bad = names[int(np.flatnonzero(~np.isfinite(mats).all(axis=(1, 2)))[0])]
@@ -493,7 +494,7 @@ def _scene_objects(names: list[str], geoms: list[str], mats: np.ndarray, geometr
         arr.flags.writeable = False
     up_vec = np.array(up, dtype=np.float64)
     up_vec.flags.writeable = False
-    see_through = np.array([transparent_material(geometry[g]) for g in geoms], dtype=bool)
+    see_through = np.array([see_through_material(geometry[g]) for g in geoms], dtype=bool)
     return SceneObjects(names=tuple(names), mesh_ids=mesh_ids, transforms=mats, meshes=meshes,
                         mesh_names=tuple(mesh_names), lower=lower, upper=upper,
                         triangles=triangles, up=up_vec, source=label, see_through=see_through)
@@ -513,6 +514,50 @@ def transparent_material(geometry) -> bool:
     material = getattr(getattr(geometry, "visual", None), "material", None)
     mode = getattr(material, "alphaMode", None)
     return str(mode).upper() in TRANSPARENT_ALPHA_MODES if mode else False
+
+
+#: Least alpha (base colour factor x texture) at which an alpha-blended surface is
+#: drawn as good as opaque: what lies behind shows through at most 5%.
+OPAQUE_ALPHA = 0.95
+
+
+def _least_alpha(material) -> float:
+    """Least alpha a glTF material draws: its base colour factor's alpha times the least
+    alpha of its base colour texture (1 without an alpha channel); vertex colours are
+    not read."""
+    factor = getattr(material, "baseColorFactor", None)
+    alpha = 1.0
+    if factor is not None and len(factor) == 4:
+        f = np.asarray(factor)
+        alpha = float(f[3]) / 255.0 if f.dtype.kind in "ui" else float(f[3])
+    texture = getattr(material, "baseColorTexture", None)
+    if texture is not None and alpha > 0:
+        try:
+            bands = texture.getbands()
+            if "A" in bands:
+                alpha *= texture.getchannel("A").getextrema()[0] / 255.0
+        except (AttributeError, ValueError, OSError):  # not a PIL image: alpha unknown
+            return 0.0
+    return alpha
+
+
+def see_through_material(geometry) -> bool:
+    """Whether a glTF primitive is drawn see-through, as far as its material says.
+
+    Its alpha mode is ``BLEND`` and its least alpha (:func:`_least_alpha`) is
+    under :data:`OPAQUE_ALPHA`, or ``MASK`` and some alpha is under its
+    ``alphaCutoff`` (default 0.5): a blended surface whose every texel is
+    opaque (a ground exported with blending on) and a cut-out that cuts
+    nothing are opaque.
+    """
+    if not transparent_material(geometry):
+        return False
+    material = geometry.visual.material
+    alpha = _least_alpha(material)
+    if str(material.alphaMode).upper() == "MASK":
+        cutoff = getattr(material, "alphaCutoff", None)
+        return alpha < (0.5 if cutoff is None else float(cutoff))
+    return alpha < OPAQUE_ALPHA
 
 
 # ----------------------------------------------------------- glTF: JSON and URIs
