@@ -438,15 +438,16 @@ def run_cull(args) -> int:
         _check_frames_memory(frames or DEFAULT_FRAMES, f"--frames {frames or DEFAULT_FRAMES}")
     level = level_objects(args.scene, up=args.up, names=names if threshold is None else None)
     objects = level.objects
-    if level.kind != "gltf" and len(objects) == 1:
-        _log.warning("%s: %s stays one object (its %d connected components join into one "
-                     "part), %s up (%s): there is nothing else to cull behind it",
-                     args.scene, "its one mesh" if level.kind == "gltf-mesh" else "the mesh",
-                     level.components, level.up, level.up_reason)
-    elif level.kind != "gltf":
-        _log.info("%s: %s split into %d parts (%d connected components), %s up (%s)",
-                  args.scene, "its one mesh" if level.kind == "gltf-mesh" else "the mesh",
-                  len(objects), level.components, level.up, level.up_reason)
+    if level.kind != "gltf":
+        mesh = "its one mesh" if level.kind == "gltf-mesh" else "the mesh"
+        if len(objects) == 1:
+            _log.warning("%s: %s stays one object (its %d connected components join into one "
+                         "part), %s up (%s): there is nothing else to cull behind it",
+                         args.scene, mesh, level.components, level.up, level.up_reason)
+        else:
+            _log.info("%s: %s split into %d parts (%d connected components), %s up (%s)",
+                      args.scene, mesh, len(objects), level.components, level.up,
+                      level.up_reason)
     if args.path is not None:
         # capped before any camera is checked: checking one takes about 0.5 ms
         path = read_camera_path(args.path, up=objects.up, frames=frames, maximum=MAX_FRAMES)

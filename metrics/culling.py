@@ -52,6 +52,7 @@ import numpy as np
 
 from viscore import InputError
 from viscore._validate import as_positive_int, check_memory
+from viscore.constants import RAY_STEP_RELATIVE
 
 # kept for old import paths: the camera paths, the runtimes and the plot moved to
 # modules of their own
@@ -295,8 +296,6 @@ def visible_objects(scene, triangle_object: np.ndarray, see_through: np.ndarray,
     origins, directions : (m, 3) or (1, 3) float
         The rays, world units (one origin row is broadcast).
     """
-    from viscore.constants import RAY_STEP_RELATIVE
-
     n = len(see_through)
     visible = np.zeros(n, dtype=bool)
     t, tri = scene.first_hit(origins, directions)

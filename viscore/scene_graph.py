@@ -494,7 +494,10 @@ def _scene_objects(names: list[str], geoms: list[str], mats: np.ndarray, geometr
         arr.flags.writeable = False
     up_vec = np.array(up, dtype=np.float64)
     up_vec.flags.writeable = False
-    see_through = np.array([see_through_material(geometry[g]) for g in geoms], dtype=bool)
+    # once per geometry: a material's texture is read for its alpha, and a level places
+    # one geometry in many objects
+    clear = {g: see_through_material(geometry[g]) for g in names_once}
+    see_through = np.array([clear[g] for g in geoms], dtype=bool)
     return SceneObjects(names=tuple(names), mesh_ids=mesh_ids, transforms=mats, meshes=meshes,
                         mesh_names=tuple(mesh_names), lower=lower, upper=upper,
                         triangles=triangles, up=up_vec, source=label, see_through=see_through)
@@ -1008,17 +1011,14 @@ def _gltf_objects(header: dict, tree: _Hierarchy, library: trimesh.Scene, label:
                      label, _hidden_summary(objects))
         drawn = objects
     elif len(drawn) < len(objects):
-        _log.warning("%s: left out %s marked as not drawn: %s", label,
-                     _count(len(objects) - len(drawn), "mesh node"),
+        left = len(objects) - len(drawn)
+        _log.warning("%s: left out %s mesh node%s marked as not drawn: %s", label,
+                     f"{left:,}", "" if left == 1 else "s",
                      _hidden_summary([o for o in objects if o[3] is not None]))
     names = [o[0] for o in drawn]
     geoms = [o[1] for o in drawn]
     mats = np.array([o[2] for o in drawn], dtype=np.float64).reshape(-1, 4, 4)
     return names, geoms, _repair_rigid(mats)
-
-
-def _count(n: int, noun: str) -> str:
-    return f"{n:,} {noun}" + ("" if n == 1 else "s")
 
 
 def _hidden_summary(objects: list, shown: int = 4) -> str:

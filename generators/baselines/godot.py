@@ -64,6 +64,7 @@ GODOT_TARGET_INDEX_COUNT = 36
 #: ``bake_simplification_distance`` is 0.1 m, about 1% of a 10 m building's diagonal.
 DEFAULT_DISTANCE_SHARE = 0.01
 
+
 def bake_surface(vertices: np.ndarray, faces: np.ndarray, distance: float
                  ) -> tuple[np.ndarray, np.ndarray, float]:
     """Simplify one surface as Godot's occluder bake does.
