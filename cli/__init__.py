@@ -6,7 +6,7 @@ function of the library (``viscore``, ``viscore.metrics``,
 ``--json``). It does no numerics and imports no private names of the library
 but its shared validators (``viscore._validate``) and atomic writers
 (``viscore._atomic``); memory estimates come from
-:mod:`viscore.metrics.estimates`, mesh files from :func:`viscore.mesh_io.save_mesh`.
+:mod:`viscore.metrics.estimates`, mesh files from :func:`viscore.exchange.mesh_io.save_mesh`.
 
 Subcommands, and the module each lives in:
 

@@ -6,7 +6,7 @@ run says how long first, on stderr (:func:`warn_estimate`,
 :class:`RateEstimate`).
 
 Files are written by the core's shared helpers (:func:`viscore._atomic.write_atomic`,
-:func:`viscore._atomic.file_mode`), meshes by :func:`viscore.mesh_io.save_mesh`,
+:func:`viscore._atomic.file_mode`), meshes by :func:`viscore.exchange.save_mesh`,
 and an occluder for an engine by :func:`write_occluder` (a mesh format, or Godot's
 ``.tres`` / ``.tscn``; a ``.glb`` whose one node carries Godot's ``-occonly`` suffix).
 """
@@ -22,7 +22,7 @@ from pathlib import Path
 from viscore.metrics.precision_recall import jsonable
 
 from viscore._atomic import check_output_path, file_mode, write_atomic
-from viscore.mesh_io import SAVE_FORMATS, mesh_bytes, mesh_format, save_mesh
+from viscore.exchange.mesh_io import SAVE_FORMATS, mesh_bytes, mesh_format, save_mesh
 
 __all__ = ["dumps", "emit", "check_output_path", "write_atomic", "file_mode", "check_mesh_path",
            "check_occluder_path", "write_mesh", "write_occluder", "occluder_bytes", "parse_list",
@@ -47,7 +47,7 @@ def emit(document: dict, as_json: bool, text: str) -> None:
     print(dumps(document) if as_json else text)
 
 
-#: Mesh formats the CLI writes (:data:`viscore.mesh_io.SAVE_FORMATS`).
+#: Mesh formats the CLI writes (:data:`viscore.exchange.mesh_io.SAVE_FORMATS`).
 MESH_FORMATS = SAVE_FORMATS
 
 
@@ -57,7 +57,7 @@ def check_mesh_path(path: str | os.PathLike) -> str:
     Raises
     ------
     InputError
-        For an unknown suffix (:func:`viscore.mesh_io.mesh_format`), or a path
+        For an unknown suffix (:func:`viscore.exchange.mesh_io.mesh_format`), or a path
         :func:`check_output_path` refuses (missing folder, a directory).
     """
     suffix = mesh_format(path)
@@ -141,7 +141,7 @@ def _cannot_write_in(folder: Path) -> str | None:
 
 
 def write_mesh(path: str | os.PathLike, mesh) -> None:
-    """Export a mesh atomically in the format its suffix names (:func:`viscore.mesh_io.save_mesh`).
+    """Export a mesh atomically in the format its suffix names (:func:`viscore.exchange.save_mesh`).
 
     OBJ, OFF and PLY keep float64 coordinates; STL and GLB (float32 by their
     specifications) refuse a mesh float32 cannot hold, with one line.
@@ -165,10 +165,10 @@ def occluder_bytes(path: str | os.PathLike, mesh, *, name: str) -> bytes:
       ``<name>-occonly`` (Godot imports it as an occluder that is not drawn);
       same accessors, buffers and mesh;
     - any other mesh format: what :func:`write_mesh` writes
-      (:func:`viscore.mesh_io.mesh_bytes`).
+      (:func:`viscore.exchange.mesh_io.mesh_bytes`).
 
     Godot and GLB store float32: a mesh float32 cannot hold is refused with
-    one line, as :func:`viscore.mesh_io.mesh_bytes` refuses it for GLB;
+    one line, as :func:`viscore.exchange.mesh_io.mesh_bytes` refuses it for GLB;
     otherwise the file reads back (:func:`viscore.load_occluder`) as the
     mesh's float32 triangles.
 

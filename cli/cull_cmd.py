@@ -17,7 +17,7 @@ path (:func:`viscore.metrics.culling.camera_path` or ``--path``) and the
 simulation against the ray-cast ground truth
 (:func:`viscore.metrics.culling.simulate_culling`), with each object tested through its
 box or through the boxes of its triangle clusters
-(:func:`viscore.occludee_bounds.object_cluster_boxes`): ``--bounds auto`` (the default)
+(:func:`viscore.culling.occludee_bounds.object_cluster_boxes`): ``--bounds auto`` (the default)
 splits the objects whose box diagonal is at least :data:`AUTO_MIN_SIZE` of the level's
 (chunks of a level exported in a few pieces, whose boxes hold the eye), ``clusters[:N]``
 every object, ``box`` none (the paper's test, sec. 6 of Papaioannou et al. 2006).
@@ -89,7 +89,7 @@ from viscore.metrics.culling import (
 from viscore import InputError, provenance
 from viscore._atomic import fsync_path, swap_folder
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
-from viscore.occludee_bounds import MAX_CLUSTERS, object_cluster_boxes
+from viscore.culling.occludee_bounds import MAX_CLUSTERS, object_cluster_boxes
 
 from ._common import RateEstimate, check_output_folder, dumps, emit, file_mode
 from .study.store import lock_exclusive
@@ -520,7 +520,7 @@ def _check_frames_memory(frames: int, what: str) -> None:
 def occludee_boxes(objects, kind: str, clusters: int) -> tuple[tuple | None, str, int]:
     """The occludee bounds of ``--bounds KIND:CLUSTERS`` for
     :func:`~viscore.metrics.culling.simulate_culling`: None (every object tested through
-    its box) or :func:`~viscore.occludee_bounds.object_cluster_boxes` (``auto``: only the
+    its box) or :func:`~viscore.culling.occludee_bounds.object_cluster_boxes` (``auto``: only the
     objects from :data:`AUTO_MIN_SIZE` of the level's diagonal split); with the kind in
     effect (``box`` when no object was split) and the number of split objects."""
     bounds = None if clusters == 1 else object_cluster_boxes(

@@ -37,7 +37,7 @@ from viscore.generators import REGISTRY, generate, get_generator, hierarchy_file
 from viscore import InputError, load_mesh, provenance
 from viscore._atomic import FileSet
 from viscore._validate import as_seed
-from viscore.mesh_io import mesh_bytes
+from viscore.exchange.mesh_io import mesh_bytes
 
 from ._common import check_output_file, emit, occluder_bytes
 

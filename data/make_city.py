@@ -6,7 +6,7 @@ parameters, fixed seeds).
 
 A street grid of blocks. Buildings are the occluders: closed, 2-manifold
 multi-panel meshes (one 3 m panel per storey and bay: the boundary of a voxel
-solid, :func:`viscore.voxels.voxel_boundary_mesh`) with setbacks, L shapes
+solid, :func:`viscore.voxel.grid.voxel_boundary_mesh`) with setbacks, L shapes
 and courtyards. The occludees are small instanced props with realistic
 triangle counts: cars (3 models, 300-1,000 triangles), trees (2 models,
 200-600), street lamps (50-100) and benches (50-150), placed on the roads,
@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from viscore.voxels import VoxelGrid, voxel_boundary_mesh
+from viscore.voxel.grid import VoxelGrid, voxel_boundary_mesh
 
 HERE = Path(__file__).resolve().parent
 

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from viscore.voxels import VoxelGrid, voxel_boundary_mesh
+from viscore.voxel.grid import VoxelGrid, voxel_boundary_mesh
 
 HERE = Path(__file__).resolve().parent
 

@@ -8,7 +8,7 @@ in :mod:`viscore.generators.level_occluders`, which makes the occluders; a
 glTF of a single object is split as a single mesh is, and a flat object far
 larger than the rest of the level (:data:`LEVEL_SPAN`: an outer ground
 plane around a town) or a sky around it
-(:meth:`viscore.scene_graph.SceneObjects.sky`) does not set the scale of the
+(:meth:`viscore.level.scene_graph.SceneObjects.sky`) does not set the scale of the
 size threshold. A sky gets no occluders: nothing of the level lies behind it.
 Nor does a see-through object (a transparent glTF material, alpha blended or
 alpha tested: glass, water, leaves), which Godot's occluder bake skips too.
@@ -32,8 +32,8 @@ import numpy as np
 import trimesh
 
 from viscore import InputError, load_mesh
-from viscore.ground import UP_AXES, guess_up
-from viscore.scene_graph import (
+from viscore.level.ground import UP_AXES, guess_up
+from viscore.level.scene_graph import (
     FLAT_RATIO,
     LEVEL_SPAN,
     SceneObjects,
@@ -316,7 +316,7 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
     Raises
     ------
     InputError
-        A file :func:`viscore.scene_graph.load_scene_objects` or
+        A file :func:`viscore.level.scene_graph.load_scene_objects` or
         :func:`viscore.load_mesh` refuses; ``up`` not an axis; ``min_size``
         outside (0, 1]; both ``min_size`` and ``names``; a name no object has.
 

@@ -12,7 +12,7 @@ occluder conservative: a point inside the mesh stays inside its image). The
 occluders are written as the Godot 4 engine [2]_ reads them: a text scene of
 ``OccluderInstance3D`` nodes whose ``ArrayOccluder3D`` sub-resources are shared
 by the instances of one mesh, and a glTF whose nodes carry Godot's
-``-occonly`` import suffix (:mod:`viscore.occluder_files`).
+``-occonly`` import suffix (:mod:`viscore.exchange.occluder_files`).
 
 Splitting a single mesh (:func:`level_objects`). Vertices at identical
 positions are merged and the faces split into connected components by edge
@@ -47,7 +47,7 @@ none is, those at least :data:`FALLBACK_SHARE` of the largest non-flat
 object's diagonal). When flat objects make the level's diagonal more than
 :data:`LEVEL_SPAN` times the non-flat objects' (an outer ground plane 2 km
 across around a town 180 m across), the threshold is a fraction of the
-latter; so is it when a sky (:meth:`viscore.scene_graph.SceneObjects.sky`: an object
+latter; so is it when a sky (:meth:`viscore.level.scene_graph.SceneObjects.sky`: an object
 surrounding the rest from afar) makes it so, and a sky gets no occluders. A glTF holding
 a single object (a map exported as one mesh) is split
 into parts as a single mesh is.
@@ -93,8 +93,8 @@ import trimesh
 from viscore import InputError, OccluderInstance, occonly_glb_bytes, tscn_text
 from viscore._atomic import write_atomic
 from viscore._validate import as_positive_int, as_seed
-from viscore.mesh_io import ply_bytes
-from viscore.scene_graph import geometry_digest
+from viscore.exchange.mesh_io import ply_bytes
+from viscore.level.scene_graph import geometry_digest
 
 from ._held_logs import call_held, report_parts
 from ._pool import worker_init as _worker_init

@@ -45,7 +45,7 @@ from collections.abc import Iterator, MutableMapping
 from dataclasses import dataclass
 
 from viscore import InputError
-from viscore.wall_thickness import AUTO_MAX_CELLS
+from viscore.voxel.wall_thickness import AUTO_MAX_CELLS
 
 from ._precision_check import DEFAULT_MIN_PRECISION as CHECK_MIN_PRECISION
 from .aabb_skins import generate_aabb_skins

@@ -1,6 +1,6 @@
 """Occluders for the objects of a scene, and the culling runtimes they feed.
 
-The bridge between a scene of objects (:mod:`viscore.scene_graph`), the
+The bridge between a scene of objects (:mod:`viscore.level.scene_graph`), the
 registered generators and the culling simulation
 (:mod:`viscore.metrics.culling`), which never imports generators: objects above
 a size threshold (or named) get an occluder from each chosen method; each
@@ -60,7 +60,7 @@ from viscore.metrics.culling import (
 
 from viscore import InputError
 from viscore._validate import as_positive, as_positive_int, as_seed
-from viscore.scene_graph import SceneObjects
+from viscore.level.scene_graph import SceneObjects
 
 from ._held_logs import call_held, release, report_parts
 from .occluder import Occluder
@@ -327,7 +327,7 @@ def joined_occluder(objects: SceneObjects, indices: Sequence[int], method: str, 
 
     Examples
     --------
-    >>> from viscore.scene_graph import load_scene_objects
+    >>> from viscore.level.scene_graph import load_scene_objects
     >>> level = trimesh.Scene()
     >>> for k in range(2):   # two unit cubes side by side: their tops are one region
     ...     _ = level.add_geometry(trimesh.creation.box(bounds=[[k, 0, 0], [k + 1, 1, 1]]),
@@ -466,7 +466,7 @@ def file_occluder(path: str | os.PathLike) -> Occluder:
     the file under ``files``) and that summary's ``conservative_guaranteed``.
     Such a file is in Godot's +Y-up frame; the manifest's ``to_godot`` is
     undone, so the triangles are in the level's own frame (the frame
-    :func:`viscore.scene_graph.load_scene_objects` reads the level in). A file
+    :func:`viscore.level.scene_graph.load_scene_objects` reads the level in). A file
     without a manifest is taken as it stands (Godot and glTF are both +Y up).
 
     Examples
@@ -541,7 +541,7 @@ def _solids(occluders: Sequence[Occluder]) -> list[tuple[np.ndarray, np.ndarray]
 
 def _hierarchy_source(occluders: list[Occluder], width_of: Callable) -> Callable:
     """Per-frame occluders from the hierarchies' cuts (others always drawn), cached by cut."""
-    from viscore.depth_buffer import OccluderScene
+    from viscore.culling.depth_buffer import OccluderScene
 
     from .planar_hierarchy import cut_hierarchy, index_hierarchy
 

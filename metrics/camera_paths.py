@@ -31,7 +31,7 @@ from viscore import InputError, PerspectiveCamera
 from viscore._validate import as_positive, as_positive_int, as_seed, as_vector
 
 if TYPE_CHECKING:  # pragma: no cover - hints only
-    from viscore.scene_graph import SceneObjects
+    from viscore.level.scene_graph import SceneObjects
 
 __all__ = ["PathCamera", "camera_path", "read_camera_path", "camera_path_json",
            "check_camera_path", "DEFAULT_FOV", "EYE_HEIGHT", "MIN_FOV", "MAX_FOV"]
@@ -321,8 +321,8 @@ def _height_map(objects: SceneObjects, up: np.ndarray):
     """Top heights of the scene seen from above on a horizontal grid, and the ground level.
 
     The grid spans the level's built part
-    (:meth:`viscore.scene_graph.SceneObjects.built_bounds`), its heights the
-    objects' but a sky's (:meth:`viscore.scene_graph.SceneObjects.sky`). Returns the grid
+    (:meth:`viscore.level.scene_graph.SceneObjects.built_bounds`), its heights the
+    objects' but a sky's (:meth:`viscore.level.scene_graph.SceneObjects.sky`). Returns the grid
     frame (basis, origin, cell size, shape), the height along
     ``up`` of the first hit of one ray cast down through each cell centre (the
     scene's lowest point where the ray misses), and the ground level: the 5th
@@ -623,7 +623,7 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     Parameters
     ----------
     objects : SceneObjects
-        The scene (:func:`viscore.scene_graph.load_scene_objects`).
+        The scene (:func:`viscore.level.scene_graph.load_scene_objects`).
     frames : int, optional
         Number of cameras, >= 1 (default 120). About 70% street level (a
         quarter of them close-ups), 20% elevated, 10% far away.
@@ -654,8 +654,8 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     Free space is found by casting one vertical ray down per cell of a
     256-cell grid over the scene's footprint (its built part, without an
     outer ground plane, sea or sky that spans over
-    :data:`viscore.scene_graph.LEVEL_SPAN` times the rest:
-    :meth:`viscore.scene_graph.SceneObjects.built_bounds`): a cell is free
+    :data:`viscore.level.scene_graph.LEVEL_SPAN` times the rest:
+    :meth:`viscore.level.scene_graph.SceneObjects.built_bounds`): a cell is free
     when nothing in it rises above 90% of the eye height over the ground (the 5th
     percentile of the first-hit heights, a miss counting as the scene's
     lowest point). Things thinner than a cell (poles, fences) can fall

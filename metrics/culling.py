@@ -1,7 +1,7 @@
 """Scene culling simulation: objects culled per frame along a camera path, against ray-cast truth.
 
 Occluders exist to cull objects. This module walks a camera along a path
-through a scene of objects (:class:`viscore.scene_graph.SceneObjects`) and, at
+through a scene of objects (:class:`viscore.level.scene_graph.SceneObjects`) and, at
 every frame, asks each culling *runtime* which objects' bounding boxes it
 hides, as a scene-graph renderer does (Papaioannou et al. 2006 [1]_, sec. 4,
 Tables 1-2 and Figures 5-6: primitives rendered per frame along pre-recorded
@@ -74,7 +74,7 @@ from .culling_runtimes import (
 from .plots import culling_plot
 
 if TYPE_CHECKING:  # pragma: no cover - hints only
-    from viscore.scene_graph import SceneObjects
+    from viscore.level.scene_graph import SceneObjects
 
 __all__ = ["RuntimeFrames", "CullingResult", "simulate_culling", "check_culling_memory",
            "visible_objects",
@@ -350,7 +350,7 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     bounds : (lower, upper, owner), optional
         Occludee bounds tighter than each object's box: ``(c, 3)`` boxes and
         the ``(c,)`` non-decreasing object index of each, every object with at
-        least one (:func:`viscore.occludee_bounds.object_cluster_boxes`).
+        least one (:func:`viscore.culling.occludee_bounds.object_cluster_boxes`).
         Runtimes then get these boxes, and an object is culled when every one
         of its boxes in the view frustum is; view frustum culling keeps an
         object when its box and one of its boxes may intersect the frustum.

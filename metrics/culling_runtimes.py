@@ -12,7 +12,7 @@ occluders they use are inputs (this module never imports
   (``planar-frusta``).
 - :func:`depth_buffer_runtime`: a conservative reduced-resolution depth
   buffer of occluder meshes (the occluder-skins paper [3]_, sec. 5-6;
-  :mod:`viscore.depth_buffer`), from a fixed list or a per-frame callable (a
+  :mod:`viscore.culling.depth_buffer`), from a fixed list or a per-frame callable (a
   hierarchy's cut for the frame).
 
 :func:`view_frustum_mask` is the view-frustum culling that the simulation
@@ -119,7 +119,7 @@ def frusta_runtime(solids: Sequence, *, mode: str = "solid", active: int = 15,
         From :class:`viscore.frusta.FrustumCuller` on a solid that is not
         closed and convex, or a bad option.
     """
-    from viscore.frustum_culler import FrustumCuller
+    from viscore.culling.frustum_culler import FrustumCuller
 
     culler = FrustumCuller(list(solids), polygons=polygons, mode=mode, active=active, cap=cap,
                            rank=rank)
@@ -134,7 +134,7 @@ def depth_buffer_runtime(occluders, *, reduction: int = 4, conservative: bool = 
     ----------
     occluders : list of Occluder or trimesh.Trimesh, or callable
         The occluders in world units, anything
-        :class:`viscore.depth_buffer.OccluderScene` accepts (prepared once
+        :class:`viscore.culling.depth_buffer.OccluderScene` accepts (prepared once
         here); or ``occluders(camera) -> OccluderScene`` called every frame
         (for example the cut of a planar-sections hierarchy for the frame's
         camera), whose time counts in the overhead.
@@ -153,12 +153,12 @@ def depth_buffer_runtime(occluders, *, reduction: int = 4, conservative: bool = 
 
     Notes
     -----
-    Conservative by construction (see :mod:`viscore.depth_buffer`): a buffer
+    Conservative by construction (see :mod:`viscore.culling.depth_buffer`): a buffer
     pixel holds a depth only where its whole footprint is covered, never
     farther than the occluders, so objects seen through sub-pixel gaps are
     not culled.
     """
-    from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
+    from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
 
     reduction = as_positive_int(reduction, "reduction", maximum=1024)
     if callable(occluders):

@@ -29,7 +29,7 @@ import trimesh
 
 from viscore import InputError, Scene, grid_positions, points_inside
 from viscore._validate import as_positive, check_memory
-from viscore.enclosing_ball import minimum_enclosing_ball
+from viscore.ray.enclosing_ball import minimum_enclosing_ball
 
 __all__ = ["orbit_frame", "evaluation_box", "volume_positions"]
 
@@ -48,7 +48,7 @@ def orbit_frame(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
     -------
     center : (3,) float64
         Centre of the smallest enclosing sphere of the vertices (flat and
-        collinear meshes included, see :func:`viscore.enclosing_ball.minimum_enclosing_ball`).
+        collinear meshes included, see :func:`viscore.ray.enclosing_ball.minimum_enclosing_ball`).
     extent : float
         Its diameter x 1.01, world units.
     """

@@ -10,8 +10,8 @@ from viscore.metrics import check_conservative
 
 import viscore._validate as validate_module
 from viscore import InputError, load_mesh
-from viscore.wall_thickness import finest_fitting_pitch, voxel_size_for_wall
-from viscore.winding import is_closed_oriented
+from viscore.voxel.wall_thickness import finest_fitting_pitch, voxel_size_for_wall
+from viscore.voxel.winding import is_closed_oriented
 
 LOGGER = "viscore.generators.aabb_skins.generator"
 
@@ -136,7 +136,7 @@ def _per_voxel_winding(monkeypatch, module):
     """Make ``module``'s inside test evaluate every voxel (the reference of the bounds)."""
     from functools import partial
 
-    from viscore.voxels import inside_voxels_winding
+    from viscore.voxel.grid import inside_voxels_winding
 
     monkeypatch.setattr(module, "inside_voxels_winding",
                         partial(inside_voxels_winding, per_voxel=True))

@@ -135,7 +135,7 @@ def test_assess_occluder_empty_occluder_measures_zero(views):
 
 def test_assess_occluder_builds_one_scene_per_mesh(monkeypatch, torus, views):
     """The occluder's Scene is built once for the three steps; the original's never again."""
-    from viscore.scene import Scene
+    from viscore.ray.embree_scene import Scene
 
     built = []
     init = Scene.__init__

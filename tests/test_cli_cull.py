@@ -170,7 +170,7 @@ def test_culling_column_tests_objects_as_cull_does_by_default(street, monkeypatc
     from viscore.cli.bench.cull import culling_column
     from viscore.metrics import culling
 
-    from viscore.scene_graph import load_scene_objects
+    from viscore.level.scene_graph import load_scene_objects
 
     scene, _ = street
     seen = []

@@ -13,7 +13,7 @@ def test_data_list_json_names_builtin_scenes(capsys):
 
 
 def test_data_export_copies_a_culling_scene_as_glb(tmp_path, capsys):
-    from viscore.scene_graph import load_scene_objects
+    from viscore.level.scene_graph import load_scene_objects
 
     out = tmp_path / "city.glb"
     assert main(["data", "export", "city", "-o", str(out)]) == 0

@@ -20,7 +20,7 @@ def _scene_for(name: str) -> tuple[str, np.ndarray]:
     the fat torus (R = 1, r = 0.6), or the terrain for methods of height fields."""
     if REGISTRY[name].inputs == "height-fields":
         from viscore.builtin_scenes import scene_path
-        from viscore.mesh_io import load_mesh
+        from viscore.exchange.mesh_io import load_mesh
 
         return "terrain", np.asarray(load_mesh(scene_path("terrain")).bounds)
     return "fat-torus", np.array([[-1.6, -1.6, -0.6], [1.6, 1.6, 0.6]])

@@ -361,7 +361,7 @@ def test_level_scale_ignores_an_outer_ground_far_larger_than_the_town(monkeypatc
     inside a ground plane 2,000 across. Against the ground's diagonal the houses are 0.5%
     and get no occluder (the hill, not flat, passes: no fallback); the ground does not set
     the scale (its box is over LEVEL_SPAN x the others'), so they are 5% and get one."""
-    import viscore.scene_graph as sg
+    import viscore.level.scene_graph as sg
 
     rng = np.random.default_rng(0)
     scene = trimesh.Scene()
@@ -416,7 +416,7 @@ def test_occlude_runs_a_height_field_method_on_the_flat_objects_only(tmp_path):
     # the drape, placed in Godot's frame (+Y up, as the level), lies under the hill
     placed = _world_triangles(out, "terrain-drape", level)["hill"].reshape(-1, 3)
     sheet = trimesh.Trimesh(np.asarray(hill.vertices), np.asarray(hill.faces), process=False)
-    from viscore.scene import Scene
+    from viscore.ray.embree_scene import Scene
 
     up = np.tile([0.0, 1.0, 0.0], (len(placed), 1))
     assert Scene(sheet).any_hit(placed.astype(np.float64) - [0, 1e-4, 0], up).all()

@@ -27,7 +27,7 @@ from viscore.metrics.culling import (
 )
 
 from viscore import InputError, PerspectiveCamera
-from viscore.scene_graph import load_scene_objects
+from viscore.level.scene_graph import load_scene_objects
 
 UP = np.array([0.0, 1.0, 0.0])
 
@@ -412,7 +412,7 @@ def test_surface_patches_joined_over_objects_closes_the_seams():
     two roofs are one region and one polygon, and a box under the seam is culled from
     above. Welded (the default), each roof ends on its room's edges, so the roofs cut apart
     meet over the wall too."""
-    from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
+    from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
 
     scene = trimesh.Scene()
     for k in range(2):
@@ -493,7 +493,7 @@ def test_camera_path_walks_the_town_not_the_wide_ground_around_it():
     the walk saw the town as a speck), and its far cameras look at it from a ring around
     the town; a ground about as wide as the town (not over LEVEL_SPAN x) changes
     nothing."""
-    from viscore.scene_graph import LEVEL_SPAN
+    from viscore.level.scene_graph import LEVEL_SPAN
 
     objects = _town_on_a_wide_ground()
     box, part = objects.built_bounds()
@@ -520,7 +520,7 @@ def test_a_sky_dome_neither_sets_the_level_nor_gets_occluders(tmp_path):
     under the town, whose vertices reach the houses, is no sky."""
     from viscore.generators.level_objects import level_objects
 
-    from viscore.occludee_bounds import object_cluster_boxes
+    from viscore.culling.occludee_bounds import object_cluster_boxes
 
     town = _town_on_a_wide_ground(100.0)
     scene = trimesh.Scene()

@@ -5,7 +5,7 @@ import pytest
 import trimesh
 
 from viscore import InputError, PerspectiveCamera, Scene
-from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene, _full_corner_depth
+from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene, _full_corner_depth
 
 
 def _quad(x0, x1, y=0.0, z0=-5.0, z1=5.0):
@@ -205,7 +205,7 @@ def _assert_conservative(occ, buf, rng, n=16):
 def _mixed_scene(rng):
     """Convex solids (random boxes, some rotated), a mesh by planar facets (a torus-like
     ring of quads) and an Occluder-like item with boxes."""
-    from viscore.depth_buffer import _UNIT_BOX
+    from viscore.culling.depth_buffer import _UNIT_BOX
 
     solids = []
     for b in _city(rng, 14):
@@ -285,7 +285,7 @@ def test_thin_pole_between_tile_corners_is_found(offset):
 def test_hierarchical_buffer_any_size_and_scene_path(size, monkeypatch, rng):
     """Sizes that are not multiples of the tile (padding) and large batches sent through
     Scene.first_hit: the same depths; never nearer than the one-ray-per-corner buffer."""
-    import viscore.depth_buffer as db
+    import viscore.culling.depth_buffer as db
 
     occ = OccluderScene([(b.vertices, b.faces) for b in _city(rng, 20)])
     cam = PerspectiveCamera((0, -15, 0.5), (0.1, 1, 0.05), fov=70, resolution=160, height=90)
@@ -321,7 +321,7 @@ def test_facet_planar_within_tolerance_depth_never_nearer(monkeypatch):
     angle: with no depth margin at all, every ray through a covered pixel meets it no
     farther than the depth (the facet's plane is pushed by its slack; without the push
     rays through the lower triangle go ~2e-7 farther)."""
-    import viscore.depth_buffer as db
+    import viscore.culling.depth_buffer as db
 
     monkeypatch.setattr(db, "DEPTH_MARGIN_RELATIVE", 0.0)
     v = np.array([[0, 0, 0], [10, 0, 0], [10, 10, 1e-8], [0, 10, 0]], float)

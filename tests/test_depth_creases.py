@@ -1,6 +1,6 @@
 """The depth buffer's rules across creases and silhouettes: planar flats that share an edge
-(viscore._patches.flat_pairs: a wall meeting the floor, two faces of a box), two regions
-along their planes' line and a region behind (viscore._depth_kernel.region_creases: a wall
+(viscore.culling._creases.flat_pairs: a wall meeting the floor, two faces of a box), two regions
+along their planes' line and a region behind (viscore.culling._depth_kernel.region_creases: a wall
 standing on a floor, a pillar before a wall). Pixels they cover are never nearer than the
 occluders, and a crease seen as a silhouette, or a gap under a wall, stays open."""
 
@@ -10,8 +10,8 @@ import trimesh
 from test_depth_patches import _sampled_first_hits
 
 from viscore import PerspectiveCamera, Scene
-from viscore._patches import flat_pairs
-from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
+from viscore.culling._creases import flat_pairs
+from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
 
 
 def _corner():

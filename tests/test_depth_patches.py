@@ -1,4 +1,4 @@
-"""The depth buffer's crease rule on curved sheets (viscore._patches): covered pixels are
+"""The depth buffer's crease rule on curved sheets (viscore.culling._creases): covered pixels are
 covered, their depths never nearer than the sheet, and nothing seen is culled."""
 
 import numpy as np
@@ -6,8 +6,8 @@ import pytest
 import trimesh
 
 from viscore import PerspectiveCamera, Scene
-from viscore._patches import height_field_patches
-from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
+from viscore.culling._creases import height_field_patches
+from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
 
 
 def _terrain(rng, n=24, size=100.0, height=12.0, hole=False):
@@ -192,7 +192,7 @@ def test_a_steep_triangle_is_left_out_of_the_patch():
     covers almost no area, so the area test alone could not see it pierce the sheet (a
     reviewer's counterexample did: a depth 140 margins too near); triangles steeper
     than MIN_FACING stay out of patches, the rest of the sheet stays in."""
-    from viscore._patches import MIN_FACING
+    from viscore.culling._creases import MIN_FACING
 
     xs, ys = np.linspace(0, 4, 5), np.linspace(0, 2, 3)
     sheet = _grid_sheet(xs, ys, np.outer(np.ones(5), [0.0, 0.5, 2.0]))  # a ramp along y

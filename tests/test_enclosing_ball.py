@@ -3,7 +3,7 @@ import pytest
 import trimesh
 
 from viscore import InputError
-from viscore.enclosing_ball import minimum_enclosing_ball
+from viscore.ray.enclosing_ball import minimum_enclosing_ball
 
 
 def test_minimum_enclosing_ball_unit_square_is_its_circumcircle():
@@ -70,7 +70,7 @@ def test_minimum_enclosing_ball_invalid_input():
 def test_enclosing_ball_kept_by_content_returns_fresh_centres():
     """A second call on equal points gives an equal ball whose centre is a new array (the
     caller may edit it); moved points give the new ball."""
-    from viscore.enclosing_ball import minimum_enclosing_ball
+    from viscore.ray.enclosing_ball import minimum_enclosing_ball
 
     pts = np.array([[0.0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2]])
     c1, r1 = minimum_enclosing_ball(pts)

@@ -5,8 +5,6 @@ import pytest
 import trimesh
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
-from viscore import InputError, PerspectiveCamera, Scene
 from viscore.frusta import (
     FrustumCuller,
     boxes_in_frusta,
@@ -17,6 +15,8 @@ from viscore.frusta import (
     solid_faces_as_polygons,
     solid_frustum,
 )
+
+from viscore import InputError, PerspectiveCamera, Scene
 
 
 def _hull(seed):
@@ -446,7 +446,7 @@ def test_frustum_culler_cull_box_input():
 
 def test_top_k_is_stable_sort():
     """The active set: the k best ranks, ties by index, without NaN and -inf."""
-    from viscore._frusta_kernel import top_k
+    from viscore.culling._culler_kernel import top_k
 
     rng = np.random.default_rng(0)
     for _ in range(200):

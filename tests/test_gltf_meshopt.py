@@ -9,8 +9,8 @@ import pytest
 import trimesh
 
 from viscore import InputError
-from viscore.gltf_meshopt import decode_meshopt_glb
-from viscore.scene_graph import load_scene_objects
+from viscore.exchange.gltf_meshopt import decode_meshopt_glb
+from viscore.level.scene_graph import load_scene_objects
 
 EXT = "EXT_meshopt_compression"
 
@@ -142,7 +142,7 @@ def test_views_that_decode_past_the_limit_are_refused(tmp_path, monkeypatch):
     against MAX_DECODED (a few bytes of JSON pointing many views at one stream must not
     allocate gigabytes): the rock's positions (504 bytes) fit under 1,000, its indices
     (960 more) do not."""
-    import viscore.gltf_meshopt as gm
+    import viscore.exchange.gltf_meshopt as gm
 
     path = tmp_path / "rock.glb"
     path.write_bytes(_packed_level(trimesh.creation.icosphere(subdivisions=1)))

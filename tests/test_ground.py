@@ -1,4 +1,4 @@
-"""The solid under open ground (viscore.ground) and the coverage hull (viscore.coverage_hull)."""
+"""The solid under open ground (viscore.level.ground) and the coverage hull."""
 
 import math
 
@@ -7,9 +7,9 @@ import pytest
 import trimesh
 
 from viscore import InputError, Scene, voxelize
-from viscore.coverage_hull import covered_voxels, hull_directions
-from viscore.ground import ground_fill, ground_layer, ground_share, guess_up
-from viscore.voxels import VoxelGrid
+from viscore.level.ground import ground_fill, ground_layer, ground_share, guess_up
+from viscore.voxel.coverage_hull import covered_voxels, hull_directions
+from viscore.voxel.grid import VoxelGrid
 
 
 def _grid(shape=(6, 5, 8)) -> VoxelGrid:

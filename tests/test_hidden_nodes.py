@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from test_scene_graph import _glb, _write
 
-from viscore.hidden_nodes import hidden_reason
-from viscore.scene_graph import load_scene_objects
+from viscore.level.hidden_nodes import hidden_reason
+from viscore.level.scene_graph import load_scene_objects
 
 
 @pytest.mark.parametrize("node, reason", [
@@ -60,7 +60,7 @@ def test_level_leaves_out_hidden_nodes_and_their_subtrees(tmp_path, caplog):
         {"name": "crate_hull", "mesh": 0, "extras": {"visible": "false"}},
     ]
     path = _write(tmp_path, "level.glb", _glb(nodes, [0, 1, 2, 4, 5]))
-    with caplog.at_level(logging.WARNING, logger="viscore.scene_graph"):
+    with caplog.at_level(logging.WARNING, logger="viscore.level.scene_graph"):
         objects = load_scene_objects(path)
     assert objects.names == ("crate", "ground")
     # the level's extent is the drawn ground's, not the larger collision plane's
@@ -76,7 +76,7 @@ def test_level_of_hidden_nodes_only_is_read_whole(tmp_path, caplog):
     nodes = [{"name": "a-colonly", "mesh": 0}, {"name": "b-colonly", "mesh": 0,
                                                  "translation": [3.0, 0.0, 0.0]}]
     path = _write(tmp_path, "all.glb", _glb(nodes, [0, 1]))
-    with caplog.at_level(logging.WARNING, logger="viscore.scene_graph"):
+    with caplog.at_level(logging.WARNING, logger="viscore.level.scene_graph"):
         objects = load_scene_objects(path)
     assert objects.names == ("a-colonly", "b-colonly")
     assert "every mesh node is marked as not drawn" in caplog.text

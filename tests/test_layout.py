@@ -122,6 +122,31 @@ def test_imports_follow_the_chain():
     assert not wrong, f"imports against viscore <- metrics <- generators <- cli: {wrong}"
 
 
+#: The core's folders in the order they stand on each other: a folder imports only
+#: folders of lower rank (and the core's top-level helpers).
+CORE_RANK = {"ray": 0, "exchange": 0, "voxel": 1, "level": 2, "culling": 3}
+
+
+def test_core_folders_stand_on_each_other_in_order():
+    def folder(module: str) -> str | None:
+        parts = module.split(".")
+        return parts[1] if len(parts) > 2 and parts[0] == "viscore" and \
+            parts[1] in CORE_RANK else None
+
+    present = {p.name for p in (ROOT / "viscore").iterdir() if (p / "__init__.py").is_file()}
+    assert set(CORE_RANK) <= present
+    wrong = [f"{a} -> {b}" for a, targets in _graph().items() for b in targets
+             if folder(a) and folder(b) and folder(a) != folder(b)
+             and CORE_RANK[folder(b)] >= CORE_RANK[folder(a)]]
+    assert not wrong, f"core folders import against {CORE_RANK}: {wrong}"
+    # the shared helpers (_validate, _atomic, ...) and constants stand under every
+    # folder: none of them imports one (the alias table aside)
+    up = [f"{a} -> {b}" for a, targets in _graph().items() for b in targets
+          if a.count(".") == 1 and a.startswith(("viscore._", "viscore.constants"))
+          and folder(b) and a != "viscore._moved"]
+    assert not up, f"top-level helpers import a core folder: {up}"
+
+
 def test_method_families_never_import_each_other():
     families = sorted(p.name for p in (ROOT / "generators").iterdir()
                       if p.is_dir() and not p.name.startswith(("_", ".")) and

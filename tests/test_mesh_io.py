@@ -350,7 +350,7 @@ def test_validate_mesh_needles_of_a_game_map_dropped_with_a_warning(caplog):
                         np.c_[x + 0.5, 0 * x + 1e-14, 0 * x]], axis=1).reshape(-1, 3)
     v = np.vstack([sphere.vertices, needles])
     f = np.vstack([sphere.faces, n + np.arange(120).reshape(40, 3)])
-    with caplog.at_level(logging.WARNING, logger="viscore.mesh_validation"):
+    with caplog.at_level(logging.WARNING, logger="viscore.exchange.mesh_validation"):
         out = validate_mesh(trimesh.Trimesh(v, f, process=False), name="map")
     assert len(out.faces) == 1280 and out.metadata["dropped_degenerate_faces"] == 40
     assert "map: dropped 40 of 1320 faces as smaller than float32 resolves" in caplog.text
@@ -368,7 +368,7 @@ def _odd_mesh():
 
 @pytest.mark.parametrize("fmt", ["ply", "obj", "off", "stl", "glb"])
 def test_save_mesh_round_trip(tmp_path, fmt):
-    from viscore.mesh_io import save_mesh
+    from viscore.exchange.mesh_io import save_mesh
 
     box = trimesh.creation.box(extents=(1.0, 2.0, 0.5))
     path = tmp_path / f"box.{fmt}"
@@ -383,7 +383,7 @@ def test_save_mesh_round_trip(tmp_path, fmt):
 
 @pytest.mark.parametrize("fmt", ["ply", "obj", "off"])
 def test_save_mesh_float64_formats_keep_every_bit(tmp_path, fmt):
-    from viscore.mesh_io import save_mesh
+    from viscore.exchange.mesh_io import save_mesh
 
     mesh = _odd_mesh()
     path = tmp_path / f"odd.{fmt}"
@@ -397,7 +397,7 @@ def test_save_mesh_float64_formats_keep_every_bit(tmp_path, fmt):
 def test_save_mesh_file_object_same_bytes_as_path(tmp_path):
     import io
 
-    from viscore.mesh_io import mesh_bytes, save_mesh
+    from viscore.exchange.mesh_io import mesh_bytes, save_mesh
 
     mesh = _odd_mesh()
     for fmt in ("ply", "obj", "off", "stl", "glb"):
@@ -410,7 +410,7 @@ def test_save_mesh_file_object_same_bytes_as_path(tmp_path):
 def test_save_mesh_invalid_input(tmp_path):
     import io
 
-    from viscore.mesh_io import save_mesh
+    from viscore.exchange.mesh_io import save_mesh
 
     box = trimesh.creation.box()
     with pytest.raises(InputError, match="unknown mesh format '.xyz'"):

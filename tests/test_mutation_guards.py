@@ -63,7 +63,7 @@ from viscore.metrics import check_conservative
 
 from viscore import VoxelGrid, load_mesh, voxel_boundary_mesh
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
-from viscore.voxels import outside_voxels
+from viscore.voxel.grid import outside_voxels
 
 #: Rays of every guard, volume domain (issue 24: at least 10^5 in the default run).
 RAYS = 100_000
@@ -188,7 +188,7 @@ def test_guarantee_holds_in_the_volume_domain(method, case):
 # ---------------------------------------------------------------- the planted bugs
 def _flood_fill_inside(vertices, faces, grid, surface, *, candidates=None, closed=None):
     """Planted: "inside" is the flood fill's enclosed voxels (sealed cavities included),
-    in place of :func:`viscore.voxels.inside_voxels_winding`."""
+    in place of :func:`viscore.voxel.grid.inside_voxels_winding`."""
     return ~outside_voxels(surface) & ~surface
 
 

@@ -1,4 +1,4 @@
-"""Tests of viscore.occluder_files: Godot 4 occluders and -occonly glTF, in and out."""
+"""Tests of viscore.exchange.occluder_files: Godot 4 occluders and -occonly glTF, in and out."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import pytest
 import trimesh
 
 from viscore import InputError
-from viscore.godot_text import _float_texts
-from viscore.occluder_files import (
+from viscore.exchange.godot_text import _float_texts
+from viscore.exchange.occluder_files import (
     OccluderInstance,
     load_occluder,
     occonly_glb_bytes,

@@ -18,7 +18,7 @@ from viscore.generators import generate
 from viscore.generators.scene_occluders import file_occluder
 
 from viscore import OccluderInstance, load_mesh, load_occluder, tres_text, tscn_text
-from viscore.mesh_io import mesh_bytes
+from viscore.exchange.mesh_io import mesh_bytes
 
 #: Tiny study settings (as tests/test_cli_compare.py's).
 TINY = ["--views", "4", "--quads", "300", "--res", "32", "--rays", "1000", "--no-culling"]

@@ -1,4 +1,4 @@
-"""Planar sections on open ground: ``ground`` and ``up`` (viscore.ground, viscore.coverage_hull)."""
+"""Planar sections on open ground: ``ground`` and ``up`` (viscore.level.ground)."""
 
 import numpy as np
 import pytest

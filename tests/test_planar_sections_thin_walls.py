@@ -5,7 +5,7 @@ from test_aabb_skins_thin_walls import RAYS, thin_room
 from viscore.generators import generate_planar_sections
 from viscore.metrics import check_conservative
 
-from viscore.wall_thickness import voxel_size_for_wall
+from viscore.voxel.wall_thickness import voxel_size_for_wall
 
 
 def test_conservative_sizes_its_voxels_for_walls_that_survive_the_erosion():

@@ -11,6 +11,7 @@ viscore.generators.planar_hierarchy import build_hierarchy`` must keep working.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 
 import pytest
 
@@ -94,3 +95,43 @@ def test_every_face_name_is_importable_from_its_face():
         package = importlib.import_module(face)
         missing = [name for name in package.__all__ if not hasattr(package, name)]
         assert not missing, f"{face}.__all__ names what it does not export: {missing}"
+
+
+#: Modules of the flat core before it was sorted into folders by job, with a name
+#: each defined: ``import viscore.scene`` must keep working after the move.
+FLAT_CORE = {
+    "viscore.scene": "Scene", "viscore.cameras": "OrthoCamera", "viscore.images": "depth_image",
+    "viscore.samplers": "stream_seed", "viscore.enclosing_ball": "minimum_enclosing_ball",
+    "viscore.mesh_io": "load_mesh", "viscore.mesh_validation": "validate_mesh",
+    "viscore.gltf_meshopt": "decode_meshopt_glb", "viscore.godot_text": "tscn_text",
+    "viscore.godot_binary": "_load_occ", "viscore.occonly_gltf": "occonly_glb_bytes",
+    "viscore.occluder_files": "load_occluder", "viscore.scene_graph": "SceneObjects",
+    "viscore.hidden_nodes": "hidden_reason", "viscore.ground": "guess_up",
+    "viscore.voxels": "voxelize", "viscore.winding": "winding_numbers",
+    "viscore.wall_thickness": "wall_thickness", "viscore.coverage_hull": "covered_voxels",
+    "viscore.depth_buffer": "ConservativeDepthBuffer", "viscore.shadow_frusta": "solid_frustum",
+    "viscore.frustum_culler": "FrustumCuller", "viscore.occludee_bounds": "cluster_boxes",
+    "viscore.frusta": "FrustumCuller",
+}
+
+
+@pytest.mark.parametrize(("old", "name"), sorted(FLAT_CORE.items()))
+def test_flat_core_path_is_the_moved_module(old, name):
+    """``import viscore.<old>`` gives the very module at its new path (one alias table)."""
+    import sys
+
+    from viscore._moved import MOVED
+
+    module = importlib.import_module(old)
+    assert module is importlib.import_module(MOVED[old])
+    assert module.__spec__.name == MOVED[old]  # the module keeps its own spec
+    assert sys.modules[old] is module
+    assert getattr(module, name) is getattr(importlib.import_module(MOVED[old]), name)
+
+
+def test_alias_table_points_at_existing_modules():
+    from viscore._moved import MOVED
+
+    for old, new in MOVED.items():
+        assert importlib.util.find_spec(new) is not None, f"{old} -> {new}: no such module"
+        assert old != new

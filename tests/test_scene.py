@@ -261,7 +261,7 @@ def test_all_hits_first_layer_is_first_hit(unit_sphere, rng):
 
 
 def test_unit_frame_kernel_matches_numpy(rng):
-    from viscore.scene import _BAD_RAY, _OFF_UNIT, _ready_kernels, _unit_frame
+    from viscore.ray.embree_scene import _BAD_RAY, _OFF_UNIT, _ready_kernels, _unit_frame
 
     _ready_kernels()
     n = 50_000

@@ -1,4 +1,4 @@
-"""Scenes as objects (viscore.scene_graph): instancing, boxes, the combined scene, bad files."""
+"""Scenes as objects (viscore.level.scene_graph): instancing, boxes, bad files."""
 
 import io
 import struct
@@ -8,7 +8,7 @@ import pytest
 import trimesh
 
 from viscore import InputError
-from viscore.scene_graph import (
+from viscore.level.scene_graph import (
     culling_scene_names,
     culling_scene_path,
     load_scene_objects,
@@ -259,7 +259,7 @@ def test_load_scene_objects_two_parents(tmp_path):
 
 
 def test_load_scene_objects_depth_limit(tmp_path):
-    from viscore.scene_graph import _MAX_NODE_DEPTH
+    from viscore.level.scene_graph import _MAX_NODE_DEPTH
 
     limit = _MAX_NODE_DEPTH
     path = _write(tmp_path, "deep.glb", _glb(_chain(limit + 1), [0]))
@@ -410,7 +410,7 @@ def test_load_scene_objects_image_uri_outside_folder(tmp_path, monkeypatch, capl
     path = sub / "scene.gltf"
     path.write_text(json.dumps(gltf))
     opened = _spy_opens(monkeypatch)
-    with caplog.at_level(logging.WARNING, logger="viscore.scene_graph"):
+    with caplog.at_level(logging.WARNING, logger="viscore.level.scene_graph"):
         objects = load_scene_objects(path)
     assert objects.names == ("a",)  # geometry does not need the texture
     assert os.path.realpath(tmp_path / "tex.png") not in opened

@@ -12,7 +12,7 @@ from viscore.generators.level_objects import SEE_THROUGH_REFUSAL, level_objects
 from viscore.generators.scene_occluders import occluder_objects
 from viscore.metrics.culling import Runtime, no_culling, simulate_culling
 
-from viscore.scene_graph import load_scene_objects
+from viscore.level.scene_graph import load_scene_objects
 
 _PRIM = {"attributes": {"POSITION": 0}, "indices": 1}
 

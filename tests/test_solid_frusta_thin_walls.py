@@ -13,7 +13,7 @@ from viscore.metrics import check_conservative
 
 import viscore._validate as validate_module
 from viscore import InputError
-from viscore.wall_thickness import voxel_size_for_wall
+from viscore.voxel.wall_thickness import voxel_size_for_wall
 
 LOGGER = "viscore.generators.solid_frusta.generator"
 BOX_LOGGER = "viscore.generators.aabb_skins.generator"

@@ -18,8 +18,8 @@ from viscore.generators.surface_patches._sheets import chunk_measure, sheet_chun
 from viscore.metrics.conservativeness import assert_conservative
 
 from viscore import InputError, PerspectiveCamera, Scene
-from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
-from viscore.scene_graph import load_scene_objects
+from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
+from viscore.level.scene_graph import load_scene_objects
 
 
 def _hill(n=25, size=100.0, height=15.0, hole=True):

@@ -12,7 +12,7 @@ from viscore.generators.surface_patches.generator import EROSION, generate_surfa
 from viscore.metrics import check_conservative
 
 from viscore import InputError, PerspectiveCamera, Scene
-from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
+from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
 
 
 def _quads(corners) -> trimesh.Trimesh:

@@ -14,8 +14,8 @@ from viscore.generators.terrain_drape._line_check import escaping_lines
 from viscore.metrics import ReferenceViews
 
 from viscore.builtin_scenes import scene_path
-from viscore.mesh_io import load_mesh
-from viscore.scene import Scene
+from viscore.exchange.mesh_io import load_mesh
+from viscore.ray.embree_scene import Scene
 
 
 def _sheet(z: np.ndarray, size: float = 2.0) -> trimesh.Trimesh:

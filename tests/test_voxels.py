@@ -213,7 +213,7 @@ def test_points_inside_parity_sphere(unit_sphere, rng):
 
 
 def test_surface_voxels_kernel_matches_vectorised_sat(rng):
-    from viscore.voxels import _sat_overlap
+    from viscore.voxel.grid import _sat_overlap
 
     grid = VoxelGrid(np.array([-0.3, -0.2, -0.1]), 0.37, (9, 8, 10))
     tris = rng.uniform(-0.5, 3.3, (40, 3, 3))
@@ -276,7 +276,7 @@ def test_inside_voxels_winding_hollow_shell_drops_cavity():
                                       _box((-0.6, -0.6, -0.6), (0.6, 0.6, 0.6))])
     shell.faces[12:] = shell.faces[12:, ::-1]  # the inner box faces the cavity
     v = voxelize(shell, resolution=20)
-    from viscore.voxels import inside_voxels_winding
+    from viscore.voxel.grid import inside_voxels_winding
 
     inside = inside_voxels_winding(shell.vertices, shell.faces, v.grid, v.surface)
     c = v.grid.centers(np.argwhere(np.ones(v.grid.shape, bool))).reshape(v.grid.shape + (3,))
@@ -292,7 +292,7 @@ def test_inside_voxels_winding_hollow_shell_drops_cavity():
 
 
 def test_inside_voxels_winding_sealed_cavity_and_open_mesh(open_cube):
-    from viscore.voxels import inside_voxels_winding
+    from viscore.voxel.grid import inside_voxels_winding
 
     # a room with a one-voxel door, voxelized at a coarser pitch: the door is sealed
     room = _voxel_room((12, 12, 12), 3, hole=(slice(5, 6), slice(0, 3), slice(5, 6)))
@@ -332,7 +332,7 @@ def test_voxel_grid_tiny_pitch_refused_not_overflowed():
 _NUMBA_IMPORT_AND_RUN = """
 import trimesh
 import viscore.generators.aabb_skins  # decorates the box-growth kernels
-from viscore.voxels import voxelize
+from viscore.voxel.grid import voxelize
 v = voxelize(trimesh.creation.box(), resolution=4)
 print(int(v.surface.sum()))
 """

@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 import trimesh
 
-import viscore.voxels as voxels_module
-import viscore.winding as winding_module
+import viscore.voxel.grid as voxels_module
+import viscore.voxel.winding as winding_module
 from viscore import Scene, VoxelGrid, inside_voxels_parity, load_mesh, scene_path, voxelize
-from viscore.voxels import (
+from viscore.voxel.grid import (
     _grid_side_flags,
     _voxel_gradient_bounds,
     inside_voxels_winding,
 )
-from viscore.winding import _boundary_edges, _winding_gradient_bounds, winding_numbers
+from viscore.voxel.winding import _boundary_edges, _winding_gradient_bounds, winding_numbers
 
 
 @pytest.fixture(autouse=True)
@@ -193,7 +193,7 @@ def test_inside_voxels_winding_contradicting_bounds_fall_back_to_every_voxel(mon
     hall = _open_bottomed_hall()
     v = voxelize(hall, pitch=0.045)
     monkeypatch.setattr(winding_module, "FAST_WINDING_ERROR", -2.0)
-    with caplog.at_level(logging.WARNING, logger="viscore.voxels"):
+    with caplog.at_level(logging.WARNING, logger="viscore.voxel.grid"):
         fast = inside_voxels_winding(hall.vertices, hall.faces, v.grid, v.surface,
                                      closed=False)
     assert any("contradict" in r.getMessage() for r in caplog.records)

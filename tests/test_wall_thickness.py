@@ -9,8 +9,8 @@ from scipy import ndimage
 
 import viscore._validate as validate_module
 from viscore import InputError, voxelize
-from viscore.voxels import inside_voxels_winding
-from viscore.wall_thickness import (
+from viscore.voxel.grid import inside_voxels_winding
+from viscore.voxel.wall_thickness import (
     AUTO_MAX_CELLS,
     FIT_SHARE,
     PITCH_MARGIN,

@@ -3,7 +3,7 @@ import pytest
 import trimesh
 
 from viscore import InputError, Scene, points_inside, winding_numbers
-from viscore.winding import is_closed_oriented
+from viscore.voxel.winding import is_closed_oriented
 
 #: libigl's fast winding number: within this of the exact value (Barnes-Hut
 #: far field; measured 3e-3 on the bunny).

@@ -1,44 +1,71 @@
 """viscore: the ray-cast core of the toolkit. Geometry in, rays and images out.
 
-Meshes are triangle soups loaded and validated by :func:`load_mesh`; a
-:class:`Scene` owns the Embree handle and answers batched ray queries;
-cameras make ray bundles; :mod:`viscore.images` turns them into coverage and
-depth images; :mod:`viscore.voxels` voxelizes; samplers are seeded.
+In folders by job: :mod:`viscore.ray` (the Embree :class:`Scene`, cameras,
+coverage and depth images, seeded samplers), :mod:`viscore.exchange` (mesh
+and engine files), :mod:`viscore.level` (a glTF level as objects),
+:mod:`viscore.voxel` (voxels and winding numbers) and :mod:`viscore.culling`
+(shadow frusta, the conservative depth buffer). The names most used are
+re-exported here; the old flat module paths (``viscore.scene``,
+``viscore.voxels``, ...) keep working through one alias table.
 """
 
+from . import _moved
 from ._validate import InputError
 from .builtin_scenes import scene_descriptions, scene_group, scene_names, scene_path
-from .cameras import OrthoCamera, PerspectiveCamera, camera_basis, cube_cameras
-from .depth_buffer import ConservativeDepthBuffer, OccluderScene
-from .frustum_culler import FrustumCuller
-from .images import coverage_image, depth_image
-from .mesh_io import load_mesh, validate_mesh
-from .occluder_files import OccluderInstance, load_occluder, occonly_glb_bytes, tres_text, tscn_text
-from .run_provenance import provenance
-from .samplers import (
+from .culling import (
+    ConservativeDepthBuffer,
+    Frustum,
+    FrustumCuller,
+    OccluderScene,
+    polygon_frustum,
+    solid_frustum,
+)
+from .exchange import (
+    OccluderInstance,
+    load_mesh,
+    load_occluder,
+    occonly_glb_bytes,
+    tres_text,
+    tscn_text,
+    validate_mesh,
+)
+from .level import SceneObjects, load_scene_objects
+from .ray import (
+    AllHits,
+    OrthoCamera,
+    PerspectiveCamera,
+    Scene,
+    camera_basis,
+    coverage_image,
+    cpu_cores,
+    cube_cameras,
+    depth_image,
     directions_fibonacci,
     directions_uniform,
     directions_uniform_batches,
+    get_workers,
     grid_positions,
     rays_between,
+    set_workers,
     stream_seed,
 )
-from .scene import AllHits, Scene, cpu_cores, get_workers, set_workers
-from .scene_graph import SceneObjects, load_scene_objects
-from .shadow_frusta import Frustum, polygon_frustum, solid_frustum
-from .voxels import (
+from .run_provenance import provenance
+from .voxel import (
     VoxelGrid,
     Voxelization,
     inner_voxels_six_direction,
     inside_voxels_parity,
     outside_voxels,
+    points_inside,
     points_inside_parity,
     surface_voxels,
     voxel_boundary_mesh,
     voxel_grid,
     voxelize,
+    winding_numbers,
 )
-from .winding import points_inside, winding_numbers
+
+_moved.install()
 
 __all__ = [
     "points_inside", "winding_numbers",

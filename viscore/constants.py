@@ -33,6 +33,6 @@ MIN_RAYS_PER_TASK = 16384
 
 #: Voxel grids above this many cells are refused outright (about 6 GiB of
 #: working memory at the ~24 bytes per cell of
-#: :data:`viscore.voxels.VOXELIZE_BYTES_PER_CELL`); smaller grids are still
+#: :data:`viscore.voxel.grid.VOXELIZE_BYTES_PER_CELL`); smaller grids are still
 #: checked against the available memory before any work.
 MAX_VOXEL_CELLS = 256_000_000

@@ -10,7 +10,7 @@ import platform
 import sys
 from importlib.metadata import PackageNotFoundError, version
 
-from .scene import get_workers
+from .ray.embree_scene import get_workers
 
 __all__ = ["provenance"]
 

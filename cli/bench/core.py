@@ -65,7 +65,7 @@ def bare_embree(mesh):
 MAX_REPEATS = 100
 
 #: Rays per call of the chunked bare reference: the largest chunk :class:`Scene`
-#: hands Embree (``viscore.scene._MAX_RAYS_PER_CHUNK``).
+#: hands Embree (``viscore.ray.embree_scene._MAX_RAYS_PER_CHUNK``).
 BARE_CHUNK_RAYS = 65536
 
 #: Peak bytes per ray of ``bench rays``: the float64 rays (48), their float32

@@ -81,13 +81,13 @@ def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed:
         (occludees, active, buffer size, occluder counts, workers = 1) and
         the machine's load average (timings on a busy machine are inflated).
     """
+    from viscore.frusta import FrustumCuller
     from viscore.generators import frusta_method, occluder_objects, scene_occluders
     from viscore.metrics.culling import camera_path
 
     from viscore import get_workers, set_workers
-    from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
-    from viscore.frusta import FrustumCuller
-    from viscore.scene_graph import load_scene_objects
+    from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
+    from viscore.level.scene_graph import load_scene_objects
 
     frames = as_positive_int(frames, "frames")
     repeats = as_positive_int(repeats, "repeats", maximum=100)
@@ -183,7 +183,7 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
     from viscore.generators import culling_runtimes, occluder_objects
     from viscore.metrics.culling import camera_path, simulate_culling
 
-    from viscore.scene_graph import load_scene_objects
+    from viscore.level.scene_graph import load_scene_objects
 
     from ..cull_cmd import DEFAULT_CLUSTERS, occludee_boxes
 

@@ -9,7 +9,7 @@ is walked by a camera at eye height; each frame is timed for
   (the paper's eq. 2 cap, and the exact front-face caps with face ranking)
   and 'planar' mode, 1,000 occludees per frame (target < 2 ms; [1]_ Tables 1-2
   report 0.99-2.63 ms in 2006);
-- the conservative depth buffer (:mod:`viscore.depth_buffer`) at 320 x 180
+- the conservative depth buffer (:mod:`viscore.culling.depth_buffer`) at 320 x 180
   for a 1280 x 720 screen ([2]_ sec. 5-7; target < 5 ms): building the
   buffer (rays at tile corners, refined along silhouettes) and testing the
   occludees, separately, and the rays it casts per frame;
@@ -38,12 +38,12 @@ import time
 
 import numpy as np
 import trimesh
+from viscore.frusta import ACTIVE_OCCLUDERS, FrustumCuller
 from viscore.metrics.culling import view_frustum_mask
 
 from viscore import PerspectiveCamera
 from viscore._validate import as_positive_int, as_seed
-from viscore.depth_buffer import ConservativeDepthBuffer, OccluderScene
-from viscore.frusta import ACTIVE_OCCLUDERS, FrustumCuller
+from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
 
 from .core import bare_embree
 
@@ -164,7 +164,7 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
           ``rank='faces'`` (culls a superset of 'planar' every frame);
         - ``frusta_planar``: every face its own frustum;
         - ``depth_buffer_build``, ``depth_buffer_test``, ``depth_buffer``
-          (their sum): :class:`~viscore.depth_buffer.ConservativeDepthBuffer`;
+          (their sum): :class:`~viscore.culling.depth_buffer.ConservativeDepthBuffer`;
         - ``reference_numpy_boxes``: projecting the occludees' 8 corners;
         - ``reference_embree_corner_rays``: a bare ``EmbreeScene.run`` on the
           buffer's (W+1)(H+1) corner rays.

@@ -74,7 +74,7 @@ from scipy.spatial import cKDTree
 
 from viscore import InputError, load_mesh, load_occluder, load_scene_objects
 from viscore._validate import as_positive_int, as_seed
-from viscore.godot_text import text_sections, text_transform
+from viscore.exchange.godot_text import text_sections, text_transform
 
 from .models import MODELS_ENV
 

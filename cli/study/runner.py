@@ -75,7 +75,7 @@ from pathlib import Path
 from viscore.metrics.estimates import study_bytes
 
 from viscore import InputError, cpu_cores
-from viscore.mesh_io import mesh_bytes
+from viscore.exchange.mesh_io import mesh_bytes
 
 from .._common import dumps, write_atomic
 from .store import StudyFolder

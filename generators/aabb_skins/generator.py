@@ -19,7 +19,7 @@ the paper's inner-voxel rule uses.
 
 Inner voxels are non-surface voxels inside the mesh by the generalized
 winding number (Jacobson et al. [3]_) at their centres
-(:func:`viscore.voxels.inside_voxels_winding`). The papers' rules alone
+(:func:`viscore.voxel.grid.inside_voxels_winding`). The papers' rules alone
 (flood fill from the border, or a surface voxel in each of the six axis
 directions) take every enclosed cavity for solid: the inside of a hollow
 shell, or a room whose door is narrower than a voxel. For a mesh that is
@@ -31,7 +31,7 @@ takes its candidates from the flood fill, or, where the fill leaks through
 holes, from the core's ray-parity votes, and keeps those whose centre is
 inside (by bounds on the winding number's change from voxel to voxel, the
 same voxels as evaluating it at every centre; see
-:func:`viscore.voxels.inside_voxels_winding`); ``info["inside"]`` says which
+:func:`viscore.voxel.grid.inside_voxels_winding`); ``info["inside"]`` says which
 (``"flood-fill"``, ``"ray-parity"``).
 Nothing is guaranteed then: a box can reach through a hole, and a gap
 narrower than a voxel (a teapot's lid on its body) hides from the surface
@@ -41,14 +41,14 @@ Voxel size: a voxel is inner only when its closed cube touches no triangle,
 so a wall of thickness ``t`` holds one wherever the grid falls only when
 the voxel side ``p`` satisfies ``p < t / 2`` for a wall along the axes
 (``p < t / sqrt(6)``, about ``t / 2.45``, at worst;
-:mod:`viscore.wall_thickness`). With ``voxel_sizing="auto"`` (the default, when no
+:mod:`viscore.voxel.wall_thickness`). With ``voxel_sizing="auto"`` (the default, when no
 ``voxels`` or ``voxel_size`` is given) the side is the extent-based one
 (longest side / 64), or finer where the mesh's walls, measured by rays along
-the inward normals (:func:`viscore.wall_thickness.wall_thickness`), ask for
+the inward normals (:func:`viscore.voxel.wall_thickness.wall_thickness`), ask for
 it: 0.9 x that bound at the area-weighted 20% quantile of the walls
-(:func:`viscore.wall_thickness.wall_voxel_size`), so that walls above it
+(:func:`viscore.voxel.wall_thickness.wall_voxel_size`), so that walls above it
 hold inner voxels. Where that grid would not fit the memory guard or the
-cost cap (:data:`viscore.wall_thickness.AUTO_MAX_CELLS` cells), the
+cost cap (:data:`viscore.voxel.wall_thickness.AUTO_MAX_CELLS` cells), the
 finest grid that fits is taken and one log line says how much wall area
 then gets no occluder.
 
@@ -77,9 +77,9 @@ import trimesh
 
 from viscore import InputError, Scene, inside_voxels_parity, voxel_grid, voxelize
 from viscore._validate import as_fraction, as_positive, as_positive_int, check_memory
-from viscore.voxels import inside_voxels_winding
-from viscore.wall_thickness import WALL_QUANTILE, wall_voxel_size
-from viscore.winding import is_closed_oriented
+from viscore.voxel.grid import inside_voxels_winding
+from viscore.voxel.wall_thickness import WALL_QUANTILE, wall_voxel_size
+from viscore.voxel.winding import is_closed_oriented
 
 from .._boxes import boxes_mesh
 from ..occluder import Occluder
@@ -197,7 +197,7 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int | None = None,
         seconds on an open building instead of a fraction of a second (the
         inside test of open meshes evaluates the winding number at 0.5-11% of
         the voxels and bounds it at the rest,
-        :func:`viscore.voxels.inside_voxels_winding`).
+        :func:`viscore.voxel.grid.inside_voxels_winding`).
         'auto' is the default. 'extent': 64 voxels along the longest side.
 
     Returns
@@ -210,7 +210,7 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int | None = None,
           the winding number at their centres, ``'flood-fill'`` or
           ``'ray-parity'`` (the fill leaks through holes);
         - ``closed_oriented`` (bool): the mesh is closed and consistently
-          oriented (:func:`viscore.winding.is_closed_oriented`);
+          oriented (:func:`viscore.voxel.winding.is_closed_oriented`);
         - ``conservative_guaranteed`` (bool): see Notes; equal to
           ``closed_oriented``;
         - ``inner_voxels``, ``covered_voxels``: counts;

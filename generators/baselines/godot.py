@@ -51,7 +51,7 @@ import trimesh
 
 from viscore import InputError, validate_mesh
 from viscore._validate import as_points
-from viscore.scene_graph import transparent_material
+from viscore.level.scene_graph import transparent_material
 
 from ..occluder import Occluder
 

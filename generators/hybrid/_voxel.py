@@ -3,7 +3,7 @@
 Steps 1 and 2 of the paper's voxel-based mesh simplification: the
 generalized winding number (Jacobson et al. [2]_, evaluated by libigl's fast
 winding number, Barill et al. [3]_, through
-:func:`viscore.winding.winding_numbers`) on a grid of spacing ``l / N_v``
+:func:`viscore.voxel.winding.winding_numbers`) on a grid of spacing ``l / N_v``
 (``l`` the bounding-box diagonal, ``N_v = 64`` in Table 1), its 0.5
 isosurface by marching cubes (scikit-image), and quadric simplification of
 the isosurface (pymeshlab). Step 3, conservative enforcement, is
@@ -13,7 +13,7 @@ The grid is padded by one layer of zero-valued samples beyond the bounding
 box, so the isosurface is closed; its triangles are oriented outwards (the
 winding number falls across it). Triangle soups with flipped parts give
 winding numbers near -1 inside them: the magnitude ``|w|`` is contoured, so
-inside is ``|w| >= 1/2`` as in :func:`viscore.winding.points_inside`.
+inside is ``|w| >= 1/2`` as in :func:`viscore.voxel.winding.points_inside`.
 
 References
 ----------
@@ -36,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from viscore.winding import winding_numbers
+from viscore.voxel.winding import winding_numbers
 
 __all__ = ["winding_isosurface", "simplify_isosurface", "BYTES_PER_SAMPLE"]
 

@@ -67,7 +67,7 @@ import trimesh
 from viscore import InputError, Scene, validate_mesh
 from viscore._validate import as_fraction, as_positive_int, as_seed, check_memory
 from viscore.constants import DEGENERATE_AREA_RELATIVE
-from viscore.winding import is_closed_oriented
+from viscore.voxel.winding import is_closed_oriented
 
 from ..occluder import Occluder
 from ._enforce import enforce_conservative

@@ -74,7 +74,7 @@ import trimesh
 
 from viscore import InputError
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
-from viscore.voxels import (
+from viscore.voxel.grid import (
     VOXELIZE_BYTES_PER_CELL,
     outside_voxels,
     surface_voxels,
@@ -240,7 +240,7 @@ def dilated_voxel_mesh(mesh: trimesh.Trimesh, *, voxel_size: float, dilation: in
     -------
     trimesh.Trimesh
         Closed, 2-manifold, oriented outwards
-        (:func:`viscore.voxels.voxel_boundary_mesh`); its faces lie on voxel
+        (:func:`viscore.voxel.grid.voxel_boundary_mesh`); its faces lie on voxel
         boundaries, at most ``voxel_size * (1 + dilation)`` from ``mesh``
         along each axis beyond its bounding box.
 

@@ -18,7 +18,7 @@ import trimesh
 
 from viscore import InputError
 from viscore._atomic import FileSet, check_output_path
-from viscore.mesh_io import ply_bytes
+from viscore.exchange.mesh_io import ply_bytes
 
 from .cut import index_hierarchy
 from .tree import _empty_mesh, _walk

@@ -45,7 +45,7 @@ MAX_VOXELS = 1024
 MAX_CANDIDATES = 160
 
 #: Bytes per voxel cell of the whole generation: the voxelization's working
-#: memory (:data:`viscore.voxels.VOXELIZE_BYTES_PER_CELL`, 24) and the solid,
+#: memory (:data:`viscore.voxel.grid.VOXELIZE_BYTES_PER_CELL`, 24) and the solid,
 #: its erosion and the winding-number labels of the conservative variant.
 BYTES_PER_CELL = 40
 

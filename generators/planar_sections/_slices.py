@@ -22,7 +22,7 @@ covers at least one pixel, as the paper requires.
 
 Conservative variant (beyond the paper): the solid is the voxels wholly
 inside the mesh by the generalized winding number (Jacobson et al. [2]_,
-:func:`viscore.voxels.inside_voxels_winding`; exact on closed, consistently
+:func:`viscore.voxel.grid.inside_voxels_winding`; exact on closed, consistently
 oriented meshes), eroded by one more voxel (3 x 3 x 3): every point of a
 pixel square whose centre lies in an eroded voxel is then within 0.71 voxel
 of it, so inside the uneroded inside voxels.
@@ -48,10 +48,10 @@ from scipy import ndimage
 from viscore import Scene, camera_basis, directions_fibonacci, voxelize
 from viscore._content_cache import ContentCache
 from viscore._jit import njit_cached
-from viscore.coverage_hull import exposed_count, exposure, hull_directions
-from viscore.ground import ground_fill, ground_share
-from viscore.voxels import VoxelGrid, inside_voxels_winding
-from viscore.winding import is_closed_oriented
+from viscore.level.ground import ground_fill, ground_share
+from viscore.voxel.coverage_hull import exposed_count, exposure, hull_directions
+from viscore.voxel.grid import VoxelGrid, inside_voxels_winding
+from viscore.voxel.winding import is_closed_oriented
 
 __all__ = ["SectionSolid", "GroundFill", "Slice", "section_solid", "closed_solid",
            "slice_directions", "best_slices", "make_slice", "slice_image", "PIXELS_PER_VOXEL"]
@@ -86,7 +86,7 @@ class SectionSolid:
         erosion): few for open sheets and thin-walled shells.
     footprint_share : float
         Share of its footprint across the up axis that the surface covers
-        from above (:func:`viscore.ground.ground_share`): near 1 for a
+        from above (:func:`viscore.level.ground.ground_share`): near 1 for a
         height field or a building, low for a pole or a strand.
     """
 
@@ -122,9 +122,9 @@ class GroundFill:
     ----------
     cells : (m, 3) int
         Voxels between the ground and the surface above
-        (:func:`viscore.ground.ground_fill`), not in the flood-fill solid.
+        (:func:`viscore.level.ground.ground_fill`), not in the flood-fill solid.
     exposure : (m, ceil(k / 8)) uint8
-        :func:`viscore.coverage_hull.exposure` of each, over ``directions``.
+        :func:`viscore.voxel.coverage_hull.exposure` of each, over ``directions``.
     directions : (k, 3) float
         The coverage hull's line directions.
     misses : float
@@ -206,9 +206,9 @@ def section_solid(mesh: trimesh.Trimesh, *, resolution: int | None = None,
     loses a voxel of it). ``ground`` (beyond the paper; not with
     ``conservative``), the height of a ground plane along ``up``: the voxels
     between it and the highest surface voxel of their column
-    (:func:`viscore.ground.ground_fill`, the space under a height field or
+    (:func:`viscore.level.ground.ground_fill`, the space under a height field or
     inside an open-bottomed building) join the solid where the mesh covers
-    them (:func:`viscore.coverage_hull.exposure`): for each plane normal n,
+    them (:func:`viscore.voxel.coverage_hull.exposure`): for each plane normal n,
     from all but ``ground_misses`` of the line directions d that see the
     plane, ``|d . n| >= ground_grazing`` (:class:`GroundFill`,
     :meth:`SectionSolid.solid_along`). Sizes as :func:`viscore.voxelize`.
@@ -249,7 +249,7 @@ _EXPOSED = ContentCache(2)
 
 def _exposure(mesh: trimesh.Trimesh, grid: VoxelGrid, cells: np.ndarray, key: tuple
               ) -> np.ndarray:
-    """:func:`viscore.coverage_hull.exposure` of ``cells``, kept by the content of the mesh,
+    """:func:`viscore.voxel.coverage_hull.exposure` of ``cells``, kept by the content of the mesh,
     the grid, the cells and ``key`` (the fill's axis and height)."""
     parts = (np.asarray(mesh.vertices), np.asarray(mesh.faces), cells,
              tuple(np.asarray(grid.origin).tolist()), grid.pitch, tuple(grid.shape), key)

@@ -94,7 +94,7 @@ GROUND_FILLS = ({"grazing": 0.0, "misses": 0.05}, {"grazing": 0.0, "misses": 0.1
                 {"grazing": 0.2, "misses": 0.05}, {"grazing": 0.2, "misses": 0.1})
 
 #: ``ground='auto'`` tries the ground fill only on a mesh whose surface covers at least
-#: this share of its footprint from above (:func:`viscore.ground.ground_share`: the
+#: this share of its footprint from above (:func:`viscore.level.ground.ground_share`: the
 #: built-in terrain 1.0; a building's roof its plan) and whose voxel solid would also
 #: have its closings tried (no interior, or closing grows it by :data:`AUTO_CLOSE_GAIN`).
 GROUND_SHARE = 0.8

@@ -27,7 +27,7 @@ Beyond the paper: a conservative variant (slices only through voxels wholly
 inside the mesh, eroded once more; its default voxels are sized for the
 mesh's walls, which must hold a 3 x 3 x 3 block of inside voxels to survive
 the erosion, about four voxels of thickness:
-:func:`viscore.wall_thickness.wall_voxel_size` with ``block=3``), a
+:func:`viscore.voxel.wall_thickness.wall_voxel_size` with ``block=3``), a
 screen-space error knob that sets the voxel size from the error a viewer
 would see (the paper's premise, sec. 4: "a voxel resolution appropriate for
 the allowed Euclidean error"), one occluder per viewing distance (levels of
@@ -81,8 +81,8 @@ from viscore._validate import (
     as_positive_int,
     as_seed,
 )
-from viscore.ground import guess_up
-from viscore.wall_thickness import WALL_QUANTILE, wall_voxel_size
+from viscore.level.ground import guess_up
+from viscore.voxel.wall_thickness import WALL_QUANTILE, wall_voxel_size
 
 from .._precision_check import DEFAULT_MIN_PRECISION
 from ..occluder import Occluder
@@ -249,8 +249,8 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         with either is an error. With ``conservative`` the default is 64 or
         finer where the walls would not hold a 3 x 3 x 3 block of inside voxels,
         within the memory guard and
-        :data:`viscore.wall_thickness.AUTO_MAX_CELLS` cells, as aabb-skins'
-        ``voxel_sizing="auto"`` (:func:`viscore.wall_thickness.wall_voxel_size`;
+        :data:`viscore.voxel.wall_thickness.AUTO_MAX_CELLS` cells, as aabb-skins'
+        ``voxel_sizing="auto"`` (:func:`viscore.voxel.wall_thickness.wall_voxel_size`;
         ``info["wall_sizing"]``).
     voxel_size : float, optional
         Voxel side, world units (direct control, as ``voxels``).
@@ -341,11 +341,11 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     ground : {'auto', 'off'} or float, optional
         A ground plane under the mesh (beyond the paper; not with
         ``conservative``): the space between it and the surface above
-        (:func:`viscore.ground.ground_fill`: under a height field, inside an
+        (:func:`viscore.level.ground.ground_fill`: under a height field, inside an
         open-bottomed building) joins the voxel solid where the mesh hides
         it: a plane slices a voxel of it when all but a share of the line
         directions that see the plane are covered there
-        (:func:`viscore.coverage_hull.exposure`, :class:`._slices.GroundFill`),
+        (:func:`viscore.voxel.coverage_hull.exposure`, :class:`._slices.GroundFill`),
         each of :data:`~.floor.GROUND_FILLS` tried under the precision
         floor. A number is the plane's height along ``up`` (world units;
         with the floor off, :data:`DEFAULT_GROUND_FILL`). ``'auto'``
@@ -361,7 +361,7 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         1; the same tree with any number); without, must be 1.
     up : {'auto', 'x', 'y', 'z'}, optional
         The up axis of ``ground``. Default ``'auto'``:
-        :func:`viscore.ground.guess_up` of an object (``info["up"]``).
+        :func:`viscore.level.ground.guess_up` of an object (``info["up"]``).
 
     Returns
     -------

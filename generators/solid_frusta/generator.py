@@ -14,7 +14,7 @@ Containment of a convex piece H (shrunk by a bisection of ``shrink_steps``
 steps on the scale factor) is accepted when:
 
 1. every vertex of H is inside the mesh by the winding number
-   (:func:`viscore.winding.points_inside`; implied by 2-3 when H contains
+   (:func:`viscore.voxel.winding.points_inside`; implied by 2-3 when H contains
    the inner voxel it shrinks towards);
 2. no edge of a mesh triangle meets H widened by :data:`MARGIN_PITCH` voxels
    (segment clipping against its planes, float64, every mesh edge near H):
@@ -31,13 +31,13 @@ consistently oriented mesh: no ray from outside hits it before the mesh.
 Voxel size: as for aabb-skins, an inner voxel's closed cube touches no
 triangle, so a wall of thickness ``t`` holds one wherever the grid falls
 only when the voxel side is under ``t / 2`` along the axes (``t / sqrt(6)``
-at worst; :mod:`viscore.wall_thickness`). With ``voxel_sizing="auto"`` (the
+at worst; :mod:`viscore.voxel.wall_thickness`). With ``voxel_sizing="auto"`` (the
 default, when no ``voxels`` is given) the side is the extent-based one (longest side / 64), or
 0.9 x that bound at the area-weighted 20% quantile of the walls measured by
 rays along the inward normals where that is finer
-(:func:`viscore.wall_thickness.wall_voxel_size`), within the memory guard
+(:func:`viscore.voxel.wall_thickness.wall_voxel_size`), within the memory guard
 (twice the box source's bytes per cell: the boxes' grid and this one) and
-:data:`viscore.wall_thickness.AUTO_MAX_CELLS` cells; where
+:data:`viscore.voxel.wall_thickness.AUTO_MAX_CELLS` cells; where
 it would not fit, the finest grid that fits is taken and one log line says
 how much wall area then gets no solid. The boxes come from the same grid.
 
@@ -67,9 +67,9 @@ import trimesh
 
 from viscore import InputError, Scene, points_inside, voxelize
 from viscore._validate import as_positive_int, as_seed, check_memory
-from viscore.shadow_frusta import _solid_arrays
-from viscore.voxels import inside_voxels_winding
-from viscore.wall_thickness import WALL_QUANTILE, wall_voxel_size
+from viscore.culling.shadow_frusta import _solid_arrays
+from viscore.voxel.grid import inside_voxels_winding
+from viscore.voxel.wall_thickness import WALL_QUANTILE, wall_voxel_size
 
 from .._boxes import boxes_mesh
 from .._held_logs import held_records, release
@@ -190,7 +190,7 @@ def _hull(points: np.ndarray) -> trimesh.Trimesh | None:
 
 def _runtime_solid(hull: trimesh.Trimesh) -> bool:
     """Whether the frusta runtimes take ``hull`` as a solid (closed, outward, convex within
-    their tolerance: :mod:`viscore.shadow_frusta`'s check of every occluder solid)."""
+    their tolerance: :mod:`viscore.culling.shadow_frusta`'s check of every occluder solid)."""
     try:
         _solid_arrays(np.asarray(hull.vertices), np.asarray(hull.faces), 0)
     except InputError:
@@ -414,7 +414,7 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
         building instead of a fraction of a second (the inside test of an
         open mesh evaluates the winding number at a small share of the voxels
         and bounds it at the rest, and the box source's answer for the same grid
-        and candidates is reused: :func:`viscore.voxels.inside_voxels_winding`).
+        and candidates is reused: :func:`viscore.voxel.grid.inside_voxels_winding`).
         'auto' is the default. 'extent': 64 voxels along the longest side.
 
     Returns

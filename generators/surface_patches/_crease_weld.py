@@ -6,7 +6,7 @@ and simplified, so that every patch lies strictly inside the input. Where two
 regions of the input meet along an edge (a wall's corner, a facade built of
 several planes, a wall modelled with the floor it stands on) their patches
 then end a hair apart on either side of the crease. The input has no gap
-there, but the conservative depth buffer (:mod:`viscore.depth_buffer`) must
+there, but the conservative depth buffer (:mod:`viscore.culling.depth_buffer`) must
 take the occluder as it is: every pixel the seam crosses stays open, and a
 wall of patches hides nothing behind its corners. On the UCSD level, seams of
 this kind held the depth buffer of surface patches to 11.1% of objects culled

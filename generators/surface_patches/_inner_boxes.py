@@ -10,7 +10,7 @@ measure per triangle.
 1. Closed parts (:func:`closed_parts`): the connected parts of the input
    (vertices merged at equal positions) whose every edge is used as often in
    one direction as in the other. Their union is closed and consistently
-   oriented (:func:`viscore.winding.is_closed_oriented`), the condition of the
+   oriented (:func:`viscore.voxel.winding.is_closed_oriented`), the condition of the
    boxes' guarantee, whatever the other parts are (open sheets, loose
    panels, flipped faces).
 2. Candidate boxes (:func:`candidate_boxes`): the box source (aabb-skins,
@@ -93,7 +93,7 @@ def closed_parts(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     connected through shared vertices. A part is closed when each of its
     edges between two distinct positions is used as often from a to b as
     from b to a (edges of a degenerate triangle from a vertex to itself are
-    left out, as :func:`viscore.winding.is_closed_oriented` leaves them); a
+    left out, as :func:`viscore.voxel.winding.is_closed_oriented` leaves them); a
     part with no such edge is not.
 
     Examples

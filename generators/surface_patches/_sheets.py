@@ -15,7 +15,7 @@ same selection as the patches and the boxes (Silvennoinen et al. [1]_,
 sec. 4.5: value per triangle, by occlusion measure):
 
 1. Sheets (:func:`sheet_chunks`): the height-field patches of the input's
-   open part (:func:`viscore._patches.height_field_patches`: triangles
+   open part (:func:`viscore.culling._creases.height_field_patches`: triangles
    joined across edges, facing one way along an axis, whose projections do
    not overlap, and not all in one plane), the same sets the conservative
    depth buffer's crease rule covers across their seams, but for those mostly
@@ -106,7 +106,7 @@ def sheet_chunks(vertices: np.ndarray, faces: np.ndarray, open_faces: np.ndarray
     list of list of (m_i,) int64
         Per sheet, the face indices of each chunk, each edge-connected,
         sorted, in row-major order of their cells. The height-field patches
-        come first, in the order :func:`viscore._patches.height_field_patches`
+        come first, in the order :func:`viscore.culling._creases.height_field_patches`
         numbers them; then the edge-connected sets of two or more of the faces
         in none (steep strips, a fold's triangles) and in no ``region``, each a
         sheet.
@@ -122,7 +122,7 @@ def sheet_chunks(vertices: np.ndarray, faces: np.ndarray, open_faces: np.ndarray
     >>> sorted(np.concatenate(chunks).tolist()) == list(range(128)), len(chunks) > 2
     (True, True)
     """
-    from viscore._patches import height_field_patches
+    from viscore.culling._creases import height_field_patches
 
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)

@@ -60,7 +60,7 @@ single-sided sheets, open rooms) where the volume methods find no inside:
    offered as their own triangles, in chunks of about 64, to the same
    selection: a part of the input's surface is conservative from every
    viewpoint, and the conservative depth buffer covers a sheet across its
-   creases (:mod:`viscore._patches`). Beyond the papers, which simplify
+   creases (:mod:`viscore.culling._creases`). Beyond the papers, which simplify
    closed solids;
 8. welding (``weld='auto'``, :mod:`._crease_weld`): the erosion of step 2
    leaves a seam on either side of every crease where two regions of the
@@ -103,7 +103,7 @@ from shapely.geometry.polygon import orient
 from viscore import InputError, Scene
 from viscore._validate import as_fraction, as_positive, as_positive_int, as_seed
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
-from viscore.ground import UP_AXES, guess_up
+from viscore.level.ground import UP_AXES, guess_up
 
 from .._boxes import boxes_mesh
 from .._convex_bands import grid_bands
@@ -310,7 +310,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         ``'off'``: the guarantee holds for every viewpoint.
     up : {'auto', 'x', 'y', 'z'}, optional
         The up axis of ``ground='auto'``; ``'auto'`` (default) guesses it
-        from the geometry (:func:`viscore.ground.guess_up`, as one object).
+        from the geometry (:func:`viscore.level.ground.guess_up`, as one object).
     selection : {'overlap', 'separate'}, optional
         ``'overlap'`` (default): each candidate's value is scaled by what it
         adds to the chosen candidates' projections (module docstring, step

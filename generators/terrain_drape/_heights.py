@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from viscore.scene import Scene
+from viscore.ray.embree_scene import Scene
 
 __all__ = ["HeightGrid", "lowest_surface", "LONG_FACTOR"]
 

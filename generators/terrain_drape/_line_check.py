@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from viscore.samplers import directions_uniform, stream_seed
-from viscore.scene import Scene
+from viscore.ray.embree_scene import Scene
+from viscore.ray.samplers import directions_uniform, stream_seed
 
 __all__ = ["escaping_lines"]
 

@@ -60,7 +60,7 @@ import trimesh
 from scipy import ndimage
 
 from viscore._validate import as_positive_int
-from viscore.ground import UP_AXES, guess_up
+from viscore.level.ground import UP_AXES, guess_up
 
 from .._precision_check import DEFAULT_MIN_PRECISION, check_score, check_views, passes
 from ..occluder import Occluder
@@ -166,7 +166,7 @@ def generate_terrain_drape(mesh: trimesh.Trimesh, *, budget: int | None = None, 
     min_precision : float
         The check's floor in ``measured`` mode.
     up : {'auto', 'x', 'y', 'z'}
-        The up axis; ``auto`` guesses it (:func:`viscore.ground.guess_up`).
+        The up axis; ``auto`` guesses it (:func:`viscore.level.ground.guess_up`).
     resolution : int
         Height samples along each side of a square footprint (about
         ``resolution^2`` over any footprint).

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._jit import njit_cached
+from .._jit import njit_cached
 
 __all__ = ["select_occluders", "top_k", "frame_planes", "boxes_inside_any"]
 

@@ -33,8 +33,8 @@ import numpy as np
 import trimesh
 from skimage.morphology import convex_hull_image
 
-from ._validate import InputError
-from .voxels import VoxelGrid
+from .._validate import InputError
+from ..voxel.grid import VoxelGrid
 
 __all__ = ["ground_fill", "ground_share", "ground_layer", "guess_up", "UP_AXES"]
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from ._validate import InputError, as_positive, as_positive_int, as_vector, check_memory
+from .._validate import InputError, as_positive, as_positive_int, as_vector, check_memory
 
 __all__ = ["OrthoCamera", "PerspectiveCamera", "cube_cameras", "camera_basis"]
 

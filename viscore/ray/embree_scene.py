@@ -36,10 +36,10 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from ._content_cache import ContentCache
-from ._jit import njit_cached
-from ._validate import InputError, as_points, as_positive_int, as_unit_vectors
-from .constants import MAX_HITS, MIN_RAYS_PER_TASK, RAY_STEP_RELATIVE
+from .._content_cache import ContentCache
+from .._jit import njit_cached
+from .._validate import InputError, as_points, as_positive_int, as_unit_vectors
+from ..constants import MAX_HITS, MIN_RAYS_PER_TASK, RAY_STEP_RELATIVE
 
 __all__ = ["Scene", "AllHits", "set_workers", "get_workers"]
 

@@ -21,7 +21,7 @@ are not tested; the callers check their result on views of the mesh (the
 precision floor of planar sections).
 
 This is beyond the planar-sections paper, which slices closed solids; it
-lets :mod:`viscore.ground` fill the space under open ground without covering
+lets :mod:`viscore.level.ground` fill the space under open ground without covering
 what the ground leaves open.
 
 References
@@ -38,10 +38,10 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from ._validate import InputError
-from .cameras import camera_basis
-from .samplers import directions_fibonacci
-from .voxels import VoxelGrid
+from .._validate import InputError
+from ..ray.cameras import camera_basis
+from ..ray.samplers import directions_fibonacci
+from .grid import VoxelGrid
 
 __all__ = ["covered_voxels", "exposure", "exposed_count", "hull_directions", "HULL_DIRECTIONS",
            "PIXELS_PER_VOXEL", "MARGIN"]

@@ -25,8 +25,8 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
-from ._content_cache import ContentCache
-from ._validate import as_points
+from .._content_cache import ContentCache
+from .._validate import as_points
 
 __all__ = ["minimum_enclosing_ball"]
 

@@ -64,7 +64,7 @@ Creases of curved sheets
 ------------------------
 A terrain, a drape or a vault is neither convex nor planar, so each of its
 seams would be a line of open pixels and the sheet would hide nothing. Its
-triangles form *patches* (:mod:`viscore._patches`: connected triangles whose
+triangles form *patches* (:mod:`viscore.culling._creases`: connected triangles whose
 projection along an axis is one-to-one, so that the patch never meets
 itself). Each frame a patch's edges are sorted into creases (the two
 triangles on either side of the edge's image) and boundary edges (its
@@ -73,7 +73,7 @@ without depth: when the four corner rays of a pixel first hit one patch and
 no boundary edge's image meets the pixel, every ray through it meets the
 patch no farther than the largest of the corners' distances and of the
 distances at the ends of the creases' parts in the pixel (proof in
-:mod:`viscore._patches`). A crease splits the tiles across it down to
+:mod:`viscore.culling._creases`). A crease splits the tiles across it down to
 pixels, so those pixels' corners are already cast.
 
 A region behind
@@ -86,7 +86,7 @@ corner, and a point of it outside ``R`` would put a boundary point of ``R``
 inside it, whose image lies in the pixel. So every ray through the pixel
 meets ``R``, no farther than the largest corner distance to its plane. This
 covers the silhouette of a pillar, a crate or a wall's top against the floor
-or the wall behind it (:func:`viscore._depth_kernel.region_creases`, tried
+or the wall behind it (:func:`viscore.culling._depth_kernel.region_creases`, tried
 first on the pixels left without depth; the nearest such bound over the
 corners' regions is kept).
 
@@ -96,7 +96,7 @@ A wall standing on a floor that goes on behind it shares no edge with the
 floor (a T-junction: no flat pair), and walls modelled apart meet at a corner
 without one; each such foot or corner is a line of open pixels. Planes of
 one large facet are regions too (:data:`_LONE_FACET_SHARE`), and a last rule
-(:func:`viscore._depth_kernel.region_creases`) takes a pixel still without
+(:func:`viscore.culling._depth_kernel.region_creases`) takes a pixel still without
 depth whose four corner rays hit two regions ``A`` and ``B`` when the image
 of their planes' line ``L`` separates the corners on ``A`` from those on
 ``B`` and every boundary segment of ``A`` that meets ``A``'s side of the pixel,
@@ -190,7 +190,7 @@ Rays go to the corners of the coarse tiles and along the silhouettes of the
 pieces: on the benchmark city (``viscore.cli.bench.cull_runtimes``, 320 x 180)
 about 3,200 rays per frame instead of the 58,000 pixel corners, with the same
 pixels covered and the same boxes culled. The loops over tiles, pixels and
-occludee boxes are compiled (numba, :mod:`viscore._depth_kernel`; an occludee's
+occludee boxes are compiled (numba, :mod:`viscore.culling._depth_kernel`; an occludee's
 pixels are read until one is not nearer); Embree is called directly, once per
 tile size, with the rays built in float32.
 
@@ -220,10 +220,10 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from ._patches import flat_pairs, height_field_patches
-from ._validate import InputError, as_positive_int, check_memory
-from .cameras import PerspectiveCamera
-from .scene import Scene
+from .._validate import InputError, as_positive_int, check_memory
+from ..ray.cameras import PerspectiveCamera
+from ..ray.embree_scene import Scene
+from ._creases import flat_pairs, height_field_patches
 from .shadow_frusta import _as_boxes
 
 __all__ = ["OccluderScene", "ConservativeDepthBuffer", "DEFAULT_REDUCTION",
@@ -325,7 +325,7 @@ _LONE_FACET_SHARE = 1e-4
 
 #: Largest distance, as a fraction of the scene's size, of a region boundary's end from
 #: both planes of a crease for the boundary to count as lying on their line
-#: (:func:`viscore._depth_kernel.region_creases`).
+#: (:func:`viscore.culling._depth_kernel.region_creases`).
 _CREASE_TOLERANCE = 1e-9
 
 
@@ -341,7 +341,7 @@ def _plane_regions(tri: np.ndarray, unit: np.ndarray, twice: np.ndarray, facet: 
     size, either orientation), whatever their connectivity or the occluder they
     come from, form a region when they span more than one planar facet, or one facet
     of at least :data:`_LONE_FACET_SHARE` of the occluders' area (so that the crease
-    rule, :func:`viscore._depth_kernel.region_creases`, knows its boundary). Its
+    rule, :func:`viscore.culling._depth_kernel.region_creases`, knows its boundary). Its
     union is taken in the plane (shapely ``union_all``, exact noding) and its
     boundary (outer rings and holes) kept as 3D segments.
 
@@ -511,7 +511,7 @@ class OccluderScene:
         v = np.vstack(verts)
         f = np.vstack(faces)
         self.scene = Scene(trimesh.Trimesh(v, f, process=False), workers=workers)
-        # curved sheets (terrain, drapes): the crease rule's patches (viscore._patches)
+        # curved sheets (terrain, drapes): the crease rule's patches (viscore.culling._creases)
         self._vertices, self._faces = v, f
         self._patch, self._patch_edges = height_field_patches(v, f)
         self._n_patches = int(self._patch.max()) + 1 if len(self._patch) else 0
@@ -572,7 +572,7 @@ class OccluderScene:
         self._segment_region = np.repeat(np.arange(len(self._region_plane)),
                                          np.diff(self._segment_start))
         #: whether pixels still open get depths from a region behind them or from two
-        #: regions along their line (:func:`viscore._depth_kernel.region_creases`; off
+        #: regions along their line (:func:`viscore.culling._depth_kernel.region_creases`; off
         #: only to measure those rules)
         self._region_creases = True
 
@@ -741,7 +741,7 @@ def _near_cut(size: float, hx: float, hy: float) -> tuple[float, float]:
 def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tri: np.ndarray,
                   eye: np.ndarray, basis, xs: np.ndarray, ys: np.ndarray, hx: float,
                   hy: float, size: float, margin: float) -> None:
-    """The crease rule (:mod:`viscore._patches`) on the pixels without depth, in place, for
+    """The crease rule (:mod:`viscore.culling._creases`) on the pixels without depth, in place, for
     one kind of patch, ``layer`` = ``(group of each triangle, edges (m, 6), groups,
     pairs)``: the height-field patches (``pairs`` None: a pixel's corners on one patch),
     or the planar flats (``pairs`` the sorted keys of the flats' pairs: a pixel's corners
@@ -753,7 +753,7 @@ def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tr
     planes and of the crease distances in the pixel. A crease between two triangles
     splits the tiles across it down to pixels, so its pixels' corners are cast; no ray
     is cast here."""
-    from ._patches import patch_frame
+    from ._creases import patch_frame
 
     h, w = depth.shape
     f, r, u = basis

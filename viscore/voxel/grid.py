@@ -46,11 +46,11 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
-from ._content_cache import ContentCache
-from ._jit import njit_cached
+from .._content_cache import ContentCache
+from .._jit import njit_cached
+from .._validate import InputError, as_positive, as_positive_int, check_memory
+from ..constants import MAX_VOXEL_CELLS
 from ._sat_kernel import mark_surface_voxels
-from ._validate import InputError, as_positive, as_positive_int, check_memory
-from .constants import MAX_VOXEL_CELLS
 from .winding import _edge_gradient_bound, _mesh_arrays
 
 __all__ = ["VoxelGrid", "Voxelization", "voxel_grid", "surface_voxels", "outside_voxels",
@@ -232,7 +232,7 @@ def surface_voxels(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGrid) -> 
     -----
     Candidates are the voxels of each triangle's bounding box, tested with
     the 13-axis separating-axis test (the plane test first) in one numba
-    loop over the faces (:func:`viscore._sat_kernel.mark_surface_voxels`), which reads the
+    loop over the faces (:func:`viscore.voxel._sat_kernel.mark_surface_voxels`), which reads the
     corners from ``vertices`` itself: no ``(f, 3, 3)`` corner array, so the
     cost is a few tens of nanoseconds per triangle of a scan much finer than
     the grid (0.15 s for 1.1M triangles at 64 voxels). :func:`_sat_overlap`
@@ -410,7 +410,7 @@ def inside_voxels_winding(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGr
         Only these voxels are tested (default: every non-surface voxel).
     closed : bool, optional
         Whether the mesh is closed and consistently oriented
-        (:func:`viscore.winding.is_closed_oriented`); computed when None.
+        (:func:`viscore.voxel.winding.is_closed_oriented`); computed when None.
     per_voxel : bool, optional
         Any other mesh: False (default) decides most voxels from bounds (Notes);
         True evaluates the fast winding number at every candidate voxel, the
@@ -435,11 +435,11 @@ def inside_voxels_winding(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGr
     building (its centres lie near many triangles), so on any other mesh it
     is evaluated at few voxels: off the triangles the winding number's
     gradient is the Biot-Savart integral over the mesh's boundary edges alone
-    (:mod:`viscore.winding`), which bounds how much it changes between two
+    (:mod:`viscore.voxel.winding`), which bounds how much it changes between two
     6-adjacent voxel centres (the segment between them lies in their two
     cubes, which no triangle touches). Rounds evaluate the first undecided
     voxel of every block of 32, 16, ..., 2 voxels; each value whose distance
-    from 1/2 exceeds twice :data:`viscore.winding.FAST_WINDING_ERROR` is
+    from 1/2 exceeds twice :data:`viscore.voxel.winding.FAST_WINDING_ERROR` is
     carried over the voxels that a path of summed bounds within the rest of
     that distance reaches, and the last round evaluates every voxel still
     undecided. A voxel is decided without evaluation only where the exact
@@ -713,9 +713,9 @@ def _inside_open(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGrid,
                  test: np.ndarray) -> np.ndarray:
     """The voxels of ``test`` whose centre has ``|fast winding number| >= 1/2``, by bounds.
 
-    The same voxels as evaluating :func:`viscore.winding.winding_numbers` at every
+    The same voxels as evaluating :func:`viscore.voxel.winding.winding_numbers` at every
     centre, while the fast winding number stays within
-    :data:`viscore.winding.FAST_WINDING_ERROR` of the exact one (see
+    :data:`viscore.voxel.winding.FAST_WINDING_ERROR` of the exact one (see
     :func:`inside_voxels_winding`, Notes); where the bounds contradict each other,
     every centre is evaluated.
     """

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from ._validate import InputError, as_positive, as_positive_int, as_seed, as_vector, check_memory
+from .._validate import InputError, as_positive, as_positive_int, as_seed, as_vector, check_memory
 
 __all__ = ["directions_uniform", "directions_fibonacci", "grid_positions", "rays_between",
            "stream_seed", "directions_uniform_batches"]

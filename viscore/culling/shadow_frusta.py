@@ -2,7 +2,7 @@
 
 The geometry of the runtime of Papaioannou et al. 2006 [1]_ on top of the
 shadow frusta of Hudson et al. 1997 [2]_ (the per-frame runtime itself is
-:class:`viscore.frustum_culler.FrustumCuller`). Each occluder seen from the
+:class:`viscore.culling.frustum_culler.FrustumCuller`). Each occluder seen from the
 eye spans a convex semi-infinite frustum: an occludee whose axis-aligned bounding box lies wholly
 inside one frustum is hidden by that occluder and culled.
 
@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from ._validate import InputError, as_points, as_vector
+from .._validate import InputError, as_points, as_vector
 
 __all__ = ["Frustum", "solid_frustum", "polygon_frustum", "boxes_in_frustum",
            "boxes_in_frusta", "rank_solids", "rank_planar", "solid_faces_as_polygons"]
@@ -593,7 +593,7 @@ def polygon_frustum(polygon: npt.ArrayLike, eye: npt.ArrayLike) -> Frustum | Non
 
 # ----------------------------------------------------------------------------- box tests
 def _as_boxes(lower, upper) -> tuple[np.ndarray, np.ndarray]:
-    """Box corners ``lo``, ``hi`` (n, 3) float64, validated (also for viscore.depth_buffer)."""
+    """Box corners ``lo``, ``hi`` (n, 3) float64, validated (also for the depth buffer)."""
     lo = as_points(lower, "lower", allow_empty=True)
     hi = as_points(upper, "upper", allow_empty=True)
     if lo.shape != hi.shape:
@@ -623,7 +623,7 @@ def _inside_any(planes: np.ndarray, owner: np.ndarray, lo: np.ndarray,
 
 def _fast_boxes(lower, upper) -> tuple[np.ndarray, np.ndarray]:
     """``lo``, ``hi`` (n, 3) float64 C-ordered, for
-    :meth:`viscore.frustum_culler.FrustumCuller.cull`: the shape is checked here,
+    :meth:`viscore.culling.frustum_culler.FrustumCuller.cull`: the shape is checked here,
     finiteness and order by the box kernel (which then calls for :func:`_as_boxes`
     and its messages); anything else goes through :func:`_as_boxes`."""
     lo, hi = lower, upper

@@ -5,11 +5,11 @@ occluder that is also drawn, and one ending in ``-occonly`` into an occluder
 that is not drawn [2]_. :func:`_load_gltf` reads the marked nodes of a
 ``.glb``/``.gltf`` file (every mesh node when none is marked) in world space,
 resolving the file's URIs inside its folder only; :func:`occonly_glb_bytes`
-writes :class:`~viscore.godot_text.OccluderInstance` placements as a GLB
+writes :class:`~viscore.exchange.godot_text.OccluderInstance` placements as a GLB
 whose nodes carry the ``-occonly`` suffix, one glTF mesh per distinct mesh.
 
 World axes: Godot [1]_ and glTF are both +Y up, right-handed, so a scene
-written by :func:`viscore.godot_text.tscn_text` and its ``-occonly`` glTF
+written by :func:`viscore.exchange.godot_text.tscn_text` and its ``-occonly`` glTF
 place the same triangles at the same world coordinates.
 
 References
@@ -35,7 +35,7 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from ._validate import InputError
+from .._validate import InputError
 from .godot_binary import _checked_geometry, _occluder_mesh, _placed, _read_file
 from .godot_text import OccluderInstance, _checked_scene, _unique
 

@@ -55,11 +55,10 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from ._validate import InputError, check_memory
-from .gltf_meshopt import EXTENSION as MESHOPT
-from .gltf_meshopt import decode_meshopt_glb
-from .hidden_nodes import hidden_reason
-from .mesh_io import (
+from .._validate import InputError, check_memory
+from ..exchange.gltf_meshopt import EXTENSION as MESHOPT
+from ..exchange.gltf_meshopt import decode_meshopt_glb
+from ..exchange.mesh_io import (
     _BYTES_PER_TRIANGLE,
     _describe_without_triangles,
     _kind,
@@ -70,8 +69,9 @@ from .mesh_io import (
     load_mesh,
     validate_mesh,
 )
-from .mesh_validation import _MAX_COORDINATE, _MAX_OFFSET_RATIO
-from .scene import Scene
+from ..exchange.mesh_validation import _MAX_COORDINATE, _MAX_OFFSET_RATIO
+from ..ray.embree_scene import Scene
+from .hidden_nodes import hidden_reason
 
 __all__ = ["SceneObjects", "load_scene_objects", "culling_scene_names", "culling_scene_path",
            "culling_scene_descriptions"]
@@ -162,7 +162,7 @@ def culling_scene_path(name: str) -> Path:
     InputError
         If ``name`` is not a built-in culling scene, or its file is missing.
     """
-    from .builtin_scenes import _procedural_dir
+    from ..builtin_scenes import _procedural_dir
 
     if name not in _CULLING_SCENES:
         raise InputError(f"{name}: not a built-in culling scene "
@@ -671,7 +671,7 @@ _COMPRESSIONS = (MESHOPT, "KHR_draco_mesh_compression")
 def _refuse_compressed(header: dict, fmt: str, label: str) -> None:
     """One line for a glTF whose geometry needs a decoder we do not have (its
     ``extensionsRequired`` names Draco compression, or meshopt compression outside a
-    GLB, which :func:`viscore.gltf_meshopt.decode_meshopt_glb` decodes; glTF 2.0
+    GLB, which :func:`viscore.exchange.gltf_meshopt.decode_meshopt_glb` decodes; glTF 2.0
     sec. 3.12)."""
     required = header.get("extensionsRequired")
     names = [n for n in _COMPRESSIONS if isinstance(required, list) and n in required
@@ -1071,7 +1071,7 @@ def load_scene_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trime
         ``meshes``, named after the first. A glTF mesh with several
         primitives gives one object per primitive, named ``<node>_<k>``
         (``k`` the primitive's position; made unique if taken). Nodes the
-        file marks as not drawn (:func:`viscore.hidden_nodes.hidden_reason`:
+        file marks as not drawn (:func:`viscore.level.hidden_nodes.hidden_reason`:
         ``KHR_node_visibility``, ``extras.visible`` false, Godot's
         ``-colonly``/``-navmesh``/``-noimp``/``-occonly`` hints, Unreal's
         ``UCX_`` prefixes, collision names) and their subtrees are left out,

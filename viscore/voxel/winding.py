@@ -21,7 +21,7 @@ Off the triangles the winding number's gradient depends on the soup's
 boundary alone: a triangle's solid angle has the Biot-Savart integral over
 its edges as gradient (Binysh and Alexander [5]_), and shared edges cancel.
 :func:`_winding_gradient_bounds` bounds it from the boundary edges, which lets
-:func:`viscore.voxels.inside_voxels_winding` carry one evaluation over the
+:func:`viscore.voxel.grid.inside_voxels_winding` carry one evaluation over the
 voxels around it.
 
 References
@@ -47,10 +47,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._content_cache import ContentCache
-from ._jit import njit_cached
-from ._validate import InputError, as_points
-from .constants import MAX_HITS
+from .._content_cache import ContentCache
+from .._jit import njit_cached
+from .._validate import InputError, as_points
+from ..constants import MAX_HITS
 
 __all__ = ["winding_numbers", "points_inside", "is_closed_oriented"]
 
@@ -239,7 +239,7 @@ def _merged_vertex_ids(v: np.ndarray) -> np.ndarray:
 
 
 #: Largest difference between libigl's fast winding number and the exact one that
-#: :func:`viscore.voxels.inside_voxels_winding` allows for (a margin, not a proven
+#: :func:`viscore.voxel.grid.inside_voxels_winding` allows for (a margin, not a proven
 #: bound): it decides a voxel without evaluating it only when the exact winding
 #: number there is this far from 1/2, plus this much for the evaluated voxel it is
 #: bounded from. The largest difference measured at inner-voxel candidates of the

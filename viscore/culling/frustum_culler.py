@@ -1,7 +1,7 @@
 """Per-frame shadow-frustum occlusion culling with an active set of the best occluders.
 
 The runtime of Papaioannou et al. 2006 [1]_ on top of the shadow frusta of
-Hudson et al. 1997 [2]_ (built in :mod:`viscore.shadow_frusta`): each frame,
+Hudson et al. 1997 [2]_ (built in :mod:`viscore.culling.shadow_frusta`): each frame,
 occluders are ranked by f_solid = Vol / |V|^3 (eq. 4) and f_planar =
 -A N.V / |V|^2 (eq. 3), V the vector from the eye to the occluder's centre,
 and only the ``active`` best (default 15, sec. 3) make frusta; an occludee
@@ -11,17 +11,17 @@ Option ``rank='faces'`` ranks a solid as its best face by eq. 3; with
 planar runtime culls (see :class:`FrustumCuller`).
 
 Per frame, :meth:`FrustumCuller.cull` runs compiled loops
-(``viscore._frusta_kernel``, numba; compiled, or loaded from numba's cache, when
+(``viscore.culling._culler_kernel``, numba; compiled, or loaded from numba's cache, when
 the culler is made): one pass ranks the occluders and keeps the ``active``
 best, one builds their frusta, and one tests the boxes, each against a
 frustum's planes until the first it is not wholly inside. This is the same
 computation as :meth:`FrustumCuller.frusta` followed by
-:func:`~viscore.shadow_frusta.boxes_in_frusta` (the numpy reference, which the tests compare it
+:func:`~viscore.culling.boxes_in_frusta` (the numpy reference, which the tests compare it
 with), term by term in the same order. Where numpy hands a dot product to
 BLAS, the last bit may round otherwise: the two differ by rounding of the size
 each already has (some 1e-16 of the frame's length scale for a box near the
 occluders), which the inward shift of every plane by the margin
-(:data:`~viscore.shadow_frusta.MARGIN_RELATIVE`, 1e-9 of that scale) absorbs: a box culled by either
+(:data:`~viscore.culling.MARGIN_RELATIVE`, 1e-9 of that scale) absorbs: a box culled by either
 lies inside the exact, unshifted frustum. The ranking is computed the same
 way; a rounding difference there could only swap two occluders of equal rank
 in the active set, which changes no frustum's guarantee.
@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from ._validate import InputError, as_positive_int, as_vector
+from .._validate import InputError, as_positive_int, as_vector
 from .shadow_frusta import (
     _DEGENERATE_RELATIVE,
     CAPS,
@@ -119,13 +119,13 @@ class FrustumCuller:
         'solid' (default): each solid gives one solid frustum, beside the
         polygons (one unified ranking, [1]_ sec. 3). 'planar': every face of
         every solid is its own planar occluder (coplanar triangles merged, see
-        :func:`~viscore.shadow_frusta.solid_faces_as_polygons`), ranked by eq. 3 as printed (faces
+        :func:`~viscore.culling.solid_faces_as_polygons`), ranked by eq. 3 as printed (faces
         turned away rank last): the planar-frusta runtime [1]_ compares with.
     active : int, optional
         Occluders that make frusta each frame: the ``active`` best-ranked among
         those that may lie in the view (default 15, [1]_ sec. 3).
     cap : {'eq2', 'front-faces'}, optional
-        Near cap of the solid frusta (see :func:`~viscore.shadow_frusta.solid_frustum`). 'eq2'
+        Near cap of the solid frusta (see :func:`~viscore.culling.solid_frustum`). 'eq2'
         (default): the paper's single plane. 'front-faces': the exact shadow.
     rank : {'eq4', 'faces'}, optional
         Ranking of the solids in 'solid' mode. 'eq4' (default): f_solid =
@@ -148,13 +148,13 @@ class FrustumCuller:
     -----
     Conservative: a box is culled only when it lies inside one frustum by more
     than the margin, and every frustum lies in its occluder's shadow (see
-    :func:`~viscore.shadow_frusta.solid_frustum`); with occluders inside the scene's geometry, no
+    :func:`~viscore.culling.solid_frustum`); with occluders inside the scene's geometry, no
     culled box is visible. An occluder is selected only when its bounding
     sphere (a face's, for 'faces' ranking: any face's) may meet the camera's
     view. In 'solid' mode a selected solid that holds the eye gives its faces'
     planar frusta instead (from inside, every face hides what lies beyond it).
     All frusta of a frame share one margin
-    (:data:`~viscore.shadow_frusta.MARGIN_RELATIVE` of the eye's distance to the
+    (:data:`~viscore.culling.MARGIN_RELATIVE` of the eye's distance to the
     occluders' centre plus their extent).
 
     **Solid at least as good as planar, every frame.** With ``cap='front-faces'``
@@ -217,9 +217,9 @@ class FrustumCuller:
 
     def _prepare_frame_arrays(self) -> None:
         """Per-frame constants: ranking terms, and the flat arrays of the compiled path
-        (:mod:`viscore._frusta_kernel`), which compiles (or loads from its cache) here,
+        (:mod:`viscore.culling._culler_kernel`), which compiles (or loads from its cache) here,
         not in the first frame."""
-        from ._frusta_kernel import boxes_inside_any, frame_planes, select_occluders
+        from ._culler_kernel import boxes_inside_any, frame_planes, select_occluders
 
         fc, ex, sv = self._faces, self._extra, self._solids
         z3, zi = np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
@@ -288,8 +288,8 @@ class FrustumCuller:
     # ------------------------------------------------------------------ per frame
     def _view(self, camera_or_eye) -> tuple:
         """The eye (3,) and the view of the frame (a camera's basis and the tangents of
-        its half angles), as :func:`viscore._frusta_kernel.select_occluders` takes them."""
-        from .cameras import PerspectiveCamera
+        its half angles), as :func:`viscore.culling._culler_kernel.select_occluders` takes them."""
+        from ..ray.cameras import PerspectiveCamera
 
         if isinstance(camera_or_eye, PerspectiveCamera):
             f, r, u = camera_or_eye.basis
@@ -301,8 +301,8 @@ class FrustumCuller:
     def _select(self, view: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Chosen solids, solid faces (planar mode) and extra polygons, best first:
         the ``active`` best ranks among the occluders whose bounding sphere may meet
-        the view (ranks of :func:`~viscore.shadow_frusta.rank_solids` and
-        :func:`~viscore.shadow_frusta.rank_planar`)."""
+        the view (ranks of :func:`~viscore.culling.rank_solids` and
+        :func:`~viscore.culling.rank_planar`)."""
         first, extra = self._select_occluders(*view, self._rank_kind, self.active,
                                               *self._rank_arrays)
         if self.mode == "planar":

@@ -6,15 +6,15 @@ This module is the face: :func:`load_occluder` picks the reader by the
 file's extension and :func:`write_occluders` the writer. The formats are
 those of the Godot 4 engine [1]_, each read and written in its own module:
 
-- :mod:`viscore.godot_text`: text resources (``.tres``) whose main resource
+- :mod:`viscore.exchange.godot_text`: text resources (``.tres``) whose main resource
   is an ``ArrayOccluder3D`` [2]_, and text scenes (``.tscn``) whose
   ``OccluderInstance3D`` nodes [3]_ hold such occluders, placed by the
   ``transform`` of the node and of its ancestors [4]_; writers
   :func:`tres_text` and :func:`tscn_text`, and :class:`OccluderInstance`;
-- :mod:`viscore.godot_binary`: binary resources (``.occ``, the ``RSRC``
+- :mod:`viscore.exchange.godot_binary`: binary resources (``.occ``, the ``RSRC``
   format of Godot's ``ResourceFormatSaverBinary`` [5]_), which is what
   Godot's occluder bake writes;
-- :mod:`viscore.occonly_gltf`: glTF/GLB files whose nodes carry Godot's
+- :mod:`viscore.exchange.occonly_gltf`: glTF/GLB files whose nodes carry Godot's
   ``-occ``/``-occonly`` import suffix [6]_ (``-occonly``: the node becomes an
   occluder and is not drawn); writer :func:`occonly_glb_bytes`;
 - any other mesh file :func:`viscore.load_mesh` reads, as one occluder.
@@ -54,7 +54,7 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from ._validate import InputError
+from .._validate import InputError
 from .godot_binary import (  # noqa: F401 - BINARY_FORMATS kept at its old path
     BINARY_FORMATS,
     _load_occ,
@@ -193,7 +193,7 @@ def write_occluders(path: str | os.PathLike, instances: Sequence[OccluderInstanc
     ...     len(load_occluder(out).faces)
     2
     """
-    from ._atomic import write_atomic
+    from .._atomic import write_atomic
 
     p = Path(os.fspath(path))
     suffix = p.suffix.lower()

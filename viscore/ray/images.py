@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from .cameras import OrthoCamera, PerspectiveCamera
-from .scene import Scene
+from .embree_scene import Scene
 
 __all__ = ["depth_image", "coverage_image"]
 

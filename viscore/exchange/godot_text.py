@@ -5,12 +5,12 @@ Read: text resources (``.tres``) whose main resource is an
 PackedInt32Array(...)``), and text scenes (``.tscn``) whose
 ``OccluderInstance3D`` nodes [3]_ hold such occluders as sub-resources (or as
 external ``.occ``/``.tres`` files beside the scene, the binary ones read by
-:mod:`viscore.godot_binary`), placed by the ``transform`` of the node and of
+:mod:`viscore.exchange.godot_binary`), placed by the ``transform`` of the node and of
 its ancestors [4]_. Written: :func:`tres_text` (one ``ArrayOccluder3D``) and
 :func:`tscn_text` (one ``OccluderInstance3D`` per :class:`OccluderInstance`,
 instances of one mesh sharing one sub-resource). :class:`OccluderInstance`
 and the checks of the writers' input live here too; the ``-occonly`` glTF
-writer of :mod:`viscore.occonly_gltf` shares them.
+writer of :mod:`viscore.exchange.occonly_gltf` shares them.
 
 Godot's text format stores a ``Transform3D`` as its 3x3 basis **row by row**
 followed by the origin: ``Transform3D(xx, xy, xz, yx, yy, yz, zx, zy, zz, ox,
@@ -45,7 +45,7 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from ._validate import InputError
+from .._validate import InputError
 from .godot_binary import (
     _OCCLUDER_TYPE,
     _checked_geometry,

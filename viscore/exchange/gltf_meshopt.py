@@ -40,7 +40,7 @@ import struct
 
 import numpy as np
 
-from ._validate import InputError
+from .._validate import InputError
 
 __all__ = ["decode_meshopt_glb", "EXTENSION", "MAX_DECODED"]
 
@@ -125,7 +125,7 @@ def _decode_view(ext: dict, blob: memoryview, label: str, index: int, room: int
     if size > room:
         raise InputError(f"{label}: {EXTENSION}: the compressed views decode to more than "
                          f"{MAX_DECODED / 2**20:,.0f} MiB in all (limit "
-                         "viscore.gltf_meshopt.MAX_DECODED)")
+                         "viscore.exchange.gltf_meshopt.MAX_DECODED)")
     data = bytes(blob[offset:offset + length])
     try:
         if mode == "ATTRIBUTES":

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from ._validate import InputError, _human_bytes, check_memory
+from .._validate import InputError, _human_bytes, check_memory
 from .mesh_validation import validate_mesh
 
 __all__ = ["load_mesh", "validate_mesh", "ply_bytes"]
@@ -423,7 +423,7 @@ def load_mesh(source: str | os.PathLike | trimesh.Trimesh) -> trimesh.Trimesh:
     """
     if isinstance(source, trimesh.Trimesh):
         return validate_mesh(source, name=str(source.metadata.get("name", "mesh")))
-    from .builtin_scenes import scene_names, scene_path
+    from ..builtin_scenes import scene_names, scene_path
 
     try:
         path = Path(os.fspath(source))
@@ -617,7 +617,7 @@ def save_mesh(mesh: trimesh.Trimesh, path_or_file, *, format: str | None = None)
     >>> buf.getvalue().count(b"\\nf ")
     12
     """
-    from ._atomic import write_atomic
+    from .._atomic import write_atomic
 
     if hasattr(path_or_file, "write"):
         if format is None:

@@ -16,7 +16,7 @@ as cluster-based culling in engines tests meshlets rather than whole meshes.
 groups by median splits along the longest axis of the group's triangle
 centroids, the group of the largest centroid extent first (a k-d tree built
 greedily); :func:`object_cluster_boxes` does it once per distinct mesh of a
-:class:`~viscore.scene_graph.SceneObjects` and places the boxes by each
+:class:`~viscore.level.SceneObjects` and places the boxes by each
 object's transform.
 
 References
@@ -35,10 +35,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from ._validate import InputError, as_fraction, as_positive_int
+from .._validate import InputError, as_fraction, as_positive_int
 
 if TYPE_CHECKING:  # pragma: no cover - hints only
-    from .scene_graph import SceneObjects
+    from ..level.scene_graph import SceneObjects
 
 __all__ = ["cluster_boxes", "object_cluster_boxes", "MAX_CLUSTERS"]
 
@@ -122,7 +122,7 @@ def object_cluster_boxes(objects: SceneObjects, clusters: int, *,
     min_size : float, optional
         Only objects whose bounding-box diagonal is at least this fraction of the
         level's (the box of its built part,
-        :meth:`~viscore.scene_graph.SceneObjects.built_bounds`) are split; the others keep their own
+        :meth:`~viscore.level.SceneObjects.built_bounds`) are split; the others keep their own
         box as their one cluster. In (0, 1]; default: every object is split.
 
     Returns

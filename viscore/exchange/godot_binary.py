@@ -13,8 +13,8 @@ This module is the lowest of the occluder readers, so it also holds the
 checks they share: :func:`_read_file` (a regular, non-empty file),
 :func:`_checked_geometry` (finite vertices, in-range indices) and
 :func:`_occluder_mesh` (the world-space triangle soup they return), used by
-:mod:`viscore.godot_text`, :mod:`viscore.occonly_gltf` and
-:mod:`viscore.occluder_files`.
+:mod:`viscore.exchange.godot_text`, :mod:`viscore.exchange.occonly_gltf` and
+:mod:`viscore.exchange.occluder_files`.
 
 References
 ----------
@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from ._validate import InputError
+from .._validate import InputError
 
 #: Binary resource format versions read here (Godot 4.0 wrote 4; 4.3+ writes 6).
 BINARY_FORMATS = range(4, 7)

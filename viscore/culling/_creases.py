@@ -1,6 +1,6 @@
 """Height-field patches of occluder triangles for the conservative depth buffer's crease rule.
 
-Convex pieces and coplanar regions (:mod:`viscore.depth_buffer`) leave every
+Convex pieces and coplanar regions (:mod:`viscore.culling.depth_buffer`) leave every
 seam between two triangles of different planes open: a pixel across the
 crease of a curved sheet (a terrain, a drape, a vault) holds no depth, so a
 hill hides nothing in the buffer however large it is on screen. This module
@@ -40,7 +40,7 @@ creases only: a nearer layer of ``P`` could come in front only where its
 image ends, at a boundary edge, and ``P`` never meets itself. Over the part
 of the pixel where it stays on one triangle, a convex polygon, the distance
 to that triangle's plane is largest at a vertex (the lemma of
-:mod:`viscore.depth_buffer`), and the polygon's vertices are corners of the
+:mod:`viscore.culling.depth_buffer`), and the polygon's vertices are corners of the
 pixel or points of creases; the distance from the eye along a segment is
 convex, so a crease's points in the pixel are no farther than the ends of
 its part in the pixel (the image of a segment in front of the eye is
@@ -74,7 +74,7 @@ import math
 
 import numpy as np
 
-from ._jit import njit_cached
+from .._jit import njit_cached
 
 __all__ = ["height_field_patches", "flat_pairs", "patch_frame", "INJECTIVE_TOLERANCE"]
 

@@ -20,7 +20,7 @@ voxel method, within the memory guard.
 
 The factor between wall and voxel (see :func:`wall_voxel_size`): a voxel
 counts as inside only when its closed cube touches no triangle (the
-surface voxels of :func:`viscore.voxels.surface_voxels`, touching counts).
+surface voxels of :func:`viscore.voxel.grid.surface_voxels`, touching counts).
 A wall of thickness ``t`` with unit normal ``n`` is the open slab
 ``a < n.x < a + t``; a cube of side ``p`` spans ``p * |n|_1`` along ``n``,
 and along the grid axis ``j`` with the largest ``|n_j|`` the cubes' lower
@@ -53,9 +53,9 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from ._validate import InputError, as_fraction, as_positive, as_positive_int, as_seed, memory_limit
-from .constants import MAX_HITS, MAX_VOXEL_CELLS, RAY_STEP_RELATIVE
-from .scene import Scene
+from .._validate import InputError, as_fraction, as_positive, as_positive_int, as_seed, memory_limit
+from ..constants import MAX_HITS, MAX_VOXEL_CELLS, RAY_STEP_RELATIVE
+from ..ray.embree_scene import Scene
 from .winding import is_closed_oriented
 
 __all__ = ["WallThickness", "wall_thickness", "WallVoxelSize", "wall_voxel_size",
@@ -330,7 +330,7 @@ def voxel_size_for_wall(thickness: float, normal=(1.0, 0.0, 0.0), block: int = 1
 
 def _grid_cells(extent: np.ndarray, pitch: float) -> float:
     """Cells of :func:`viscore.voxel_grid` at this pitch (padding and the extra layer)."""
-    from .voxels import _PADDING
+    from .grid import _PADDING
 
     with np.errstate(over="ignore", divide="ignore"):
         counts = np.maximum(1.0, np.ceil(extent / pitch - 1e-9)) + 1 + 2 * _PADDING

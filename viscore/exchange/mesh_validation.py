@@ -13,8 +13,8 @@ import logging
 import numpy as np
 import trimesh
 
-from ._validate import InputError
-from .constants import DEGENERATE_AREA_RELATIVE
+from .._validate import InputError
+from ..constants import DEGENERATE_AREA_RELATIVE
 
 __all__ = ["validate_mesh"]
 

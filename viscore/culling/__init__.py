@@ -1,0 +1,23 @@
+"""Culling runtimes: shadow frusta and their per-frame culler, the conservative depth buffer,
+occludee bounds."""
+
+from .depth_buffer import ConservativeDepthBuffer, OccluderScene
+from .frustum_culler import ACTIVE_OCCLUDERS, FrustumCuller
+from .occludee_bounds import cluster_boxes, object_cluster_boxes
+from .shadow_frusta import (
+    MARGIN_RELATIVE,
+    SHAPE_TOLERANCE,
+    Frustum,
+    boxes_in_frusta,
+    boxes_in_frustum,
+    polygon_frustum,
+    rank_planar,
+    rank_solids,
+    solid_faces_as_polygons,
+    solid_frustum,
+)
+
+__all__ = ["ConservativeDepthBuffer", "OccluderScene", "FrustumCuller", "Frustum",
+           "solid_frustum", "polygon_frustum", "boxes_in_frustum", "boxes_in_frusta",
+           "rank_solids", "rank_planar", "solid_faces_as_polygons", "cluster_boxes",
+           "object_cluster_boxes", "ACTIVE_OCCLUDERS", "MARGIN_RELATIVE", "SHAPE_TOLERANCE"]
