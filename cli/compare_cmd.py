@@ -294,7 +294,7 @@ def _culling(methods: list[str], out: Path, *, frames: int, seed: int,
     Computed once per (methods, frames, seed, viscore version): running the
     study again reuses the file, as the study store reuses finished jobs.
     """
-    from .bench.cull import culling_column
+    from viscore.generators.levels import culling_column
 
     key = {"methods": methods, "frames": frames, "seed": seed, "bounds": "auto",
            "version": provenance().get("viscore")}

@@ -2,14 +2,14 @@
 
 Parse, call the library, format: the scene's objects and the ones that get
 occluders as ``viscore occlude`` reads a level
-(:func:`viscore.generators.level_objects.level_objects`: glTF nodes, a single
+(:func:`viscore.level.objects.level_objects`: glTF nodes, a single
 mesh split into parts, objects from 2% of the level's diagonal, never the
 flat ground alone), or those above ``--size-threshold`` world units
 (:func:`viscore.generators.occluder_objects`), the
 runtimes (:func:`viscore.generators.culling_runtimes`: ``none``,
 ``planar-frusta``, ``solid-frusta``, ``depth-buffer:<method>``, and
 ``depth-buffer:<stem>`` per ``--occluder-files`` file, read by
-:func:`viscore.generators.scene_occluders.file_occluder`: an engine's own
+:func:`viscore.generators.levels.occluders.file_occluder`: an engine's own
 occluders, such as Godot's bake, or the ``*.tscn`` of a ``viscore occlude``
 folder, each one occluder set in world space, conservative only when the
 file says so), the camera
@@ -64,16 +64,14 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from viscore.generators import (
+from viscore.generators import REGISTRY, check_method
+from viscore.generators.levels import (
     JOINED_METHODS,
-    REGISTRY,
-    check_method,
     culling_runtimes,
+    file_occluder,
     frusta_method,
-    occluder_objects,
+    method_indices,
 )
-from viscore.generators.level_objects import UP_AXES, level_objects
-from viscore.generators.scene_occluders import file_occluder, method_indices
 from viscore.metrics.culling import (
     DEFAULT_HEIGHT,
     DEFAULT_WIDTH,
@@ -89,7 +87,13 @@ from viscore.metrics.culling import (
 from viscore import InputError, provenance
 from viscore._atomic import fsync_path, swap_folder
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
-from viscore.culling.occludee_bounds import MAX_CLUSTERS, object_cluster_boxes
+from viscore.culling.occludee_bounds import (
+    AUTO_MIN_SIZE,
+    DEFAULT_CLUSTERS,
+    MAX_CLUSTERS,
+    occludee_boxes,
+)
+from viscore.level import UP_AXES, level_objects, occluder_objects
 
 from ._common import RateEstimate, check_output_folder, dumps, emit, file_mode
 from .study.store import lock_exclusive
@@ -97,12 +101,6 @@ from .study.store import lock_exclusive
 #: Frames of a generated camera path when ``--frames`` is not given.
 DEFAULT_FRAMES = 100
 
-#: Clusters per object of ``--bounds clusters`` and ``auto`` without a count.
-DEFAULT_CLUSTERS = 64
-
-#: ``--bounds auto``: objects from this fraction of the level's diagonal are tested
-#: through their clusters (chunks of the level), smaller ones through their box.
-AUTO_MIN_SIZE = 0.1
 
 #: Largest image side accepted by ``--width`` and ``--height``, pixels.
 MAX_SIDE = 8192
@@ -515,20 +513,6 @@ def _occluder_files(text: str | None, methods: list[str]) -> dict:
 def _check_frames_memory(frames: int, what: str) -> None:
     """The memory the walk's frames hold until the end (:data:`_BYTES_PER_FRAME` each)."""
     check_memory(float(frames) * _BYTES_PER_FRAME, what)
-
-
-def occludee_boxes(objects, kind: str, clusters: int) -> tuple[tuple | None, str, int]:
-    """The occludee bounds of ``--bounds KIND:CLUSTERS`` for
-    :func:`~viscore.metrics.culling.simulate_culling`: None (every object tested through
-    its box) or :func:`~viscore.culling.occludee_bounds.object_cluster_boxes` (``auto``: only the
-    objects from :data:`AUTO_MIN_SIZE` of the level's diagonal split); with the kind in
-    effect (``box`` when no object was split) and the number of split objects."""
-    bounds = None if clusters == 1 else object_cluster_boxes(
-        objects, clusters, min_size=AUTO_MIN_SIZE if kind == "auto" else None)
-    split = 0 if bounds is None else int(np.count_nonzero(np.bincount(bounds[2]) > 1))
-    if bounds is None or not split:
-        return None, "box", 0  # no object was split: every test is the box
-    return bounds, kind, split
 
 
 def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: bool, seed: int,

@@ -23,6 +23,7 @@ import logging
 import sys
 import traceback
 
+import viscore
 from viscore import InputError, set_workers
 from viscore._validate import as_seed
 
@@ -104,15 +105,6 @@ def common_options() -> argparse.ArgumentParser:
     return p
 
 
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("viscore")
-    except PackageNotFoundError:  # pragma: no cover - running from a bare checkout
-        return "unknown"
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="viscore",
@@ -125,7 +117,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--verbose", action="store_true", help="log details on stderr")
     parser.add_argument("--debug", action="store_true",
                         help="print the traceback of an internal error (exit code 3)")
-    parser.add_argument("--version", action="version", version=f"viscore {_version()}")
+    parser.add_argument("--version", action="version", version=f"viscore {viscore.__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     common = common_options()

@@ -1,6 +1,6 @@
 """``viscore occlude LEVEL -o DIR``: occluders for every large object of a level, as Godot files.
 
-Parse, one call (:func:`viscore.generators.level_occluders.occlude_level`),
+Parse, one call (:func:`viscore.generators.levels.occlude.occlude_level`),
 format. Every option is checked before any work and before ``DIR`` is made:
 the methods and their variants (:func:`viscore.generators.check_method`: each
 option, and its generator's own rules across options),
@@ -30,14 +30,16 @@ import os
 import sys
 
 from viscore.generators import REGISTRY, check_method, parse_method
-from viscore.generators.level_objects import MIN_SIZE, UP_AXES, default_methods, level_objects
-from viscore.generators.level_occluders import occlude_level
+from viscore.generators.levels import default_methods, occlude_level
 
 from viscore import InputError, cpu_cores
+from viscore._jobs import connect_scheduler
 from viscore._validate import as_positive_int
+from viscore.level import UP_AXES, level_objects
+from viscore.level.objects import MIN_SIZE
 
 from ._common import check_output_folder, emit
-from .study.runner import JOBS_PER_CORE, connect_scheduler
+from .study.runner import JOBS_PER_CORE
 from .study.store import lock_exclusive
 
 _log = logging.getLogger(__name__)

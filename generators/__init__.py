@@ -14,6 +14,15 @@ methods under the ``viscore.generators`` entry points (plugins, see
 from .aabb_skins import boxes_mesh, generate_aabb_skins
 from .baselines import generate_bbox, generate_godot, generate_original, generate_qem
 from .hybrid import generate_hybrid, metric_guided_simplify
+from .levels.occluders import (
+    JOINED_METHODS,
+    culling_runtimes,
+    file_occluder,
+    frusta_method,
+    joined_occluder,
+    occluder_objects,
+    scene_occluders,
+)
 from .occluder import Occluder, check_parts
 from .planar_hierarchy import (
     HierarchyIndex,
@@ -39,15 +48,6 @@ from .registry import (
     parse_method,
     plugin_versions,
 )
-from .scene_occluders import (
-    JOINED_METHODS,
-    culling_runtimes,
-    file_occluder,
-    frusta_method,
-    joined_occluder,
-    occluder_objects,
-    scene_occluders,
-)
 from .solid_frusta import generate_solid_frusta
 from .surface_patches import generate_surface_patches
 from .testing import check_generator
@@ -61,5 +61,6 @@ __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOpt
            "HierarchyIndex", "generate_planar_hierarchy", "hierarchy_to_json",
            "hierarchy_files", "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify",
            "occluder_objects", "scene_occluders", "file_occluder", "culling_runtimes",
-           "frusta_method", "JOINED_METHODS", "joined_occluder",
+           "frusta_method", "JOINED_METHODS", "joined_occluder", "occlude_level",
+           "culling_column", "default_methods",
            "PluginError", "PLUGIN_GROUP", "plugin_versions", "check_generator"]

@@ -7,7 +7,7 @@ occluders they use are inputs (this module never imports
 
 - :func:`no_culling` (``none``): no occlusion culling.
 - :func:`frusta_runtime`: shadow frusta of convex solids (Papaioannou et al.
-  2006 [1]_, Hudson et al. 1997 [2]_; :class:`viscore.frusta.FrustumCuller`),
+  2006 [1]_, Hudson et al. 1997 [2]_; :class:`viscore.culling.FrustumCuller`),
   ``mode='solid'`` (``solid-frusta``) or every face its own planar occluder
   (``planar-frusta``).
 - :func:`depth_buffer_runtime`: a conservative reduced-resolution depth
@@ -59,7 +59,7 @@ class Runtime:
         frustum culling. Its wall time is the runtime's overhead.
     conservative : bool
         True when every occluder it uses carries a conservativeness guarantee
-        (see :func:`viscore.generators.scene_occluders.culling_runtimes`: the
+        (see :func:`viscore.generators.levels.occluders.culling_runtimes`: the
         generator's per-mesh word, not only its registry flag); a conservative
         runtime must never cull a visible object.
     occluders : int
@@ -105,7 +105,7 @@ def frusta_runtime(solids: Sequence, *, mode: str = "solid", active: int = 15,
         Ranking of the solids: 'faces' (default), a solid ranks as its best
         face by eq. 3, or 'eq4', f_solid = Vol / |V|^3. With 'front-faces'
         and 'faces', solid frusta cull every box the planar frusta of the same
-        solids cull, every frame (:class:`viscore.frusta.FrustumCuller`).
+        solids cull, every frame (:class:`viscore.culling.FrustumCuller`).
     conservative : bool, optional
         Whether the solids carry the conservativeness guarantee (default True).
 
@@ -116,7 +116,7 @@ def frusta_runtime(solids: Sequence, *, mode: str = "solid", active: int = 15,
     Raises
     ------
     InputError
-        From :class:`viscore.frusta.FrustumCuller` on a solid that is not
+        From :class:`viscore.culling.FrustumCuller` on a solid that is not
         closed and convex, or a bad option.
     """
     from viscore.culling.frustum_culler import FrustumCuller

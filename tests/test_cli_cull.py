@@ -148,7 +148,8 @@ def test_cull_bad_path_and_options_exit_2(run, street, tmp_path, capsys, monkeyp
 
 
 def test_bench_cull_and_culling_column_on_a_small_scene(street):
-    from viscore.cli.bench.cull import bench_cull, bench_cull_text, culling_column
+    from viscore.cli.bench.cull import bench_cull, bench_cull_text
+    from viscore.generators.levels import culling_column
 
     scene, _ = street
     r = bench_cull(scene=str(scene), frames=3, repeats=1, method="aabb-skins")
@@ -167,7 +168,7 @@ def test_culling_column_tests_objects_as_cull_does_by_default(street, monkeypatc
     """compare's culling column splits the level's chunks as `cull --bounds auto` does: the
     street's wall (0.66 of its diagonal) is tested through its clusters, the box and the
     trees (under 0.1) through their boxes; bounds='box' tests every object by its box."""
-    from viscore.cli.bench.cull import culling_column
+    from viscore.generators.levels import culling_column
     from viscore.metrics import culling
 
     from viscore.level.scene_graph import load_scene_objects

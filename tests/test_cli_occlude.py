@@ -14,15 +14,11 @@ import numpy as np
 import pytest
 import trimesh
 from viscore.cli.main import main
-from viscore.generators.level_objects import (
-    LevelObjects,
-    default_methods,
-    guess_up,
-    level_objects,
-)
-from viscore.generators.level_occluders import occlude_level, occluder_of_mesh
+from viscore.generators.levels import default_methods
+from viscore.generators.levels.occlude import occlude_level, occluder_of_mesh
 
 from viscore import InputError, load_occluder
+from viscore.level import LevelObjects, guess_up, level_objects
 
 T = trimesh.transformations
 
@@ -456,7 +452,7 @@ def test_gltf_written_z_up_takes_up_z(tmp_path):
 def test_job_messages_name_the_mesh():
     # an open mesh (a box without its top): aabb-skins says it is not closed, naming the
     # mesh as the run does, so that the run can group the lines ("each of them ...")
-    from viscore.generators.level_occluders import _run_job
+    from viscore.generators.levels.occlude import _run_job
 
     box = trimesh.creation.box()
     top = box.face_normals[:, 2] > 0.5

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 from viscore.generators import generate
-from viscore.generators.scene_occluders import (
+from viscore.generators.levels import (
     culling_runtimes,
     joined_occluder,
     occluder_objects,
@@ -518,9 +518,8 @@ def test_a_sky_dome_neither_sets_the_level_nor_gets_occluders(tmp_path):
     refused as under 2% of the sky's diagonal), the path's street and elevated cameras stay
     under 3 house heights (they rose toward the dome), and the sky gets no occluder. A big terrain
     under the town, whose vertices reach the houses, is no sky."""
-    from viscore.generators.level_objects import level_objects
-
     from viscore.culling.occludee_bounds import object_cluster_boxes
+    from viscore.level.objects import level_objects
 
     town = _town_on_a_wide_ground(100.0)
     scene = trimesh.Scene()

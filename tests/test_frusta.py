@@ -5,7 +5,9 @@ import pytest
 import trimesh
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from viscore.frusta import (
+
+from viscore import InputError, PerspectiveCamera, Scene
+from viscore.culling import (
     FrustumCuller,
     boxes_in_frusta,
     boxes_in_frustum,
@@ -15,8 +17,6 @@ from viscore.frusta import (
     solid_faces_as_polygons,
     solid_frustum,
 )
-
-from viscore import InputError, PerspectiveCamera, Scene
 
 
 def _hull(seed):

@@ -67,7 +67,7 @@ def test_ground_refuses_bad_axes_and_shapes():
 
 
 def test_guess_up_moved_to_the_core_is_the_level_objects_function():
-    from viscore.generators.level_objects import guess_up as level_guess
+    from viscore.level.objects import guess_up as level_guess
 
     assert level_guess is guess_up
     roof = trimesh.creation.box(extents=(4, 4, 3))

@@ -15,7 +15,7 @@ import pytest
 import trimesh
 from viscore.cli.main import main
 from viscore.generators import generate
-from viscore.generators.scene_occluders import file_occluder
+from viscore.generators.levels.occluders import file_occluder
 
 from viscore import OccluderInstance, load_mesh, load_occluder, tres_text, tscn_text
 from viscore.exchange.mesh_io import mesh_bytes

@@ -5,7 +5,6 @@ import logging
 import numpy as np
 import pytest
 import trimesh
-from viscore.frusta import FrustumCuller, solid_frustum
 from viscore.generators.aabb_skins import generate_aabb_skins
 from viscore.generators.solid_frusta.generator import (
     _Containment,
@@ -17,6 +16,7 @@ from viscore.generators.solid_frusta.generator import (
 from viscore.metrics import check_conservative
 
 from viscore import InputError, load_mesh, winding_numbers
+from viscore.culling import FrustumCuller, solid_frustum
 
 #: Closed, consistently oriented built-in scenes.
 CLOSED_SCENES = ["fat-torus", "box-with-hole", "sponge", "hairball", "bunny", "cow",

@@ -12,7 +12,7 @@ import pytest
 import trimesh
 from viscore.cli.bench.table1 import height_field_sheet
 from viscore.generators import generate
-from viscore.generators.scene_occluders import joined_occluder
+from viscore.generators.levels.occluders import joined_occluder
 from viscore.generators.surface_patches._overlap import select_with_overlap
 from viscore.generators.surface_patches._sheets import chunk_measure, sheet_chunks
 from viscore.metrics.conservativeness import assert_conservative

@@ -49,7 +49,7 @@ from .ray import (
     set_workers,
     stream_seed,
 )
-from .run_provenance import provenance
+from .run_provenance import package_version, provenance
 from .voxel import (
     VoxelGrid,
     Voxelization,
@@ -66,6 +66,9 @@ from .voxel import (
 )
 
 _moved.install()
+
+#: The installed version of viscore ("unknown" in a bare checkout).
+__version__ = package_version("viscore") or "unknown"
 
 __all__ = [
     "points_inside", "winding_numbers",

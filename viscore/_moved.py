@@ -45,6 +45,9 @@ MOVED = {
     "viscore._frusta_kernel": "viscore.culling._culler_kernel",
     "viscore.occludee_bounds": "viscore.culling.occludee_bounds",
     "viscore.frusta": "viscore.culling",
+    "viscore.generators.level_objects": "viscore.generators.levels",
+    "viscore.generators.level_occluders": "viscore.generators.levels",
+    "viscore.generators.scene_occluders": "viscore.generators.levels",
 }
 
 

@@ -12,10 +12,11 @@ from importlib.metadata import PackageNotFoundError, version
 
 from .ray.embree_scene import get_workers
 
-__all__ = ["provenance"]
+__all__ = ["provenance", "package_version"]
 
 
-def _version(dist: str) -> str | None:
+def package_version(dist: str) -> str | None:
+    """The installed version of distribution ``dist``, or None where it is not installed."""
     try:
         return version(dist)
     except PackageNotFoundError:
@@ -50,12 +51,12 @@ def provenance() -> dict:
     ['embree', 'embreex', 'numpy']
     """
     return {
-        "viscore": _version("viscore"),
-        "embreex": _version("embreex"),
+        "viscore": package_version("viscore"),
+        "embreex": package_version("embreex"),
         "embree": _embree_version(),
-        "numpy": _version("numpy"),
-        "scipy": _version("scipy"),
-        "trimesh": _version("trimesh"),
+        "numpy": package_version("numpy"),
+        "scipy": package_version("scipy"),
+        "trimesh": package_version("trimesh"),
         "python": sys.version.split()[0],
         "platform": platform.platform(),
         "workers": get_workers(),

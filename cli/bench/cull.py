@@ -1,4 +1,4 @@
-"""``viscore bench cull``: per-frame overhead of the culling runtimes; compare's culling column.
+"""``viscore bench cull``: per-frame overhead of the culling runtimes.
 
 :func:`bench_cull` times the two runtimes of issue 13 on one core, on the
 built-in ``city`` along its generated camera path: the shadow-frustum runtime
@@ -7,11 +7,6 @@ with 15 active convex solids and 1,000 occludee boxes per frame (target under
 2 ms), and the conservative depth buffer at 320 x 180 (the quarter-size
 buffer of a 1280 x 720 screen, occluder skins [2]_ sec. 7) with the same
 1,000 boxes (target under 5 ms). Figures, never assertions.
-
-:func:`culling_column` gives ``compare`` its culling column: for each method,
-the share of in-view objects its occluders cull through the depth buffer
-along the city's path (objects tested as ``viscore cull`` tests them by
-default), and the false culls against the ray-cast truth.
 
 References
 ----------
@@ -26,11 +21,9 @@ References
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
 
 import numpy as np
 
-from viscore import InputError
 from viscore._validate import as_positive_int, as_seed
 
 #: Targets of issue 13, milliseconds per frame on one core.
@@ -81,11 +74,11 @@ def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed:
         (occludees, active, buffer size, occluder counts, workers = 1) and
         the machine's load average (timings on a busy machine are inflated).
     """
-    from viscore.frusta import FrustumCuller
     from viscore.generators import frusta_method, occluder_objects, scene_occluders
     from viscore.metrics.culling import camera_path
 
     from viscore import get_workers, set_workers
+    from viscore.culling import FrustumCuller
     from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
     from viscore.level.scene_graph import load_scene_objects
 
@@ -139,67 +132,6 @@ def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed:
                          "meets_target": b["median_ms"] < DEPTH_BUFFER_TARGET_MS,
                          "culled_per_frame": culled_b / max(1, len(path))},
     }
-
-
-def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int = 24,
-                   width: int = 640, height: int = 360, seed: int = 0,
-                   bounds: str = "auto") -> dict[str, dict]:
-    """Culled share and false culls of each method's occluders on a culling scene.
-
-    Each method's occluders (for the scene's objects above the default size
-    threshold) feed a conservative depth buffer (a quarter of the screen's
-    side) along the scene's generated path; the ray-cast ground truth is
-    ``width`` x ``height`` (sub-pixel objects are a limit of it). Objects are
-    tested as ``viscore cull`` tests them by default (``bounds='auto'``: the
-    chunks of the level, objects from ``AUTO_MIN_SIZE`` of its diagonal,
-    through the boxes of their triangle clusters, the others through their
-    box), or all through their box (``'box'``, the paper's test).
-
-    Parameters
-    ----------
-    methods : sequence of str
-        Registered generators.
-    scene : str, optional
-        Default the built-in ``city``.
-    frames, width, height : int, optional
-        Path length and ground-truth image size (default 24 frames at 640 x 360).
-    seed : int, optional
-        Seed of the path and the generators.
-    bounds : {'auto', 'box'}, optional
-        How occludees are tested (default ``'auto'``).
-
-    Returns
-    -------
-    dict of str -> dict
-        Per method: ``culled_share`` (of the in-view objects, over the
-        frames), ``false_culls`` (sum over the frames), ``conservative`` (its
-        registry flag) and ``overhead_ms`` (mean per frame).
-
-    Raises
-    ------
-    InputError
-        Unknown method, bad sizes, unknown ``bounds``.
-    """
-    from viscore.generators import culling_runtimes, occluder_objects
-    from viscore.metrics.culling import camera_path, simulate_culling
-
-    from viscore.level.scene_graph import load_scene_objects
-
-    from ..cull_cmd import DEFAULT_CLUSTERS, occludee_boxes
-
-    if bounds not in ("auto", "box"):
-        raise InputError(f"bounds: expected 'auto' or 'box', got {bounds!r}")
-    objects = load_scene_objects(scene)
-    indices = occluder_objects(objects)
-    runtimes, _ = culling_runtimes(objects, indices, list(methods), seed=seed, frusta=False)
-    path = camera_path(objects, frames=frames, seed=seed)
-    boxes, _, _ = occludee_boxes(objects, bounds, DEFAULT_CLUSTERS if bounds == "auto" else 1)
-    result = simulate_culling(objects, runtimes, path, width=width, height=height,
-                              bounds=boxes)
-    totals = result.totals()
-    return {m: {key: totals[f"depth-buffer:{m}"][key]
-                for key in ("culled_share", "false_culls", "conservative", "overhead_ms")}
-            for m in dict.fromkeys(methods)}
 
 
 def bench_cull_text(r: dict) -> str:

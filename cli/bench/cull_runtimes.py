@@ -4,7 +4,7 @@ Behind ``viscore bench cull``. A procedural city of box buildings (one to
 three boxes each, as convex solids) and street-level occludees (small boxes)
 is walked by a camera at eye height; each frame is timed for
 
-- the shadow-frustum runtime (:class:`viscore.frusta.FrustumCuller`) with
+- the shadow-frustum runtime (:class:`viscore.culling.FrustumCuller`) with
   the 15 active occluders of Papaioannou et al. [1]_ sec. 3, in 'solid' mode
   (the paper's eq. 2 cap, and the exact front-face caps with face ranking)
   and 'planar' mode, 1,000 occludees per frame (target < 2 ms; [1]_ Tables 1-2
@@ -38,11 +38,11 @@ import time
 
 import numpy as np
 import trimesh
-from viscore.frusta import ACTIVE_OCCLUDERS, FrustumCuller
 from viscore.metrics.culling import view_frustum_mask
 
 from viscore import PerspectiveCamera
 from viscore._validate import as_positive_int, as_seed
+from viscore.culling import ACTIVE_OCCLUDERS, FrustumCuller
 from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
 
 from .core import bare_embree
@@ -158,7 +158,7 @@ def bench_cull_runtimes(*, frames: int = 40, occludees: int = 1000,
         (wall clock over the frames) and ``median_cpu_ms`` (this thread's CPU
         time: less sensitive to other processes on a shared machine):
 
-        - ``frusta_solid``: :class:`~viscore.frusta.FrustumCuller`, 'solid'
+        - ``frusta_solid``: :class:`~viscore.culling.FrustumCuller`, 'solid'
           mode with the paper's eq. 2 cap and eq. 4 ranking;
         - ``frusta_solid_exact``: 'solid' with ``cap='front-faces'``,
           ``rank='faces'`` (culls a superset of 'planar' every frame);

@@ -14,7 +14,7 @@ Occluder files. A study may also assess occluders made by other tools
 (``compare --occluder-files NAME=PATH``, :func:`resolve_occluder_files`): a
 row ``NAME`` per mesh (and per budget a folder's file names state), assessed
 exactly as a generated occluder and paired, plotted and reported like one. The
-file is read by :func:`viscore.generators.scene_occluders.file_occluder`
+file is read by :func:`viscore.generators.levels.occluders.file_occluder`
 (any format :func:`viscore.load_occluder` reads; drawn double-sided; not
 conservative unless the file says so). Its row key adds the SHA-256 of the
 file's content to the usual (mesh, method, budget, settings), so a resumed
@@ -56,25 +56,28 @@ References
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import os
 import pickle
 import re
 import shutil
-import signal
-import socket
 import tempfile
-import threading
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from viscore.metrics.estimates import study_bytes
 
 from viscore import InputError, cpu_cores
+from viscore._jobs import (
+    SCHEDULER_PROBE_SECONDS,
+    check_scheduler,
+    connect_scheduler,
+    process_pool,
+    stop_pool,
+)
 from viscore.exchange.mesh_io import mesh_bytes
 
 from .._common import dumps, write_atomic
@@ -93,13 +96,6 @@ TIMING_FIELDS = ("seconds", "seconds_evaluate", "seconds_measure", "seconds_vali
 #: Local jobs allowed per core (``--jobs`` beyond ``JOBS_PER_CORE`` x cores is refused).
 JOBS_PER_CORE = 4
 
-#: Seconds the probe of a scheduler's TCP port waits for an answer
-#: (:func:`check_scheduler`). A refusal comes back at once, whatever this is;
-#: a port that stays silent this long is left to dask's own connect timeout.
-SCHEDULER_PROBE_SECONDS = 2.0
-
-#: Port of a scheduler address that names none (dask.distributed's default).
-_DEFAULT_SCHEDULER_PORT = 8786
 
 #: Suffixes of the occluder files looked for in an ``--occluder-files`` folder: those
 #: :func:`viscore.load_occluder` reads as Godot or glTF files, and the usual mesh files.
@@ -216,7 +212,7 @@ def resolve_occluder_files(specs: list[tuple[str, str]], meshes: list[str], *,
     methods : list of str, optional
         The methods run: a NAME among them is refused.
     check : bool, optional
-        Read each file (:func:`viscore.generators.scene_occluders.file_occluder`)
+        Read each file (:func:`viscore.generators.levels.occluders.file_occluder`)
         so that a bad one is refused now, before any work (default True).
 
     Returns
@@ -233,7 +229,7 @@ def resolve_occluder_files(specs: list[tuple[str, str]], meshes: list[str], *,
         for), or with two for one mesh and budget; a file that cannot be read.
     """
     from viscore.generators import REGISTRY
-    from viscore.generators.scene_occluders import file_occluder
+    from viscore.generators.levels.occluders import file_occluder
 
     seen: set[str] = set()
     for name, path in specs:
@@ -379,7 +375,7 @@ def _file_occluder(job: Job):
     """The occluder of a file job, named after its row; the file must be unchanged."""
     import dataclasses
 
-    from viscore.generators.scene_occluders import file_occluder
+    from viscore.generators.levels.occluders import file_occluder
 
     occ = file_occluder(job.source)
     if file_digest(job.source) != job.digest:
@@ -398,7 +394,7 @@ def run_job(job: Job, workers: int | None = None, views=None) -> tuple[dict, byt
     The occluder comes from :func:`viscore.generators.generate` (parameters
     checked against the registry; ``info["over_budget"]`` set), or for a
     file job (``job.source``) from the file
-    (:func:`viscore.generators.scene_occluders.file_occluder`: double-sided,
+    (:func:`viscore.generators.levels.occluders.file_occluder`: double-sided,
     ``info["conservative_guaranteed"]`` False unless the file says so,
     ``seconds`` NaN; the file's content must still match ``job.digest``).
     ``views`` are the mesh's :class:`viscore.metrics.ReferenceViews` for the
@@ -468,39 +464,6 @@ def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings,
     return jobs
 
 
-def _die_with_parent(parent: int) -> None:
-    """In a worker: ignore SIGINT (the parent stops the pool) and die when the parent dies."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        if libc.prctl(1, signal.SIGKILL, 0, 0, 0) != 0:  # 1 = PR_SET_PDEATHSIG
-            raise OSError(ctypes.get_errno(), "prctl")
-    except (OSError, AttributeError):  # not Linux: watch the parent instead
-        def watch() -> None:
-            import time
-
-            while os.getppid() == parent:
-                time.sleep(0.5)
-            os._exit(1)
-
-        threading.Thread(target=watch, daemon=True).start()
-    if os.getppid() != parent:  # the parent died before the prctl
-        os._exit(1)
-
-
-def _stop_pool(pool: ProcessPoolExecutor) -> None:
-    """Cancel every pending job and kill this pool's worker processes now."""
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    for p in processes:  # our own children, by their handles
-        if p.is_alive():
-            p.kill()
-    for p in processes:
-        p.join(timeout=2)
-
-
 def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
            scratch: str | os.PathLike, originals: dict | None = None) -> None:
     """Each mesh's views built once in the pool and written once, then its jobs.
@@ -518,8 +481,7 @@ def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
     originals = originals or {}
     folder = tempfile.mkdtemp(prefix=".views-", suffix=".tmp", dir=scratch)
     try:
-        pool = ProcessPoolExecutor(max_workers=max(1, min(jobs, len(pending))),
-                                   initializer=_die_with_parent, initargs=(os.getpid(),))
+        pool = process_pool(max(1, min(jobs, len(pending))))
         running: dict = {}
         try:
             building = {pool.submit(_write_views, mesh, settings, per_job, originals.get(mesh),
@@ -541,98 +503,30 @@ def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
                     if fut.done() and not fut.cancelled() and fut.exception() is None:
                         commit(job, fut.result())
             finally:
-                _stop_pool(pool)
+                stop_pool(pool)
             raise
         pool.shutdown(wait=True)
     finally:
         shutil.rmtree(folder, ignore_errors=True)
 
 
-def check_scheduler(address: str) -> None:
-    """Refuse at once a dask scheduler address that cannot be reached.
-
-    For a ``tcp://`` or ``tls://`` address (a bare ``host:port`` is TCP), a
-    plain socket connects to the host and port first, waiting at most
-    :data:`SCHEDULER_PROBE_SECONDS`: a refused connection, an unknown host or
-    an unreachable network is one line at once, where
-    ``distributed.Client`` would retry until its connect timeout (30 s)
-    runs out. A port that stays silent passes: the client's timeout is kept
-    for that case. Other schemes (``inproc://``, ``ucx://``) are not probed.
-
-    Raises
-    ------
-    InputError
-        One line naming ``--scheduler``, the address and the problem.
-    """
-    from distributed.comm import parse_address, parse_host_port
-
-    where = f"--scheduler {address!r}"
-    try:
-        scheme, location = parse_address(str(address))
-        if scheme not in ("tcp", "tls"):
-            return
-        host, port = parse_host_port(location, _DEFAULT_SCHEDULER_PORT)
-    except (ValueError, TypeError) as exc:
-        raise InputError(f"{where}: not a scheduler address ({exc})") from None
-    try:
-        with socket.create_connection((host, port), timeout=SCHEDULER_PROBE_SECONDS):
-            pass
-    except TimeoutError:  # silence: dask's connect timeout decides
-        return
-    except ConnectionRefusedError:
-        raise InputError(f"{where}: connection refused by {host}:{port} (no scheduler "
-                         "listens there; start one with 'dask scheduler' or fix the port)"
-                         ) from None
-    except socket.gaierror as exc:
-        raise InputError(f"{where}: unknown host {host!r} ({exc.strerror or exc})") from None
-    except (OSError, OverflowError) as exc:  # unreachable network, a port beyond 65535
-        raise InputError(f"{where}: cannot connect "
-                         f"({getattr(exc, 'strerror', None) or exc})") from None
-
-def connect_scheduler(address: str | None):
-    """A dask.distributed client of ``--scheduler`` (a context manager), or a null context.
-
-    Connected before any output folder is touched: an address that is malformed
-    or whose port refuses the connection is refused at once
-    (:func:`check_scheduler`), one that does not answer after dask's
-    ``distributed.comm.timeouts.connect``; either with one line.
-    """
-    if address is None:
-        return contextlib.nullcontext(None)
-    try:
-        from distributed import Client
-    except ImportError:
-        raise InputError("--scheduler: needs dask.distributed (pip install distributed)") from None
-    check_scheduler(address)
-    try:
-        return Client(address)
-    except (OSError, ValueError, TypeError) as exc:
-        raise InputError(f"--scheduler {address!r}: cannot connect ({exc})") from None
-
-
-
 def _dask(pending: list[Job], scheduler, commit: Callable) -> None:
     """As :func:`_local` on a dask cluster: the views move to the jobs' workers once."""
-    from distributed import Client
     from distributed import as_completed as dask_completed
 
-    if not isinstance(scheduler, Client):
-        check_scheduler(scheduler)
-    client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
-    futures: dict = {}
-    try:
-        for (mesh, settings), group in _by_mesh(pending).items():
-            views = client.submit(build_views, mesh, settings, None, pure=False)
-            futures |= {client.submit(run_job, j, None, views, pure=False): j for j in group}
-        for fut in dask_completed(list(futures)):
-            commit(futures.pop(fut), fut.result())
-    except BaseException:
-        if futures:
-            client.cancel(list(futures))
-        raise
-    finally:
-        if not isinstance(scheduler, Client):
-            client.close()
+    with connect_scheduler(scheduler) as client:
+        futures: dict = {}
+        try:
+            for (mesh, settings), group in _by_mesh(pending).items():
+                views = client.submit(build_views, mesh, settings, None, pure=False)
+                futures |= {client.submit(run_job, j, None, views, pure=False): j
+                            for j in group}
+            for fut in dask_completed(list(futures)):
+                commit(futures.pop(fut), fut.result())
+        except BaseException:
+            if futures:
+                client.cancel(list(futures))
+            raise
 
 
 def run_study(meshes: list[str], methods: list[str], settings: StudySettings,

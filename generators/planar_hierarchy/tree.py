@@ -523,16 +523,11 @@ def _build_nodes(nodes: list, mesh: trimesh.Trimesh, faces_of: list, builder: Ca
     calls = [(builder, _submesh(mesh, faces_of[n["id"]]), n["voxel_size"], n["dilation"], keys,
               budget, seed, node_options) for n in reversed(nodes)]
     if jobs > 1 and len(calls) > 1:
-        import os
-        from concurrent.futures import ProcessPoolExecutor
-
         from viscore import cpu_cores
-
-        from .._pool import worker_init
+        from viscore._jobs import process_pool
 
         workers = min(jobs, len(calls))
-        with ProcessPoolExecutor(max_workers=workers, initializer=worker_init,
-                                 initargs=(os.getpid(), max(1, cpu_cores() // workers))) as pool:
+        with process_pool(workers, max(1, cpu_cores() // workers)) as pool:
             built = list(pool.map(_build_one, *zip(*calls, strict=True)))
     else:
         built = [_build_one(*call) for call in calls]

@@ -1,6 +1,6 @@
 """numba kernels of the shadow-frustum culling runtime: one frame's frusta, and the box test.
 
-:class:`viscore.frusta.FrustumCuller.cull` runs every frame; its numpy
+:class:`viscore.culling.FrustumCuller.cull` runs every frame; its numpy
 version made some two hundred small array calls per frame (a few microseconds
 each) and one (boxes x planes) product. These loops build the planes of the
 selected occluders ([1]_ sec. 2: silhouette edges by eq. 1, side planes
@@ -8,7 +8,7 @@ through the eye, the eq. 2 or front-face caps; the planar frusta of [2]_) in
 one pass, and test each box against each frustum with an early exit at the
 first plane the box is not wholly inside.
 
-They compute what the numpy reference of :mod:`viscore.frusta` computes
+They compute what the numpy reference of :mod:`viscore.culling` computes
 (``_SolidSet.planes``, ``_PolygonSet.planes``, ``_inside_any``), term by
 term in the same order; a dot product numpy hands to BLAS may round
 differently in the last bit. Such a difference is some 1e-16 of the frame's

@@ -40,7 +40,15 @@ from .._validate import InputError, as_fraction, as_positive_int
 if TYPE_CHECKING:  # pragma: no cover - hints only
     from ..level.scene_graph import SceneObjects
 
-__all__ = ["cluster_boxes", "object_cluster_boxes", "MAX_CLUSTERS"]
+__all__ = ["cluster_boxes", "object_cluster_boxes", "occludee_boxes", "MAX_CLUSTERS",
+           "DEFAULT_CLUSTERS", "AUTO_MIN_SIZE"]
+
+#: Clusters per object of ``--bounds clusters`` and ``auto`` without a count.
+DEFAULT_CLUSTERS = 64
+
+#: ``--bounds auto``: objects from this fraction of the level's diagonal are tested
+#: through their clusters (chunks of the level), smaller ones through their box.
+AUTO_MIN_SIZE = 0.1
 
 #: Most clusters per object (a box test per cluster and frame).
 MAX_CLUSTERS = 4096
@@ -171,3 +179,21 @@ def object_cluster_boxes(objects: SceneObjects, clusters: int, *,
     if not owners:
         raise InputError(f"{objects.source}: no object has triangles")
     return np.concatenate(lowers), np.concatenate(uppers), np.concatenate(owners)
+
+
+def occludee_boxes(objects: SceneObjects, kind: str, clusters: int
+                   ) -> tuple[tuple | None, str, int]:
+    """The occludee bounds of ``cull --bounds KIND:CLUSTERS``.
+
+    Returns None (every object tested through its box) or
+    :func:`object_cluster_boxes` (``kind='auto'``: only the objects from
+    :data:`AUTO_MIN_SIZE` of the level's diagonal split), for
+    ``simulate_culling(..., bounds=)``; with the kind in effect (``'box'``
+    when no object was split) and the number of split objects.
+    """
+    bounds = None if clusters == 1 else object_cluster_boxes(
+        objects, clusters, min_size=AUTO_MIN_SIZE if kind == "auto" else None)
+    split = 0 if bounds is None else int(np.count_nonzero(np.bincount(bounds[2]) > 1))
+    if bounds is None or not split:
+        return None, "box", 0  # no object was split: every test is the box
+    return bounds, kind, split

@@ -1,7 +1,9 @@
-"""Levels: a glTF scene graph as objects, the nodes a game does not draw, ground and up axis."""
+"""Levels: a glTF scene graph or a split mesh as objects, the ones that get occluders,
+the nodes a game does not draw, ground and up axis."""
 
 from .ground import UP_AXES, guess_up
 from .hidden_nodes import hidden_reason
+from .objects import LevelObjects, level_objects, occluder_objects
 from .scene_graph import (
     SceneObjects,
     culling_scene_descriptions,
@@ -10,6 +12,7 @@ from .scene_graph import (
     load_scene_objects,
 )
 
-__all__ = ["SceneObjects", "load_scene_objects", "culling_scene_names",
+__all__ = ["LevelObjects", "level_objects", "occluder_objects", "SceneObjects",
+           "load_scene_objects", "culling_scene_names",
            "culling_scene_descriptions", "culling_scene_path", "hidden_reason", "UP_AXES",
            "guess_up"]

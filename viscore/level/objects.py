@@ -3,8 +3,8 @@
 A level is a glTF/GLB scene, every mesh node one object with instancing
 honoured (glTF 2.0 [1]_, sec. 3.5 and 3.7), or a single mesh (OBJ, PLY, OFF,
 STL) such as an exported game map, split here into objects; which objects
-get occluders is chosen by size, never the flat ground alone. The rules are
-in :mod:`viscore.generators.level_occluders`, which makes the occluders; a
+get occluders is chosen by size, never the flat ground alone
+(:mod:`viscore.generators.levels` makes their occluders); a
 glTF of a single object is split as a single mesh is, and a flat object far
 larger than the rest of the level (:data:`LEVEL_SPAN`: an outer ground
 plane around a town) or a sky around it
@@ -12,6 +12,7 @@ plane around a town) or a sky around it
 size threshold. A sky gets no occluders: nothing of the level lies behind it.
 Nor does a see-through object (a transparent glTF material, alpha blended or
 alpha tested: glass, water, leaves), which Godot's occluder bake skips too.
+:func:`occluder_objects` chooses by name or by an absolute size in world units.
 
 References
 ----------
@@ -31,9 +32,10 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from viscore import InputError, load_mesh
-from viscore.level.ground import UP_AXES, guess_up
-from viscore.level.scene_graph import (
+from .._validate import InputError, as_positive
+from ..exchange.mesh_io import load_mesh
+from .ground import UP_AXES, guess_up
+from .scene_graph import (
     FLAT_RATIO,
     LEVEL_SPAN,
     SceneObjects,
@@ -41,11 +43,9 @@ from viscore.level.scene_graph import (
     load_scene_objects,
 )
 
-from .registry import REGISTRY
-from .scene_occluders import occluder_objects
-
-__all__ = ["LevelObjects", "level_objects", "guess_up", "default_methods", "MIN_SIZE",
-           "PART_FRACTION", "FLAT_RATIO", "FALLBACK_SHARE", "LEVEL_SPAN", "UP_AXES"]
+__all__ = ["LevelObjects", "level_objects", "occluder_objects", "guess_up", "MIN_SIZE",
+           "SIZE_FACTOR", "PART_FRACTION", "FLAT_RATIO", "FALLBACK_SHARE", "LEVEL_SPAN",
+           "UP_AXES", "SEE_THROUGH_REFUSAL"]
 
 _log = logging.getLogger(__name__)
 
@@ -392,20 +392,59 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
                         names=None if names is None else tuple(names))
 
 
-def default_methods() -> list[str]:
-    """The methods ``viscore occlude`` runs by default.
+#: Default size threshold of the occluder objects: this many times the median
+#: object's bounding-box diagonal (in the built-in cities: buildings and the
+#: ground, not cars, lamps, benches or trees).
+SIZE_FACTOR = 2.5
 
-    ``surface-patches, aabb-skins`` when ``surface-patches`` is registered
-    (guaranteed occluders in the surface of thin, open game geometry, and
-    boxes where parts are thick), else ``aabb-skins, planar-sections``.
 
-    Examples
-    --------
-    >>> "aabb-skins" in default_methods()
-    True
+def occluder_objects(objects: SceneObjects, *, size_threshold: float | None = None,
+                     names: Sequence[str] | None = None) -> np.ndarray:
+    """The objects that get occluders: the named ones, or those above a size threshold.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+    size_threshold : float, optional
+        Bounding-box diagonal, world units, from which an object gets an
+        occluder. Default :data:`SIZE_FACTOR` x the median object's diagonal.
+        A see-through object (``objects.see_through``) never passes it.
+    names : sequence of str, optional
+        Object names; when given, exactly these objects (``size_threshold``
+        is then not used).
+
+    Returns
+    -------
+    indices : (k,) int64
+        Object indices, ascending.
+
+    Raises
+    ------
+    InputError
+        On an unknown name (listing a few known ones), a non-positive
+        threshold, or when no object qualifies.
     """
-    if "surface-patches" in REGISTRY:
-        return ["surface-patches", "aabb-skins"]
-    return ["aabb-skins", "planar-sections"]
-
-
+    if names is not None:
+        names = list(dict.fromkeys(names))
+        index = {n: i for i, n in enumerate(objects.names)}
+        unknown = [n for n in names if n not in index]
+        if unknown or not names:
+            some = ", ".join(objects.names[:5]) + (", ..." if len(objects) > 5 else "")
+            raise InputError(f"occluders: no object named {', '.join(unknown) or '(none given)'}"
+                             f" in {objects.source} (objects: {some})")
+        return np.array(sorted(index[n] for n in names), dtype=np.int64)
+    size = np.linalg.norm(objects.upper - objects.lower, axis=1)
+    if size_threshold is None:
+        threshold = SIZE_FACTOR * float(np.median(size))
+    else:
+        threshold = as_positive(size_threshold, "size_threshold")
+    chosen = np.flatnonzero((size >= threshold) & ~objects.see_through)
+    if len(chosen) == 0:
+        what = ("size_threshold" if size_threshold is not None else
+                f"the default size threshold ({SIZE_FACTOR} x the median object's diagonal)")
+        solid = ~objects.see_through
+        largest = float(size[solid].max()) if solid.any() else 0.0
+        raise InputError(f"{what}: no object of {objects.source} is {threshold:.4g} or larger "
+                         f"(the largest is {largest:.4g}, world units"
+                         + (", see-through objects left out" if not solid.all() else "") + ")")
+    return chosen.astype(np.int64)

@@ -90,20 +90,21 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from viscore import InputError, OccluderInstance, occonly_glb_bytes, tscn_text
+import viscore
+from viscore import InputError, OccluderInstance, cpu_cores, occonly_glb_bytes, tscn_text
 from viscore._atomic import write_atomic
+from viscore._jobs import run_jobs
 from viscore._validate import as_positive_int, as_seed
 from viscore.exchange.mesh_io import ply_bytes
+from viscore.level.objects import FLAT_RATIO, LevelObjects
 from viscore.level.scene_graph import geometry_digest
 
-from ._held_logs import call_held, report_parts
-from ._pool import worker_init as _worker_init
-from .level_objects import FLAT_RATIO, LevelObjects, default_methods
-from .registry import generate, parse_method
-from .scene_occluders import _guaranteed
+from .._held_logs import call_held, report_parts
+from ..registry import REGISTRY, generate, parse_method
+from .runtimes import _guaranteed
 
 __all__ = ["MeshOccluder", "LevelOccluders", "occluder_of_mesh", "occlude_level", "MANIFEST_NAME",
-           "JOB_DIR"]
+           "JOB_DIR", "default_methods"]
 
 _log = logging.getLogger(__name__)
 
@@ -168,21 +169,12 @@ class MeshOccluder:
                 "seconds": self.seconds, "refused": self.refused}
 
 
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("viscore")
-    except PackageNotFoundError:  # pragma: no cover - a bare checkout
-        return "unknown"
-
-
 def _job_key(vertices: np.ndarray, faces: np.ndarray, method: str, budget: int | None,
              seed: int) -> str:
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(vertices, dtype="<f8").tobytes())
     h.update(np.ascontiguousarray(faces, dtype="<i8").tobytes())
-    h.update(json.dumps([method, budget, seed, _version()]).encode())
+    h.update(json.dumps([method, budget, seed, viscore.__version__]).encode())
     return h.hexdigest()
 
 
@@ -317,67 +309,6 @@ def _keep(out: Path, job: MeshOccluder) -> None:
     write_atomic(rec, json.dumps(job.record(), indent=1).encode(), parents=True)
 
 
-def _stop_pool(pool) -> None:
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    for p in processes:
-        if p.is_alive():
-            p.kill()
-    for p in processes:
-        p.join(timeout=2)
-
-
-def _run_jobs(pending: list[tuple], jobs: int, scheduler, commit: Callable) -> None:
-    """Run the pending jobs here, in a process pool or on dask; commit each as it finishes."""
-    if scheduler is not None:
-        from distributed import Client
-        from distributed import as_completed as dask_completed
-
-        client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
-        futures = {}
-        try:
-            futures = {client.submit(_run_job, *args, pure=False): args for args in pending}
-            for fut in dask_completed(list(futures)):
-                futures.pop(fut)
-                commit(fut.result())
-        except BaseException:
-            if futures:
-                client.cancel(list(futures))
-            raise
-        finally:
-            if not isinstance(scheduler, Client):
-                client.close()
-        return
-    if jobs <= 1 or len(pending) <= 1:
-        for args in pending:
-            commit(_run_job(*args))
-        return
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-
-    from viscore import cpu_cores
-
-    workers = min(jobs, len(pending))
-    pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_init,
-                               initargs=(os.getpid(), max(1, cpu_cores() // workers)))
-    running = {}
-    try:
-        running = {pool.submit(_run_job, *args): args for args in pending}
-        while running:
-            done, _ = wait(list(running), return_when=FIRST_COMPLETED)
-            for fut in done:
-                del running[fut]
-                commit(fut.result())
-    except BaseException:
-        try:
-            for fut in list(running):
-                if fut.done() and not fut.cancelled() and fut.exception() is None:
-                    commit(fut.result())
-        finally:
-            _stop_pool(pool)
-        raise
-    pool.shutdown(wait=True)
-
-
 # --------------------------------------------------------------------------- the level run
 @dataclass(frozen=True)
 class LevelOccluders:
@@ -474,7 +405,7 @@ def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
     Examples
     --------
     >>> import tempfile, trimesh
-    >>> from viscore.generators.level_objects import level_objects
+    >>> from viscore.level.objects import level_objects
     >>> level = level_objects(trimesh.creation.box(), up="z")
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     made = occlude_level(level, tmp, methods=["bbox"])
@@ -544,7 +475,8 @@ def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
             progress(len(results), total, f"{job.method} {job.mesh}")
 
     try:
-        _run_jobs(pending, jobs, scheduler, commit)
+        run_jobs(_run_job, pending, commit, jobs=jobs, scheduler=scheduler,
+                 threads=max(1, cpu_cores() // max(1, min(jobs, len(pending)))))
     finally:  # what the finished jobs logged, said once per text, even on an interruption
         _say_logs(computed, [objects.mesh_names[m] for m in mesh_ids], labels)
     for label in labels:
@@ -619,3 +551,20 @@ def _write_level(level: LevelObjects, out: Path, labels: list[str],
     files.append(MANIFEST_NAME)
     return LevelOccluders(manifest=manifest, files=tuple(files), reused=reused,
                           computed=computed)
+
+
+def default_methods() -> list[str]:
+    """The methods ``viscore occlude`` runs by default.
+
+    ``surface-patches, aabb-skins`` when ``surface-patches`` is registered
+    (guaranteed occluders in the surface of thin, open game geometry, and
+    boxes where parts are thick), else ``aabb-skins, planar-sections``.
+
+    Examples
+    --------
+    >>> "aabb-skins" in default_methods()
+    True
+    """
+    if "surface-patches" in REGISTRY:
+        return ["surface-patches", "aabb-skins"]
+    return ["aabb-skins", "planar-sections"]
