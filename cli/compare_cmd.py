@@ -49,6 +49,8 @@ import logging
 from dataclasses import asdict
 from pathlib import Path
 
+from viscore import InputError, cpu_cores, load_mesh, provenance
+from viscore._validate import as_positive_int, as_seed, check_memory
 from viscore.generators import (
     REGISTRY,
     check_method,
@@ -56,9 +58,6 @@ from viscore.generators import (
     parse_method,
     plugin_versions,
 )
-
-from viscore import InputError, cpu_cores, load_mesh, provenance
-from viscore._validate import as_positive_int, as_seed, check_memory
 
 from ._common import dumps, emit, parse_list, write_atomic
 from .study.report import CULLING_COLUMNS, write_occluder_glbs, write_report

@@ -64,6 +64,16 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from viscore import InputError, provenance
+from viscore._atomic import fsync_path, swap_folder
+from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
+from viscore.culling.occludee_bounds import (
+    AUTO_MIN_SIZE,
+    DEFAULT_CLUSTERS,
+    MAX_CLUSTERS,
+    occludee_boxes,
+)
 from viscore.generators import REGISTRY, check_method
 from viscore.generators.levels import (
     JOINED_METHODS,
@@ -72,6 +82,7 @@ from viscore.generators.levels import (
     frusta_method,
     method_indices,
 )
+from viscore.level import UP_AXES, level_objects, occluder_objects
 from viscore.metrics.culling import (
     DEFAULT_HEIGHT,
     DEFAULT_WIDTH,
@@ -83,17 +94,6 @@ from viscore.metrics.culling import (
     read_camera_path,
     simulate_culling,
 )
-
-from viscore import InputError, provenance
-from viscore._atomic import fsync_path, swap_folder
-from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
-from viscore.culling.occludee_bounds import (
-    AUTO_MIN_SIZE,
-    DEFAULT_CLUSTERS,
-    MAX_CLUSTERS,
-    occludee_boxes,
-)
-from viscore.level import UP_AXES, level_objects, occluder_objects
 
 from ._common import RateEstimate, check_output_folder, dumps, emit, file_mode
 from .study.store import lock_exclusive

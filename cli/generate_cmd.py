@@ -32,12 +32,11 @@ import logging
 import numbers
 from pathlib import Path
 
-from viscore.generators import REGISTRY, generate, get_generator, hierarchy_files
-
 from viscore import InputError, load_mesh, provenance
 from viscore._atomic import FileSet
 from viscore._validate import as_seed
 from viscore.exchange.mesh_io import mesh_bytes
+from viscore.generators import REGISTRY, generate, get_generator, hierarchy_files
 
 from ._common import check_output_file, emit, occluder_bytes
 

@@ -29,12 +29,11 @@ import logging
 import os
 import sys
 
-from viscore.generators import REGISTRY, check_method, parse_method
-from viscore.generators.levels import default_methods, occlude_level
-
 from viscore import InputError, cpu_cores
 from viscore._jobs import connect_scheduler
 from viscore._validate import as_positive_int
+from viscore.generators import REGISTRY, check_method, parse_method
+from viscore.generators.levels import default_methods, occlude_level
 from viscore.level import UP_AXES, level_objects
 from viscore.level.objects import MIN_SIZE
 

@@ -25,6 +25,8 @@ import tempfile
 from dataclasses import asdict
 from pathlib import Path
 
+from viscore import InputError, load_mesh, provenance, stream_seed
+from viscore._validate import as_fraction, as_positive_int, as_seed
 from viscore.metrics import (
     ablation_plot,
     convergence_ablation,
@@ -33,9 +35,6 @@ from viscore.metrics import (
     paired_difference,
     uncertainty_report,
 )
-
-from viscore import InputError, load_mesh, provenance, stream_seed
-from viscore._validate import as_fraction, as_positive_int, as_seed
 
 from ._common import check_output_folder, dumps, emit, file_mode, parse_list
 

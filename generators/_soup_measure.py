@@ -43,11 +43,11 @@ from __future__ import annotations
 import threading
 
 import numpy as np
-from viscore.metrics.erosion import lower_envelope_min
 
 from viscore import camera_basis, directions_fibonacci
 from viscore._jit import njit_cached
 from viscore._validate import check_memory
+from viscore.metrics.erosion import lower_envelope_min
 
 __all__ = ["measure_directions", "project_candidates", "soup_measures", "soup_totals",
            "in_threads", "MEASURE_DIRECTIONS", "MEASURE_RESOLUTION"]

@@ -54,9 +54,9 @@ from collections.abc import Callable, Iterable
 
 import numpy as np
 import trimesh
-from viscore.metrics import check_conservative
 
 from viscore import InputError, validate_mesh
+from viscore.metrics import check_conservative
 
 from .occluder import Occluder
 from .plugins import PluginError, _plugin_output

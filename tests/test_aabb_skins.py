@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError, VoxelGrid, load_mesh, voxel_boundary_mesh, winding_numbers
 from viscore.generators import generate_aabb_skins
 from viscore.generators.aabb_skins.generator import BYTES_PER_CELL
 from viscore.metrics import check_conservative
-
-from viscore import InputError, VoxelGrid, load_mesh, voxel_boundary_mesh, winding_numbers
 
 
 def _hollow_box(outer=2.0, inner=1.6):

@@ -5,11 +5,11 @@ import logging
 import numpy as np
 import pytest
 import trimesh
-from viscore.generators import generate_aabb_skins, get_generator
-from viscore.metrics import check_conservative
 
 import viscore._validate as validate_module
 from viscore import InputError, load_mesh
+from viscore.generators import generate_aabb_skins, get_generator
+from viscore.metrics import check_conservative
 from viscore.voxel.wall_thickness import finest_fitting_pitch, voxel_size_for_wall
 from viscore.voxel.winding import is_closed_oriented
 

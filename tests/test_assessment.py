@@ -3,6 +3,8 @@ import json
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError, load_mesh, stream_seed
 from viscore.generators import get_generator
 from viscore.metrics import (
     OccluderAssessment,
@@ -12,8 +14,6 @@ from viscore.metrics import (
     check_conservative,
     occlusion_measure,
 )
-
-from viscore import InputError, load_mesh, stream_seed
 
 VIEWS = dict(views=6, quads=600, resolution=32, seed=2)
 

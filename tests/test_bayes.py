@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 from scipy import stats
-from viscore.metrics import PrecisionRecall, hierarchical_beta_model
-from viscore.metrics import bayes as bayes_module
 
 from viscore import InputError
+from viscore.metrics import PrecisionRecall, hierarchical_beta_model
+from viscore.metrics import bayes as bayes_module
 
 
 def _result(k, n, *, weight=None, protocol="orbit", seed=0):

@@ -9,6 +9,8 @@ import math
 
 import numpy as np
 import pytest
+
+from viscore import InputError
 from viscore.cli.bench.aabb_skins import bench_generate_aabb_skins
 from viscore.cli.bench.core import (
     RAY_SETS,
@@ -19,8 +21,6 @@ from viscore.cli.bench.core import (
 )
 from viscore.cli.bench.models import MODELS_ENV, models_folder
 from viscore.cli.main import main
-
-from viscore import InputError
 
 
 def _run(capsys, argv):
@@ -87,9 +87,8 @@ def test_bench_rays_without_open3d_says_so(capsys, monkeypatch):
 
 
 def test_bench_ray_sets_are_the_promised_rays():
-    from viscore.metrics import orbit_frame
-
     from viscore import OrthoCamera, directions_uniform, load_mesh
+    from viscore.metrics import orbit_frame
 
     mesh = load_mesh("fat-torus")
     sets = bench_ray_sets(mesh, views=3, resolution=8, rays=100, seed=5)
@@ -223,6 +222,7 @@ def test_bench_generate_and_cull_refuse_bad_options_before_work(argv, message, c
 def test_godot_within_finds_a_bake_at_or_under_the_count():
     import numpy as np
     import trimesh
+
     from viscore.cli.bench.planar import godot_within
 
     sphere = trimesh.creation.icosphere(subdivisions=3)  # 1,280 triangles, closed

@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
-from viscore.cli.bench.cull_runtimes import KEYS, bench_city, bench_cull_runtimes
 
 from viscore import InputError
+from viscore.cli.bench.cull_runtimes import KEYS, bench_city, bench_cull_runtimes
 
 
 def test_bench_cull_runtimes_small_run():

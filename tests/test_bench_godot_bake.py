@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from viscore import InputError
 from viscore.cli.bench.godot_bake import (
     DEMO_FOLDER,
     assign_instances,
@@ -23,8 +25,6 @@ from viscore.cli.bench.godot_bake import (
     scene_instances,
     surface_distance,
 )
-
-from viscore import InputError
 
 
 def _demo() -> Path:

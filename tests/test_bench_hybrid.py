@@ -6,6 +6,7 @@ off fills nothing).
 """
 
 import pytest
+
 from viscore.cli.bench.command import _hybrid_holes_lines
 from viscore.cli.bench.hybrid import bench_generate_hybrid
 from viscore.cli.main import main

@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
-from viscore.cli.bench.scale import OPEN_BASE, bench_scale, open_scan, scale_lines
 
 from viscore import load_mesh
+from viscore.cli.bench.scale import OPEN_BASE, bench_scale, open_scan, scale_lines
 
 
 def test_open_scan_is_the_bunny_with_its_base_cut_open():

@@ -12,7 +12,9 @@ import json
 import numpy as np
 import pytest
 import trimesh
+
 import viscore.cli.bench.surface_patches as bench_module
+from viscore import InputError, load_mesh
 from viscore.cli.bench.surface_patches import (
     BUDGET,
     bench_generate_surface_patches,
@@ -20,8 +22,6 @@ from viscore.cli.bench.surface_patches import (
     speed_building,
 )
 from viscore.cli.main import main
-
-from viscore import InputError, load_mesh
 
 #: One building, cheap views and few rays: seconds, not minutes.
 _SMALL = {"names": ("building-cottage",), "spacing": 0.3, "resolution": 16, "quads": 50,

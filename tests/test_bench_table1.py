@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+
+from viscore import Scene
 from viscore.cli.bench.table1 import (
     PAPER_TABLE1,
     bench_table1,
@@ -9,8 +11,6 @@ from viscore.cli.bench.table1 import (
     machine_assembly,
     table1_lines,
 )
-
-from viscore import Scene
 
 
 def test_fractal_terrain_is_a_seeded_height_field_of_the_papers_size():

@@ -2,6 +2,7 @@
 
 import numpy as np
 import trimesh
+
 from viscore.cli.bench.terrain_drape import area_above, height_fields, terrain_drape_lines
 
 

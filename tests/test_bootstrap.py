@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 from scipy import stats
-from viscore.metrics import bootstrap as bootstrap_module
-from viscore.metrics import bootstrap_ratio
 
 from viscore import InputError
+from viscore.metrics import bootstrap as bootstrap_module
+from viscore.metrics import bootstrap_ratio
 
 #: Resamples of the BCa comparison: the Monte-Carlo s.d. of one end point is
 #: then 0.0006-0.0012 on the skewed case below (measured over seeds).

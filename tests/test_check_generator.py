@@ -7,10 +7,10 @@ import dataclasses
 import numpy as np
 import pytest
 import trimesh
-from viscore.generators import REGISTRY, GeneratorOption, GeneratorSpec, Occluder
-from viscore.generators.testing import CHECK_SCENES, check_generator
 
 from viscore import InputError
+from viscore.generators import REGISTRY, GeneratorOption, GeneratorSpec, Occluder
+from viscore.generators.testing import CHECK_SCENES, check_generator
 
 #: Methods cheap enough for the default run (a few seconds each); the rest are slow.
 _CHEAP = ("bbox", "original", "qem", "godot", "aabb-skins")

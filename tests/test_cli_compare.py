@@ -3,6 +3,7 @@ import os
 import sqlite3
 
 import pytest
+
 from viscore.cli.main import main
 
 
@@ -126,6 +127,7 @@ def test_compare_budgets_run_budgeted_methods_once_per_budget(tmp_path, capsys):
 
 def test_dask_cluster_gives_identical_rows(tmp_path, monkeypatch):
     from distributed import Client, LocalCluster
+
     from viscore.cli.study.runner import StudySettings, run_study
     from viscore.metrics import ReferenceViews
 
@@ -227,10 +229,9 @@ def test_an_unwritable_out_is_refused_before_any_work(command, capsys):
 def test_views_reach_workers_once_through_a_file_and_the_folder_goes(tmp_path):
     import pickle
 
+    from viscore import load_mesh
     from viscore.cli.study import runner
     from viscore.cli.study.runner import StudySettings, run_study, views_from_file
-
-    from viscore import load_mesh
 
     settings = StudySettings(views=4, quads=300, resolution=24, directions=2, rays=1000,
                              budgets=(48,))
@@ -285,9 +286,8 @@ def test_compare_refused_scheduler_port_is_one_line_at_once(tmp_path, capsys, mo
 def test_run_study_refused_scheduler_string_is_one_line(tmp_path):
     import socket
 
-    from viscore.cli.study.runner import StudySettings, run_study
-
     from viscore import InputError
+    from viscore.cli.study.runner import StudySettings, run_study
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -312,9 +312,8 @@ def test_compare_refuses_a_symlinked_occluders_folder(tmp_path, capsys):
 
 
 def test_study_folder_refuses_a_link_made_after_the_check(tmp_path):
-    from viscore.cli.study.store import StudyFolder
-
     from viscore import InputError
+    from viscore.cli.study.store import StudyFolder
 
     out, elsewhere = tmp_path / "study", tmp_path / "elsewhere"
     out.mkdir()

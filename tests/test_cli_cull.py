@@ -5,10 +5,10 @@ import json
 import numpy as np
 import pytest
 import trimesh
-from viscore.cli import cull_cmd
-from viscore.cli import main as cli_main
 
 from viscore import InputError
+from viscore.cli import cull_cmd
+from viscore.cli import main as cli_main
 
 
 @pytest.fixture
@@ -169,9 +169,8 @@ def test_culling_column_tests_objects_as_cull_does_by_default(street, monkeypatc
     street's wall (0.66 of its diagonal) is tested through its clusters, the box and the
     trees (under 0.1) through their boxes; bounds='box' tests every object by its box."""
     from viscore.generators.levels import culling_column
-    from viscore.metrics import culling
-
     from viscore.level.scene_graph import load_scene_objects
+    from viscore.metrics import culling
 
     scene, _ = street
     seen = []
@@ -313,9 +312,8 @@ def test_cull_frames_and_path_share_the_memory_estimate(run, street, tmp_path, c
 @pytest.mark.parametrize("fov, ok", [(1e-300, False), (0.05, False), (0.1, True), (179, True),
                                      (179.5, False), (180, False)])
 def test_read_camera_path_fov_range(tmp_path, fov, ok):
-    from viscore.metrics.camera_paths import MAX_FOV, MIN_FOV, read_camera_path
-
     from viscore import InputError
+    from viscore.metrics.camera_paths import MAX_FOV, MIN_FOV, read_camera_path
 
     assert (MIN_FOV, MAX_FOV) == (0.1, 179.0)
     path = tmp_path / "p.json"

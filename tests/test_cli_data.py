@@ -1,6 +1,7 @@
 import json
 
 import trimesh
+
 from viscore.cli.main import main
 
 

@@ -8,11 +8,11 @@ and one line saying so and how to see the traceback (``--debug``). Ctrl-C: exit
 import logging
 
 import pytest
+
+from viscore import InputError
 from viscore.cli import metrics_cmd
 from viscore.cli.main import main
 from viscore.generators import REGISTRY, GeneratorSpec
-
-from viscore import InputError
 
 
 def _raising(exc):

@@ -6,6 +6,7 @@ import os
 import numpy as np
 import pytest
 import trimesh
+
 from viscore.cli import generate_cmd
 from viscore.cli.main import main
 from viscore.generators import REGISTRY, GeneratorOption, GeneratorSpec, Occluder
@@ -222,9 +223,8 @@ def _warning_tree(mesh, *, budget=None, seed=0):
     """A hierarchy whose node builder warns at every node and refuses the leaves."""
     import logging
 
-    from viscore.generators.planar_hierarchy import build_hierarchy
-
     from viscore import InputError
+    from viscore.generators.planar_hierarchy import build_hierarchy
 
     def builder(part, *, budget, seed):
         logging.getLogger("viscore.generators.test_builder").warning("this node is open")

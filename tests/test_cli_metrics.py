@@ -2,6 +2,7 @@ import json
 
 import pytest
 import trimesh
+
 from viscore.cli.main import main
 
 

@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError, load_occluder
 from viscore.cli.main import main
 from viscore.generators.levels import default_methods
 from viscore.generators.levels.occlude import occlude_level, occluder_of_mesh
-
-from viscore import InputError, load_occluder
 from viscore.level import LevelObjects, guess_up, level_objects
 
 T = trimesh.transformations

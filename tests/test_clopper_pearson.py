@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import pytest
 from scipy.stats import binomtest
+
 from viscore.metrics.conservativeness import clopper_pearson_upper
 
 CASES = [(k, n, c) for k, n in ((1, 10), (3, 50), (7, 1000), (50, 100), (99, 100),

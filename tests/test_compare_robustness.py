@@ -15,6 +15,7 @@ import sys
 import time
 
 import pytest
+
 from viscore.cli.main import main
 from viscore.cli.study.runner import TIMING_FIELDS
 

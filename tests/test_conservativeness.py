@@ -12,6 +12,9 @@ or right, so that it fails if the float64 judgement were dropped or made blind.
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import Scene, load_mesh
+from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 from viscore.metrics import check_conservative, orbit_frame
 from viscore.metrics.conservativeness import (
     _domain_rays,
@@ -19,9 +22,6 @@ from viscore.metrics.conservativeness import (
     _meet64,
     _violating_rays,
 )
-
-from viscore import Scene, load_mesh
-from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 
 #: A rotation about an oblique axis and an offset: no coordinate of the wall is
 #: exact in float32, as on the sloped roof of building-cottage.

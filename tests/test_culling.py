@@ -6,6 +6,8 @@ import logging
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError, PerspectiveCamera
 from viscore.generators import generate
 from viscore.generators.levels import (
     culling_runtimes,
@@ -14,6 +16,7 @@ from viscore.generators.levels import (
     scene_occluders,
     transform_occluder,
 )
+from viscore.level.scene_graph import load_scene_objects
 from viscore.metrics.culling import (
     PathCamera,
     Runtime,
@@ -25,9 +28,6 @@ from viscore.metrics.culling import (
     simulate_culling,
     view_frustum_mask,
 )
-
-from viscore import InputError, PerspectiveCamera
-from viscore.level.scene_graph import load_scene_objects
 
 UP = np.array([0.0, 1.0, 0.0])
 

@@ -477,9 +477,8 @@ def test_depth_buffer_scale_invariant(scale):
 def test_depth_buffer_from_generated_solids_hidden_by_the_mesh(rng):
     """End to end: the cow's solid-frusta occluder fed as an Occluder (its convex solids as
     pieces); what the buffer culls is hidden by the cow itself."""
-    from viscore.generators.solid_frusta import generate_solid_frusta
-
     from viscore import load_mesh
+    from viscore.generators.solid_frusta import generate_solid_frusta
 
     cow = load_mesh("cow")
     occ = generate_solid_frusta(cow, voxels=32, solids=6)

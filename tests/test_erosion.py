@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 import trimesh
-from viscore.metrics import directional_occlusion_measure, erosion_curve, occlusion_measure
-from viscore.metrics import erosion as erosion_module
 
 from viscore import InputError, directions_uniform
+from viscore.metrics import directional_occlusion_measure, erosion_curve, occlusion_measure
+from viscore.metrics import erosion as erosion_module
 
 
 def _disk_mesh(radius=1.0, segments=1024):

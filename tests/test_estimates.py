@@ -2,6 +2,7 @@
 
 import pytest
 import trimesh
+
 from viscore.metrics import estimates as est
 
 

@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 import trimesh
 from scipy import integrate
+
+from viscore import camera_basis, directions_uniform
 from viscore.metrics import (
     SILHOUETTE_COLOURS,
     assert_conservative,
@@ -20,8 +22,6 @@ from viscore.metrics import (
     silhouette_image,
     volume_precision_recall,
 )
-
-from viscore import camera_basis, directions_uniform
 
 #: Total measure of the unit square over the sphere (integral of M(d) over directions).
 SQUARE_TOTAL = 0.78653

@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 import trimesh
-from viscore.generators import REGISTRY, generate, generate_aabb_skins, generate_bbox, generate_qem
-from viscore.metrics import check_conservative, orbit_precision_recall
 
 from viscore import InputError, load_mesh
+from viscore.generators import REGISTRY, generate, generate_aabb_skins, generate_bbox, generate_qem
+from viscore.metrics import check_conservative, orbit_precision_recall
 
 WATERTIGHT_SCENES = ["fat-torus", "sponge", "building-house", "box-with-hole", "bunny", "cow"]
 
@@ -207,9 +207,9 @@ def test_qem_does_not_depend_on_earlier_pymeshlab_calls_in_the_process():
     import numpy as np
     import pymeshlab
     import trimesh
-    from viscore.generators import generate_qem
 
     from viscore import load_mesh
+    from viscore.generators import generate_qem
 
     cow = load_mesh("cow")
     before = generate_qem(cow, budget=64).mesh.vertices.copy()

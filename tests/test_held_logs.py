@@ -4,6 +4,7 @@ import logging
 import threading
 
 import pytest
+
 from viscore.generators._held_logs import held_records, release, report_parts
 
 _LOG = logging.getLogger("viscore.generators.test_held_logs")

@@ -111,9 +111,9 @@ import pytest
 import trimesh
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
-from viscore.cli.main import main
 
 from viscore import InputError, Scene, load_mesh
+from viscore.cli.main import main
 
 EXTENSIONS = ("obj", "ply", "stl", "off", "glb", "gltf", "zip")
 

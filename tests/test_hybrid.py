@@ -6,6 +6,9 @@ import numpy as np
 import pytest
 import shapely
 import trimesh
+
+from viscore import InputError, Scene
+from viscore.builtin_scenes import scene_group, scene_path
 from viscore.generators._polygons import triangulate_polygon
 from viscore.generators.hybrid import generate_hybrid
 from viscore.generators.hybrid._enforce import (
@@ -22,9 +25,6 @@ from viscore.generators.hybrid._patches import (
     xatlas_patch_labels,
 )
 from viscore.generators.hybrid._voxel import grid_shape, simplify_isosurface, winding_isosurface
-
-from viscore import InputError, Scene
-from viscore.builtin_scenes import scene_group, scene_path
 
 
 # ---------------------------------------------------------------------------- helpers

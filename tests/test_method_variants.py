@@ -5,10 +5,10 @@ import json
 import numpy as np
 import pytest
 import trimesh
-from viscore.cli.main import main
-from viscore.generators import check_method, generate, parse_method
 
 from viscore import InputError
+from viscore.cli.main import main
+from viscore.generators import check_method, generate, parse_method
 
 
 def test_label_is_canonical_and_round_trips():

@@ -1,5 +1,7 @@
 import numpy as np
 import pytest
+
+from viscore import InputError, load_mesh
 from viscore.metrics import (
     assert_conservative,
     check_conservative,
@@ -8,8 +10,6 @@ from viscore.metrics import (
     sample_quads,
     volume_precision_recall,
 )
-
-from viscore import InputError, load_mesh
 
 
 def _scaled(mesh, factor, about):

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError
 from viscore.generators.hybrid._face_tallies import _State
 from viscore.generators.hybrid.metric_guided import metric_guided_simplify
 from viscore.metrics.reference_views import ReferenceViews
-
-from viscore import InputError
 
 #: Small volume-protocol settings: ~100 positions, 16 x 16 pixels, 60 quads per frustum.
 SMALL = {"resolution": 16, "quads": 60, "spacing": 1.2, "seed": 0}

@@ -45,11 +45,14 @@ import numpy as np
 import pytest
 import test_conservativeness as check_guards
 import trimesh
+from scipy import ndimage
+
 import viscore.generators.aabb_skins.generator as aabb_module
 import viscore.generators.solid_frusta.generator as frusta_module
 import viscore.generators.surface_patches.generator as patches_module
 import viscore.metrics.conservativeness as conservativeness
-from scipy import ndimage
+from viscore import VoxelGrid, load_mesh, voxel_boundary_mesh
+from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 from viscore.generators import (
     Occluder,
     generate_aabb_skins,
@@ -60,9 +63,6 @@ from viscore.generators import (
 from viscore.generators.planar_sections import _slices
 from viscore.generators.testing import check_generator
 from viscore.metrics import check_conservative
-
-from viscore import VoxelGrid, load_mesh, voxel_boundary_mesh
-from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 from viscore.voxel.grid import outside_voxels
 
 #: Rays of every guard, volume domain (issue 24: at least 10^5 in the default run).

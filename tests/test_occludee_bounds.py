@@ -5,12 +5,12 @@ import json
 import numpy as np
 import pytest
 import trimesh
-from viscore.cli.main import main
-from viscore.metrics import culling
 
 from viscore import InputError
+from viscore.cli.main import main
 from viscore.culling.occludee_bounds import cluster_boxes, object_cluster_boxes
 from viscore.level.scene_graph import load_scene_objects
+from viscore.metrics import culling
 
 #: The one camera of the chunk scenes: at the origin, looking along +z, y up.
 EYE = culling.PathCamera(position=np.zeros(3), forward=np.array([0.0, 0.0, 1.0]),

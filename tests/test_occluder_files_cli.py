@@ -13,12 +13,12 @@ import struct
 import numpy as np
 import pytest
 import trimesh
-from viscore.cli.main import main
-from viscore.generators import generate
-from viscore.generators.levels.occluders import file_occluder
 
 from viscore import OccluderInstance, load_mesh, load_occluder, tres_text, tscn_text
+from viscore.cli.main import main
 from viscore.exchange.mesh_io import mesh_bytes
+from viscore.generators import generate
+from viscore.generators.levels.occluders import file_occluder
 
 #: Tiny study settings (as tests/test_cli_compare.py's).
 TINY = ["--views", "4", "--quads", "300", "--res", "32", "--rays", "1000", "--no-culling"]

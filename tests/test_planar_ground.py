@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError
 from viscore.generators.planar_sections import generate_planar_sections
 from viscore.generators.planar_sections._slices import section_solid
 from viscore.metrics import ReferenceViews
-
-from viscore import InputError
 
 #: Few bins: the generator's speed is a benchmark figure, not a test's.
 FAST = {"direction_bins": 6, "depth_bins": 2}
@@ -116,7 +116,6 @@ def test_the_floor_on_two_threads_makes_what_one_makes(case, caplog, monkeypatch
     import logging
 
     import viscore.generators.planar_sections.floor as floor_module
-
     from viscore import get_workers, set_workers
 
     mesh, options = {

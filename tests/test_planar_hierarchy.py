@@ -11,6 +11,9 @@ import logging
 import numpy as np
 import pytest
 import trimesh
+
+import viscore
+from viscore import InputError
 from viscore.generators.occluder import check_parts
 from viscore.generators.planar_hierarchy import (
     build_hierarchy,
@@ -22,9 +25,6 @@ from viscore.generators.planar_hierarchy import (
     hierarchy_to_json,
     index_hierarchy,
 )
-
-import viscore
-from viscore import InputError
 
 
 def _walk(root):

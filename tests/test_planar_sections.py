@@ -5,6 +5,8 @@ import pytest
 import shapely
 import trimesh
 from shapely.geometry import Polygon
+
+from viscore import InputError, Scene, load_mesh, voxel_boundary_mesh
 from viscore.generators._polygon_chain.simplify import simplification_chain
 from viscore.generators.planar_sections import (
     generate_planar_sections,
@@ -23,8 +25,6 @@ from viscore.generators.planar_sections._slices import (
     slice_image,
 )
 from viscore.metrics import ReferenceViews, check_conservative, directional_occlusion_measure
-
-from viscore import InputError, Scene, load_mesh, voxel_boundary_mesh
 
 #: Few bins: the generator's speed is a benchmark figure, not a test's.
 FAST = {"direction_bins": 6, "depth_bins": 2}

@@ -2,9 +2,9 @@
 
 import pytest
 from test_aabb_skins_thin_walls import RAYS, thin_room
+
 from viscore.generators import generate_planar_sections
 from viscore.metrics import check_conservative
-
 from viscore.voxel.wall_thickness import voxel_size_for_wall
 
 

@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 import trimesh
 from PIL import Image
+
+from viscore import InputError
 from viscore.metrics import AblationResult, orbit_precision_recall
 from viscore.metrics.plots import (
     SILHOUETTE_VIEWS,
@@ -19,8 +21,6 @@ from viscore.metrics.plots import (
     recall_plot,
     silhouette_plot,
 )
-
-from viscore import InputError
 
 
 def _pixels(path):
@@ -235,6 +235,7 @@ def test_plot_files_get_the_mode_open_gives(tmp_path):
     import stat
 
     from matplotlib.figure import Figure
+
     from viscore.metrics.plots import _save
 
     old = os.umask(0o022)

@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError
 from viscore.cli.main import main
 from viscore.generators import (
     REGISTRY,
@@ -31,8 +33,6 @@ from viscore.generators import (
     plugins,
     registry,
 )
-
-from viscore import InputError
 
 _PLUGIN_MODULE = '''
 import numpy as np

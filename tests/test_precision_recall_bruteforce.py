@@ -14,10 +14,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
-from viscore.metrics import orbit_precision_recall
-from viscore.metrics.reference_views import ReferenceViews
 
 from viscore import OrthoCamera, Scene, coverage_image
+from viscore.metrics import orbit_precision_recall
+from viscore.metrics.reference_views import ReferenceViews
 
 #: Small enough for Python loops over every quad's pixels, large enough for
 #: quads of several sizes (the box is ~20 pixels wide: widths 1 to 5).

@@ -189,9 +189,8 @@ def test_volume_quads_run_through_the_frusta_of_a_position():
 
 
 def test_pooling_and_bootstrap_as_documented():
-    from viscore.metrics import ReferenceViews, bootstrap_ratio
-
     from viscore import stream_seed
+    from viscore.metrics import ReferenceViews, bootstrap_ratio
 
     small = _box()
     small.apply_scale(0.7)

@@ -3,6 +3,8 @@ import pickle
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError, OrthoCamera, load_mesh
 from viscore.metrics import (
     ReferenceViews,
     evaluate,
@@ -10,8 +12,6 @@ from viscore.metrics import (
     volume_precision_recall,
 )
 from viscore.metrics._views import ortho_box_rays
-
-from viscore import InputError, OrthoCamera, load_mesh
 
 ORBIT = dict(views=6, quads=800, resolution=32, seed=5)
 VOLUME = dict(protocol="volume", spacing=0.9, quads=200, resolution=12, seed=1)

@@ -6,6 +6,8 @@ import logging
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError
 from viscore.generators import (
     REGISTRY,
     GeneratorOption,
@@ -15,8 +17,6 @@ from viscore.generators import (
     generate,
     get_generator,
 )
-
-from viscore import InputError
 
 
 @pytest.mark.parametrize("name", list(REGISTRY))
@@ -155,9 +155,8 @@ def test_check_parts_invalid_input(parts, match):
 
 
 def test_check_params_refuses_budgets_below_the_methods_minimum():
-    from viscore.generators import REGISTRY
-
     from viscore import InputError
+    from viscore.generators import REGISTRY
 
     spec = REGISTRY["aabb-skins"]
     assert spec.min_budget == 12

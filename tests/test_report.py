@@ -13,14 +13,14 @@ import numpy as np
 import pytest
 import trimesh
 from PIL import Image
+
+from viscore import InputError
 from viscore.cli.study.report import (
     SUMMARY_PRECISION,
     best_at_precision,
     write_occluder_glb,
     write_report,
 )
-
-from viscore import InputError
 
 _PNG = b"\x89PNG\r\n\x1a\n"
 

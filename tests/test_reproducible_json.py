@@ -20,10 +20,10 @@ import io
 import json
 
 import pytest
-from viscore.cli.main import main
-from viscore.generators import generate
 
 from viscore import load_mesh
+from viscore.cli.main import main
+from viscore.generators import generate
 
 #: The worker settings of the three runs: one thread, two threads, then the default.
 WORKERS = (["--workers", "1"], ["--workers", "2"], [])

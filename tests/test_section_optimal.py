@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import shapely
 from shapely.geometry import Point, Polygon
+
+from viscore import InputError
 from viscore.generators._polygon_chain.optimal import best_inscribed, refine_chain
 from viscore.generators._polygon_chain.simplify import simplification_chain
 from viscore.generators.planar_sections._loops import slice_polygons
-
-from viscore import InputError
 
 
 def _annulus(outer=15, inner=6, size=40):
@@ -111,6 +111,7 @@ def test_refined_chain_never_covers_a_hole():
 
 def test_planar_sections_chain_option():
     import trimesh
+
     from viscore.generators.planar_sections import generate_planar_sections
 
     box = trimesh.creation.box(extents=(2, 1, 1))

@@ -15,12 +15,12 @@ import trimesh
 from scipy import ndimage
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
+
+from viscore import load_mesh
 from viscore.generators._polygon_chain.optimal import _pocket_rules, best_inscribed, refine_chain
 from viscore.generators._polygon_chain.simplify import simplification_chain
 from viscore.generators.planar_sections._loops import bridge_holes, slice_polygons
 from viscore.generators.planar_sections._slices import best_slices, section_solid, slice_image
-
-from viscore import load_mesh
 
 
 def _shoelace(loop):

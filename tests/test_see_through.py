@@ -8,11 +8,11 @@ import trimesh
 from test_culling import _cull_all, _pose
 from test_scene_graph import _glb, _write
 from trimesh.visual.material import PBRMaterial
-from viscore.metrics.culling import Runtime, no_culling, simulate_culling
 
 from viscore.level import occluder_objects
 from viscore.level.objects import SEE_THROUGH_REFUSAL, level_objects
 from viscore.level.scene_graph import load_scene_objects
+from viscore.metrics.culling import Runtime, no_culling, simulate_culling
 
 _PRIM = {"attributes": {"POSITION": 0}, "indices": 1}
 

@@ -5,6 +5,9 @@ import logging
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError, load_mesh, winding_numbers
+from viscore.culling import FrustumCuller, solid_frustum
 from viscore.generators.aabb_skins import generate_aabb_skins
 from viscore.generators.solid_frusta.generator import (
     _Containment,
@@ -14,9 +17,6 @@ from viscore.generators.solid_frusta.generator import (
     generate_solid_frusta,
 )
 from viscore.metrics import check_conservative
-
-from viscore import InputError, load_mesh, winding_numbers
-from viscore.culling import FrustumCuller, solid_frustum
 
 #: Closed, consistently oriented built-in scenes.
 CLOSED_SCENES = ["fat-torus", "box-with-hole", "sponge", "hairball", "bunny", "cow",

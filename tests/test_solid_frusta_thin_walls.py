@@ -7,12 +7,12 @@ import pytest
 import trimesh
 from scipy import ndimage
 from test_aabb_skins_thin_walls import RAYS, thin_room
-from viscore.generators import generate_solid_frusta
-from viscore.generators.solid_frusta.generator import _inner_depth
-from viscore.metrics import check_conservative
 
 import viscore._validate as validate_module
 from viscore import InputError
+from viscore.generators import generate_solid_frusta
+from viscore.generators.solid_frusta.generator import _inner_depth
+from viscore.metrics import check_conservative
 from viscore.voxel.wall_thickness import voxel_size_for_wall
 
 LOGGER = "viscore.generators.solid_frusta.generator"
@@ -76,9 +76,10 @@ def test_generate_solid_frusta_voxel_sizing_invalid_input():
 
 
 def test_generate_solid_frusta_auto_open_room_same_solids_as_per_voxel(monkeypatch):
+    from test_aabb_skins_thin_walls import _per_voxel_winding, open_room
+
     import viscore.generators.aabb_skins.generator as box_module
     import viscore.generators.solid_frusta.generator as module
-    from test_aabb_skins_thin_walls import _per_voxel_winding, open_room
 
     room = open_room()
     fast = generate_solid_frusta(room, voxel_sizing="auto")

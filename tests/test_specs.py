@@ -4,6 +4,8 @@ import dataclasses
 
 import pytest
 import trimesh
+
+from viscore import InputError
 from viscore.generators import REGISTRY, GeneratorOption, GeneratorSpec
 from viscore.generators.specs import (
     _CheckOnlyMesh,
@@ -11,8 +13,6 @@ from viscore.generators.specs import (
     check_only,
     check_only_call,
 )
-
-from viscore import InputError
 
 
 def _recording(steps: list):

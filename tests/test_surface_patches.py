@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
-from viscore.generators._plane_regions import plane_regions
-from viscore.generators.surface_patches import generate_surface_patches
-from viscore.metrics import check_conservative
 
 import viscore
 from viscore import InputError, Scene
+from viscore.generators._plane_regions import plane_regions
+from viscore.generators.surface_patches import generate_surface_patches
+from viscore.metrics import check_conservative
 
 
 def _quad(x0, y0, x1, y1, z=0.0):
@@ -209,6 +209,7 @@ def test_bands_cover_a_wall_with_windows_edge_to_edge():
     windows is not merged with the piers above it (their union is not convex), the top
     band is one piece."""
     import shapely
+
     from viscore.generators._convex_bands import convex_bands
 
     wall = shapely.box(0, 0, 100, 60)

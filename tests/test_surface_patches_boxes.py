@@ -7,6 +7,8 @@ import logging
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError, Scene
 from viscore.generators import REGISTRY, generate_aabb_skins
 from viscore.generators.surface_patches import _inner_boxes, generate_surface_patches
 from viscore.generators.surface_patches._inner_boxes import (
@@ -16,8 +18,6 @@ from viscore.generators.surface_patches._inner_boxes import (
     unshadowed_measures,
 )
 from viscore.metrics import check_conservative
-
-from viscore import InputError, Scene
 
 #: Rays per domain of the default-run conservativeness checks (the issue: 10^5).
 RAYS = 100_000

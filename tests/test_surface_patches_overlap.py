@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError
 from viscore.generators.surface_patches import generate_surface_patches
 from viscore.generators.surface_patches._overlap import select_with_overlap
 from viscore.generators.surface_patches.generator import _select
-
-from viscore import InputError
 
 
 def _square_maps(n_dirs=3, size=16):

@@ -10,16 +10,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+
+from viscore import InputError, PerspectiveCamera, Scene
 from viscore.cli.bench.table1 import height_field_sheet
+from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
 from viscore.generators import generate
 from viscore.generators.levels.occluders import joined_occluder
 from viscore.generators.surface_patches._overlap import select_with_overlap
 from viscore.generators.surface_patches._sheets import chunk_measure, sheet_chunks
-from viscore.metrics.conservativeness import assert_conservative
-
-from viscore import InputError, PerspectiveCamera, Scene
-from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
 from viscore.level.scene_graph import load_scene_objects
+from viscore.metrics.conservativeness import assert_conservative
 
 
 def _hill(n=25, size=100.0, height=15.0, hole=True):

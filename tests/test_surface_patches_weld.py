@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 import trimesh
 from test_depth_patches import _sampled_first_hits
-from viscore.generators.surface_patches._crease_weld import crease_lines, weld_points
-from viscore.generators.surface_patches.generator import EROSION, generate_surface_patches
-from viscore.metrics import check_conservative
 
 from viscore import InputError, PerspectiveCamera, Scene
 from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
+from viscore.generators.surface_patches._crease_weld import crease_lines, weld_points
+from viscore.generators.surface_patches.generator import EROSION, generate_surface_patches
+from viscore.metrics import check_conservative
 
 
 def _quads(corners) -> trimesh.Trimesh:

@@ -5,16 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+
+from viscore.builtin_scenes import scene_path
 from viscore.cli.bench.table1 import height_field_sheet
+from viscore.exchange.mesh_io import load_mesh
 from viscore.generators import generate
 from viscore.generators.terrain_drape._envelope import hidden_floor, lattice_directions
 from viscore.generators.terrain_drape._fit import fit_drape
 from viscore.generators.terrain_drape._heights import lowest_surface
 from viscore.generators.terrain_drape._line_check import escaping_lines
 from viscore.metrics import ReferenceViews
-
-from viscore.builtin_scenes import scene_path
-from viscore.exchange.mesh_io import load_mesh
 from viscore.ray.embree_scene import Scene
 
 

@@ -9,6 +9,8 @@ import json
 import os
 
 import pytest
+
+from viscore import InputError, load_mesh, stream_seed
 from viscore.cli import uncertainty_cmd
 from viscore.cli.main import main
 from viscore.metrics import (
@@ -18,8 +20,6 @@ from viscore.metrics import (
     uncertainty_report,
 )
 from viscore.metrics import uncertainty as uncertainty_module
-
-from viscore import InputError, load_mesh, stream_seed
 
 
 def _scaled(mesh, factor):

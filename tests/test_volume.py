@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
-from viscore.metrics import volume_precision_recall
-from viscore.metrics.volume import volume_positions
 
 from viscore import load_mesh
+from viscore.metrics import volume_precision_recall
+from viscore.metrics.volume import volume_positions
 
 
 def _shrunk(mesh, factor):
@@ -87,10 +87,10 @@ def test_a_mesh_with_no_view_position_outside_it_is_refused_in_one_line():
     # a needle thinner than the grid spacing: every grid position classifies inside
     # (or none is outside), which used to fail deep inside numpy
     import trimesh
-    from viscore.metrics import ReferenceViews
-    from viscore.metrics.volume import volume_positions
 
     from viscore import InputError
+    from viscore.metrics import ReferenceViews
+    from viscore.metrics.volume import volume_positions
 
     needle = trimesh.creation.box(extents=(1000, 0.001, 0.001))
     with pytest.raises(InputError, match="no view position outside the mesh"):

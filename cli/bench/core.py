@@ -106,9 +106,8 @@ def bench_ray_sets(mesh, *, views: int = 4, resolution: int = 1024, rays: int = 
         ``'coherent'`` and ``'incoherent'``: (origins, unit directions), each
         ``(n, 3) float64``.
     """
-    from viscore.metrics import orbit_frame
-
     from viscore import OrthoCamera, stream_seed
+    from viscore.metrics import orbit_frame
 
     center, extent = orbit_frame(mesh)
     cams = [OrthoCamera(f, center, extent, resolution)
@@ -436,9 +435,8 @@ def bench_evaluate(*, mesh: str = "bunny", views: int = 256, quads: int = 32000,
     InputError
         If a setting is not a positive integer.
     """
-    from viscore.generators import generate_qem
-
     from viscore._validate import as_positive_int, as_seed
+    from viscore.generators import generate_qem
 
     views = as_positive_int(views, "views")
     quads = as_positive_int(quads, "quads")

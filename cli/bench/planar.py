@@ -82,9 +82,8 @@ def godot_within(mesh, budget: int, *, steps: int = 24):
         triangles (open borders are locked; see
         :func:`viscore.generators.generate_godot`).
     """
-    from viscore.generators import generate_godot
-
     from viscore import InputError
+    from viscore.generators import generate_godot
 
     diag = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
     best = None

@@ -68,8 +68,6 @@ from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from viscore.metrics.estimates import study_bytes
-
 from viscore import InputError, cpu_cores
 from viscore._jobs import (
     SCHEDULER_PROBE_SECONDS,
@@ -79,6 +77,7 @@ from viscore._jobs import (
     stop_pool,
 )
 from viscore.exchange.mesh_io import mesh_bytes
+from viscore.metrics.estimates import study_bytes
 
 from .._common import dumps, write_atomic
 from .store import StudyFolder
@@ -332,9 +331,8 @@ def build_views(mesh: str, settings: StudySettings, workers: int | None = None,
 
     ``original`` is the mesh already loaded (by the parent); default: loaded here.
     """
-    from viscore.metrics import ReferenceViews
-
     from viscore import load_mesh, set_workers
+    from viscore.metrics import ReferenceViews
 
     set_workers(workers)
     return ReferenceViews(load_mesh(mesh) if original is None else original,
@@ -400,10 +398,9 @@ def run_job(job: Job, workers: int | None = None, views=None) -> tuple[dict, byt
     ``views`` are the mesh's :class:`viscore.metrics.ReferenceViews` for the
     job's settings (built here when not given).
     """
+    from viscore import set_workers
     from viscore.generators import generate
     from viscore.metrics import assess_occluder
-
-    from viscore import set_workers
 
     s = job.settings
     set_workers(workers)

@@ -13,12 +13,12 @@ import time
 
 import numpy as np
 import trimesh
-from viscore.metrics.precision_recall import pooled_ratio, ratio
-from viscore.metrics.reference_views import ReferenceViews
 
 from viscore import Scene
 from viscore._jit import njit_cached
 from viscore._validate import check_memory
+from viscore.metrics.precision_recall import pooled_ratio, ratio
+from viscore.metrics.reference_views import ReferenceViews
 
 #: Coplanar partners (faces overlapping in one plane, which all-hits lists one of):
 #: plane distance as a fraction of the diagonal (the all-hits step, under which two

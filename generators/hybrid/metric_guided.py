@@ -70,10 +70,10 @@ import time
 
 import numpy as np
 import trimesh
-from viscore.metrics.reference_views import ReferenceViews
 
 from viscore import InputError, validate_mesh
 from viscore._validate import as_fraction, as_positive, as_positive_int, as_seed
+from viscore.metrics.reference_views import ReferenceViews
 
 from ._face_tallies import _State
 

@@ -29,11 +29,11 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import numpy.typing as npt
-from viscore.metrics.culling import Runtime, depth_buffer_runtime, frusta_runtime, no_culling
 
 from viscore import InputError
 from viscore._validate import as_positive_int
 from viscore.level.scene_graph import SceneObjects
+from viscore.metrics.culling import Runtime, depth_buffer_runtime, frusta_runtime, no_culling
 
 from .._held_logs import release
 from ..occluder import Occluder
@@ -377,11 +377,10 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
     InputError
         Unknown method, bad sizes, unknown ``bounds``.
     """
-    from viscore.metrics.culling import camera_path, simulate_culling
-
     from viscore.culling.occludee_bounds import DEFAULT_CLUSTERS, occludee_boxes
     from viscore.level import load_scene_objects
     from viscore.level.objects import occluder_objects
+    from viscore.metrics.culling import camera_path, simulate_culling
 
     if bounds not in ("auto", "box"):
         raise InputError(f"bounds: expected 'auto' or 'box', got {bounds!r}")

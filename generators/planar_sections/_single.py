@@ -15,12 +15,12 @@ import time
 
 import numpy as np
 import trimesh
-from viscore.metrics.orbit import orbit_frame
 
 from viscore import InputError, voxel_grid
 from viscore._validate import (
     check_memory,
 )
+from viscore.metrics.orbit import orbit_frame
 
 from .._polygon_chain import refine_chain, simplification_chain
 from . import _slices

@@ -18,9 +18,9 @@ import time
 
 import numpy as np
 import trimesh
-from viscore.metrics.frames import orbit_frame
 
 from viscore import InputError, get_workers
+from viscore.metrics.frames import orbit_frame
 
 from .._held_logs import held_records, release
 from .._precision_check import (

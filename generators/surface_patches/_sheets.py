@@ -220,6 +220,7 @@ def chunk_measure(tri: np.ndarray) -> float:
     0.17
     """
     from skimage.draw import polygon as fill
+
     from viscore.metrics import directional_occlusion_measure
 
     tri = np.asarray(tri, dtype=np.float64)

@@ -214,6 +214,7 @@ def _loop(piece: Polygon) -> np.ndarray:
 def _stage_measure(ring: np.ndarray) -> float:
     """Head-on occlusion measure (units^3) of a simple loop in grid units, rasterized."""
     from skimage.draw import polygon as fill
+
     from viscore.metrics import directional_occlusion_measure
 
     lo, hi = ring.min(axis=0), ring.max(axis=0)

@@ -7,6 +7,7 @@ docstring); ``fixture-spec`` is a full :class:`viscore.generators.GeneratorSpec`
 from __future__ import annotations
 
 import trimesh
+
 from viscore.generators import GeneratorOption, GeneratorSpec, Occluder
 
 
