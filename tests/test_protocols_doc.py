@@ -144,7 +144,7 @@ def test_every_doi_of_the_document_is_cited_in_the_code():
     source = ""
     for package in ("viscore", "viscore.metrics", "viscore.generators", "viscore.cli"):
         folder = Path(importlib.import_module(package).__file__).parent
-        source += "".join(p.read_text(encoding="utf-8") for p in folder.glob("*.py"))
+        source += "".join(p.read_text(encoding="utf-8") for p in folder.rglob("*.py"))
     assert not sorted(d for d in dois if d not in source)
 
 
