@@ -14,12 +14,15 @@ methods under the ``viscore.generators`` entry points (plugins, see
 from .aabb_skins import boxes_mesh, generate_aabb_skins
 from .baselines import generate_bbox, generate_godot, generate_original, generate_qem
 from .hybrid import generate_hybrid, metric_guided_simplify
-from .levels.occluders import (
+from .levels import (
     JOINED_METHODS,
+    culling_column,
     culling_runtimes,
+    default_methods,
     file_occluder,
     frusta_method,
     joined_occluder,
+    occlude_level,
     occluder_objects,
     scene_occluders,
 )
@@ -62,5 +65,6 @@ __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOpt
            "hierarchy_files", "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify",
            "occluder_objects", "scene_occluders", "file_occluder", "culling_runtimes",
            "frusta_method", "JOINED_METHODS", "joined_occluder", "occlude_level",
+           "culling_column", "default_methods", "occlude_level",
            "culling_column", "default_methods",
            "PluginError", "PLUGIN_GROUP", "plugin_versions", "check_generator"]
