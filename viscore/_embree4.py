@@ -1,0 +1,552 @@
+"""Embree 4's ray packets (``rtcIntersect16``, ``rtcOccluded16``) from embreex's own library.
+
+The one module behind this binding: :class:`viscore.Scene` asks :func:`library`
+for it and falls back to embreex's per-ray ``EmbreeScene.run`` where it
+answers None. Nothing is compiled at install: the ``libembree4`` that the
+embreex wheel installs beside itself (``embreex.libs/`` on Linux,
+``embreex/.dylibs/`` on macOS) is opened with :mod:`ctypes`, the scene is
+built through it once, and compiled numba loops (``nogil``) fill packets of
+16 rays in buffers this module owns and call the packet entry points by
+address, so a thread holds the GIL only to start a chunk of rays.
+
+The scene is built as embreex builds it (default device, robust mode,
+medium build quality, one triangle geometry, vertices padded to 16 bytes),
+except that the vertex and index buffers are shared with Python
+(``rtcSetSharedGeometryBuffer``) rather than copied: the
+:class:`PacketScene` keeps them alive as long as Embree may read them.
+
+Struct layouts, enum values and calls follow Embree 4's public headers
+(``include/embree4/rtcore_ray.h``, ``rtcore_scene.h``, ``rtcore_geometry.h``,
+``rtcore_device.h``, ``rtcore_common.h``): ``RTCRayHit16`` is a
+structure of arrays of 16 lanes, 64-byte aligned, the ray's twelve rows
+(``org_x, org_y, org_z, tnear, dir_x, dir_y, dir_z, time, tfar, mask, id,
+flags``) then the hit's (``Ng_x, Ng_y, Ng_z, u, v, primID, geomID,
+instID[...]``); a lane is traced where its ``valid`` entry is -1.
+
+Set the environment variable ``VISCORE_RAY_PACKETS=0`` to make every
+:class:`~viscore.Scene` built afterwards use embreex alone (to compare the
+two paths, or to step around a broken library).
+
+References
+----------
+.. [1] Wald, I., Woop, S., Benthin, C., Johnson, G. S., Ernst, M. "Embree: A
+   Kernel Framework for Efficient CPU Ray Tracing". ACM Transactions on
+   Graphics 33(4), 2014, article 143. :DOI:`10.1145/2601097.2601199`
+"""
+
+from __future__ import annotations
+
+import ctypes
+import glob
+import logging
+import os
+import threading
+from dataclasses import dataclass
+from importlib import util as importlib_util
+
+import numpy as np
+from numba import types
+from numba.extending import intrinsic
+
+from ._jit import njit_cached
+
+__all__ = ["PacketScene", "library", "packets_enabled", "PACKETS_ENV"]
+
+_log = logging.getLogger(__name__)
+
+#: Environment variable that turns the packet path off where it is ``0``
+#: (also ``false``, ``no``, ``off``): every Scene built afterwards uses embreex.
+PACKETS_ENV = "VISCORE_RAY_PACKETS"
+
+#: Where embreex's wheels put their libembree4, relative to the folder holding
+#: the ``embreex`` package (auditwheel, delocate, delvewheel), and its names.
+_LIBRARY_FOLDERS = ("embreex.libs", os.path.join("embreex", ".dylibs"), "embreex")
+_LIBRARY_PATTERNS = ("libembree4*.so*", "libembree4*.dylib", "embree4*.dll")
+
+#: Symbols the packet path needs; a library without one of them is not used.
+_SYMBOLS = ("rtcNewDevice", "rtcReleaseDevice", "rtcGetDeviceError", "rtcNewScene",
+            "rtcReleaseScene", "rtcSetSceneFlags", "rtcSetSceneBuildQuality",
+            "rtcCommitScene", "rtcNewGeometry", "rtcReleaseGeometry",
+            "rtcSetSharedGeometryBuffer", "rtcCommitGeometry", "rtcAttachGeometry",
+            "rtcGetDeviceProperty", "rtcIntersect1", "rtcIntersect16", "rtcOccluded16")
+
+# enum values of Embree 4's headers
+_RTC_SCENE_FLAG_ROBUST = 1 << 2             # rtcore_scene.h, RTCSceneFlags
+_RTC_BUILD_QUALITY_MEDIUM = 1               # rtcore_common.h, RTCBuildQuality (the default)
+_RTC_GEOMETRY_TYPE_TRIANGLE = 0             # rtcore_geometry.h, RTCGeometryType
+_RTC_BUFFER_TYPE_INDEX = 0                  # rtcore_buffer.h, RTCBufferType
+_RTC_BUFFER_TYPE_VERTEX = 1
+_RTC_FORMAT_UINT3 = 0x5003                  # rtcore_common.h, RTCFormat
+_RTC_FORMAT_FLOAT3 = 0x9003
+_RTC_DEVICE_PROPERTY_VERSION_MAJOR = 1      # rtcore_device.h, RTCDeviceProperty
+_RTC_DEVICE_PROPERTY_VERSION = 0
+_RTC_RAY_QUERY_FLAG_INCOHERENT = 0          # rtcore_common.h, RTCRayQueryFlags
+_RTC_RAY_QUERY_FLAG_COHERENT = 1 << 16
+_RTC_FEATURE_FLAG_ALL = -1                  # 0xffffffff as an int32
+
+#: Lanes of a packet (``RTCRayHit16``) and the alignment Embree requires of it, bytes.
+PACKET = 16
+_ALIGN = 64
+
+#: Rows of the ``RTCRayHit16`` buffer: the ray's twelve, the hit's seven, and
+#: room for up to six instance levels of ``instID`` and ``instPrimID`` (the
+#: release builds have one): Embree may write them, viscore never reads them.
+_ROWS = 12 + 7 + 2 * 6
+_ORG_X, _TNEAR, _DIR_X, _TIME, _TFAR, _MASK, _ID, _FLAGS = 0, 3, 4, 7, 8, 9, 10, 11
+_U, _V, _PRIM_ID, _GEOM_ID, _INST_ID = 15, 16, 17, 18, 19
+
+#: Words of one ``RTCRayHit`` (``rtcIntersect1``): the same fields, one lane
+#: each, in the same order (the hit starts at word 12), with the same room.
+_WORDS = _ROWS
+
+#: A first hit whose barycentric coordinates (u, v, 1 - u - v) come within this
+#: of an edge is traced again alone, by ``rtcIntersect1`` as embreex traces it.
+#: There a neighbour sharing the edge or vertex may be hit at exactly the same
+#: distance (two coplanar triangles: the diagonal of a cube's face), and which
+#: of the two Embree reports depends on the order it meets them, which differs
+#: between packet and single-ray traversal (in a leaf of four triangles, the
+#: single ray keeps the first of equal hits, a packet the last). Embree's edge
+#: test lets a neighbour hit within about 1.2e-7 (float32's epsilon) of its
+#: own (U + V + W), so 1e-3 covers neighbours up to thousands of times larger
+#: than the triangle hit; about 0.6% of hits are traced twice.
+_TIE_BARYCENTRIC = 1e-3
+
+#: ``tfar`` of a ray without ``max_distance``: the value embreex's ``run`` sets,
+#: so that both paths trace the same segment.
+_DEFAULT_TFAR = np.float32(1e37)
+
+#: A packet of 16 rays is traced with Embree's coherent flag where every
+#: direction is within this of the first (squared distance of unit vectors,
+#: about 0.06 rad): an orthographic view's rays, or a perspective view's
+#: neighbours. The flag selects Embree's frustum traversal, a gain on such a
+#: packet and a loss on scattered rays; either gives each ray its nearest hit.
+_COHERENT_SPREAD2 = 4e-3
+
+
+@intrinsic
+def _call_packet(typingctx, fn, valid, scene, rays, args):
+    """``fn(valid, scene, rays, args)``: call Embree's packet function at address ``fn``.
+
+    Every argument is an address (``intp``); numba calls the C function
+    ``void (const int*, RTCScene, void*, void*)`` through a pointer, so no
+    ctypes object is baked into the compiled code (which numba could not cache).
+    """
+    from llvmlite import ir
+
+    sig = types.void(types.intp, types.intp, types.intp, types.intp, types.intp)
+
+    def codegen(context, builder, signature, llargs):
+        pointer = ir.IntType(8).as_pointer()
+        fnty = ir.FunctionType(ir.VoidType(), [pointer] * 4)
+        callee = builder.inttoptr(llargs[0], fnty.as_pointer())
+        builder.call(callee, [builder.inttoptr(a, pointer) for a in llargs[1:]])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@njit_cached(nogil=True)
+def _fill_packet(o32, d32, tfar32, has_tfar, a, k, rf, ri, valid):  # pragma: no cover - compiled
+    """Load rays ``a .. a+k-1`` (flat float32 ``o32``, ``d32``) into packet lanes ``0 .. k-1``.
+
+    Lanes ``k .. 15`` repeat the last ray and are marked invalid (0), the
+    others valid (-1). ``rf`` and ``ri`` are the float32 and int32 views of one
+    ``RTCRayHit16``. Returns whether the packet is coherent (see
+    ``_COHERENT_SPREAD2``).
+    """
+    x0, y0, z0 = d32[3 * a], d32[3 * a + 1], d32[3 * a + 2]
+    spread = np.float32(0.0)
+    for j in range(PACKET):
+        i = a + min(j, k - 1)
+        dx, dy, dz = d32[3 * i], d32[3 * i + 1], d32[3 * i + 2]
+        rf[_ORG_X, j] = o32[3 * i]
+        rf[_ORG_X + 1, j] = o32[3 * i + 1]
+        rf[_ORG_X + 2, j] = o32[3 * i + 2]
+        rf[_TNEAR, j] = 0.0
+        rf[_DIR_X, j] = dx
+        rf[_DIR_X + 1, j] = dy
+        rf[_DIR_X + 2, j] = dz
+        rf[_TIME, j] = 0.0
+        rf[_TFAR, j] = tfar32[i] if has_tfar else _DEFAULT_TFAR
+        ri[_MASK, j] = -1
+        ri[_ID, j] = 0
+        ri[_FLAGS, j] = 0
+        ri[_PRIM_ID, j] = -1
+        ri[_GEOM_ID, j] = -1
+        ri[_INST_ID, j] = -1
+        valid[j] = -1 if j < k else 0
+        ex, ey, ez = dx - x0, dy - y0, dz - z0
+        spread = max(spread, (ex * ex + ey * ey) + ez * ez)
+    return spread <= _COHERENT_SPREAD2
+
+
+@intrinsic
+def _call_single(typingctx, fn, scene, rayhit, args):
+    """``fn(scene, rayhit, args)``: call ``rtcIntersect1`` at address ``fn`` (all addresses)."""
+    from llvmlite import ir
+
+    sig = types.void(types.intp, types.intp, types.intp, types.intp)
+
+    def codegen(context, builder, signature, llargs):
+        pointer = ir.IntType(8).as_pointer()
+        fnty = ir.FunctionType(ir.VoidType(), [pointer] * 3)
+        callee = builder.inttoptr(llargs[0], fnty.as_pointer())
+        builder.call(callee, [builder.inttoptr(a, pointer) for a in llargs[1:]])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@njit_cached(nogil=True)
+def _intersect_one(fn1, scene, o32, d32, tfar32, has_tfar, i, sf, si):  # pragma: no cover
+    """Trace ray ``i`` alone with ``rtcIntersect1``, as embreex's ``run`` does; returns primID.
+
+    ``sf``, ``si``: float32 and int32 views of one ``RTCRayHit``; its ``tfar``
+    is left in ``sf[_TFAR]``. The arguments are NULL (Embree's defaults), as
+    embreex passes them.
+    """
+    sf[_ORG_X] = o32[3 * i]
+    sf[_ORG_X + 1] = o32[3 * i + 1]
+    sf[_ORG_X + 2] = o32[3 * i + 2]
+    sf[_TNEAR] = 0.0
+    sf[_DIR_X] = d32[3 * i]
+    sf[_DIR_X + 1] = d32[3 * i + 1]
+    sf[_DIR_X + 2] = d32[3 * i + 2]
+    sf[_TIME] = 0.0
+    sf[_TFAR] = tfar32[i] if has_tfar else _DEFAULT_TFAR
+    si[_MASK] = -1
+    si[_ID] = 0
+    si[_FLAGS] = 0
+    si[_PRIM_ID] = -1
+    si[_GEOM_ID] = -1
+    si[_INST_ID] = -1
+    _call_single(fn1, scene, sf.ctypes.data, 0)
+    return si[_PRIM_ID]
+
+
+@njit_cached(nogil=True)
+def _intersect_chunk(fn, fn1, scene, o32, d32, tfar32, has_tfar, scale, t, tri, rf, ri, valid,
+                     args, sf, si):  # pragma: no cover - compiled
+    """Nearest hits of one chunk of float32 unit-frame rays, by packets of 16.
+
+    Writes ``t = float64(tfar) * scale`` (``inf`` on a miss) and ``tri`` (the
+    triangle, -1 on a miss) for each ray, as ``viscore.scene._store_hits``
+    does for embreex's results. ``args`` is an ``RTCIntersectArguments``
+    (int32 words); its flags are set per packet. A hit at an edge or a vertex
+    of its triangle is traced again alone (``fn1``, ``rtcIntersect1``: see
+    ``_TIE_BARYCENTRIC``) in ``sf``/``si``. Returns how many were.
+    """
+    m = t.shape[0]
+    again = 0
+    for a in range(0, m, PACKET):
+        k = min(PACKET, m - a)
+        coherent = _fill_packet(o32, d32, tfar32, has_tfar, a, k, rf, ri, valid)
+        args[0] = _RTC_RAY_QUERY_FLAG_COHERENT if coherent else _RTC_RAY_QUERY_FLAG_INCOHERENT
+        _call_packet(fn, valid.ctypes.data, scene, rf.ctypes.data, args.ctypes.data)
+        for j in range(k):
+            p = ri[_PRIM_ID, j]
+            tfar = rf[_TFAR, j]
+            if p >= 0:
+                u, v = rf[_U, j], rf[_V, j]
+                if min(u, v, np.float32(1.0) - u - v) < _TIE_BARYCENTRIC:
+                    p = _intersect_one(fn1, scene, o32, d32, tfar32, has_tfar, a + j, sf, si)
+                    tfar = sf[_TFAR]
+                    again += 1
+            tri[a + j] = p
+            t[a + j] = np.inf if p < 0 else np.float64(tfar) * scale
+    return again
+
+
+@njit_cached(nogil=True)
+def _occluded_chunk(fn, scene, o32, d32, tfar32, has_tfar, hit, rf, ri, valid,
+                    args):  # pragma: no cover - compiled
+    """Whether each ray of one chunk hits anything, by packets of 16 (``rtcOccluded16``).
+
+    Embree marks an occluded ray by setting its ``tfar`` to ``-inf``.
+    """
+    m = hit.shape[0]
+    for a in range(0, m, PACKET):
+        k = min(PACKET, m - a)
+        coherent = _fill_packet(o32, d32, tfar32, has_tfar, a, k, rf, ri, valid)
+        args[0] = _RTC_RAY_QUERY_FLAG_COHERENT if coherent else _RTC_RAY_QUERY_FLAG_INCOHERENT
+        _call_packet(fn, valid.ctypes.data, scene, rf.ctypes.data, args.ctypes.data)
+        for j in range(k):
+            hit[a + j] = rf[_TFAR, j] < 0
+
+
+def _kernel_signatures() -> dict:
+    """Kernel -> the only signature it is compiled for (as ``viscore.scene`` pins its own)."""
+
+    def array(dtype, ndim: int = 1):
+        return types.Array(dtype, ndim, "C")
+
+    f32, i32, i64, f64 = types.float32, types.int32, types.int64, types.float64
+    ptr = types.intp
+    rays = array(f32)
+    packet = (array(f32, 2), array(i32, 2), array(i32), array(i32))
+    return {
+        _intersect_chunk: [i64(ptr, ptr, ptr, rays, rays, rays, types.boolean, f64,
+                               array(f64), array(i64), *packet, array(f32), array(i32))],
+        _occluded_chunk: [types.void(ptr, ptr, rays, rays, rays, types.boolean,
+                                     array(types.boolean), *packet)],
+    }
+
+
+_kernels_lock = threading.Lock()
+_kernels_ready = False
+
+
+def _ready_kernels() -> None:
+    """Compile (or load from numba's cache) the two packet loops once, for one signature each."""
+    global _kernels_ready
+    if _kernels_ready:
+        return
+    with _kernels_lock:
+        if not _kernels_ready:
+            for kernel, signatures in _kernel_signatures().items():
+                if hasattr(kernel, "disable_compile"):  # not under NUMBA_DISABLE_JIT
+                    for signature in signatures:
+                        kernel.compile(signature)
+                    kernel.disable_compile()
+            _kernels_ready = True
+
+
+def packets_enabled() -> bool:
+    """False where ``VISCORE_RAY_PACKETS`` says ``0``, ``false``, ``no`` or ``off``."""
+    return os.environ.get(PACKETS_ENV, "1").strip().lower() not in ("0", "false", "no", "off")
+
+
+def _library_candidates() -> list[str]:
+    """Paths of the libembree4 files embreex's wheel installed, best first (may be empty)."""
+    spec = importlib_util.find_spec("embreex")
+    if spec is None or not spec.submodule_search_locations:
+        return []
+    package = list(spec.submodule_search_locations)[0]
+    root = os.path.dirname(package)
+    found = []
+    for folder in _LIBRARY_FOLDERS:
+        for pattern in _LIBRARY_PATTERNS:
+            found.extend(sorted(glob.glob(os.path.join(root, folder, pattern))))
+    return found
+
+
+@dataclass(frozen=True)
+class Library:
+    """An opened libembree4 that has every symbol the packet path calls.
+
+    Attributes
+    ----------
+    path : str
+        The library file.
+    cdll : ctypes.CDLL
+        Its handle, with ``argtypes`` and ``restype`` set on the calls used.
+    intersect1, intersect16, occluded16 : int
+        Addresses of ``rtcIntersect1``, ``rtcIntersect16`` and ``rtcOccluded16``.
+    version : int
+        Embree's version as ``major * 10000 + minor * 100 + patch``.
+    """
+
+    path: str
+    cdll: ctypes.CDLL
+    intersect1: int
+    intersect16: int
+    occluded16: int
+    version: int
+
+
+def _declare(cdll: ctypes.CDLL) -> None:
+    """Set the C signatures (rtcore_*.h) of the calls made through ctypes."""
+    p, u, z = ctypes.c_void_p, ctypes.c_uint, ctypes.c_size_t
+    i = ctypes.c_int
+    calls = {
+        "rtcNewDevice": (p, [ctypes.c_char_p]),
+        "rtcReleaseDevice": (None, [p]),
+        "rtcGetDeviceError": (i, [p]),
+        "rtcGetDeviceProperty": (ctypes.c_ssize_t, [p, i]),
+        "rtcNewScene": (p, [p]),
+        "rtcReleaseScene": (None, [p]),
+        "rtcSetSceneFlags": (None, [p, i]),
+        "rtcSetSceneBuildQuality": (None, [p, i]),
+        "rtcCommitScene": (None, [p]),
+        "rtcNewGeometry": (p, [p, i]),
+        "rtcReleaseGeometry": (None, [p]),
+        "rtcSetSharedGeometryBuffer": (None, [p, i, u, i, p, z, z, z]),
+        "rtcCommitGeometry": (None, [p]),
+        "rtcAttachGeometry": (u, [p, p]),
+    }
+    for name, (restype, argtypes) in calls.items():
+        fn = getattr(cdll, name)
+        fn.restype = restype
+        fn.argtypes = argtypes
+
+
+def _open(path: str) -> Library | None:
+    """The library at ``path`` if it opens, has every symbol and is Embree 4; else None."""
+    try:
+        cdll = ctypes.CDLL(path)
+    except OSError as exc:
+        _log.debug("libembree4 at %s does not open: %s", path, exc)
+        return None
+    missing = [name for name in _SYMBOLS if not hasattr(cdll, name)]
+    if missing:
+        _log.debug("libembree4 at %s lacks %s", path, ", ".join(missing))
+        return None
+    _declare(cdll)
+    device = cdll.rtcNewDevice(None)
+    if not device:
+        return None
+    try:
+        major = cdll.rtcGetDeviceProperty(device, _RTC_DEVICE_PROPERTY_VERSION_MAJOR)
+        version = cdll.rtcGetDeviceProperty(device, _RTC_DEVICE_PROPERTY_VERSION)
+    finally:
+        cdll.rtcReleaseDevice(device)
+    if major != 4:
+        _log.debug("library at %s is Embree %d, not 4", path, major)
+        return None
+    address = ctypes.cast
+    return Library(path=path, cdll=cdll,
+                   intersect1=address(cdll.rtcIntersect1, ctypes.c_void_p).value,
+                   intersect16=address(cdll.rtcIntersect16, ctypes.c_void_p).value,
+                   occluded16=address(cdll.rtcOccluded16, ctypes.c_void_p).value,
+                   version=int(version))
+
+
+_library_lock = threading.Lock()
+_library: list = []  # [Library | None] once looked for
+
+
+def library() -> Library | None:
+    """embreex's libembree4 with the packet calls, opened once; None where there is none.
+
+    None where the packet path is turned off (``VISCORE_RAY_PACKETS=0``, read
+    at each call), where embreex is not installed or its wheel holds no
+    libembree4 (a build against a system Embree), or where that library
+    lacks a symbol or is not Embree 4. :class:`viscore.Scene` then uses
+    embreex's ``EmbreeScene.run`` alone.
+    """
+    if not packets_enabled():
+        return None
+    with _library_lock:
+        if not _library:
+            found = None
+            for path in _library_candidates():
+                found = _open(path)
+                if found is not None:
+                    break
+            if found is None:
+                _log.debug("no usable libembree4 beside embreex: rays traced one at a time")
+            _library.append(found)
+        return _library[0]
+
+
+def _aligned_empty(shape: tuple[int, ...], dtype) -> np.ndarray:
+    """An uninitialised C-contiguous array whose data starts on a 64-byte boundary."""
+    dtype = np.dtype(dtype)
+    nbytes = int(np.prod(shape)) * dtype.itemsize
+    raw = np.empty(nbytes + _ALIGN, dtype=np.uint8)
+    start = -raw.ctypes.data % _ALIGN
+    return raw[start:start + nbytes].view(dtype).reshape(shape)
+
+
+class EmbreeError(RuntimeError):
+    """Embree reported an error while a :class:`PacketScene` was built."""
+
+
+class PacketScene:
+    """A robust Embree 4 scene of one triangle soup, traced by packets of 16 rays.
+
+    Parameters
+    ----------
+    lib : Library
+        From :func:`library`.
+    vertices : (v, 3) float
+        Vertex positions, in the frame the rays will be given in (float32).
+    faces : (f, 3) int
+        Vertex indices of each triangle (``0 <= index < v``).
+
+    Notes
+    -----
+    The float32 vertices (padded to four floats, as embreex lays them out)
+    and uint32 indices are shared with Embree, not copied, and held here.
+    Queries may run from several threads at once (Embree's queries are
+    thread safe; each call has its own packet buffers).
+    """
+
+    def __init__(self, lib: Library, vertices: np.ndarray, faces: np.ndarray) -> None:
+        self._lib = lib
+        cdll = lib.cdll
+        v = np.asarray(vertices)
+        self._vertices = np.zeros((len(v), 4), dtype=np.float32)
+        self._vertices[:, :3] = v
+        # one spare triangle: Embree may read a buffer's last item with a 16-byte load
+        self._faces = np.zeros((len(faces) + 1, 3), dtype=np.uint32)
+        self._faces[:-1] = faces
+        self._device = self._scene = None
+        self._device = cdll.rtcNewDevice(None)
+        if not self._device:
+            raise EmbreeError("rtcNewDevice failed")
+        self._scene = cdll.rtcNewScene(self._device)
+        cdll.rtcSetSceneFlags(self._scene, _RTC_SCENE_FLAG_ROBUST)
+        cdll.rtcSetSceneBuildQuality(self._scene, _RTC_BUILD_QUALITY_MEDIUM)
+        geometry = cdll.rtcNewGeometry(self._device, _RTC_GEOMETRY_TYPE_TRIANGLE)
+        cdll.rtcSetSharedGeometryBuffer(geometry, _RTC_BUFFER_TYPE_VERTEX, 0, _RTC_FORMAT_FLOAT3,
+                                        self._vertices.ctypes.data, 0, 16, len(v))
+        cdll.rtcSetSharedGeometryBuffer(geometry, _RTC_BUFFER_TYPE_INDEX, 0, _RTC_FORMAT_UINT3,
+                                        self._faces.ctypes.data, 0, 12, len(faces))
+        cdll.rtcCommitGeometry(geometry)
+        cdll.rtcAttachGeometry(self._scene, geometry)
+        cdll.rtcReleaseGeometry(geometry)
+        cdll.rtcCommitScene(self._scene)
+        error = cdll.rtcGetDeviceError(self._device)
+        if error:
+            self.close()
+            raise EmbreeError(f"Embree error {error} while building the scene")
+
+    def close(self) -> None:
+        """Release the Embree scene and device (also done when the object is collected)."""
+        cdll = self._lib.cdll
+        if self._scene:
+            cdll.rtcReleaseScene(self._scene)
+            self._scene = None
+        if self._device:
+            cdll.rtcReleaseDevice(self._device)
+            self._device = None
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001, S110 - interpreter shutdown: nothing left to do
+            pass
+
+    @staticmethod
+    def _packet_buffers():
+        """An ``RTCRayHit16`` (float32 and int32 views), its valid mask, its arguments."""
+        rays = _aligned_empty((_ROWS, PACKET), np.float32)
+        valid = _aligned_empty((PACKET,), np.int32)
+        args = np.zeros(16, dtype=np.int32)  # RTCIntersectArguments, room to spare
+        args[1] = _RTC_FEATURE_FLAG_ALL
+        return rays, rays.view(np.int32), valid, args
+
+    def first_hit(self, o32: np.ndarray, d32: np.ndarray, tfar32: np.ndarray | None,
+                  scale: float, t: np.ndarray, tri: np.ndarray) -> None:
+        """Nearest hit of each ray, written into ``t`` (world units) and ``tri``.
+
+        ``o32``, ``d32`` : flat ``(3m,)`` float32 origins and unit directions,
+        ``tfar32`` ``(m,)`` float32 segment lengths or None (unbounded, as
+        embreex's 1e37); ``t`` ``(m,)`` float64 gets ``tfar * scale`` and
+        ``inf`` on a miss, ``tri`` ``(m,)`` int64 the triangle or -1.
+        """
+        _ready_kernels()
+        has_tfar = tfar32 is not None
+        single = _aligned_empty((_WORDS,), np.float32)
+        _intersect_chunk(self._lib.intersect16, self._lib.intersect1, self._scene, o32, d32,
+                         tfar32 if has_tfar else d32, has_tfar, scale, t, tri,
+                         *self._packet_buffers(), single, single.view(np.int32))
+
+    def occluded(self, o32: np.ndarray, d32: np.ndarray, tfar32: np.ndarray | None,
+                 hit: np.ndarray) -> None:
+        """Whether each ray hits anything within its segment, written into ``hit`` (bool)."""
+        _ready_kernels()
+        has_tfar = tfar32 is not None
+        _occluded_chunk(self._lib.occluded16, self._scene, o32, d32,
+                        tfar32 if has_tfar else d32, has_tfar, hit, *self._packet_buffers())
