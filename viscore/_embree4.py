@@ -39,6 +39,7 @@ from __future__ import annotations
 import ctypes
 import glob
 import logging
+import math
 import os
 import threading
 from dataclasses import dataclass
@@ -442,10 +443,33 @@ def library() -> Library | None:
 def _aligned_empty(shape: tuple[int, ...], dtype) -> np.ndarray:
     """An uninitialised C-contiguous array whose data starts on a 64-byte boundary."""
     dtype = np.dtype(dtype)
-    nbytes = int(np.prod(shape)) * dtype.itemsize
+    nbytes = math.prod(shape) * dtype.itemsize
     raw = np.empty(nbytes + _ALIGN, dtype=np.uint8)
     start = -raw.ctypes.data % _ALIGN
     return raw[start:start + nbytes].view(dtype).reshape(shape)
+
+
+_per_thread = threading.local()
+
+
+def _thread_buffers() -> tuple:
+    """This thread's query buffers, made at its first query and reused by every later one.
+
+    An ``RTCRayHit16`` (float32 and int32 views), its valid mask, the
+    ``RTCIntersectArguments``/``RTCOccludedArguments`` words (room to spare;
+    the pointers NULL), and one ``RTCRayHit`` (float32 and int32 views).
+    Nothing in them outlives a call: each query fills what it reads.
+    """
+    buffers = getattr(_per_thread, "buffers", None)
+    if buffers is None:
+        rays = _aligned_empty((_ROWS, PACKET), np.float32)
+        valid = _aligned_empty((PACKET,), np.int32)
+        args = np.zeros(16, dtype=np.int32)
+        args[1] = _RTC_FEATURE_FLAG_ALL
+        single = _aligned_empty((_WORDS,), np.float32)
+        buffers = (rays, rays.view(np.int32), valid, args, single, single.view(np.int32))
+        _per_thread.buffers = buffers
+    return buffers
 
 
 class EmbreeError(RuntimeError):
@@ -518,15 +542,6 @@ class PacketScene:
         except Exception:  # noqa: BLE001, S110 - interpreter shutdown: nothing left to do
             pass
 
-    @staticmethod
-    def _packet_buffers():
-        """An ``RTCRayHit16`` (float32 and int32 views), its valid mask, its arguments."""
-        rays = _aligned_empty((_ROWS, PACKET), np.float32)
-        valid = _aligned_empty((PACKET,), np.int32)
-        args = np.zeros(16, dtype=np.int32)  # RTCIntersectArguments, room to spare
-        args[1] = _RTC_FEATURE_FLAG_ALL
-        return rays, rays.view(np.int32), valid, args
-
     def first_hit(self, o32: np.ndarray, d32: np.ndarray, tfar32: np.ndarray | None,
                   scale: float, t: np.ndarray, tri: np.ndarray) -> None:
         """Nearest hit of each ray, written into ``t`` (world units) and ``tri``.
@@ -538,10 +553,9 @@ class PacketScene:
         """
         _ready_kernels()
         has_tfar = tfar32 is not None
-        single = _aligned_empty((_WORDS,), np.float32)
         _intersect_chunk(self._lib.intersect16, self._lib.intersect1, self._scene, o32, d32,
                          tfar32 if has_tfar else d32, has_tfar, scale, t, tri,
-                         *self._packet_buffers(), single, single.view(np.int32))
+                         *_thread_buffers())
 
     def occluded(self, o32: np.ndarray, d32: np.ndarray, tfar32: np.ndarray | None,
                  hit: np.ndarray) -> None:
@@ -549,4 +563,4 @@ class PacketScene:
         _ready_kernels()
         has_tfar = tfar32 is not None
         _occluded_chunk(self._lib.occluded16, self._scene, o32, d32,
-                        tfar32 if has_tfar else d32, has_tfar, hit, *self._packet_buffers())
+                        tfar32 if has_tfar else d32, has_tfar, hit, *_thread_buffers()[:4])
