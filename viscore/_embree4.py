@@ -420,12 +420,17 @@ def library() -> Library | None:
     """embreex's libembree4 with the packet calls, opened once; None where there is none.
 
     None where the packet path is turned off (``VISCORE_RAY_PACKETS=0``, read
-    at each call), where embreex is not installed or its wheel holds no
+    at each call), where numba does not compile (``NUMBA_DISABLE_JIT=1``),
+    where embreex is not installed or its wheel holds no
     libembree4 (a build against a system Embree), or where that library
     lacks a symbol or is not Embree 4. :class:`viscore.Scene` then uses
     embreex's ``EmbreeScene.run`` alone.
     """
     if not packets_enabled():
+        return None
+    from numba.core.config import DISABLE_JIT
+
+    if DISABLE_JIT:  # the packet loops call Embree from compiled code only
         return None
     with _library_lock:
         if not _library:
