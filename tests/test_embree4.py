@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from viscore import Scene, _embree4
+from viscore import Scene, _embree4, load_mesh
 from viscore.depth_buffer import _first_triangles
 
 needs_packets = pytest.mark.skipif(_embree4.library() is None,
@@ -273,3 +273,32 @@ def test_library_turned_off_by_the_environment(cube, monkeypatch):
     assert not _embree4.packets_enabled()
     monkeypatch.setenv(_embree4.PACKETS_ENV, "1")
     assert _embree4.packets_enabled()
+
+
+def test_stacked_triangles_marks_overlaps_in_one_plane():
+    # a face doubled (either winding) overlaps its twin; a subdivided box's coplanar
+    # neighbours only share edges; a small square laid on a big one overlaps it
+    box = trimesh.creation.box(extents=(0.8, 0.8, 0.8))
+    doubled = np.concatenate([box.faces, box.faces[:, ::-1]])
+    assert _embree4._stacked_triangles(box.vertices.astype(np.float32), doubled).all()
+    fine = box.subdivide().subdivide()
+    assert not _embree4._stacked_triangles(fine.vertices.astype(np.float32), fine.faces).any()
+    v = np.array([[-0.4, -0.4, 0], [0.4, -0.4, 0], [0.4, 0.4, 0], [-0.4, 0.4, 0],
+                  [0.0, 0.0, 0], [0.1, 0.0, 0], [0.1, 0.1, 0], [0.3, 0.3, 0.2]], np.float32)
+    f = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 5, 7]])
+    assert _embree4._stacked_triangles(v, f).tolist() == [True, False, True, False]
+
+
+@needs_packets
+@pytest.mark.parametrize("workers", [1, 2])
+def test_packets_stacked_walls_seen_by_orthographic_views(monkeypatch, workers):
+    # a game-kit building whose walls overlap in their planes, seen by orthographic
+    # views (coherent packets, Embree's frustum traversal): the triangle and distance
+    # embreex gives, where an overlapping twin lies at the same distance or a ulp off
+    from viscore.cli.bench.core import bench_ray_sets
+
+    mesh = load_mesh("building-house")
+    packets, embreex = _pair(mesh, monkeypatch, workers=workers)
+    assert packets._packets._stacked.any()
+    o, d = bench_ray_sets(mesh, views=2, resolution=256, rays=10, seed=256)["coherent"]
+    _assert_same(packets, embreex, o, d)

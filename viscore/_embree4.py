@@ -15,6 +15,16 @@ except that the vertex and index buffers are shared with Python
 (``rtcSetSharedGeometryBuffer``) rather than copied: the
 :class:`PacketScene` keeps them alive as long as Embree may read them.
 
+The hits are embreex's, bit for bit. A packet gives each ray the same
+distances to each triangle as a single ray does, but where two triangles
+are hit at the same distance (or, in Embree's frustum traversal of coherent
+packets, a float32 ulp apart) which one it reports depends on the order it
+meets them, and packets do not meet them in a single ray's order. Those
+rays are traced again alone with ``rtcIntersect1``, as embreex traces
+them: a hit at an edge or corner of its triangle (``_TIE_BARYCENTRIC``),
+and a hit on a triangle that overlaps another in its plane
+(:func:`_stacked_triangles`, found when the scene is built).
+
 Struct layouts, enum values and calls follow Embree 4's public headers
 (``include/embree4/rtcore_ray.h``, ``rtcore_scene.h``, ``rtcore_geometry.h``,
 ``rtcore_device.h``, ``rtcore_common.h``): ``RTCRayHit16`` is a
@@ -117,11 +127,16 @@ _TIE_BARYCENTRIC = 1e-3
 _DEFAULT_TFAR = np.float32(1e37)
 
 #: A packet of 16 rays is traced with Embree's coherent flag where every
-#: direction is within this of the first (squared distance of unit vectors,
-#: about 0.06 rad): an orthographic view's rays, or a perspective view's
-#: neighbours. The flag selects Embree's frustum traversal, a gain on such a
-#: packet and a loss on scattered rays; either gives each ray its nearest hit.
-_COHERENT_SPREAD2 = 4e-3
+#: direction is within ``_COHERENT_DIRECTIONS2`` of the first (squared distance
+#: of unit vectors: about 0.2 rad) and every origin within
+#: ``_COHERENT_ORIGINS2`` of the first (squared, in the unit frame, where the
+#: mesh's diagonal is 0.5 to 1): a row of an orthographic view of 256 pixels
+#: or more, a perspective view's neighbours. The flag selects Embree's frustum
+#: traversal, which on the bunny traces such packets 1.3x (256 px) to 2.5x
+#: (1024 px) faster than without it, but parallel rays from scattered origins,
+#: or scattered rays, 2-3x slower; either way each ray gets its nearest hit.
+_COHERENT_DIRECTIONS2 = 0.04
+_COHERENT_ORIGINS2 = 1e-3
 
 
 @intrinsic
@@ -153,16 +168,19 @@ def _fill_packet(o32, d32, tfar32, has_tfar, a, k, rf, ri, valid):  # pragma: no
     Lanes ``k .. 15`` repeat the last ray and are marked invalid (0), the
     others valid (-1). ``rf`` and ``ri`` are the float32 and int32 views of one
     ``RTCRayHit16``. Returns whether the packet is coherent (see
-    ``_COHERENT_SPREAD2``).
+    ``_COHERENT_DIRECTIONS2``).
     """
     x0, y0, z0 = d32[3 * a], d32[3 * a + 1], d32[3 * a + 2]
-    spread = np.float32(0.0)
+    p0, q0, r0 = o32[3 * a], o32[3 * a + 1], o32[3 * a + 2]
+    directions = np.float32(0.0)
+    origins = np.float32(0.0)
     for j in range(PACKET):
         i = a + min(j, k - 1)
         dx, dy, dz = d32[3 * i], d32[3 * i + 1], d32[3 * i + 2]
-        rf[_ORG_X, j] = o32[3 * i]
-        rf[_ORG_X + 1, j] = o32[3 * i + 1]
-        rf[_ORG_X + 2, j] = o32[3 * i + 2]
+        ox, oy, oz = o32[3 * i], o32[3 * i + 1], o32[3 * i + 2]
+        rf[_ORG_X, j] = ox
+        rf[_ORG_X + 1, j] = oy
+        rf[_ORG_X + 2, j] = oz
         rf[_TNEAR, j] = 0.0
         rf[_DIR_X, j] = dx
         rf[_DIR_X + 1, j] = dy
@@ -177,8 +195,10 @@ def _fill_packet(o32, d32, tfar32, has_tfar, a, k, rf, ri, valid):  # pragma: no
         ri[_INST_ID, j] = -1
         valid[j] = -1 if j < k else 0
         ex, ey, ez = dx - x0, dy - y0, dz - z0
-        spread = max(spread, (ex * ex + ey * ey) + ez * ez)
-    return spread <= _COHERENT_SPREAD2
+        directions = max(directions, (ex * ex + ey * ey) + ez * ez)
+        ex, ey, ez = ox - p0, oy - q0, oz - r0
+        origins = max(origins, (ex * ex + ey * ey) + ez * ez)
+    return directions <= _COHERENT_DIRECTIONS2 and origins <= _COHERENT_ORIGINS2
 
 
 @intrinsic
@@ -227,15 +247,17 @@ def _intersect_one(fn1, scene, o32, d32, tfar32, has_tfar, i, sf, si):  # pragma
 
 @njit_cached(nogil=True)
 def _intersect_chunk(fn, fn1, scene, o32, d32, tfar32, has_tfar, scale, t, tri, rf, ri, valid,
-                     args, sf, si):  # pragma: no cover - compiled
+                     args, sf, si, stacked):  # pragma: no cover - compiled
     """Nearest hits of one chunk of float32 unit-frame rays, by packets of 16.
 
     Writes ``t = float64(tfar) * scale`` (``inf`` on a miss) and ``tri`` (the
     triangle, -1 on a miss) for each ray, as ``viscore.scene._store_hits``
     does for embreex's results. ``args`` is an ``RTCIntersectArguments``
     (int32 words); its flags are set per packet. A hit at an edge or a vertex
-    of its triangle is traced again alone (``fn1``, ``rtcIntersect1``: see
-    ``_TIE_BARYCENTRIC``) in ``sf``/``si``. Returns how many were.
+    of its triangle, or on a triangle that ``stacked`` marks (one overlapping
+    another in the same plane: see :func:`_stacked_triangles`), is traced again
+    alone (``fn1``, ``rtcIntersect1``: see ``_TIE_BARYCENTRIC``) in
+    ``sf``/``si``. Returns how many were.
     """
     m = t.shape[0]
     again = 0
@@ -249,7 +271,7 @@ def _intersect_chunk(fn, fn1, scene, o32, d32, tfar32, has_tfar, scale, t, tri, 
             tfar = rf[_TFAR, j]
             if p >= 0:
                 u, v = rf[_U, j], rf[_V, j]
-                if min(u, v, np.float32(1.0) - u - v) < _TIE_BARYCENTRIC:
+                if stacked[p] or min(u, v, np.float32(1.0) - u - v) < _TIE_BARYCENTRIC:
                     p = _intersect_one(fn1, scene, o32, d32, tfar32, has_tfar, a + j, sf, si)
                     tfar = sf[_TFAR]
                     again += 1
@@ -275,6 +297,142 @@ def _occluded_chunk(fn, scene, o32, d32, tfar32, has_tfar, hit, rf, ri, valid,
             hit[a + j] = rf[_TFAR, j] < 0
 
 
+#: Two triangles are "stacked" where each one's corners lie within this of the
+#: other's plane (unit frame, where the mesh's diagonal is 0.5 to 1: some ten
+#: float32 ulps of a distance of 1) and their interiors overlap.
+_STACKED_PLANE = 1e-5
+
+#: Width of the bins of unit normals that candidate pairs share (the canonical
+#: normal's components, rounded to multiples of it).
+_NORMAL_BIN = 1e-2
+
+
+@njit_cached(nogil=True)
+def _separated(ax, ay, bx, by, eps):  # pragma: no cover - compiled
+    """Whether two 2D triangles (corner coordinates ``ax``, ``ay`` and ``bx``, ``by``)
+    have interiors that do not overlap (a separating edge normal; touching counts as
+    separated, within ``eps``)."""
+    for which in range(2):
+        px, py = (ax, ay) if which == 0 else (bx, by)
+        for e in range(3):
+            nx = -(py[(e + 1) % 3] - py[e])
+            ny = px[(e + 1) % 3] - px[e]
+            length = np.sqrt(nx * nx + ny * ny)
+            if length == 0.0:
+                continue
+            nx, ny = nx / length, ny / length
+            lo_a = hi_a = ax[0] * nx + ay[0] * ny
+            lo_b = hi_b = bx[0] * nx + by[0] * ny
+            for c in range(1, 3):
+                pa = ax[c] * nx + ay[c] * ny
+                pb = bx[c] * nx + by[c] * ny
+                lo_a, hi_a = min(lo_a, pa), max(hi_a, pa)
+                lo_b, hi_b = min(lo_b, pb), max(hi_b, pb)
+            if hi_a <= lo_b + eps or hi_b <= lo_a + eps:
+                return True
+    return False
+
+
+@njit_cached(nogil=True)
+def _mark_stacked(tris, normals, offsets, uv, box, order, starts, tolerance,
+                  stacked):  # pragma: no cover - compiled
+    """Mark in ``stacked`` the triangles of each group that overlap another of it.
+
+    ``tris`` ``(f, 3, 3)`` float64 corners, ``normals`` their unit normals,
+    ``offsets`` their planes' offsets, ``uv`` ``(f, 2)`` the two axes their
+    plane projects on and ``box`` ``(f, 4)`` the extents on them of the
+    triangles as ``order`` lists them (least and most ``u``, least and most
+    ``v``: contiguous for the sweep). ``order`` lists the triangles group by
+    group (same normal bin and projection, offsets chained within ``2 *
+    tolerance``), by least ``u`` within a group; ``starts`` is where each
+    group begins (and the end). A sweep along ``u``: only pairs whose ``u``
+    ranges overlap are looked at.
+    """
+    ax, ay = np.empty(3), np.empty(3)
+    bx, by = np.empty(3), np.empty(3)
+    for g in range(starts.shape[0] - 1):
+        lo, hi = starts[g], starts[g + 1]
+        u, v = uv[order[lo], 0], uv[order[lo], 1]
+        for r in range(lo, hi):
+            i = order[r]
+            u_end, v_start, v_end = box[r, 1], box[r, 2], box[r, 3]
+            for q in range(r + 1, hi):
+                if box[q, 0] >= u_end:  # sorted by least u: no later one overlaps i
+                    break
+                if min(v_end, box[q, 3]) <= max(v_start, box[q, 2]):
+                    continue
+                j = order[q]
+                if abs(offsets[j] - offsets[i]) > 2 * tolerance:
+                    continue
+                close = True
+                for c in range(3):  # each one's corners near the other's plane
+                    di = (tris[j, c, 0] * normals[i, 0] + tris[j, c, 1] * normals[i, 1]
+                          + tris[j, c, 2] * normals[i, 2]) - offsets[i]
+                    dj = (tris[i, c, 0] * normals[j, 0] + tris[i, c, 1] * normals[j, 1]
+                          + tris[i, c, 2] * normals[j, 2]) - offsets[j]
+                    if abs(di) > tolerance or abs(dj) > tolerance:
+                        close = False
+                if not close:
+                    continue
+                for c in range(3):
+                    ax[c], ay[c] = tris[i, c, u], tris[i, c, v]
+                    bx[c], by[c] = tris[j, c, u], tris[j, c, v]
+                if not _separated(ax, ay, bx, by, tolerance):
+                    stacked[i] = True
+                    stacked[j] = True
+
+
+def _stacked_triangles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(f,) bool``: the triangles whose interior overlaps another triangle in (nearly) its plane.
+
+    Such a pair (a duplicated face, a decal on a wall, the stacked walls of a
+    game-kit building) is hit by a ray at the same distance, or within a few
+    float32 ulps of it, and which of the two Embree reports depends on the
+    order its traversal meets them: packets and single rays do not meet them
+    in the same order, and Embree's frustum traversal of coherent packets may
+    even step past the nearer of two hits a ulp apart. A first hit on a
+    marked triangle is traced again alone. ``vertices`` are the float32
+    vertices Embree holds, ``faces`` their indices.
+
+    Candidates share a bin of their canonical unit normal (``_NORMAL_BIN``)
+    and lie within ``_STACKED_PLANE`` of each other's plane; their interiors
+    then overlap where no edge normal of either separates them in the plane
+    (a separating-axis test). Two normals on either side of a bin's edge are
+    not compared: a pair so close to coplanar yet in two bins is left unmarked.
+    """
+    tris = np.asarray(vertices, dtype=np.float64)[:, :3][np.asarray(faces, dtype=np.int64)]
+    normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    length = np.linalg.norm(normals, axis=1)
+    good = length > 0
+    normals[good] /= length[good, None]
+    # canonical sign: the component of largest magnitude positive; the plane
+    # projects on the other two axes
+    drop = np.abs(normals).argmax(axis=1)
+    rows = np.arange(len(normals))
+    normals *= np.where(normals[rows, drop] < 0, -1.0, 1.0)[:, None]
+    uv = np.stack([(drop + 1) % 3, (drop + 2) % 3], axis=1).astype(np.int64)
+    offsets = np.einsum("ij,ij->i", normals, tris[:, 0])
+    bins = np.round(normals / _NORMAL_BIN).astype(np.int64)
+    keys = np.column_stack([bins, drop])
+    order = np.lexsort((offsets, *keys.T[::-1]))
+    order = order[good[order]]
+    # groups: same bin and projection, offsets chained within 2 tolerances
+    k, off = keys[order], offsets[order]
+    new = np.ones(len(order), dtype=bool)
+    new[1:] = (k[1:] != k[:-1]).any(axis=1) | (np.diff(off) > 2 * _STACKED_PLANE)
+    group = np.cumsum(new)
+    rows3 = np.arange(len(tris))[:, None], np.arange(3)[None, :]
+    cu, cv = tris[rows3[0], rows3[1], uv[:, :1]], tris[rows3[0], rows3[1], uv[:, 1:]]
+    box = np.column_stack([cu.min(1), cu.max(1), cv.min(1), cv.max(1)])
+    order = order[np.lexsort((box[order, 0], group))]
+    starts = np.concatenate([np.flatnonzero(new), [len(order)]]).astype(np.int64)
+    stacked = np.zeros(len(tris), dtype=np.bool_)
+    if len(order):
+        _mark_stacked(tris, normals, offsets, uv, np.ascontiguousarray(box[order]),
+                      order.astype(np.int64), starts, _STACKED_PLANE, stacked)
+    return stacked
+
+
 def _kernel_signatures() -> dict:
     """Kernel -> the only signature it is compiled for (as ``viscore.scene`` pins its own)."""
 
@@ -287,7 +445,8 @@ def _kernel_signatures() -> dict:
     packet = (array(f32, 2), array(i32, 2), array(i32), array(i32))
     return {
         _intersect_chunk: [i64(ptr, ptr, ptr, rays, rays, rays, types.boolean, f64,
-                               array(f64), array(i64), *packet, array(f32), array(i32))],
+                               array(f64), array(i64), *packet, array(f32), array(i32),
+                               array(types.boolean))],
         _occluded_chunk: [types.void(ptr, ptr, rays, rays, rays, types.boolean,
                                      array(types.boolean), *packet)],
     }
@@ -510,6 +669,7 @@ class PacketScene:
         # one spare triangle: Embree may read a buffer's last item with a 16-byte load
         self._faces = np.zeros((len(faces) + 1, 3), dtype=np.uint32)
         self._faces[:-1] = faces
+        self._stacked = _stacked_triangles(self._vertices, self._faces[:-1])
         self._device = self._scene = None
         self._device = cdll.rtcNewDevice(None)
         if not self._device:
@@ -560,7 +720,7 @@ class PacketScene:
         has_tfar = tfar32 is not None
         _intersect_chunk(self._lib.intersect16, self._lib.intersect1, self._scene, o32, d32,
                          tfar32 if has_tfar else d32, has_tfar, scale, t, tri,
-                         *_thread_buffers())
+                         *_thread_buffers(), self._stacked)
 
     def occluded(self, o32: np.ndarray, d32: np.ndarray, tfar32: np.ndarray | None,
                  hit: np.ndarray) -> None:
