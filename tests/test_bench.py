@@ -44,7 +44,12 @@ def test_bench_rays_json_tiny(capsys):
     assert doc["sets"]["incoherent"]["rays"] == 500
     for name, s in doc["sets"].items():
         assert 0 < s["hit_share"] < 1, name
-        expected = set(RAY_VARIANTS) if "open3d_1" in s["mrays"] else set(RAY_VARIANTS[:4])
+        expected = {"bare_1", "bare_chunked_1", "scene_1", "scene_all"}
+        if doc["scene_tracer"] == "packets":
+            expected |= {"scene_embreex_1", "scene_embreex_all"}
+        if "open3d_1" in s["mrays"]:
+            expected |= {"open3d_1", "open3d_all"}
+        assert expected <= set(RAY_VARIANTS)
         assert set(s["mrays"]) == set(s["best_mrays"]) == expected
         for key, value in s["mrays"].items():
             assert math.isfinite(value) and 0 < value <= s["best_mrays"][key]
@@ -54,6 +59,10 @@ def test_bench_rays_json_tiny(capsys):
         assert r["scene_all_vs_scene_1"] == pytest.approx(mr["scene_all"] / mr["scene_1"])
         if "open3d_all" in mr:
             assert r["scene_all_vs_open3d_all"] == pytest.approx(mr["scene_all"] / mr["open3d_all"])
+            assert r["scene_1_vs_open3d_1"] == pytest.approx(mr["scene_1"] / mr["open3d_1"])
+        if "scene_embreex_all" in mr:
+            assert r["scene_all_vs_scene_embreex_all"] == pytest.approx(
+                mr["scene_all"] / mr["scene_embreex_all"])
         # bare embreex on the same float32 unit-frame rays: the same hits, bit for bit
         assert s["agreement"]["bare"] == {"max_abs_t": 0.0, "hit_miss": 0, "triangle": 0}
     coherent = doc["sets"]["coherent"]
@@ -61,6 +70,23 @@ def test_bench_rays_json_tiny(capsys):
     assert doc["ratio_vs_bare"] == pytest.approx(doc["scene_mrays_1"] / doc["bare_mrays_1"])
     assert doc["scaling"] == pytest.approx(doc["scene_mrays_all"] / doc["scene_mrays_1"])
     assert "embree" in doc["provenance"]
+
+
+def test_bench_rays_times_scene_on_embreex_beside_its_packets(capsys, monkeypatch):
+    # the figures before and after the packets, in one run; held to embreex, Scene
+    # has no packets to compare with
+    code, out, _ = _run(capsys, [*_TINY_RAYS, "--repeats", "1", "--json"])
+    doc = json.loads(out)
+    if doc["scene_tracer"] == "packets":
+        for s in doc["sets"].values():
+            assert {"scene_embreex_1", "scene_embreex_all"} <= set(s["mrays"])
+    monkeypatch.setenv("VISCORE_RAY_PACKETS", "0")
+    code, out, _ = _run(capsys, [*_TINY_RAYS, "--repeats", "1", "--json"])
+    doc = json.loads(out)
+    assert code == 0 and doc["scene_tracer"] == "embreex"
+    for s in doc["sets"].values():
+        assert "scene_embreex_1" not in s["mrays"]
+        assert s["agreement"]["bare"] == {"max_abs_t": 0.0, "hit_miss": 0, "triangle": 0}
 
 
 def test_bench_rays_text_names_targets(capsys):

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import time
 from collections.abc import Callable
 
@@ -77,8 +78,22 @@ BENCH_RAYS_BYTES_PER_RAY = 200
 #: The two ray sets of ``bench rays``, in the order they are printed.
 RAY_SETS = ("coherent", "incoherent")
 
-#: Timed variants of ``bench rays`` (keys of ``mrays``), in the order they run.
-RAY_VARIANTS = ("bare_1", "bare_chunked_1", "scene_1", "scene_all", "open3d_1", "open3d_all")
+#: Timed variants of ``bench rays`` (keys of ``mrays``), in the order they run. The
+#: ``scene_embreex`` ones are :class:`Scene` held to embreex's per-ray calls, timed
+#: beside the packets :class:`Scene` traces when it has them (the figures before
+#: and after them, in one run).
+RAY_VARIANTS = ("bare_1", "bare_chunked_1", "scene_1", "scene_all", "scene_embreex_1",
+                "scene_embreex_all", "open3d_1", "open3d_all")
+
+#: The environment variable that holds a :class:`Scene` built under it to embreex's
+#: per-ray calls (``0``) instead of Embree's ray packets.
+RAY_PACKETS_ENV = "VISCORE_RAY_PACKETS"
+
+#: Ratios of ``bench rays`` (numerator, denominator), those whose figures exist.
+_RAY_RATIOS = (("scene_1", "bare_1"), ("scene_1", "bare_chunked_1"), ("scene_all", "scene_1"),
+               ("scene_1", "scene_embreex_1"), ("scene_all", "scene_embreex_all"),
+               ("scene_embreex_all", "scene_embreex_1"), ("open3d_all", "open3d_1"),
+               ("scene_1", "open3d_1"), ("scene_all", "open3d_all"))
 
 
 def bench_ray_sets(mesh, *, views: int = 4, resolution: int = 1024, rays: int = 1_000_000,
@@ -149,8 +164,22 @@ def _agreement(t: np.ndarray, tri: np.ndarray, t_other: np.ndarray,
             "triangle": int((tri[both] != tri_other[both]).sum())}
 
 
-def _ray_set_calls(scene: Scene, all_workers: Scene, o: np.ndarray, d: np.ndarray,
-                   o3d_scene, o3d_module, workers: int, peers: bool) -> tuple[dict, dict]:
+def _embreex_scene(mesh, workers: int) -> Scene:
+    """A :class:`Scene` of ``mesh`` held to embreex's per-ray calls (no packets), built."""
+    saved = os.environ.get(RAY_PACKETS_ENV)
+    os.environ[RAY_PACKETS_ENV] = "0"
+    try:
+        return Scene(mesh, workers=workers).build()
+    finally:
+        if saved is None:
+            del os.environ[RAY_PACKETS_ENV]
+        else:
+            os.environ[RAY_PACKETS_ENV] = saved
+
+
+def _ray_set_calls(scene: Scene, all_workers: Scene, embreex: tuple | None, o: np.ndarray,
+                   d: np.ndarray, o3d_scene, o3d_module, workers: int,
+                   peers: bool) -> tuple[dict, dict]:
     """The timed calls on one ray set, and the first hits of each tracer (world units).
 
     Every tracer traces the same float32 unit-frame rays at the same float32
@@ -172,6 +201,9 @@ def _ray_set_calls(scene: Scene, all_workers: Scene, o: np.ndarray, d: np.ndarra
              "scene_all": lambda: all_workers.first_hit(o, d)}
     if peers:
         calls["bare_chunked_1"] = bare_chunked
+    if embreex is not None:
+        calls["scene_embreex_1"] = lambda: embreex[0].first_hit(o, d)
+        calls["scene_embreex_all"] = lambda: embreex[1].first_hit(o, d)
     if peers and o3d_scene is not None:
         rays6 = o3d_module.core.Tensor(np.ascontiguousarray(np.hstack([o32, d32])))
         calls["open3d_1"] = lambda: o3d_scene.cast_rays(rays6, nthreads=1)
@@ -204,7 +236,9 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, views: int = 4,
     the same rays are traced by a bare embreex ``EmbreeScene.run`` on one
     thread (float32 prepared beforehand; one call over all rays, and calls of
     :data:`BARE_CHUNK_RAYS`), by :class:`Scene` with one worker and with all
-    workers (:func:`viscore.get_workers`), and by Open3D's
+    workers (:func:`viscore.get_workers`), by :class:`Scene` held to
+    embreex's per-ray calls (``VISCORE_RAY_PACKETS=0``) with one and all
+    workers when it traces packets of 16 rays otherwise, and by Open3D's
     ``RaycastingScene.cast_rays`` on one thread and on all when ``open3d``
     can be imported (an optional peer). All of them trace the mesh centred and
     scaled as :class:`Scene` does, so they do the same work; the hits are
@@ -224,23 +258,29 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, views: int = 4,
     seed : int, optional
         Seed of the view directions and the incoherent rays. Default 0.
     peers : bool, optional
-        Also time the chunked bare calls and Open3D. Default True (False: the
-        bare single call and the two :class:`Scene` figures only, as a cheap
-        reference for other benchmarks).
+        Also time the chunked bare calls, :class:`Scene` on embreex's per-ray
+        calls and Open3D. Default True (False: the bare single call and the
+        two :class:`Scene` figures only, as a cheap reference for other
+        benchmarks).
 
     Returns
     -------
     result : dict
         ``mesh``, ``faces``, ``workers``, ``repeats``, ``seed``, ``rays``,
-        ``views``, ``resolution``, ``open3d`` (its version, or why it is not
-        used) and ``sets``: per set (``'coherent'``, ``'incoherent'``) its
-        ``rays``, ``hit_share``, ``mrays`` (million rays per second, median
-        of the repeats, of each of :data:`RAY_VARIANTS` that ran),
-        ``best_mrays`` (the fastest repeat), ``ratios`` (of the medians:
-        ``scene_1_vs_bare_1`` (target >= 0.95), ``scene_1_vs_bare_chunked_1``,
-        ``scene_all_vs_scene_1``, ``open3d_all_vs_open3d_1``,
-        ``scene_all_vs_open3d_all`` (target >= 1 on 2 cores), those whose
-        figures exist) and ``agreement`` (``bare`` and ``open3d`` against
+        ``views``, ``resolution``, ``scene_tracer`` (``'packets'``: Embree's
+        packets of 16 rays; ``'embreex'``: embreex's per-ray calls),
+        ``open3d`` (its version, or why it is not used) and ``sets``: per set
+        (``'coherent'``, ``'incoherent'``) its ``rays``, ``hit_share``,
+        ``mrays`` (million rays per second, median of the repeats, of each of
+        :data:`RAY_VARIANTS` that ran), ``best_mrays`` (the fastest repeat),
+        ``ratios`` (of the medians, ``<a>_vs_<b>`` for each pair of
+        ``_RAY_RATIOS`` whose figures exist: ``scene_1_vs_bare_1`` (target >=
+        0.95), ``scene_1_vs_bare_chunked_1``, ``scene_all_vs_scene_1``
+        (target >= 1.7 on 2 cores), ``scene_1_vs_scene_embreex_1``,
+        ``scene_all_vs_scene_embreex_all``, ``scene_embreex_all_vs_scene_embreex_1``,
+        ``open3d_all_vs_open3d_1``, ``scene_1_vs_open3d_1``,
+        ``scene_all_vs_open3d_all`` (target >= 1 on 2 cores)) and
+        ``agreement`` (``bare`` and ``open3d`` against
         Scene's hits: ``max_abs_t``, ``hit_miss``, ``triangle``; see
         :func:`_agreement`). The coherent set's figures are repeated at the
         top as ``bare_mrays_1``, ``scene_mrays_1``, ``scene_mrays_all``,
@@ -268,6 +308,10 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, views: int = 4,
     workers = get_workers()
     one = Scene(m, workers=1).build()
     allw = Scene(m, workers=workers).build()
+    tracer = "embreex" if one._packets is None else "packets"
+    embreex = None
+    if peers and tracer == "packets":
+        embreex = (_embreex_scene(m, 1), _embreex_scene(m, workers))
     o3d = _open3d() if peers else "not timed"
     o3d_scene = None
     if not isinstance(o3d, str):
@@ -278,8 +322,8 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, views: int = 4,
                                 o3d.core.Tensor(np.ascontiguousarray(one.faces, dtype=np.uint32)))
     calls, hits = {}, {}
     for name in RAY_SETS:
-        calls[name], hits[name] = _ray_set_calls(one, allw, *ray_sets[name], o3d_scene, o3d,
-                                                 workers, peers)
+        calls[name], hits[name] = _ray_set_calls(one, allw, embreex, *ray_sets[name],
+                                                 o3d_scene, o3d, workers, peers)
     # interleaved: drift on a shared machine hits every call alike
     seconds = {name: {key: [] for key in calls[name]} for name in RAY_SETS}
     for _ in range(repeats):
@@ -292,10 +336,7 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, views: int = 4,
     for name in RAY_SETS:
         n = len(ray_sets[name][0])
         mrays = {key: n / float(np.median(ts)) / 1e6 for key, ts in seconds[name].items()}
-        ratios = {f"{a}_vs_{b}": mrays[a] / mrays[b]
-                  for a, b in (("scene_1", "bare_1"), ("scene_1", "bare_chunked_1"),
-                               ("scene_all", "scene_1"), ("open3d_all", "open3d_1"),
-                               ("scene_all", "open3d_all"))
+        ratios = {f"{a}_vs_{b}": mrays[a] / mrays[b] for a, b in _RAY_RATIOS
                   if a in mrays and b in mrays}
         t, tri = hits[name]["scene"]
         sets[name] = {
@@ -310,6 +351,7 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, views: int = 4,
     return {
         "mesh": mesh, "faces": len(m.faces), "rays": rays, "views": views,
         "resolution": resolution, "repeats": repeats, "seed": seed, "workers": workers,
+        "scene_tracer": tracer,
         "open3d": o3d if isinstance(o3d, str) else o3d.__version__,
         "sets": sets,
         "bare_mrays_1": coherent["mrays"]["bare_1"],

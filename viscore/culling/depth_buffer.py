@@ -726,7 +726,7 @@ def _first_triangles(scene: Scene, eye: np.ndarray, d32: np.ndarray) -> np.ndarr
         return scene.first_hit(eye[None], d32.astype(np.float64))[1]
     o32 = np.empty((len(d32), 3), dtype=np.float32)
     o32[:] = (eye - scene._offset) / scene._scale
-    return scene._embree.run(o32, d32, output=1)["primID"]
+    return scene._first_triangles_unit(o32, d32)
 
 
 def _near_cut(size: float, hx: float, hy: float) -> tuple[float, float]:
