@@ -19,6 +19,8 @@ intervals and models for each figure.
   :func:`orbit_frame`, :func:`evaluation_box`, :func:`volume_positions`.
 - Culling: :func:`simulate_culling` along a :func:`camera_path` with the
   runtimes of :mod:`viscore.metrics.culling_runtimes`.
+- Two meshes triangle for triangle (:mod:`viscore.metrics.mesh_match`):
+  :func:`match_triangles`, :func:`surface_distance`.
 
 Other helpers shared between the modules (boxes, tallies) are imported from
 their modules, not from here.
@@ -59,6 +61,7 @@ from .erosion import (
     occlusion_measure,
 )
 from .frames import evaluation_box, orbit_frame, volume_positions
+from .mesh_match import match_triangles, surface_distance
 from .orbit import orbit_precision_recall
 from .paired import PairedDifference, paired_difference
 from .plots import ablation_plot, culling_plot, distribution_plot
@@ -90,6 +93,8 @@ __all__ = [
     "simulate_culling", "CullingResult", "RuntimeFrames", "Runtime", "no_culling",
     "frusta_runtime", "depth_buffer_runtime", "view_frustum_mask", "camera_path",
     "read_camera_path", "camera_path_json", "PathCamera", "culling_plot",
+    # two meshes, triangle for triangle
+    "match_triangles", "surface_distance",
     # figures
     "ablation_plot", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",
 ]
