@@ -147,6 +147,9 @@ MOVED_OUT_OF_CLI = {
     ("viscore.cli.bench.godot_bake", "match_triangles"): ("viscore.metrics", "match_triangles"),
     ("viscore.cli.bench.godot_bake", "surface_distance"):
         ("viscore.metrics", "surface_distance"),
+    ("viscore.cli.study.store", "lock_exclusive"): ("viscore._atomic", "lock_exclusive"),
+    ("viscore.cli.study.runner", "JOBS_PER_CORE"): ("viscore._jobs", "JOBS_PER_CORE"),
+    ("viscore.cli.study", "JOBS_PER_CORE"): ("viscore._jobs", "JOBS_PER_CORE"),
 }
 
 

@@ -70,6 +70,7 @@ from pathlib import Path
 
 from viscore import InputError, cpu_cores
 from viscore._jobs import (
+    JOBS_PER_CORE,
     SCHEDULER_PROBE_SECONDS,
     check_scheduler,
     connect_scheduler,
@@ -91,9 +92,6 @@ __all__ = ["StudySettings", "Job", "OccluderFile", "study_jobs", "occluder_file_
 #: Fields of a row that are wall times (they differ between runs; everything
 #: else in a row is deterministic given the settings).
 TIMING_FIELDS = ("seconds", "seconds_evaluate", "seconds_measure", "seconds_validate")
-
-#: Local jobs allowed per core (``--jobs`` beyond ``JOBS_PER_CORE`` x cores is refused).
-JOBS_PER_CORE = 4
 
 
 #: Suffixes of the occluder files looked for in an ``--occluder-files`` folder: those
