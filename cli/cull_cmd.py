@@ -63,12 +63,7 @@ import numpy as np
 from viscore import InputError, provenance
 from viscore._atomic import LockedFolder
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
-from viscore.culling.occludee_bounds import (
-    AUTO_MIN_SIZE,
-    DEFAULT_CLUSTERS,
-    MAX_CLUSTERS,
-    occludee_boxes,
-)
+from viscore.culling import AUTO_MIN_SIZE, DEFAULT_CLUSTERS, MAX_CLUSTERS, occludee_boxes
 from viscore.generators import REGISTRY, check_method
 from viscore.generators.levels import (
     JOINED_METHODS,
@@ -78,7 +73,7 @@ from viscore.generators.levels import (
     method_indices,
 )
 from viscore.level import UP_AXES, level_objects, occluder_objects
-from viscore.metrics.culling import (
+from viscore.metrics import (
     DEFAULT_HEIGHT,
     DEFAULT_WIDTH,
     camera_path,

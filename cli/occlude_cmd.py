@@ -35,8 +35,7 @@ from viscore._jobs import JOBS_PER_CORE, connect_scheduler
 from viscore._validate import as_positive_int
 from viscore.generators import REGISTRY, check_method, parse_method
 from viscore.generators.levels import default_methods, occlude_level
-from viscore.level import UP_AXES, level_objects
-from viscore.level.objects import MIN_SIZE
+from viscore.level import MIN_SIZE, UP_AXES, level_objects
 
 from ._common import check_output_folder, emit
 

@@ -5,7 +5,10 @@ circle hidden by a deferred import fails here too. DESIGN.md's chain is
 ``viscore <- viscore.metrics <- viscore.generators <- viscore.cli``: the core
 imports none of the others, metrics never imports generators or cli, and
 generators never import cli. Method families (the folders under
-``generators/``) never import each other.
+``generators/``) never import each other. The command line takes the library
+through the packages' faces only (the names on a package's ``__all__``, the
+core's shared helpers aside), and a subcommand or a benchmark imports no other
+subcommand's module.
 """
 
 from __future__ import annotations
@@ -229,3 +232,87 @@ def test_pyproject_installs_every_package():
     found = {_module_name(init) for folder in PACKAGES
              for init in (ROOT / folder).rglob("__init__.py")}
     assert found - listed == set(), "add these to [tool.setuptools] packages"
+
+
+#: The core's shared helpers the command line may import from (STYLE rule 3).
+SHARED = {"viscore._validate", "viscore._atomic", "viscore._jobs"}
+
+
+def _from_imports(name: str, path: Path) -> list[tuple[str, list[str], int]]:
+    """``(module, names, line)`` of each import in a module, relative ones made absolute."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out += [(alias.name, [], node.lineno) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                up = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(up + ([base] if base else []))
+            out.append((base, [alias.name for alias in node.names], node.lineno))
+    return out
+
+
+def _face_names(modules: dict[str, Path], package: str) -> set[str]:
+    """The names a package's face lists in its ``__all__`` (read from its source)."""
+    tree = ast.parse(modules[package].read_text(encoding="utf-8"))
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Assign, ast.AugAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            if any(isinstance(t, ast.Name) and t.id == "__all__" for t in targets):
+                names |= set(ast.literal_eval(node.value))
+    return names
+
+
+def test_cli_imports_the_library_through_its_faces():
+    """A CLI module names a package (a face), never one of its modules, and only names on
+    the face's ``__all__``; the core's shared helpers aside."""
+    modules = _modules()
+    faces = {name for name, path in modules.items() if path.name == "__init__.py"}
+    wrong = []
+    for name, path in modules.items():
+        if not name.startswith("viscore.cli"):
+            continue
+        for target, names, line in _from_imports(name, path):
+            if not target.startswith("viscore") or target.startswith("viscore.cli") \
+                    or target in SHARED:
+                continue
+            where = f"{path.relative_to(ROOT)}:{line}: {target}"
+            if target not in faces:
+                wrong.append(f"{where} (a module, not a face)")
+                continue
+            missing = sorted(set(names) - _face_names(modules, target))
+            if missing:
+                wrong.append(f"{where}: {', '.join(missing)} not on its __all__")
+    assert not wrong, "CLI imports past the faces:\n" + "\n".join(wrong)
+
+
+#: A subcommand module's own subpackage (``compare``'s study runner).
+OWN_SUBPACKAGE = {"viscore.cli.compare_cmd": "viscore.cli.study"}
+
+
+def test_cli_modules_import_no_benchmark_nor_another_subcommand():
+    """``cli/*_cmd.py`` and ``cli/bench/*`` (and the study runner) import, of the command
+    line, only ``cli/_common.py`` and their own subpackage: library code a subcommand
+    needs from a benchmark or from another subcommand belongs in the library."""
+    modules = _modules()
+    wrong = []
+    for name, path in modules.items():
+        if not name.startswith("viscore.cli.") or name == "viscore.cli.main":
+            continue
+        parts = name.split(".")
+        own = ".".join(parts[:3]) if len(parts) > 3 or path.name == "__init__.py" \
+            else OWN_SUBPACKAGE.get(name)
+        for target, names, line in _from_imports(name, path):
+            if not target.startswith("viscore.cli"):
+                continue
+            targets = {target} if target != "viscore.cli" else {f"{target}.{n}" for n in names}
+            for t in targets:
+                if t == "viscore.cli._common" or (own and (t == own or
+                                                           t.startswith(own + "."))):
+                    continue
+                wrong.append(f"{path.relative_to(ROOT)}:{line}: {t}")
+    assert not wrong, "CLI modules import another subcommand or a benchmark:\n" + \
+        "\n".join(wrong)

@@ -158,3 +158,16 @@ MOVED_OUT_OF_CLI = {
 def test_name_moved_out_of_the_cli_keeps_its_old_path(old, new):
     moved = getattr(importlib.import_module(new[0]), new[1])
     assert getattr(importlib.import_module(old[0]), old[1]) is moved
+
+
+#: The faces the command line imports through, beyond the three above: each name on their
+#: ``__all__`` is there.
+CLI_FACES = ("viscore.ray", "viscore.exchange", "viscore.level", "viscore.voxel",
+             "viscore.culling", "viscore.generators.levels", "viscore.generators.baselines")
+
+
+@pytest.mark.parametrize("face", CLI_FACES)
+def test_every_name_of_a_subpackage_face_is_importable(face):
+    package = importlib.import_module(face)
+    missing = [name for name in package.__all__ if not hasattr(package, name)]
+    assert not missing, f"{face}.__all__ names what it does not export: {missing}"

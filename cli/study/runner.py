@@ -77,8 +77,8 @@ from viscore._jobs import (
     process_pool,
     stop_pool,
 )
-from viscore.exchange.mesh_io import mesh_bytes
-from viscore.metrics.estimates import study_bytes
+from viscore.exchange import mesh_bytes
+from viscore.metrics import study_bytes
 
 from .._common import dumps, write_atomic
 from .store import StudyFolder
@@ -226,7 +226,7 @@ def resolve_occluder_files(specs: list[tuple[str, str]], meshes: list[str], *,
         for), or with two for one mesh and budget; a file that cannot be read.
     """
     from viscore.generators import REGISTRY
-    from viscore.generators.levels.occluders import file_occluder
+    from viscore.generators.levels import file_occluder
 
     seen: set[str] = set()
     for name, path in specs:
@@ -371,7 +371,7 @@ def _file_occluder(job: Job):
     """The occluder of a file job, named after its row; the file must be unchanged."""
     import dataclasses
 
-    from viscore.generators.levels.occluders import file_occluder
+    from viscore.generators.levels import file_occluder
 
     occ = file_occluder(job.source)
     if file_digest(job.source) != job.digest:
