@@ -51,7 +51,6 @@ References
 
 from __future__ import annotations
 
-import numbers
 import os
 import time
 from pathlib import Path
@@ -64,8 +63,9 @@ from viscore._validate import as_points
 from viscore.level.scene_graph import transparent_material
 
 from ..occluder import Occluder
+from ..specs import GeneratorOption, checked_by
 
-__all__ = ["generate_godot", "bake_surface", "godot_imported_surface"]
+__all__ = ["generate_godot", "bake_surface", "godot_imported_surface", "OPTIONS"]
 
 #: Godot's cap on the simplified index count of one surface (12 triangles).
 GODOT_TARGET_INDEX_COUNT = 36
@@ -73,6 +73,14 @@ GODOT_TARGET_INDEX_COUNT = 36
 #: Default bake distance as a share of the bounding-box diagonal: Godot's default
 #: ``bake_simplification_distance`` is 0.1 m, about 1% of a 10 m building's diagonal.
 DEFAULT_DISTANCE_SHARE = 0.01
+
+#: The options of :func:`generate_godot`, declared once: the registry's spec, the command
+#: line's flags and the generator's own checks (:func:`..specs.checked_by`).
+OPTIONS = (
+    GeneratorOption("distance", float, None,
+                    "bake simplification distance in world units; 0 keeps the mesh",
+                    low=0, default_text="1% of the bounding-box diagonal"),
+)
 
 
 def bake_surface(vertices: np.ndarray, faces: np.ndarray, distance: float
@@ -159,6 +167,7 @@ def _surfaces(mesh) -> tuple[list[tuple[np.ndarray, np.ndarray]], int]:
                      f"got {type(mesh).__name__}")
 
 
+@checked_by(OPTIONS)
 def generate_godot(mesh: trimesh.Trimesh | trimesh.Scene, *, distance: float | None = None,
                    budget: int | None = None, seed: int = 0) -> Occluder:
     """Godot 4's occluder bake: meshoptimizer simplification per surface, borders locked.
@@ -209,11 +218,8 @@ def generate_godot(mesh: trimesh.Trimesh | trimesh.Scene, *, distance: float | N
                          + (f" ({dropped} transparent dropped)" if dropped else ""))
     points = np.concatenate([v[np.unique(f)] for v, f in surfaces if len(f)])
     points = as_points(points, "mesh vertices")
-    if distance is None:
+    if distance is None:  # (a given distance is checked by OPTIONS)
         distance = DEFAULT_DISTANCE_SHARE * float(np.linalg.norm(np.ptp(points, axis=0)))
-    elif (isinstance(distance, bool) or not isinstance(distance, numbers.Real)
-          or not np.isfinite(distance) or distance < 0):
-        raise InputError(f"distance: expected a finite number >= 0, got {distance!r}")
     distance = float(distance)
     all_vertices, all_faces, offset, worst = [], [], 0, 0.0
     for vertices, faces in surfaces:
