@@ -142,7 +142,7 @@ def connect_scheduler(address):
         from distributed import Client
     except ImportError:
         raise InputError("--scheduler: needs dask.distributed (pip install distributed)") from None
-    if isinstance(address, Client):
+    if not isinstance(address, str) and isinstance(address, Client):  # an address is text
         return contextlib.nullcontext(address)
     check_scheduler(address)
     try:
