@@ -1,12 +1,17 @@
 """The ``viscore`` command line: one entry point, thin over the library.
 
 Every subcommand module does three things: parse its options, call one public
-function of the library (``viscore``, ``viscore.metrics``,
-``viscore.generators``), format the result (text, or one JSON document with
-``--json``). It does no numerics and imports no private names of the library
-but its shared validators (``viscore._validate``) and atomic writers
-(``viscore._atomic``); memory estimates come from
-:mod:`viscore.metrics.estimates`, mesh files from :func:`viscore.exchange.mesh_io.save_mesh`.
+function of the library, format the result (text, or one JSON document with
+``--json``). It does no numerics and imports the library only through its
+packages' faces (``viscore``, ``viscore.exchange``, ``viscore.level``,
+``viscore.culling``, ``viscore.metrics``, ``viscore.generators``,
+``viscore.generators.levels``, ...: the names on their ``__all__``), besides
+the core's shared helpers: validators (``viscore._validate``), atomic writers
+and locked output folders (``viscore._atomic``) and the job runner
+(``viscore._jobs``). A subcommand module imports no other subcommand's module
+nor a benchmark: only :mod:`._common` and its own subpackage (``compare``: the
+study runner). Memory estimates come from :func:`viscore.metrics.study_bytes`
+and its kind, mesh files from :func:`viscore.exchange.save_mesh`.
 
 Subcommands, and the module each lives in:
 

@@ -20,8 +20,8 @@ import time
 from pathlib import Path
 
 from viscore._atomic import check_output_path, file_mode, write_atomic
-from viscore.exchange.mesh_io import SAVE_FORMATS, mesh_bytes, mesh_format, save_mesh
-from viscore.metrics.precision_recall import jsonable
+from viscore.exchange import SAVE_FORMATS, mesh_bytes, mesh_format, save_mesh
+from viscore.metrics import jsonable
 
 __all__ = ["dumps", "emit", "check_output_path", "write_atomic", "file_mode", "check_mesh_path",
            "check_occluder_path", "write_mesh", "write_occluder", "occluder_bytes", "parse_list",

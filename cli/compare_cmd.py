@@ -271,7 +271,7 @@ def run_compare(args) -> int:
 
 def _plots(rows: list[dict], out: Path, meshes: list[str], seed: int) -> dict[str, str]:
     """The study's figures (:mod:`viscore.metrics.plots`); returns caption -> file in ``out``."""
-    from viscore.metrics.plots import budget_plot, recall_plot, silhouette_plot
+    from viscore.metrics import budget_plot, recall_plot, silhouette_plot
 
     recall_plot(rows, out / "recall.png")
     budget_plot(rows, out / "budget.png")

@@ -27,17 +27,17 @@ the scene, the occluder files and the camera path are read, the output folder ch
 the frames capped at :data:`MAX_FRAMES` and their memory estimated, for ``--frames``
 and ``--path`` alike).
 Then the output folder is made if missing and locked for this process alone (a second
-``cull`` on it is refused with one line; :func:`viscore.cli.study.store.lock_exclusive`,
-the lock of a study folder), and what a killed run left beside or in it is removed. A run
-that fails or is interrupted removes the folder if it made it.
+``cull`` on it is refused with one line), and what a killed run left beside or in it is
+removed; a run that fails or is interrupted removes the folder if it made it
+(:class:`viscore._atomic.LockedFolder`, as ``occlude``'s folder and a study's).
 
 Outputs in ``--out`` (default ``./viscore-cull``; its parent must exist):
 ``cull.json`` (the ``--json`` document), ``triangles.png`` (triangles
 rendered per frame for every runtime, as Papaioannou et al. 2006, Figs. 5-6)
 and ``cameras.json`` (the path, replayable with ``--path``), written as one
 set, all or none: into a temporary sibling folder ``.OUT.cull-*.tmp`` first,
-which then replaces ``--out`` in one step
-(:func:`viscore._atomic.swap_folder`); other files in ``--out`` stay. The
+which then replaces ``--out`` in one step (:meth:`viscore._atomic.LockedFolder.write_set`);
+other files in ``--out`` stay. The
 table's ``conservative`` column reads ``-`` for a runtime that culled nothing
 (no false cull was possible); ``cull.json`` keeps the runtime's guarantee.
 
@@ -54,26 +54,16 @@ References
 
 from __future__ import annotations
 
-import contextlib
-import glob
 import logging
-import os
-import stat
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from viscore import InputError, provenance
-from viscore._atomic import fsync_path, swap_folder
+from viscore._atomic import LockedFolder
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
-from viscore.culling.occludee_bounds import (
-    AUTO_MIN_SIZE,
-    DEFAULT_CLUSTERS,
-    MAX_CLUSTERS,
-    occludee_boxes,
-)
+from viscore.culling import AUTO_MIN_SIZE, DEFAULT_CLUSTERS, MAX_CLUSTERS, occludee_boxes
 from viscore.generators import REGISTRY, check_method
 from viscore.generators.levels import (
     JOINED_METHODS,
@@ -83,7 +73,7 @@ from viscore.generators.levels import (
     method_indices,
 )
 from viscore.level import UP_AXES, level_objects, occluder_objects
-from viscore.metrics.culling import (
+from viscore.metrics import (
     DEFAULT_HEIGHT,
     DEFAULT_WIDTH,
     camera_path,
@@ -95,8 +85,7 @@ from viscore.metrics.culling import (
     simulate_culling,
 )
 
-from ._common import RateEstimate, check_output_folder, dumps, emit, file_mode
-from .study.store import lock_exclusive
+from ._common import RateEstimate, check_output_folder, dumps, emit
 
 #: Frames of a generated camera path when ``--frames`` is not given.
 DEFAULT_FRAMES = 100
@@ -249,107 +238,6 @@ def _out_dir(text: str) -> Path:
     return out
 
 
-class _OutFolder:
-    """``--out`` made if missing and locked for this process alone, written as one set.
-
-    ``with _OutFolder(path) as out:`` makes the folder if missing, locks it
-    (:func:`lock_exclusive` on the folder itself: nothing is added to it) and
-    removes what a killed run of ours left (:meth:`_sweep`). If the block
-    fails and this call made the folder, the folder goes too.
-    """
-
-    def __init__(self, path: Path) -> None:
-        self.label = path
-        self.path = Path(os.path.realpath(path))  # a link to a folder: the folder
-        self._fd: int | None = None
-        self._created = False
-
-    def __enter__(self) -> _OutFolder:
-        self._created = not os.path.lexists(self.path)
-        try:
-            self.path.mkdir(exist_ok=True)
-        except OSError as exc:
-            raise OSError(exc.errno, exc.strerror, str(self.label)) from None
-        try:
-            self._fd = lock_exclusive(
-                self.path, busy=f"--out {self.label}: another cull is writing this folder; "
-                                "wait for it to finish or choose another --out")
-        except OSError:  # (when another cull holds it, the folder is that run's now)
-            self.__exit__(*(None,) * 3, failed=True)
-            raise
-        try:
-            self._sweep()
-        except BaseException:
-            self.__exit__(*(None,) * 3, failed=True)
-            raise
-        return self
-
-    def __exit__(self, exc_type, exc, tb, failed: bool = False) -> None:
-        try:
-            if (failed or exc_type is not None) and self._created:
-                with contextlib.suppress(OSError):  # only if empty: never a file of a run
-                    self.path.rmdir()
-        finally:
-            if self._fd is not None:
-                os.close(self._fd)  # releases the lock
-                self._fd = None
-
-    def _staging(self) -> list[Path]:
-        """Temporary sibling folders of ours: a new set not yet in place, or an old one."""
-        stem = glob.escape(f".{self.path.name}")
-        return [p for kind in ("cull", "old")
-                for p in self.path.parent.glob(f"{stem}.{kind}-*.tmp")]
-
-    def _sweep(self) -> None:
-        """Remove what a killed run of ours left: sibling sets, temporary files inside."""
-        for folder in self._staging():
-            self._settle(folder)
-        for name in _OUTPUTS:  # the temporary files of earlier versions, in the folder
-            stem, _, suffix = name.rpartition(".")
-            for stale in self.path.glob(f".{stem}.*.{suffix}"):
-                if stale.is_file() and not stale.is_symlink():
-                    stale.unlink(missing_ok=True)
-
-    def _settle(self, folder: Path) -> None:
-        """Empty a staging folder: our files go, anything else back into ``--out``."""
-        if folder.is_symlink() or not folder.is_dir():
-            return
-        for entry in folder.iterdir():
-            if entry.name in _OUTPUTS and (entry.is_symlink() or not entry.is_dir()):
-                entry.unlink(missing_ok=True)
-            elif not os.path.lexists(self.path / entry.name):  # a file the user kept there
-                with contextlib.suppress(OSError):
-                    os.rename(entry, self.path / entry.name)
-        with contextlib.suppress(OSError):
-            folder.rmdir()
-
-    def write_all(self, files: dict) -> None:
-        """Write the files into the folder as one set, all or none.
-
-        ``files`` maps a name to its bytes or to a function writing that file
-        at a given path (a plot). All are written into a temporary sibling
-        folder, which then replaces the folder in one step
-        (:func:`swap_folder`); files of other names in the folder are kept.
-        """
-        staging = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.cull-", suffix=".tmp",
-                                        dir=self.path.parent))
-        try:
-            mode = file_mode()
-            for name, content in files.items():
-                target = staging / name
-                if callable(content):
-                    content(target)
-                else:
-                    target.write_bytes(content)
-                os.chmod(target, mode)
-                fsync_path(target)
-            os.chmod(staging, stat.S_IMODE(os.stat(self.path).st_mode))
-            fsync_path(staging)
-            swap_folder(staging, self.path)  # staging now holds the old set
-        finally:
-            self._settle(staging)
-
-
 def _table(doc: dict) -> str:
     s = doc["settings"]
     gt = doc["ground_truth"]
@@ -459,7 +347,9 @@ def run_cull(args) -> int:
         indices = level.chosen
     # bars only on a terminal: redirected to a file, each redraw is another line of it
     progress = not (args.quiet or args.json) and sys.stderr.isatty()
-    with _OutFolder(out) as folder:  # this process alone, from here to the files
+    with LockedFolder(out, busy=f"--out {out}: another cull is writing this folder; wait "
+                      "for it to finish or choose another --out", outputs=_OUTPUTS,
+                      tag="cull") as folder:  # this process alone, from here to the files
         doc = _simulate(args, objects, indices, path, folder, progress=progress, seed=seed,
                         frames=frames, methods=methods, source=source, active=active,
                         reduction=reduction, width=width, height=height, files=files,
@@ -515,7 +405,7 @@ def _check_frames_memory(frames: int, what: str) -> None:
     check_memory(float(frames) * _BYTES_PER_FRAME, what)
 
 
-def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: bool, seed: int,
+def _simulate(args, objects, indices, path, folder: LockedFolder, *, progress: bool, seed: int,
               frames, methods, source, active, reduction, width, height,
               files: dict | None = None, flat=None, clusters: int = 1,
               bound_kind: str = "box") -> dict:
@@ -553,7 +443,7 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
            **result.to_json(),
            "runtimes": info, "provenance": provenance()}
     # the files, all or none
-    folder.write_all({
+    folder.write_set({
         "triangles.png": lambda p: culling_plot(
             result, p, title=f"{args.scene}: triangles rendered per frame"),
         "cameras.json": camera_path_json(path).encode(),

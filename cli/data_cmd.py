@@ -20,7 +20,7 @@ def add_parser(sub, common) -> None:
 
 
 def run_list(args) -> int:
-    from viscore.level.scene_graph import culling_scene_descriptions
+    from viscore.level import culling_scene_descriptions
 
     scenes = scene_descriptions()
     culling = culling_scene_descriptions()
@@ -35,7 +35,7 @@ def run_list(args) -> int:
 
 
 def run_export(args) -> int:
-    from viscore.level.scene_graph import culling_scene_names, culling_scene_path
+    from viscore.level import culling_scene_names, culling_scene_path
 
     if args.name in culling_scene_names():  # a glTF scene of objects: the file as shipped
         if check_mesh_path(args.output) != "glb":

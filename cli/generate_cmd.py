@@ -35,7 +35,7 @@ from pathlib import Path
 from viscore import InputError, load_mesh, provenance
 from viscore._atomic import FileSet
 from viscore._validate import as_seed
-from viscore.exchange.mesh_io import mesh_bytes
+from viscore.exchange import mesh_bytes
 from viscore.generators import REGISTRY, generate, get_generator, hierarchy_files
 
 from ._common import check_output_file, emit, occluder_bytes

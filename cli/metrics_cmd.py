@@ -31,8 +31,14 @@ from dataclasses import asdict
 
 from viscore import InputError, load_mesh, load_occluder, provenance
 from viscore._validate import as_fraction, as_positive, as_positive_int, as_seed, check_memory
-from viscore.metrics import check_conservative, evaluate, occlusion_measure
-from viscore.metrics.estimates import conservativeness_bytes, evaluation_bytes, measure_bytes
+from viscore.metrics import (
+    check_conservative,
+    conservativeness_bytes,
+    evaluate,
+    evaluation_bytes,
+    measure_bytes,
+    occlusion_measure,
+)
 
 from ._common import emit, format_duration, warn_estimate
 

@@ -5,13 +5,14 @@ format. Every option is checked before any work and before ``DIR`` is made:
 the methods and their variants (:func:`viscore.generators.check_method`: each
 option, and its generator's own rules across options),
 ``--budget`` against each method's ``min_budget``, ``--min-size`` in (0, 1],
-``--jobs`` (at most :data:`viscore.cli.study.runner.JOBS_PER_CORE` per core),
+``--jobs`` (at most :data:`viscore._jobs.JOBS_PER_CORE` per core),
 ``--up``, ``-o`` (its parent must exist and be writable), ``--scheduler`` (by
 connecting), then the level itself (read, split, objects chosen; an unknown
 ``--occluders`` name). Then ``DIR`` is made if missing and locked for this
-process alone (:func:`viscore.cli.study.store.lock_exclusive` on ``DIR``
+process alone (:class:`viscore._atomic.LockedFolder`, the lock on ``DIR``
 itself, so nothing is left in it): a second run on the same folder is refused
-with one line.
+with one line, and a run that fails removes ``DIR`` if it made it and left it
+empty.
 
 Outputs in ``DIR``: ``<method>.tscn`` and ``<method>.glb`` per method that
 covered an object, ``occlude.json`` (written last), and the finished jobs under
@@ -26,20 +27,17 @@ a method that covered nothing writes no ``.tscn``/``.glb``); 2 for bad input.
 from __future__ import annotations
 
 import logging
-import os
 import sys
 
 from viscore import InputError, cpu_cores
-from viscore._jobs import connect_scheduler
+from viscore._atomic import LockedFolder
+from viscore._jobs import JOBS_PER_CORE, connect_scheduler
 from viscore._validate import as_positive_int
 from viscore.generators import REGISTRY, check_method, parse_method
 from viscore.generators.levels import default_methods, occlude_level
-from viscore.level import UP_AXES, level_objects
-from viscore.level.objects import MIN_SIZE
+from viscore.level import MIN_SIZE, UP_AXES, level_objects
 
 from ._common import check_output_folder, emit
-from .study.runner import JOBS_PER_CORE
-from .study.store import lock_exclusive
 
 _log = logging.getLogger(__name__)
 
@@ -148,19 +146,14 @@ def run_occlude(args) -> int:
             _log.info("%s: up axis guessed +%s (%s); pass --up to set it", args.level,
                       level.up.upper(), level.up_reason)
         # 2. the run, in a folder this process alone writes
-        try:
-            out.mkdir(exist_ok=True)
-        except OSError as exc:
-            raise OSError(exc.errno, exc.strerror, str(out)) from None
-        fd = lock_exclusive(out, busy=f"-o {out}: another occlude is writing this folder; "
-                                      "wait for it to finish or choose another -o")
-        bar = _Bar(enabled=not (quiet or args.json) and sys.stderr.isatty())  # a terminal
-        try:
-            made = occlude_level(level, out, methods=methods, budget=budget, seed=args.seed,
-                                 jobs=jobs, scheduler=client, progress=bar)
-        finally:
-            bar.close()
-            os.close(fd)
+        with LockedFolder(out, busy=f"-o {out}: another occlude is writing this folder; "
+                                    "wait for it to finish or choose another -o"):
+            bar = _Bar(enabled=not (quiet or args.json) and sys.stderr.isatty())  # a terminal
+            try:
+                made = occlude_level(level, out, methods=methods, budget=budget,
+                                     seed=args.seed, jobs=jobs, scheduler=client, progress=bar)
+            finally:
+                bar.close()
     doc = made.manifest
     if not quiet:
         _refusals(doc)

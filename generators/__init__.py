@@ -2,9 +2,10 @@
 
 Every generator is ``function(mesh, *, budget=..., seed=..., **options) -> Occluder``
 and is registered by its CLI name in :data:`REGISTRY`, with its options
-declared there (:class:`GeneratorSpec`, :class:`GeneratorOption`). Run one by
-name with :func:`generate`, which checks the options first and flags an
-occluder over its budget. ``Occluder.parts`` follows the schema documented in
+declared (:class:`GeneratorSpec`, :class:`GeneratorOption`; beside the
+generator, which checks its own arguments by them, where it has an ``OPTIONS``
+table). Run one by name with :func:`generate`, which checks the options first
+and flags an occluder over its budget. ``Occluder.parts`` follows the schema documented in
 :mod:`viscore.generators.occluder` (:func:`check_parts`). Other packages add
 methods under the ``viscore.generators`` entry points (plugins, see
 :mod:`viscore.generators.registry`); :func:`check_generator`

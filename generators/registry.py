@@ -4,7 +4,11 @@ Each generator is ``function(mesh, *, budget=..., seed=..., **options) -> Occlud
 Its :class:`GeneratorSpec` declares the options beyond ``budget`` and ``seed``
 (:class:`GeneratorOption`: name, type, default, range, choices, help); the
 command line builds ``viscore generate METHOD`` and its flags from them, and
-:func:`generate` checks every value against them before any work. A new method
+:func:`generate` checks every value against them before any work. A family
+that declares its options beside its generator (an ``OPTIONS`` table, the
+generator wrapped by :func:`viscore.generators.specs.checked_by`: surface
+patches, planar sections, godot) hands the same table to its spec here, so
+that the generator's own checks and the spec's are one declaration. A new method
 is one module plus one entry in :data:`REGISTRY`: it then appears in
 ``viscore generate --help`` and joins every study, with no change under ``cli/``.
 
@@ -53,6 +57,7 @@ from .aabb_skins.generator import BYTES_PER_CELL as AABB_BYTES_PER_CELL
 from .aabb_skins.generator import MAX_VOXELS as AABB_MAX_VOXELS
 from .aabb_skins.generator import TRIANGLES_PER_BOX
 from .baselines import generate_bbox, generate_godot, generate_original, generate_qem
+from .baselines.godot import OPTIONS as GODOT_OPTIONS
 from .hybrid import generate_hybrid
 from .hybrid.generator import EPS_A as HYBRID_EPS_A
 from .hybrid.generator import EPS_P as HYBRID_EPS_P
@@ -65,25 +70,14 @@ from .hybrid.generator import VOXELS as HYBRID_VOXELS
 from .occluder import Occluder
 from .planar_hierarchy import generate_planar_hierarchy, register_node_occluder
 from .planar_sections import generate_planar_sections
-from .planar_sections.generator import DEFAULT_ALPHA as PLANAR_ALPHA
-from .planar_sections.generator import DEFAULT_DEPTH_BINS as PLANAR_DEPTH_BINS
-from .planar_sections.generator import DEFAULT_DIRECTION_BINS as PLANAR_DIRECTION_BINS
-from .planar_sections.generator import DEFAULT_FOV as PLANAR_FOV
-from .planar_sections.generator import DEFAULT_SCREEN as PLANAR_SCREEN
-from .planar_sections.generator import MAX_VOXELS as PLANAR_MAX_VOXELS
-from .planar_sections.generator import RDP_TOLERANCE as PLANAR_RDP_TOLERANCE
+from .planar_sections.generator import OPTIONS as PLANAR_OPTIONS
 from .planar_sections.generator import use_hierarchy
 from .plugins import PLUGIN_GROUP, PluginError, _discover_plugins, _run_plugin
 from .solid_frusta import generate_solid_frusta
 from .solid_frusta.generator import use_box_source
 from .specs import COMMON_OPTIONS, GeneratorOption, GeneratorSpec, check_only  # noqa: F401
 from .surface_patches import generate_surface_patches
-from .surface_patches.generator import BOXES as SURFACE_BOXES
-from .surface_patches.generator import MIN_AREA as SURFACE_MIN_AREA
-from .surface_patches.generator import PLANE_TOLERANCE as SURFACE_PLANE_TOLERANCE
-from .surface_patches.generator import SELECTIONS as SURFACE_SELECTIONS
-from .surface_patches.generator import SHEETS as SURFACE_SHEETS
-from .surface_patches.generator import WELDS as SURFACE_WELDS
+from .surface_patches.generator import OPTIONS as SURFACE_OPTIONS
 from .surface_patches.generator import use_box_source as use_surface_box_source
 from .terrain_drape import generate_terrain_drape
 from .terrain_drape.generator import RESOLUTION as TERRAIN_RESOLUTION
@@ -206,85 +200,7 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
             "planar-sections", generate_planar_sections,
             "double-sided planar sections of the voxelized solid, chosen by occlusion measure "
             "(Silvennoinen et al. 2014)",
-            options=(
-                GeneratorOption("voxels", int, None, "voxels along the longest bounding-box side",
-                                low=1, high=PLANAR_MAX_VOXELS, nullable=True,
-                                default_text="64 unless --voxel-size or --pixel-error"),
-                GeneratorOption("voxel_size", float, None,
-                                "voxel side in world units (instead of --voxels)",
-                                low=0, low_open=True, nullable=True),
-                GeneratorOption("direction_bins", int, PLANAR_DIRECTION_BINS,
-                                "bins of plane normals over the hemisphere", low=1, high=256),
-                GeneratorOption("depth_bins", int, PLANAR_DEPTH_BINS,
-                                "bins of plane depths per direction", low=1, high=64),
-                GeneratorOption("alpha", float, PLANAR_ALPHA,
-                                "alpha-completeness of the greedy search, percent", low=0),
-                GeneratorOption("measure", str, "om",
-                                "selection measure: occlusion measure or projected area",
-                                choices=("om", "area")),
-                GeneratorOption("reduce", str, "om",
-                                "budget cut keeps the cut of largest occlusion measure, "
-                                "surface area (the paper) or projected area",
-                                choices=("area", "projected-area", "om")),
-                GeneratorOption("rdp_tolerance", float, PLANAR_RDP_TOLERANCE,
-                                "Ramer-Douglas-Peucker tolerance of the edge loops, voxels",
-                                low=0, low_open=True),
-                GeneratorOption("chain", str, "optimal",
-                                "simplification chains: the paper's greedy smallest-ear "
-                                "collapse, or with its stages of at most 12 triangles the "
-                                "largest inscribed polygons",
-                                choices=("optimal", "greedy")),
-                GeneratorOption("conservative", bool, False,
-                                "slice only through voxels wholly inside the mesh, so that no "
-                                "ray sees the occluder before a closed mesh"),
-                GeneratorOption("pixel_error", float, None,
-                                "screen-space error in pixels that sets the voxel size "
-                                "(with --distance or --lod-distances)",
-                                low=0, low_open=True, nullable=True),
-                GeneratorOption("distance", float, None,
-                                "viewer distance of --pixel-error, world units",
-                                low=0, low_open=True, nullable=True),
-                GeneratorOption("fov", float, PLANAR_FOV, "that viewer's field of view, degrees",
-                                low=0, low_open=True, high=180, high_open=True),
-                GeneratorOption("screen", int, PLANAR_SCREEN, "that viewer's screen width, pixels",
-                                low=1),
-                GeneratorOption("lod_distances", str, None,
-                                "levels of detail: comma-separated viewer distances, one "
-                                "occluder each (with --pixel-error)", nullable=True),
-                GeneratorOption("hierarchy", bool, False,
-                                "occluder hierarchy over the mesh's parts, with a tree cut per "
-                                "camera (sec. 5); writes the tree beside the output"),
-                GeneratorOption("jobs", int, 1,
-                                "processes building the hierarchy's nodes (with --hierarchy; "
-                                "the same tree with any number)", low=1, high=256),
-                GeneratorOption("dilate", int, 0,
-                                "dilation steps of the voxel solid (sec. 5's gluing step)", low=0,
-                                high=8),
-                GeneratorOption("close", int, None,
-                                "close openings up to about 2 x this many voxels wide before the "
-                                "flood fill (scans with holes, buildings with open windows)",
-                                low=0, high=8, nullable=True,
-                                default_text="0, or with the precision floor on and a voxel "
-                                "solid without interior (or that closing grows by 10%+) the "
-                                "best of 0, 2, 3, 4 on the check views"),
-                GeneratorOption("min_precision", float, None,
-                                "precision floor: refine the voxels (x sqrt 2, twice at most) "
-                                "while the 95% lower bound of the occluder's precision on 64 "
-                                "orbit views is under it (coarser while it holds, with the "
-                                "default size); 0 turns it off", low=0, high=1, nullable=True,
-                                default_text="0.995 unless --voxels, --voxel-size, "
-                                "--pixel-error, --conservative or --lod-distances"),
-                GeneratorOption("ground", str, "auto",
-                                "a ground plane under the mesh: 'auto', 'off' or its height "
-                                "along --up (world units); the space between it and the surface "
-                                "joins the solid where the mesh hides it (terrain, open-bottomed "
-                                "buildings)",
-                                default_text="auto: the mesh's lowest point, tried beside the "
-                                "closings and kept when it passes the precision floor with "
-                                "more recall"),
-                GeneratorOption("up", str, "auto", "the up axis of --ground",
-                                choices=("auto", "x", "y", "z")),
-            ),
+            options=PLANAR_OPTIONS,
             min_budget=1),
         GeneratorSpec(
             "hybrid", generate_hybrid,
@@ -364,39 +280,7 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
             "double-sided polygons cut from the input's own coplanar regions (across loose "
             "parts), chosen by occlusion measure; conservative on any input (thin, open game "
             "geometry)",
-            options=(
-                GeneratorOption("plane_tolerance", float, SURFACE_PLANE_TOLERANCE,
-                                "coplanarity tolerance: largest distance of a region face's "
-                                "vertex from its plane, fraction of the bounding-box diagonal",
-                                low=0, low_open=True, high=1e-5),
-                GeneratorOption("min_area", float, SURFACE_MIN_AREA,
-                                "skip regions and pieces under this fraction of the input's "
-                                "face area", low=0, high=1),
-                GeneratorOption("chain", str, "optimal",
-                                "stages of at most 12 triangles: largest inscribed polygons or "
-                                "the paper's greedy chain", choices=("optimal", "greedy")),
-                GeneratorOption("boxes", str, "auto",
-                                "also offer aabb-skins boxes inside the closed parts (curved "
-                                "solids) to the selection, 12 triangles each, or patches only",
-                                choices=SURFACE_BOXES),
-                GeneratorOption("ground", str, "off",
-                                "also offer vertical curtains in the space open ground seals "
-                                "(hills, terrain sheets): guaranteed for viewpoints not under "
-                                "the ground nor below its rim", choices=("off", "auto")),
-                GeneratorOption("up", str, "auto", "the up axis of --ground",
-                                choices=("auto", "x", "y", "z")),
-                GeneratorOption("selection", str, "overlap",
-                                "value each candidate by what it adds to the chosen ones' "
-                                "projections (the paper's soup measure) or by its own measure "
-                                "alone", choices=SURFACE_SELECTIONS),
-                GeneratorOption("sheets", str, "auto",
-                                "also offer curved open sheets (terrain, vaults) as their own "
-                                "triangles, in chunks of about 64", choices=SURFACE_SHEETS),
-                GeneratorOption("weld", str, "auto",
-                                "move patch vertices the erosion left beside a crease of the "
-                                "input onto the line of its two planes, so that the depth "
-                                "buffer covers the crease", choices=SURFACE_WELDS),
-            ),
+            options=SURFACE_OPTIONS,
             conservative=True, min_budget=1),
         GeneratorSpec(
             "terrain-drape", generate_terrain_drape,
@@ -426,11 +310,7 @@ REGISTRY: MutableMapping[str, GeneratorSpec] = _Registry({
         GeneratorSpec(
             "godot", generate_godot,
             "Godot 4's occluder bake: meshoptimizer simplify per surface, borders locked",
-            options=(
-                GeneratorOption("distance", float, None,
-                                "bake simplification distance in world units; 0 keeps the mesh",
-                                low=0, default_text="1% of the bounding-box diagonal"),
-            ),
+            options=GODOT_OPTIONS,
             baseline=True, budgeted=False),
         GeneratorSpec("bbox", generate_bbox, "the bounding box (non-conservative extreme)",
                       baseline=True, budgeted=False),

@@ -4,10 +4,14 @@
 :class:`GeneratorSpec` (the function, its options, budget rules and claims)
 declare a method; the command line builds its flags from them and
 :func:`viscore.generators.generate` checks every value against them before any
-work. :meth:`GeneratorSpec.from_function` derives a spec from a plain function:
-its keyword-only parameters with defaults become the options, their types from
-the defaults or annotations and their help from the numpydoc ``Parameters``
-section. The table of methods is :data:`viscore.generators.REGISTRY`.
+work. A method's options are declared once, beside its generator, and the
+generator's own arguments are checked from the same declarations
+(:func:`checked_by`), so that a direct call and a call by name refuse the same
+values with the same message. :meth:`GeneratorSpec.from_function` derives a
+spec from a plain function: its keyword-only parameters with defaults become
+the options, their types from the defaults or annotations and their help from
+the numpydoc ``Parameters`` section. The table of methods is
+:data:`viscore.generators.REGISTRY`.
 
 :meth:`GeneratorSpec.check_options` runs a method's own argument checks (its
 cross-option rules: ``pixel_error`` needs ``distance``, ``close`` not with
@@ -22,6 +26,7 @@ validation stays the one source of its rules.
 from __future__ import annotations
 
 import ast
+import functools
 import inspect
 import logging
 import math
@@ -29,9 +34,11 @@ import numbers
 import time
 import types
 import typing
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
+import numpy as np
 import trimesh
 
 from viscore import InputError
@@ -84,6 +91,14 @@ class GeneratorOption:
         ``None`` is a valid value (on the CLI: ``none``), e.g. no box limit.
     default_text : str, optional
         How ``--help`` states a default computed from the mesh.
+    convert : callable, optional
+        ``convert(value, label)``: the generator's own reading of a value
+        that is not one type (a ground height or ``'auto'``/``'off'``;
+        distances as text or numbers), returning what the generator works
+        with or raising :class:`~viscore.InputError`. It replaces the
+        type, range and choices checks: :meth:`check` keeps a value it
+        accepts as given (so a method variant's text stays as written),
+        :meth:`read` returns its conversion.
     """
 
     name: str
@@ -97,6 +112,7 @@ class GeneratorOption:
     choices: tuple[str, ...] | None = None
     nullable: bool = False
     default_text: str | None = None
+    convert: Callable[[object, str], object] | None = None
 
     def __post_init__(self) -> None:
         if self.type not in _TYPES:
@@ -123,15 +139,22 @@ class GeneratorOption:
         return text + (", or none" if self.nullable else "")
 
     def check(self, value: object, label: str | None = None) -> object:
-        """``value`` converted to the option's type, or :class:`InputError` naming ``label``."""
+        """``value`` converted to the option's type, or :class:`InputError` naming ``label``.
+
+        A ``bool`` is ``True`` or ``False`` (numpy's included); an option with
+        :attr:`convert` keeps every value its conversion accepts as given.
+        """
         label = label or self.name
         if value is None and self.nullable:
             return None
+        if self.convert is not None:
+            self.convert(value, label)
+            return value
         bad = InputError(f"{label}: expected {self.expected()}, got {value!r}")
         if self.type is bool:
-            if not isinstance(value, bool):
+            if not isinstance(value, (bool, np.bool_)):
                 raise bad
-            return value
+            return bool(value)
         if self.type is str:
             if not isinstance(value, str) or (self.choices and value not in self.choices):
                 raise bad
@@ -152,6 +175,12 @@ class GeneratorOption:
                                       or (self.high_open and value == self.high)):
             raise bad
         return value
+
+    def read(self, value: object, label: str | None = None) -> object:
+        """``value`` as the generator works with it: :meth:`check`'s, or :attr:`convert`'s."""
+        if self.convert is None or (value is None and self.nullable):
+            return self.check(value, label)
+        return self.convert(value, label or self.name)
 
     def parse(self, text: str, label: str | None = None) -> object:
         """A command-line string converted and checked, or :class:`InputError`."""
@@ -181,6 +210,102 @@ class GeneratorOption:
 #: (a generator that ignores it or cannot meet it is flagged, see :func:`generate`)
 #: and ``seed`` (the one seed rule, :func:`viscore._validate.as_seed`).
 COMMON_OPTIONS = ("budget", "seed")
+
+_Generator = TypeVar("_Generator", bound=Callable[..., Occluder])
+
+
+def check_arguments(options: Sequence[GeneratorOption], arguments: dict) -> dict:
+    """A generator's keyword arguments checked and converted by its declared options.
+
+    ``budget`` is None or an integer >= 1, ``seed`` the one seed rule
+    (:func:`viscore._validate.as_seed`), each declared option
+    :meth:`GeneratorOption.read` (an option left at a ``None`` default, one the
+    generator computes from the mesh, stays None); other keys pass as they are.
+
+    Raises
+    ------
+    InputError
+        The first value out of type or range, in the order ``budget``,
+        ``seed``, then the options as declared.
+    """
+    out = dict(arguments)
+    if out.get("budget") is not None:
+        out["budget"] = as_positive_int(out["budget"], "budget")
+    if "seed" in out:
+        out["seed"] = as_seed(out["seed"], "seed")
+    for option in options:
+        if option.name in out and not (out[option.name] is None and option.default is None):
+            out[option.name] = option.read(out[option.name])
+    return out
+
+
+def checked_by(options: Sequence[GeneratorOption]) -> Callable[[_Generator], _Generator]:
+    """Decorator: a generator whose arguments are checked by its declared options first.
+
+    The options a method declares (for the registry's :class:`GeneratorSpec`
+    and the command line's flags) are the checks of its generator too: the
+    wrapped generator gets ``budget``, ``seed`` and every declared option
+    checked and converted (:func:`check_arguments`, defaults included)
+    before its body runs, so that its body holds only its rules across
+    options and its work. The wrapper keeps the generator's name, signature
+    and docstring; it never touches the mesh (a check-only call,
+    :func:`check_only_call`, still ends at the body's first use of it).
+
+    Parameters
+    ----------
+    options : sequence of GeneratorOption
+        One per keyword-only parameter of the generator besides ``budget``
+        and ``seed``, with the parameter's default.
+
+    Raises
+    ------
+    TypeError
+        At decoration, when the options and the generator's keyword-only
+        parameters or their defaults disagree.
+
+    Examples
+    --------
+    >>> SIDE = (GeneratorOption("side", float, 1.0, "side, world units", low=0, low_open=True),)
+    >>> @checked_by(SIDE)
+    ... def shrunk(mesh, *, budget=None, seed=0, side=1.0):
+    ...     return side
+    >>> shrunk(None, side=2)
+    2.0
+    >>> try:
+    ...     shrunk(None, side=-1)
+    ... except InputError as exc:
+    ...     print(exc)
+    side: expected a number > 0, got -1
+    """
+    options = tuple(options)
+
+    def decorate(function: _Generator) -> _Generator:
+        signature = inspect.signature(function)
+        params = signature.parameters
+        keywords = {k for k, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY}
+        declared = {o.name for o in options}
+        if keywords - set(COMMON_OPTIONS) != declared:
+            raise TypeError(f"{function.__name__}: options declared {sorted(declared)}, "
+                            f"keyword options {sorted(keywords - set(COMMON_OPTIONS))}")
+        for option in options:
+            if params[option.name].default != option.default:
+                raise TypeError(f"{function.__name__}: option {option.name} declares the "
+                                f"default {option.default!r}, the generator has "
+                                f"{params[option.name].default!r}")
+        first = next(iter(params))
+
+        @functools.wraps(function)
+        def checked(*args, **kwargs):
+            bound = signature.bind(*args, **kwargs)
+            bound.apply_defaults()
+            arguments = dict(bound.arguments)
+            mesh = arguments.pop(first)
+            return function(mesh, **check_arguments(options, arguments))
+
+        checked.options = options
+        return checked
+
+    return decorate
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,12 @@ intervals and models for each figure.
   :func:`orbit_frame`, :func:`evaluation_box`, :func:`volume_positions`.
 - Culling: :func:`simulate_culling` along a :func:`camera_path` with the
   runtimes of :mod:`viscore.metrics.culling_runtimes`.
+- Two meshes triangle for triangle (:mod:`viscore.metrics.mesh_match`):
+  :func:`match_triangles`, :func:`surface_distance`.
+- Memory a computation will need, checked before it starts
+  (:mod:`viscore.metrics.estimates`): :func:`measure_bytes`,
+  :func:`evaluation_bytes`, :func:`conservativeness_bytes`, :func:`study_bytes`;
+  results as plain JSON values: :func:`jsonable`.
 
 Other helpers shared between the modules (boxes, tallies) are imported from
 their modules, not from here.
@@ -44,7 +50,15 @@ from .conservativeness import (
     check_conservative,
     clopper_pearson_upper,
 )
-from .culling import CullingResult, RuntimeFrames, simulate_culling
+from .culling import (
+    DEFAULT_HEIGHT,
+    DEFAULT_WIDTH,
+    CullingResult,
+    RuntimeFrames,
+    check_camera_path,
+    check_culling_memory,
+    simulate_culling,
+)
 from .culling_runtimes import (
     Runtime,
     depth_buffer_runtime,
@@ -58,11 +72,20 @@ from .erosion import (
     erosion_curve,
     occlusion_measure,
 )
+from .estimates import conservativeness_bytes, evaluation_bytes, measure_bytes, study_bytes
 from .frames import evaluation_box, orbit_frame, volume_positions
+from .mesh_match import match_triangles, surface_distance
 from .orbit import orbit_precision_recall
 from .paired import PairedDifference, paired_difference
-from .plots import ablation_plot, culling_plot, distribution_plot
-from .precision_recall import PrecisionRecall
+from .plots import (
+    ablation_plot,
+    budget_plot,
+    culling_plot,
+    distribution_plot,
+    recall_plot,
+    silhouette_plot,
+)
+from .precision_recall import PrecisionRecall, jsonable
 from .quads import QuadCounts, classify_quads, classify_quads_depth, sample_quads
 from .reference_views import PROTOCOLS, ReferenceViews
 from .silhouettes import SILHOUETTE_COLOURS, silhouette_image
@@ -89,9 +112,15 @@ __all__ = [
     # culling simulation
     "simulate_culling", "CullingResult", "RuntimeFrames", "Runtime", "no_culling",
     "frusta_runtime", "depth_buffer_runtime", "view_frustum_mask", "camera_path",
-    "read_camera_path", "camera_path_json", "PathCamera", "culling_plot",
+    "read_camera_path", "camera_path_json", "PathCamera", "culling_plot", "check_camera_path",
+    "check_culling_memory", "DEFAULT_WIDTH", "DEFAULT_HEIGHT",
+    # two meshes, triangle for triangle
+    "match_triangles", "surface_distance",
+    # memory estimates, JSON values
+    "measure_bytes", "evaluation_bytes", "conservativeness_bytes", "study_bytes", "jsonable",
     # figures
     "ablation_plot", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",
+    "recall_plot", "budget_plot", "silhouette_plot",
 ]
 
 

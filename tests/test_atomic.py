@@ -1,4 +1,6 @@
-"""viscore/_atomic.py: a set of files beside others, written all or none (:class:`FileSet`)."""
+"""viscore/_atomic.py: a set of files beside others, written all or none (:class:`FileSet`),
+and an output folder held by one process, its files swapped in as a set
+(:class:`LockedFolder`)."""
 
 import errno
 import os
@@ -6,8 +8,8 @@ import stat
 
 import pytest
 
-from viscore import _atomic
-from viscore._atomic import FileSet, file_mode
+from viscore import InputError, _atomic
+from viscore._atomic import FileSet, LockedFolder, file_mode
 
 
 def _contents(folder) -> dict:
@@ -103,3 +105,113 @@ def test_a_missing_folder_names_it(tmp_path):
         with FileSet(tmp_path / "missing"):
             pass
     assert caught.value.filename == str(tmp_path / "missing")
+
+
+# ----------------------------------------------------------------------------- LockedFolder
+
+SET = ("doc.json", "plot.png")
+
+
+def _held(path, **kwargs) -> LockedFolder:
+    return LockedFolder(path, busy=f"{path}: busy", outputs=SET, tag="t", **kwargs)
+
+
+def test_locked_folder_swaps_a_set_in_and_keeps_the_users_files(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "doc.json").write_bytes(b"old")
+    (out / "notes.txt").write_bytes(b"mine")
+    with _held(out) as folder:
+        folder.write_set({"doc.json": b"new", "plot.png": lambda p: p.write_bytes(b"png")})
+    assert _contents(out) == {"doc.json": b"new", "notes.txt": b"mine", "plot.png": b"png"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no staging left
+    assert stat.S_IMODE(os.stat(out / "plot.png").st_mode) == file_mode()
+
+
+def test_locked_folder_refuses_a_second_holder_and_leaves_its_folder(tmp_path):
+    out = tmp_path / "out"
+    with _held(out):
+        with pytest.raises(InputError, match="out: busy"):
+            with _held(out):
+                pass
+        assert out.is_dir()  # the first holder's folder stays
+    with _held(out):  # released
+        pass
+
+
+@pytest.mark.parametrize("existed", [False, True])
+def test_locked_folder_a_failed_block_removes_only_an_empty_folder_it_made(tmp_path, existed):
+    out = tmp_path / "out"
+    if existed:
+        out.mkdir()
+    with pytest.raises(KeyboardInterrupt):
+        with _held(out):
+            raise KeyboardInterrupt
+    assert out.is_dir() == existed
+    with pytest.raises(OSError):
+        with _held(out):
+            (out / "partial.bin").write_bytes(b"x")
+            raise OSError("disk full")
+    assert (out / "partial.bin").is_file()  # never a file of a run
+
+
+def test_locked_folder_settles_what_a_killed_run_left(tmp_path):
+    """A set staged beside the folder (the run killed before or after the swap) and a
+    half-written copy inside: our files go, the user's file comes back."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "doc.json").write_bytes(b"kept")
+    (out / ".doc.k1l2.json").write_bytes(b"{")  # half-written
+    old = tmp_path / ".out.old-x.tmp"  # an old set swapped aside, the user's file with it
+    old.mkdir()
+    (old / "plot.png").write_bytes(b"old png")
+    (old / "notes.txt").write_bytes(b"mine")
+    new = tmp_path / ".out.t-y.tmp"  # a new set never swapped in
+    new.mkdir()
+    (new / "doc.json").write_bytes(b"new, unplaced")
+    with _held(out):
+        pass
+    assert _contents(out) == {"doc.json": b"kept", "notes.txt": b"mine"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_locked_folder_failed_swap_keeps_the_old_set(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "doc.json").write_bytes(b"old")
+
+    def refused(new, target):
+        raise OSError(errno.EXDEV, os.strerror(errno.EXDEV), str(target))
+
+    monkeypatch.setattr(_atomic, "swap_folder", refused)
+    with pytest.raises(OSError, match="out"):
+        with _held(out) as folder:
+            folder.write_set({"doc.json": b"new", "plot.png": b"png"})
+    assert _contents(out) == {"doc.json": b"old"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_locked_folder_with_a_lock_file_locks_that_file(tmp_path):
+    import fcntl
+
+    out = tmp_path / "study"
+    with LockedFolder(out, busy="busy", lock_file=".lock"):
+        assert (out / ".lock").is_file()
+        fd = os.open(out, os.O_RDONLY | os.O_DIRECTORY)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # the folder itself is free
+        finally:
+            os.close(fd)
+        with pytest.raises(InputError, match="busy"):
+            with LockedFolder(out, busy="busy", lock_file=".lock"):
+                pass
+
+
+def test_locked_folder_write_set_takes_the_declared_names_inside_its_block(tmp_path):
+    folder = _held(tmp_path / "out")
+    with pytest.raises(ValueError, match="outside"):
+        folder.write_set({"doc.json": b"x"})
+    with folder:
+        with pytest.raises(ValueError, match="other.txt"):
+            folder.write_set({"other.txt": b"x"})
+    assert _contents(tmp_path / "out") == {}

@@ -1,8 +1,11 @@
-"""``viscore bench godot-bake``'s parts on hand-built cases, and the bench on Godot's demo.
+"""``viscore bench godot-bake`` and the library parts it stands on, on hand-built cases.
 
-Only the last test needs Godot's demo files (``$VISCORE_MODELS`` or
-``../shared/models`` beside the repository, holding ``godot-occlusion-demo/``);
-it is skipped without them.
+The ``.tscn`` reader (:func:`viscore.exchange.tscn_instances`), the emulation of
+Godot's glTF importer (:func:`viscore.generators.baselines.godot_imported_surface`)
+and the bench's own block, assignment and crop rules; the matchers it compares
+with are tested in ``test_mesh_match.py``. Only the last test needs Godot's demo
+files (``$VISCORE_MODELS`` or ``../shared/models`` beside the repository, holding
+``godot-occlusion-demo/``); it is skipped without them.
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 
 from viscore import InputError
 from viscore.cli.bench.godot_bake import (
@@ -21,10 +25,10 @@ from viscore.cli.bench.godot_bake import (
     bench_godot_bake,
     bench_godot_bake_text,
     crop_instance,
-    match_triangles,
-    scene_instances,
-    surface_distance,
 )
+from viscore.exchange import GODOT_DEFAULT_MASK, tscn_instances
+from viscore.generators.baselines import godot_imported_surface
+from viscore.metrics import match_triangles
 
 
 def _demo() -> Path:
@@ -96,8 +100,8 @@ text = "a
 """
 
 
-def test_scene_instances_composes_parents_relative_to_the_occluder():
-    r = scene_instances(SCENE, "room.glb")
+def test_tscn_instances_composes_parents_relative_to_the_occluder():
+    r = tscn_instances(SCENE, "room.glb")
     assert r["names"] == ["Room", "Room2"]
     occ = np.eye(4)
     occ[1, 3] = -2
@@ -114,10 +118,93 @@ def test_scene_instances_composes_parents_relative_to_the_occluder():
     assert nodes["Floor"]["layers"] == 1 and nodes["Floor"]["in_bake_mask"]
 
 
-def test_scene_instances_refuses_an_unknown_parent():
-    text = SCENE + '\n[node name="Lost" parent="Nowhere" instance=ExtResource("2_room")]\n'
+def test_tscn_instances_without_an_occluder_node_keeps_the_scene_frame():
+    text = SCENE.replace('type="OccluderInstance3D"', 'type="Node3D"')
+    r = tscn_instances(text, "room.glb")
+    assert r["occluder"] is None
+    np.testing.assert_allclose(r["transforms"][0][:3, 3], [10.0, 0.0, 0.0])
+    assert all(m["in_bake_mask"] for m in r["mesh_nodes"])  # the default mask takes all
+    assert GODOT_DEFAULT_MASK == 2**32 - 1
+
+
+def test_tscn_instances_places_a_deep_chain_of_nodes():
+    """Each node one unit along x under the last: the translations add up along the chain."""
+    depth = 200
+    lines = ['[gd_scene format=3]', '[ext_resource type="PackedScene" path="res://r.glb" id="1"]',
+             '[node name="Root" type="Node3D"]']
+    parent = "."
+    for k in range(depth):
+        lines += [f'[node name="N{k}" type="Node3D" parent="{parent}"]',
+                  "transform = Transform3D(1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0)"]
+        parent = f"N{k}" if parent == "." else f"{parent}/N{k}"
+    lines.append(f'[node name="R" parent="{parent}" instance=ExtResource("1")]')
+    r = tscn_instances("\n".join(lines) + "\n", "r.glb")
+    assert r["names"] == ["R"] and r["transforms"][0][0, 3] == depth
+
+
+@pytest.mark.parametrize("text, match", [
+    (SCENE + '\n[node name="Lost" parent="Nowhere" instance=ExtResource("2_room")]\n',
+     "Nowhere"),
+    (SCENE + '\n[node name="Lamp2" type="MeshInstance3D" parent="."]\nlayers = two\n',
+     "layers"),
+    (SCENE.replace("bake_mask = 4294967293", "bake_mask = -1"), "bake_mask"),
+    (SCENE.replace("distance = 0.25", "distance = far"), "bake_simplification_distance"),
+    ('[gd_scene format=3]\n[node name="unclosed\n', "unterminated"),
+])
+def test_tscn_instances_invalid_input(text, match):
+    with pytest.raises(InputError, match=match):
+        tscn_instances(text, "room.glb")
+
+
+# ----------------------------------------------------------------------------- importer
+
+
+def _glb_cube(path: Path, *, normals: bool) -> None:
+    """A unit cube of 8 shared corners in a GLB, with or without per-vertex normals."""
+    cube = trimesh.creation.box()
+    if not normals:
+        cube = trimesh.Trimesh(cube.vertices, cube.faces, process=False)
+    scene = trimesh.Scene()
+    scene.add_geometry(cube, node_name="Cube", geom_name="cube",
+                       transform=trimesh.transformations.translation_matrix([5.0, 0.0, 0.0]))
+    path.write_bytes(trimesh.exchange.gltf.export_glb(scene, include_normals=normals))
+
+
+def test_godot_imported_surface_swaps_corners_and_merges_in_first_use_order(tmp_path):
+    path = tmp_path / "cube.glb"
+    _glb_cube(path, normals=False)
+    cube = trimesh.creation.box()
+    v, f, raw = godot_imported_surface(path, "Cube")
+    assert raw == 8 and len(v) == 8 and len(f) == 12
+    # clockwise: each triangle of the file with its second and third corners swapped
+    np.testing.assert_allclose(v[f], cube.vertices[cube.faces[:, [0, 2, 1]]] + [5.0, 0.0, 0.0])
+    # vertices numbered by first use: the corners of the first triangle are 0, 1, 2
+    first_use = np.unique(f.reshape(-1), return_index=True)[1]
+    assert np.all(np.diff(first_use) > 0) and f[0].tolist() == [0, 1, 2]
+
+
+def test_godot_imported_surface_keeps_corners_apart_where_the_normals_differ(tmp_path):
+    """A cube whose file holds a normal per corner and face: 24 vertices, not 8."""
+    path = tmp_path / "cube.glb"
+    box = trimesh.creation.box()
+    split = trimesh.Trimesh(box.triangles.reshape(-1, 3), np.arange(36).reshape(-1, 3),
+                            process=False)
+    split.vertex_normals = np.repeat(box.face_normals, 3, axis=0)
+    scene = trimesh.Scene()
+    scene.add_geometry(split, node_name="Cube", geom_name="cube")
+    path.write_bytes(trimesh.exchange.gltf.export_glb(scene, include_normals=True))
+    v, f, raw = godot_imported_surface(path, "Cube")
+    assert raw == 36 and len(v) == 24 and len(f) == 12  # 6 faces x 4 corners
+
+
+def test_godot_imported_surface_invalid_input(tmp_path):
+    path = tmp_path / "cube.glb"
+    _glb_cube(path, normals=False)
     with pytest.raises(InputError, match="Nowhere"):
-        scene_instances(text, "room.glb")
+        godot_imported_surface(path, "Nowhere")
+    (tmp_path / "bad.glb").write_bytes(b"not a glb")
+    with pytest.raises(InputError, match="bad.glb"):
+        godot_imported_surface(tmp_path / "bad.glb", "Cube")
 
 
 # ----------------------------------------------------------------------------- crops
@@ -177,75 +264,6 @@ def test_one_block_spanning_instances_is_split_by_triangle():
     assert (bake_blocks(shared) == 0).all()
     np.testing.assert_array_equal(assign_instances(bv, shared, np.array(mats), LOWER, UPPER),
                                   [1, 1, 1, 0, 0, 0])
-
-
-# ----------------------------------------------------------------------------- matching
-
-
-SQUARE_V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
-SQUARE_F = np.array([[0, 1, 2], [0, 2, 3]])
-
-
-def test_match_triangles_ignores_order_and_orientation():
-    perm = np.array([2, 0, 3, 1])  # new vertex k is old vertex perm[k]
-    where = np.argsort(perm)
-    v = SQUARE_V[perm]
-    f = where[SQUARE_F][::-1][:, [2, 1, 0]]  # triangles swapped and flipped
-    a, b = match_triangles(v, f, SQUARE_V, SQUARE_F, 1e-4)
-    assert a.all() and b.all()
-    # the other diagonal covers the same square with other triangles: no match
-    a, b = match_triangles(SQUARE_V, np.array([[0, 1, 3], [1, 2, 3]]), SQUARE_V, SQUARE_F, 1e-4)
-    assert not a.any() and not b.any()
-
-
-def test_match_triangles_tolerance_and_duplicates():
-    moved = SQUARE_V.copy()
-    moved = np.vstack([moved, moved[[0]] + [0, 0, 1e-2]])  # a copy of vertex 0, lifted
-    f = np.array([[0, 1, 2], [4, 2, 3]])
-    a, b = match_triangles(moved, f, SQUARE_V, SQUARE_F, 1e-4)
-    assert a.tolist() == [True, False] and b.tolist() == [True, False]
-    moved[4] = SQUARE_V[0] + [0, 1e-5, 0]  # within the tolerance
-    a, b = match_triangles(moved, f, SQUARE_V, SQUARE_F, 1e-4)
-    assert a.all() and b.all()
-    twice = np.array([[0, 1, 2], [2, 1, 0]])  # the same triangle twice against once
-    a, b = match_triangles(SQUARE_V, twice, SQUARE_V, SQUARE_F, 1e-4)
-    assert a.sum() == 1 == b.sum() and b.tolist() == [True, False]
-
-
-# ----------------------------------------------------------------------------- distances
-
-
-def test_surface_distance_is_exact_on_a_square():
-    rng = np.random.default_rng(1)
-    inside = np.column_stack([rng.uniform(0, 1, 50), rng.uniform(0, 1, 50),
-                              rng.uniform(-2, 2, 50)])
-    np.testing.assert_allclose(surface_distance(inside, SQUARE_V, SQUARE_F),
-                               np.abs(inside[:, 2]), atol=1e-12)
-    beside = np.column_stack([1 + rng.uniform(0.1, 1, 50), rng.uniform(0, 1, 50),
-                              rng.uniform(-1, 1, 50)])
-    np.testing.assert_allclose(surface_distance(beside, SQUARE_V, SQUARE_F),
-                               np.hypot(beside[:, 0] - 1, beside[:, 2]), atol=1e-12)
-    corner = np.array([[2.0, 3.0, 1.0]])
-    np.testing.assert_allclose(surface_distance(corner, SQUARE_V, SQUARE_F), [np.sqrt(6.0)])
-    # one candidate per point suffices for the estimate's nearest triangle
-    np.testing.assert_allclose(surface_distance(inside, SQUARE_V, SQUARE_F, candidates=1),
-                               np.abs(inside[:, 2]), atol=1e-12)
-
-
-def test_surface_distance_far_from_the_origin_picks_the_right_triangle():
-    # a fine grid a million units out: squared distances there lose ~1e-3, more than the
-    # 1e-2 cells' spread; centred coordinates keep the estimate's nearest triangle right
-    n, cell = 20, 0.01
-    x, y = np.meshgrid(np.arange(n + 1) * cell, np.arange(n + 1) * cell, indexing="ij")
-    shift = np.array([1e6, -2e6, 1.5e6])
-    v = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)]) + shift
-    k = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
-    f = np.concatenate([np.column_stack([k, k + n + 1, k + n + 2]),
-                        np.column_stack([k, k + n + 2, k + 1])])
-    rng = np.random.default_rng(2)
-    points = np.column_stack([rng.uniform(0, n * cell, 40), rng.uniform(0, n * cell, 40),
-                              np.full(40, 1e-6)]) + shift
-    np.testing.assert_allclose(surface_distance(points, v, f, candidates=1), 1e-6, rtol=1e-3)
 
 
 # ----------------------------------------------------------------------------- the demo

@@ -381,9 +381,11 @@ def test_cull_killed_before_the_swap_keeps_the_old_set_and_the_next_run_sweeps(
     def killed(new, target):  # SIGKILL just before the swap: nothing cleans up
         raise KeyboardInterrupt
 
+    from viscore import _atomic
+
     with pytest.MonkeyPatch.context() as kill:
-        kill.setattr(cull_cmd, "swap_folder", killed)
-        kill.setattr(cull_cmd._OutFolder, "_settle", lambda self, folder: None)
+        kill.setattr(_atomic, "swap_folder", killed)
+        kill.setattr(_atomic.LockedFolder, "_settle", lambda self, folder: None)
         assert run(scene, "--path", one, *_SMALL, "--out", out) == 130
     capsys.readouterr()
     assert _set_of(out)[0] == 2  # the old set, whole

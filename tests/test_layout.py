@@ -5,7 +5,10 @@ circle hidden by a deferred import fails here too. DESIGN.md's chain is
 ``viscore <- viscore.metrics <- viscore.generators <- viscore.cli``: the core
 imports none of the others, metrics never imports generators or cli, and
 generators never import cli. Method families (the folders under
-``generators/``) never import each other.
+``generators/``) never import each other. The command line takes the library
+through the packages' faces only (the names on a package's ``__all__``, the
+core's shared helpers aside), and a subcommand or a benchmark imports no other
+subcommand's module.
 """
 
 from __future__ import annotations
@@ -127,6 +130,13 @@ def test_imports_follow_the_chain():
 CORE_RANK = {"ray": 0, "exchange": 0, "voxel": 1, "level": 2, "culling": 3}
 
 
+#: Arrows from a top-level helper down into a core folder, each with its reason.
+HELPER_ARROWS = {
+    # a pool worker sets its ray threads (set_workers) as it starts (worker_init)
+    ("viscore._jobs", "viscore.ray.embree_scene"),
+}
+
+
 def test_core_folders_stand_on_each_other_in_order():
     def folder(module: str) -> str | None:
         parts = module.split(".")
@@ -140,17 +150,17 @@ def test_core_folders_stand_on_each_other_in_order():
              and CORE_RANK[folder(b)] >= CORE_RANK[folder(a)]]
     assert not wrong, f"core folders import against {CORE_RANK}: {wrong}"
     # the shared helpers (_validate, _atomic, ...) and constants stand under every
-    # folder: none of them imports one (the alias table, and the job runner that sets
-    # each worker's ray threads, aside)
+    # folder: none of them imports one (the alias table, and the arrows named in
+    # HELPER_ARROWS, aside)
     up = [f"{a} -> {b}" for a, targets in _graph().items() for b in targets
           if a.count(".") == 1 and a.startswith(("viscore._", "viscore.constants"))
-          and folder(b) and a not in ("viscore._moved", "viscore._jobs")]
+          and folder(b) and a != "viscore._moved" and (a, b) not in HELPER_ARROWS]
     assert not up, f"top-level helpers import a core folder: {up}"
 
 
-#: Folders of generators/ that compose the method families instead of being one: a
-#: level's occluders and runtimes use every family (as the registry does); no family
-#: imports them.
+#: Folders of ``generators/`` that compose the families rather than being one: ``levels/``
+#: runs the registered methods over a level's objects (and cuts a hierarchy per frame),
+#: as the registry composes them; no family imports it.
 COMPOSERS = {"levels"}
 
 
@@ -159,19 +169,21 @@ def test_method_families_never_import_each_other():
                       if p.is_dir() and not p.name.startswith(("_", ".")) and
                       (p / "__init__.py").is_file() and p.name not in COMPOSERS)
     assert {"aabb_skins", "planar_sections", "hybrid", "solid_frusta", "baselines"} <= set(families)
+    assert COMPOSERS <= {p.name for p in (ROOT / "generators").iterdir() if p.is_dir()}
 
     def family(module: str) -> str | None:
         parts = module.split(".")
         return parts[2] if len(parts) > 2 and parts[:2] == ["viscore", "generators"] \
             and parts[2] in families else None
 
-    crossing = [f"{a} -> {b}" for a, targets in _graph().items() for b in targets
+    graph = _graph()
+    crossing = [f"{a} -> {b}" for a, targets in graph.items() for b in targets
                 if family(a) and family(b) and family(a) != family(b)]
     assert not crossing, f"families import each other: {crossing}"
-    composers = tuple(f"viscore.generators.{c}" for c in COMPOSERS)
-    upward = [f"{a} -> {b}" for a, targets in _graph().items() for b in targets
-              if family(a) and b.startswith(composers)]
-    assert not upward, f"families import what composes them: {upward}"
+    composer = tuple(f"viscore.generators.{c}" for c in COMPOSERS)
+    up = [f"{a} -> {b}" for a, targets in graph.items() for b in targets
+          if family(a) and (b in composer or b.startswith(tuple(c + "." for c in composer)))]
+    assert not up, f"families import what composes them: {up}"
 
 
 def test_cli_imports_no_private_library_name():
@@ -220,3 +232,87 @@ def test_pyproject_installs_every_package():
     found = {_module_name(init) for folder in PACKAGES
              for init in (ROOT / folder).rglob("__init__.py")}
     assert found - listed == set(), "add these to [tool.setuptools] packages"
+
+
+#: The core's shared helpers the command line may import from (STYLE rule 3).
+SHARED = {"viscore._validate", "viscore._atomic", "viscore._jobs"}
+
+
+def _from_imports(name: str, path: Path) -> list[tuple[str, list[str], int]]:
+    """``(module, names, line)`` of each import in a module, relative ones made absolute."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out += [(alias.name, [], node.lineno) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                up = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(up + ([base] if base else []))
+            out.append((base, [alias.name for alias in node.names], node.lineno))
+    return out
+
+
+def _face_names(modules: dict[str, Path], package: str) -> set[str]:
+    """The names a package's face lists in its ``__all__`` (read from its source)."""
+    tree = ast.parse(modules[package].read_text(encoding="utf-8"))
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Assign, ast.AugAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            if any(isinstance(t, ast.Name) and t.id == "__all__" for t in targets):
+                names |= set(ast.literal_eval(node.value))
+    return names
+
+
+def test_cli_imports_the_library_through_its_faces():
+    """A CLI module names a package (a face), never one of its modules, and only names on
+    the face's ``__all__``; the core's shared helpers aside."""
+    modules = _modules()
+    faces = {name for name, path in modules.items() if path.name == "__init__.py"}
+    wrong = []
+    for name, path in modules.items():
+        if not name.startswith("viscore.cli"):
+            continue
+        for target, names, line in _from_imports(name, path):
+            if not target.startswith("viscore") or target.startswith("viscore.cli") \
+                    or target in SHARED:
+                continue
+            where = f"{path.relative_to(ROOT)}:{line}: {target}"
+            if target not in faces:
+                wrong.append(f"{where} (a module, not a face)")
+                continue
+            missing = sorted(set(names) - _face_names(modules, target))
+            if missing:
+                wrong.append(f"{where}: {', '.join(missing)} not on its __all__")
+    assert not wrong, "CLI imports past the faces:\n" + "\n".join(wrong)
+
+
+#: A subcommand module's own subpackage (``compare``'s study runner).
+OWN_SUBPACKAGE = {"viscore.cli.compare_cmd": "viscore.cli.study"}
+
+
+def test_cli_modules_import_no_benchmark_nor_another_subcommand():
+    """``cli/*_cmd.py`` and ``cli/bench/*`` (and the study runner) import, of the command
+    line, only ``cli/_common.py`` and their own subpackage: library code a subcommand
+    needs from a benchmark or from another subcommand belongs in the library."""
+    modules = _modules()
+    wrong = []
+    for name, path in modules.items():
+        if not name.startswith("viscore.cli.") or name == "viscore.cli.main":
+            continue
+        parts = name.split(".")
+        own = ".".join(parts[:3]) if len(parts) > 3 or path.name == "__init__.py" \
+            else OWN_SUBPACKAGE.get(name)
+        for target, names, line in _from_imports(name, path):
+            if not target.startswith("viscore.cli"):
+                continue
+            targets = {target} if target != "viscore.cli" else {f"{target}.{n}" for n in names}
+            for t in targets:
+                if t == "viscore.cli._common" or (own and (t == own or
+                                                           t.startswith(own + "."))):
+                    continue
+                wrong.append(f"{path.relative_to(ROOT)}:{line}: {t}")
+    assert not wrong, "CLI modules import another subcommand or a benchmark:\n" + \
+        "\n".join(wrong)

@@ -135,3 +135,39 @@ def test_alias_table_points_at_existing_modules():
     for old, new in MOVED.items():
         assert importlib.util.find_spec(new) is not None, f"{old} -> {new}: no such module"
         assert old != new
+
+
+#: Names that left the command line for the library (issue 42: no library code in the
+#: CLI): (old module, old name) -> (the face that offers them now, its name). The old
+#: path keeps giving the very object.
+MOVED_OUT_OF_CLI = {
+    ("viscore.cli.bench.godot_bake", "scene_instances"): ("viscore.exchange", "tscn_instances"),
+    ("viscore.cli.bench.godot_bake", "GODOT_DEFAULT_MASK"):
+        ("viscore.exchange", "GODOT_DEFAULT_MASK"),
+    ("viscore.cli.bench.godot_bake", "match_triangles"): ("viscore.metrics", "match_triangles"),
+    ("viscore.cli.bench.godot_bake", "surface_distance"):
+        ("viscore.metrics", "surface_distance"),
+    ("viscore.cli.study.store", "lock_exclusive"): ("viscore._atomic", "lock_exclusive"),
+    ("viscore.cli.study.runner", "JOBS_PER_CORE"): ("viscore._jobs", "JOBS_PER_CORE"),
+    ("viscore.cli.study", "JOBS_PER_CORE"): ("viscore._jobs", "JOBS_PER_CORE"),
+}
+
+
+@pytest.mark.parametrize(("old", "new"), sorted(MOVED_OUT_OF_CLI.items()),
+                         ids=[f"{m}.{n}" for m, n in sorted(MOVED_OUT_OF_CLI)])
+def test_name_moved_out_of_the_cli_keeps_its_old_path(old, new):
+    moved = getattr(importlib.import_module(new[0]), new[1])
+    assert getattr(importlib.import_module(old[0]), old[1]) is moved
+
+
+#: The faces the command line imports through, beyond the three above: each name on their
+#: ``__all__`` is there.
+CLI_FACES = ("viscore.ray", "viscore.exchange", "viscore.level", "viscore.voxel",
+             "viscore.culling", "viscore.generators.levels", "viscore.generators.baselines")
+
+
+@pytest.mark.parametrize("face", CLI_FACES)
+def test_every_name_of_a_subpackage_face_is_importable(face):
+    package = importlib.import_module(face)
+    missing = [name for name in package.__all__ if not hasattr(package, name)]
+    assert not missing, f"{face}.__all__ names what it does not export: {missing}"

@@ -1,7 +1,10 @@
-"""generators/specs.py: a method's checks run without its work (check-only calls, ``checker``)."""
+"""generators/specs.py: a method's checks run without its work (check-only calls, ``checker``),
+and a generator's arguments checked by the options it declares (``checked_by``)."""
 
 import dataclasses
+import inspect
 
+import numpy as np
 import pytest
 import trimesh
 
@@ -12,6 +15,7 @@ from viscore.generators.specs import (
     _ChecksPassed,
     check_only,
     check_only_call,
+    checked_by,
 )
 
 
@@ -145,3 +149,112 @@ def test_the_toolkits_methods_are_checked_by_a_check_only_call():
         spec.check_options({"a": 1, "b": 2})
     assert spec.check_options({"a": 1}) == {"a": 1} and steps == ["checks", "checks"]
     assert all(s.checker is not None for s in REGISTRY.values() if s.plugin is None)
+
+
+# ----------------------------------------------------------------------------- checked_by
+
+SIDE = GeneratorOption("side", float, 1.0, "side, world units", low=0, low_open=True)
+MODE = GeneratorOption("mode", str, "a", "mode", choices=("a", "b"))
+LIMIT = GeneratorOption("limit", int, None, "limit", low=1, default_text="from the mesh")
+
+
+def _checked(seen: list):
+    @checked_by((SIDE, MODE, LIMIT))
+    def method(mesh, *, budget=None, seed=0, side=1.0, mode="a", limit=None):
+        seen.append({"budget": budget, "seed": seed, "side": side, "mode": mode,
+                     "limit": limit})
+        return mesh
+    return method
+
+
+def test_checked_by_gives_the_body_checked_values_defaults_included():
+    seen = []
+    method = _checked(seen)
+    assert method("mesh", side=2, budget=np.int64(8), seed=np.uint8(3)) == "mesh"
+    assert seen == [{"budget": 8, "seed": 3, "side": 2.0, "mode": "a", "limit": None}]
+    assert type(seen[0]["side"]) is float and type(seen[0]["budget"]) is int
+    assert list(inspect.signature(method).parameters) == ["mesh", "budget", "seed", "side",
+                                                          "mode", "limit"]
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"side": 0}, "side: expected a number > 0, got 0"),
+    ({"mode": "c"}, "mode: expected one of a, b, got 'c'"),
+    ({"limit": 0}, "limit: expected an integer >= 1, got 0"),
+    ({"budget": 0}, "budget: expected a positive integer, got 0"),
+    ({"seed": -1}, "seed: expected a non-negative integer, got -1"),
+])
+def test_checked_by_refuses_before_the_body(kwargs, message):
+    seen = []
+    with pytest.raises(InputError) as caught:
+        _checked(seen)(None, **kwargs)
+    assert str(caught.value) == message and seen == []
+    with pytest.raises(TypeError):  # an unknown keyword, as without the decorator
+        _checked(seen)(None, sides=2)
+
+
+def test_checked_by_refuses_declarations_that_disagree_with_the_generator():
+    with pytest.raises(TypeError, match="declared"):
+        @checked_by((SIDE,))
+        def undeclared(mesh, *, budget=None, seed=0, side=1.0, mode="a"):
+            return mesh
+    with pytest.raises(TypeError, match="default"):
+        @checked_by((SIDE,))
+        def other_default(mesh, *, budget=None, seed=0, side=2.0):
+            return mesh
+
+
+def test_an_option_with_a_reader_checks_by_it_and_keeps_the_text():
+    def reader(value, label):
+        if value in ("off", None):
+            return None
+        try:
+            return float(value)
+        except (TypeError, ValueError):
+            raise InputError(f"{label}: expected off or a height, got {value!r}") from None
+
+    ground = GeneratorOption("ground", str, "off", "ground", convert=reader)
+    assert ground.check("1") == "1" and ground.read("1") == 1.0
+    assert ground.check(0.5) == 0.5 and ground.read("off") is None
+    assert ground.parse("2.5") == "2.5"  # a method variant keeps its text as written
+    with pytest.raises(InputError, match="--ground: expected off or a height, got 'x'"):
+        ground.parse("x")
+
+
+def test_bool_options_take_numpys_booleans():
+    switch = GeneratorOption("conservative", bool, False, "a switch")
+    assert switch.check(np.bool_(True)) is True and switch.read(np.False_) is False
+
+
+def _bad_value(option: GeneratorOption):
+    """A value the declaration refuses."""
+    if option.convert is not None:
+        return object()
+    if option.choices:
+        return "not-a-choice"
+    if option.type is bool:
+        return "yes"
+    if option.low is not None:
+        return option.low - 1
+    return float("nan")
+
+
+CHECKED = [(name, o.name) for name, spec in REGISTRY.items()
+           if getattr(spec.function, "options", None) is not None for o in spec.options]
+
+
+@pytest.mark.parametrize(("name", "option"), CHECKED, ids=[f"{n}.{o}" for n, o in CHECKED])
+def test_a_direct_call_and_a_call_by_name_refuse_alike(name, option):
+    """The generator's own check of an option is the spec's: one declaration, one message."""
+    spec = REGISTRY[name]
+    assert spec.function.options == spec.options  # the spec takes the generator's table
+    bad = _bad_value(spec.option(option))
+    with pytest.raises(InputError) as by_name:
+        spec.check_params({option: bad})
+    with pytest.raises(InputError) as direct:
+        spec.function(None, **{option: bad})
+    assert str(direct.value) == str(by_name.value)
+
+
+def test_the_generators_declaring_their_options_are_the_long_ones():
+    assert {n for n, _ in CHECKED} >= {"surface-patches", "planar-sections", "godot"}

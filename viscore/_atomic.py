@@ -1,28 +1,37 @@
 """Atomic output files: a write lands whole or not at all, with the mode ``open`` gives.
 
-Shared by the command line (tables, meshes, reports) and the figure module of
-:mod:`viscore.metrics` (plots written beside a study).
+Shared by the command line (tables, meshes, reports, output folders) and the
+figure module of :mod:`viscore.metrics` (plots written beside a study).
 
 The core's shared set (STYLE rule 3: private to the package, imported by
 ``viscore.metrics``, ``viscore.generators`` and ``viscore.cli`` alike):
 :func:`write_atomic`, :func:`check_output_path`, :func:`file_mode` (the
-mode a new file gets, for writers that make their own temporary files, such
-as the command line's all-or-none output folders), :func:`swap_folder`
-(a whole folder of files replaced in one step) and :class:`FileSet` (files
-written beside others in a folder, all or none).
+mode a new file gets, for writers that make their own temporary files),
+:func:`swap_folder` (a whole folder of files replaced in one step),
+:class:`FileSet` (files written beside others in a folder, all or none),
+:func:`lock_exclusive` (a file or folder held by one process) and
+:class:`LockedFolder` (an output folder made, held by this process alone and
+cleaned of what a killed run left, its files written as one set: ``viscore
+cull``'s ``--out``, ``viscore occlude``'s ``-o``, a study folder of ``viscore
+compare``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import errno
+import glob
 import os
 import shutil
 import stat
 import tempfile
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
+from ._validate import InputError
+
 __all__ = ["write_atomic", "check_output_path", "file_mode", "swap_folder", "FileSet",
-           "fsync_path"]
+           "fsync_path", "lock_exclusive", "LockedFolder"]
 
 #: ``renameat2`` arguments (Linux ``<fcntl.h>``, ``<linux/fs.h>``).
 _AT_FDCWD, _RENAME_EXCHANGE = -100, 2
@@ -352,3 +361,210 @@ def fsync_path(path: str | os.PathLike) -> None:
         pass
     finally:
         os.close(fd)
+
+
+#: Attempts of :func:`lock_exclusive` on a path that keeps being replaced.
+_LOCK_ATTEMPTS = 5
+
+
+def lock_exclusive(path: str | os.PathLike, busy: str) -> int:
+    """Take an exclusive advisory lock on ``path`` for this process; returns its descriptor.
+
+    ``path`` is a lock file (created if missing) or a folder (locked as it is,
+    nothing is created in it). The lock is ``fcntl.flock(LOCK_EX | LOCK_NB)``:
+    it is released when the descriptor is closed or the process dies, SIGKILL
+    included. A path replaced while the lock was being taken (another process
+    renamed a folder over it) is locked again on what it now names.
+
+    Parameters
+    ----------
+    path : path-like
+        The lock file or folder.
+    busy : str
+        The one-line message when another process holds the lock.
+
+    Returns
+    -------
+    int
+        The descriptor; close it to release the lock.
+
+    Raises
+    ------
+    InputError
+        ``busy``, when another process holds the lock.
+    OSError
+        When the path cannot be opened or locked; its ``filename`` is ``path``.
+    """
+    import fcntl
+
+    path = Path(path)
+    for _ in range(_LOCK_ATTEMPTS):
+        try:
+            flags = os.O_RDONLY | os.O_DIRECTORY if path.is_dir() else os.O_RDWR | os.O_CREAT
+            fd = os.open(path, flags | os.O_CLOEXEC, 0o666)
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(path)) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            same = os.path.samestat(os.fstat(fd), os.stat(path))
+        except BlockingIOError:
+            os.close(fd)
+            raise InputError(busy) from None
+        except FileNotFoundError:  # renamed away while we locked it: lock what is there now
+            os.close(fd)
+            continue
+        except OSError as exc:
+            os.close(fd)
+            raise OSError(exc.errno, f"cannot lock ({exc.strerror})", str(path)) from None
+        if same:
+            return fd
+        os.close(fd)
+    raise InputError(busy)
+
+
+class LockedFolder:
+    """An output folder held by this process alone, its files written as one set.
+
+    ``with LockedFolder(path, busy=...) as folder:`` makes the folder if
+    missing (its parent must exist; a link to a folder stands for the
+    folder), takes an exclusive advisory lock (:func:`lock_exclusive`) on
+    the folder itself, or with ``lock_file`` on that file inside it, and
+    puts right what a killed run of ours left: a set staged beside the
+    folder by :meth:`write_set` (``.NAME.TAG-*.tmp``, or the old set
+    :func:`swap_folder` moved to ``.NAME.old-*.tmp``) is emptied, the set's
+    own files removed and any other file moved back into the folder; and
+    half-written copies of the set's files inside it (``.STEM.*.SUFFIX``)
+    are removed. Leaving releases the lock; when the block (or entering)
+    failed, the folder goes too if this call made it and it is empty.
+
+    Parameters
+    ----------
+    path : path
+        The folder.
+    busy : str
+        The one line when another process holds the lock.
+    lock_file : str, optional
+        Lock this file in the folder (created, and left there) instead of
+        the folder itself.
+    outputs : iterable of str, optional
+        The file names :meth:`write_set` may write: the set.
+    tag : str, optional
+        Names the staging folders beside the folder (default ``"set"``).
+
+    Examples
+    --------
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     out = Path(d) / "out"
+    ...     with LockedFolder(out, busy="busy", outputs=("a.txt",)) as folder:
+    ...         folder.write_set({"a.txt": b"1"})
+    ...     print(sorted(p.name for p in Path(d).iterdir()), (out / "a.txt").read_text())
+    ['out'] 1
+    """
+
+    def __init__(self, path: str | os.PathLike, *, busy: str, lock_file: str | None = None,
+                 outputs: Iterable[str] = (), tag: str = "set") -> None:
+        self.label = Path(path)
+        self.path = Path(os.path.realpath(path))
+        self._busy = busy
+        self._lock_file = lock_file
+        self._outputs = tuple(outputs)
+        self._tag = tag
+        self._fd: int | None = None
+        self._created = False
+
+    def __enter__(self) -> LockedFolder:
+        self._created = not os.path.lexists(self.path)
+        try:
+            self.path.mkdir(exist_ok=True)
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(self.label)) from None
+        try:
+            lock = self.path if self._lock_file is None else self.path / self._lock_file
+            self._fd = lock_exclusive(lock, busy=self._busy)
+            self._sweep()  # (when another process holds it, the folder is that run's)
+        except BaseException:
+            self._leave(failed=True)
+            raise
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self._leave(failed=exc_type is not None)
+
+    def _leave(self, *, failed: bool) -> None:
+        try:
+            if failed and self._created:
+                with contextlib.suppress(OSError):  # only if empty: never a file of a run
+                    self.path.rmdir()
+        finally:
+            if self._fd is not None:
+                os.close(self._fd)  # releases the lock
+                self._fd = None
+
+    def _staging(self) -> list[Path]:
+        """Temporary sibling folders of ours: a new set not yet in place, or an old one."""
+        stem = glob.escape(f".{self.path.name}")
+        return [p for kind in (self._tag, "old")
+                for p in self.path.parent.glob(f"{stem}.{kind}-*.tmp")]
+
+    def _sweep(self) -> None:
+        """Remove what a killed run of ours left: sibling sets, temporary files inside."""
+        for folder in self._staging():
+            self._settle(folder)
+        for name in self._outputs:  # half-written copies of the set's files, in the folder
+            stem, _, suffix = name.rpartition(".")
+            for stale in self.path.glob(f".{glob.escape(stem)}.*.{glob.escape(suffix)}"):
+                if stale.is_file() and not stale.is_symlink():
+                    stale.unlink(missing_ok=True)
+
+    def _settle(self, folder: Path) -> None:
+        """Empty a staging folder: our files go, anything else back into the folder."""
+        if folder.is_symlink() or not folder.is_dir():
+            return
+        for entry in folder.iterdir():
+            if entry.name in self._outputs and (entry.is_symlink() or not entry.is_dir()):
+                entry.unlink(missing_ok=True)
+            elif not os.path.lexists(self.path / entry.name):  # a file the user kept there
+                with contextlib.suppress(OSError):
+                    os.rename(entry, self.path / entry.name)
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+
+    def write_set(self, files: Mapping[str, bytes | Callable[[Path], None]]) -> None:
+        """Write the files into the folder as one set, all or none.
+
+        ``files`` maps a name of ``outputs`` to its bytes or to a function
+        writing that file at a given path (a plot). All are written into a
+        temporary sibling folder, which then replaces the folder in one step
+        (:func:`swap_folder`); files of other names in the folder are kept
+        (moved back from the old folder).
+
+        Raises
+        ------
+        ValueError
+            A name that is not one of ``outputs``, or outside the ``with`` block.
+        OSError
+            If a file cannot be written or the folders cannot be swapped; the
+            folder then holds its old files.
+        """
+        if self._fd is None:
+            raise ValueError("LockedFolder.write_set outside its with block")
+        unknown = sorted(set(files) - set(self._outputs))
+        if unknown:
+            raise ValueError(f"not among the folder's outputs {self._outputs}: {unknown}")
+        staging = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.{self._tag}-", suffix=".tmp",
+                                        dir=self.path.parent))
+        try:
+            mode = file_mode()
+            for name, content in files.items():
+                target = staging / name
+                if callable(content):
+                    content(target)
+                else:
+                    target.write_bytes(content)
+                os.chmod(target, mode)
+                fsync_path(target)
+            os.chmod(staging, stat.S_IMODE(os.stat(self.path).st_mode))
+            fsync_path(staging)
+            swap_folder(staging, self.path)  # staging now holds the old set
+        finally:
+            self._settle(staging)

@@ -23,7 +23,10 @@ from collections.abc import Callable, Sequence
 from ._validate import InputError
 
 __all__ = ["worker_init", "stop_pool", "process_pool", "run_jobs", "check_scheduler",
-           "connect_scheduler", "SCHEDULER_PROBE_SECONDS"]
+           "connect_scheduler", "SCHEDULER_PROBE_SECONDS", "JOBS_PER_CORE"]
+
+#: Local jobs allowed per core (``--jobs`` beyond ``JOBS_PER_CORE`` x cores is refused).
+JOBS_PER_CORE = 4
 
 #: Seconds the probe of a scheduler's TCP port waits for an answer
 #: (:func:`check_scheduler`). A refusal comes back at once, whatever this is;

@@ -75,11 +75,10 @@ def bench_cull(*, scene: str = "city", frames: int = 60, repeats: int = 3, seed:
         the machine's load average (timings on a busy machine are inflated).
     """
     from viscore import get_workers, set_workers
-    from viscore.culling import FrustumCuller
-    from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
+    from viscore.culling import ConservativeDepthBuffer, FrustumCuller, OccluderScene
     from viscore.generators import frusta_method, occluder_objects, scene_occluders
-    from viscore.level.scene_graph import load_scene_objects
-    from viscore.metrics.culling import camera_path
+    from viscore.level import load_scene_objects
+    from viscore.metrics import camera_path
 
     frames = as_positive_int(frames, "frames")
     repeats = as_positive_int(repeats, "repeats", maximum=100)

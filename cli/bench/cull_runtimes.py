@@ -41,9 +41,13 @@ import trimesh
 
 from viscore import PerspectiveCamera
 from viscore._validate import as_positive_int, as_seed
-from viscore.culling import ACTIVE_OCCLUDERS, FrustumCuller
-from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
-from viscore.metrics.culling import view_frustum_mask
+from viscore.culling import (
+    ACTIVE_OCCLUDERS,
+    ConservativeDepthBuffer,
+    FrustumCuller,
+    OccluderScene,
+)
+from viscore.metrics import view_frustum_mask
 
 from .core import bare_embree
 

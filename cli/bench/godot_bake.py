@@ -7,7 +7,8 @@ projects; the folder ``godot-occlusion-demo/`` of the models folder) holds
 and ``node_3d.occ``, the ``ArrayOccluder3D`` Godot baked for the whole scene.
 :func:`bench_godot_bake`:
 
-1. reads the instances' transforms from the scene (:func:`scene_instances`,
+1. reads the instances' transforms from the scene
+   (:func:`viscore.exchange.tscn_instances`,
    relative to the ``OccluderInstance3D``, whose frame the bake is in) and
    the bake's triangles. Godot's ``OccluderInstance3D::_bake_surface``
    (scene/3d/occluder_instance_3d.cpp) appends every surface it bakes after
@@ -27,19 +28,19 @@ and ``node_3d.occ``, the ``ArrayOccluder3D`` Godot baked for the whole scene.
    ``bake_simplification_distance`` of 0.1 m, ``OccluderInstance3D``'s
    initialiser in scene/3d/occluder_instance_3d.h, since the scene sets none),
    and on the shell as Godot's glTF importer hands it to the bake
-   (``GLTFDocument::_parse_meshes``, modules/gltf/gltf_document.cpp: each
-   triangle's second and third corners swapped, "convert ccw to cw", then
-   ``SurfaceTool::create_from_triangle_arrays`` and ``index()``, which leave
-   one vertex per distinct position, normal and UV, in first-use order).
+   (:func:`viscore.generators.baselines.godot_imported_surface`: each
+   triangle's second and third corners swapped, then one vertex per distinct
+   position, normal and UV, in first-use order).
 3. compares each with Godot's triangles: counts; vertices, raw and welded by
    position as Godot's ``SurfaceTool::strip_mesh_arrays``
    (scene/resources/surface_tool.cpp) welds the bake's; triangles equal up to
    :data:`TOLERANCE_SHARE` of the room's diagonal in any vertex order or
-   orientation (:func:`match_triangles`); the sampled symmetric Hausdorff
-   distance (:func:`surface_distance`, exact point-to-triangle distances);
-   areas, the area of the exactly matched triangles and the sampled area of
-   each lying on the other; and each occluder's orbit precision and recall
-   against the room mesh (:class:`viscore.metrics.ReferenceViews`).
+   orientation (:func:`viscore.metrics.match_triangles`); the sampled symmetric
+   Hausdorff distance (:func:`viscore.metrics.surface_distance`, exact
+   point-to-triangle distances); areas, the area of the exactly matched
+   triangles and the sampled area of each lying on the other; and each
+   occluder's orbit precision and recall against the room mesh
+   (:class:`viscore.metrics.ReferenceViews`).
 4. bakes the shell at every instance's place in the scene's frame, as
    ``_bake_surface`` moves a surface to the occluder's frame before it
    simplifies, and compares each with Godot's triangles of that instance.
@@ -62,33 +63,34 @@ References
 from __future__ import annotations
 
 import os
-import re
 import time
 from pathlib import Path
 
 import numpy as np
 import trimesh
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from viscore import InputError, load_mesh, load_occluder, load_scene_objects
 from viscore._validate import as_positive_int, as_seed
-from viscore.exchange.godot_text import text_sections, text_transform
+from viscore.exchange import GODOT_DEFAULT_MASK, tscn_instances
+from viscore.generators.baselines import godot_imported_surface
+from viscore.metrics import match_triangles, surface_distance
 
 from .models import MODELS_ENV
 
-__all__ = ["bench_godot_bake", "bench_godot_bake_text", "scene_instances", "bake_blocks",
-           "assign_instances", "crop_instance", "match_triangles", "surface_distance",
-           "DEMO_FOLDER", "GODOT_DEFAULT_DISTANCE"]
+__all__ = ["bench_godot_bake", "bench_godot_bake_text", "bake_blocks", "assign_instances",
+           "crop_instance", "DEMO_FOLDER", "GODOT_DEFAULT_DISTANCE"]
+
+#: The old name of the ``.tscn`` instance reader, now
+#: :func:`viscore.exchange.tscn_instances` (``match_triangles``, ``surface_distance``
+#: and ``GODOT_DEFAULT_MASK`` keep their names here too, imported from their homes).
+scene_instances = tscn_instances
 
 #: The demo's folder inside the models folder.
 DEMO_FOLDER = "godot-occlusion-demo"
 #: ``OccluderInstance3D``'s default ``bake_simplification_distance`` (0.1 m,
 #: scene/3d/occluder_instance_3d.h), used when the scene sets none.
 GODOT_DEFAULT_DISTANCE = 0.1
-#: Godot's default ``bake_mask`` (every layer).
-GODOT_DEFAULT_MASK = 0xFFFFFFFF
 #: Vertex tolerance of an exact triangle match and of "lies on", as a share of
 #: the room's bounding-box diagonal.
 TOLERANCE_SHARE = 1e-4
@@ -100,101 +102,6 @@ SAMPLES = 20_000
 VIEWS = 128
 #: Distances of the bake-distance sweep (world units).
 SWEEP = (0.01, 0.05, 0.1, 0.2, 0.5, 1.0)
-
-_EXT_REF = re.compile(r'^ExtResource\(\s*"?([^")]*)"?\s*\)$')
-
-
-def scene_instances(text: str, resource: str) -> dict:
-    """Instances of one packed scene in a Godot 4 text scene, and its occluder nodes' settings.
-
-    Parameters
-    ----------
-    text : str
-        The ``.tscn`` text (``[node ...]`` sections whose ``parent`` paths
-        start from the root, as Godot writes them).
-    resource : str
-        File name of the instanced scene (``room.glb``): nodes with
-        ``instance=ExtResource(id)`` of an ``ext_resource`` whose path ends so.
-
-    Returns
-    -------
-    dict
-        ``names`` (list of str) and ``transforms`` ((n, 4, 4) float64, world
-        transforms of the instances relative to the first
-        ``OccluderInstance3D``, the frame its bake is in: Godot's ``_bake_node``
-        uses ``get_global_transform().affine_inverse() *
-        mi->get_global_transform()``); ``occluder`` (its node name,
-        ``bake_mask`` and ``bake_simplification_distance``, None when unset)
-        or None; ``mesh_nodes``: every ``MeshInstance3D`` section (name,
-        parent, ``layers``, whether ``layers & bake_mask`` lets the bake take
-        it).
-
-    Raises
-    ------
-    InputError
-        On a node whose parent is not in the file (a node inside an instanced
-        scene placing children of its own is fine: ``Rooms/Room/RedSphere``),
-        or a malformed transform.
-    """
-    sections = text_sections(text.encode("utf-8"), "scene")
-    ext_ids = {attrs.get("id", "") for tag, attrs, _ in sections if tag == "ext_resource"
-               and attrs.get("path", "").endswith(resource)}
-    local: dict[str, np.ndarray] = {}
-    parent_of: dict[str, str | None] = {}
-    order = []
-    for tag, attrs, body in sections:
-        if tag != "node":
-            continue
-        name, parent = attrs.get("name", ""), attrs.get("parent")
-        path = "." if parent is None else name if parent == "." else f"{parent}/{name}"
-        value = body.get("transform")
-        local[path] = np.eye(4) if value is None else text_transform(value, "scene", path)
-        parent_of[path] = None if parent is None else parent
-        order.append((path, attrs, body))
-    world: dict[str, np.ndarray] = {}
-
-    def world_of(path: str) -> np.ndarray:
-        if path not in world:
-            parent = parent_of.get(path)
-            if path not in local:
-                raise InputError(f"scene: node {path!r} is not in the file")
-            world[path] = local[path] if parent is None else world_of(parent) @ local[path]
-        return world[path]
-
-    occluder, base = None, np.eye(4)
-    for path, attrs, body in order:
-        if attrs.get("type") == "OccluderInstance3D" and occluder is None:
-            mask = body.get("bake_mask")
-            dist = body.get("bake_simplification_distance")
-            try:
-                distance = None if dist is None else float(dist)
-                if mask is not None and not mask.isdigit():
-                    raise ValueError(mask)
-            except ValueError:
-                raise InputError(f"scene: node {path!r}: bake_mask {mask!r} or "
-                                 f"bake_simplification_distance {dist!r} is not a number"
-                                 ) from None
-            occluder = {"name": attrs.get("name", ""),
-                        "bake_mask": GODOT_DEFAULT_MASK if mask is None else int(mask),
-                        "bake_mask_set": mask is not None,
-                        "bake_simplification_distance": distance}
-            base = np.linalg.inv(world_of(path))
-    mask = GODOT_DEFAULT_MASK if occluder is None else occluder["bake_mask"]
-    names, mats, mesh_nodes = [], [], []
-    for path, attrs, body in order:
-        ref = _EXT_REF.match(attrs.get("instance", ""))
-        if ref and ref.group(1) in ext_ids:
-            names.append(attrs.get("name", ""))
-            mats.append(base @ world_of(path))
-        if attrs.get("type") == "MeshInstance3D":
-            layers = body.get("layers")
-            if layers is not None and not layers.isdigit():
-                raise InputError(f"scene: node {path!r}: layers {layers!r} is not a number")
-            layers = 1 if layers is None else int(layers)
-            mesh_nodes.append({"name": attrs.get("name", ""), "parent": attrs.get("parent"),
-                               "layers": layers, "in_bake_mask": bool(layers & mask)})
-    return {"names": names, "transforms": np.array(mats).reshape(-1, 4, 4),
-            "occluder": occluder, "mesh_nodes": mesh_nodes}
 
 
 def bake_blocks(faces: np.ndarray) -> np.ndarray:
@@ -255,7 +162,7 @@ def assign_instances(vertices: np.ndarray, faces: np.ndarray, transforms: np.nda
         The bake's vertices, in the occluder's frame.
     faces : (f, 3) int
     transforms : (n, 4, 4) float
-        Instance-to-occluder-frame transforms (:func:`scene_instances`).
+        Instance-to-occluder-frame transforms (:func:`viscore.exchange.tscn_instances`).
     lower, upper : (3,) float
         The instanced mesh's bounding box in its own frame.
     grow : float, optional
@@ -349,162 +256,6 @@ def crop_instance(vertices: np.ndarray, faces: np.ndarray, transform: np.ndarray
     return local[used], inverse_index.reshape(-1, 3).astype(np.int64), kept
 
 
-def _vertex_labels(vertices: np.ndarray, tolerance: float) -> np.ndarray:
-    """Cluster label of each vertex: vertices within ``tolerance`` (chained) share one."""
-    tree = cKDTree(vertices)
-    pairs = tree.query_pairs(tolerance, output_type="ndarray")
-    n = len(vertices)
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    return connected_components(graph, directed=False)[1].astype(np.int64)
-
-
-def _occurrence(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Group id of each row of ``keys`` and its rank among equal rows (0, 1, ...)."""
-    _, group = np.unique(keys, axis=0, return_inverse=True)
-    group = group.reshape(-1)
-    order = np.argsort(group, kind="stable")
-    starts = np.r_[0, np.flatnonzero(np.diff(group[order])) + 1]
-    rank = np.empty(len(group), dtype=np.int64)
-    rank[order] = np.arange(len(group)) - np.repeat(starts, np.diff(np.r_[starts, len(group)]))
-    return group, rank
-
-
-def match_triangles(a_vertices: np.ndarray, a_faces: np.ndarray, b_vertices: np.ndarray,
-                    b_faces: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
-    """Which triangles of A have an equal triangle in B, one to one.
-
-    Two triangles are equal when their corners coincide, up to ``tolerance``,
-    as sets: any vertex order and either orientation. B's vertices within
-    ``tolerance`` of each other (chained) count as one point; an A vertex is
-    the point of its nearest B vertex within ``tolerance``, else a point of
-    its own. Repeated triangles match as many times as both sides hold them.
-
-    Parameters
-    ----------
-    a_vertices, b_vertices : (n, 3) float
-    a_faces, b_faces : (f, 3) int
-    tolerance : float
-        World units, > 0.
-
-    Returns
-    -------
-    a_matched : (len(a_faces),) bool
-    b_matched : (len(b_faces),) bool
-        ``a_matched.sum() == b_matched.sum()``.
-    """
-    a_vertices = np.asarray(a_vertices, dtype=np.float64).reshape(-1, 3)
-    b_vertices = np.asarray(b_vertices, dtype=np.float64).reshape(-1, 3)
-    a_faces = np.asarray(a_faces, dtype=np.int64).reshape(-1, 3)
-    b_faces = np.asarray(b_faces, dtype=np.int64).reshape(-1, 3)
-    if not tolerance > 0:
-        raise InputError(f"tolerance: expected a number > 0, got {tolerance!r}")
-    if len(a_faces) == 0 or len(b_faces) == 0:
-        return np.zeros(len(a_faces), dtype=bool), np.zeros(len(b_faces), dtype=bool)
-    b_label = _vertex_labels(b_vertices, tolerance)
-    dist, nearest = cKDTree(b_vertices).query(a_vertices, distance_upper_bound=tolerance)
-    found = np.isfinite(dist)
-    a_label = np.where(found, b_label[np.minimum(nearest, len(b_vertices) - 1)],
-                       -1 - np.arange(len(a_vertices)))
-    a_keys = np.sort(a_label[a_faces], axis=1)
-    b_keys = np.sort(b_label[b_faces], axis=1)
-    group, rank = _occurrence(np.concatenate([a_keys, b_keys]))
-    side = np.r_[np.zeros(len(a_keys), dtype=np.int64), np.ones(len(b_keys), dtype=np.int64)]
-    groups = int(group.max()) + 1
-    count_a = np.bincount(group[side == 0], minlength=groups)
-    count_b = np.bincount(group[side == 1], minlength=groups)
-    both = np.minimum(count_a, count_b)
-    # ranks count both sides together: A's rows come first within a group
-    a_rank = rank[:len(a_keys)]
-    b_rank = rank[len(a_keys):] - count_a[group[len(a_keys):]]
-    return (a_rank < both[group[:len(a_keys)]], b_rank < both[group[len(a_keys):]])
-
-
-def _pair_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Exact distance from each point ``p[i]`` to triangle ``(a[i], b[i], c[i])``.
-
-    Inside the prism over the triangle the distance is that to its plane;
-    elsewhere the nearest point is on its border, the nearest of its three
-    edges (degenerate triangles: their edges only).
-    """
-    n = np.cross(b - a, c - a)
-    nn = np.einsum("ij,ij->i", n, n)
-    inside = nn > 0
-    for v0, v1 in ((a, b), (b, c), (c, a)):
-        inside &= np.einsum("ij,ij->i", np.cross(v1 - v0, p - v0), n) >= 0
-    plane = np.abs(np.einsum("ij,ij->i", p - a, n)) / np.sqrt(np.where(inside, nn, 1.0))
-    edges = np.full(len(p), np.inf)
-    for v0, v1 in ((a, b), (b, c), (c, a)):
-        d = v1 - v0
-        dd = np.einsum("ij,ij->i", d, d)
-        t = np.clip(np.einsum("ij,ij->i", p - v0, d) / np.where(dd > 0, dd, 1.0), 0, 1)
-        edges = np.minimum(edges, np.linalg.norm(p - (v0 + t[:, None] * d), axis=1))
-    return np.where(inside, plane, edges)
-
-
-def surface_distance(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray, *,
-                     candidates: int = 8, pairs_per_pass: int = 1_000_000) -> np.ndarray:
-    """Exact distance from each point to the nearest triangle of a triangle set.
-
-    Every point-triangle distance is first estimated with dot products done
-    as matrix products (squared distances, whose cancellation costs about
-    1e-7 of the coordinates), then the ``candidates`` nearest triangles by
-    that estimate are measured exactly (:func:`_pair_distance`) and the
-    smallest counts. Coordinates are taken relative to the vertices' mean.
-
-    Parameters
-    ----------
-    points : (p, 3) float
-    vertices : (v, 3) float
-    faces : (f, 3) int, f >= 1
-    candidates : int, optional
-        Triangles measured exactly per point (default 8).
-    pairs_per_pass : int, optional
-        Point-triangle pairs per vectorised pass (memory: a few float64 arrays
-        of this size).
-
-    Returns
-    -------
-    (p,) float64
-    """
-    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
-    origin = vertices.mean(axis=0) if len(vertices) else np.zeros(3)
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 3) - origin
-    tri = (vertices - origin)[np.asarray(faces, dtype=np.int64).reshape(-1, 3)]
-    if len(tri) == 0:
-        raise InputError("surface_distance: no triangles")
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    n = np.cross(b - a, c - a)
-    nn = np.einsum("ij,ij->i", n, n)
-    unit = n / np.sqrt(np.where(nn > 0, nn, 1.0))[:, None]
-    edges = []
-    for v0, v1 in ((a, b), (b, c), (c, a)):
-        e, m = v1 - v0, np.cross(n, v1 - v0)  # m: in-plane normal pointing into the triangle
-        edges.append((v0, e, np.einsum("ij,ij->i", e, e), np.einsum("ij,ij->i", v0, e),
-                      np.einsum("ij,ij->i", v0, v0), m, np.einsum("ij,ij->i", v0, m)))
-    offset = np.einsum("ij,ij->i", a, unit)
-    k = min(candidates, len(tri))
-    out = np.empty(len(points))
-    step = max(1, pairs_per_pass // len(tri))
-    for s in range(0, len(points), step):
-        p = points[s:s + step]
-        pp = np.einsum("ij,ij->i", p, p)[:, None]
-        inside = np.broadcast_to(nn > 0, (len(p), len(tri))).copy()
-        best = np.full((len(p), len(tri)), np.inf)
-        for v0, e, ee, v0e, v0v0, m, v0m in edges:
-            inside &= p @ m.T - v0m >= 0
-            along = p @ e.T - v0e
-            t = np.clip(along / np.where(ee > 0, ee, 1.0), 0, 1)
-            best = np.minimum(best, pp - 2 * (p @ v0.T) + v0v0 - 2 * t * along + t * t * ee)
-        plane = p @ unit.T - offset
-        estimate = np.where(inside, plane * plane, best)
-        near = np.argpartition(estimate, k - 1, axis=1)[:, :k] if k < len(tri) else \
-            np.broadcast_to(np.arange(len(tri)), (len(p), len(tri)))
-        flat = near.reshape(-1)
-        exact = _pair_distance(np.repeat(p, k, axis=0), a[flat], b[flat], c[flat])
-        out[s:s + step] = exact.reshape(len(p), k).min(axis=1)
-    return out
-
-
 # ----------------------------------------------------------------------------- the bench
 
 
@@ -574,35 +325,6 @@ def _occluder_row(vertices: np.ndarray, faces: np.ndarray, views, **extra) -> di
             "recall": float(pr.recall), "recall_ci": [float(x) for x in pr.recall_ci], **extra}
 
 
-def _godot_import(path: Path, node: str) -> tuple[np.ndarray, np.ndarray, int]:
-    """One glTF node's surface as Godot's importer gives it to the bake.
-
-    Each triangle's second and third corners swapped (glTF is
-    counter-clockwise, Godot clockwise: ``GLTFDocument::_parse_meshes``),
-    then vertices equal in position, normal and UV (bit for bit) merged, in
-    the order of their first use (``SurfaceTool::create_from_triangle_arrays``
-    and ``SurfaceTool::index``). Returns vertices (in the room's frame),
-    faces and the file's vertex count.
-    """
-    scene = trimesh.load(path, force="scene", process=False)
-    transform, name = scene.graph[node]
-    geometry = scene.geometry[name]
-    faces = np.asarray(geometry.faces, dtype=np.int64)[:, [0, 2, 1]]
-    attributes = [np.asarray(geometry.vertices, dtype=np.float32)]
-    if "vertex_normals" in geometry._cache.cache:  # normals read from the file
-        attributes.append(np.asarray(geometry.vertex_normals, dtype=np.float32))
-    uv = getattr(geometry.visual, "uv", None)
-    if uv is not None:
-        attributes.append(np.asarray(uv, dtype=np.float32))
-    key = np.ascontiguousarray(np.hstack(attributes)).view(np.int32)
-    corners = faces.reshape(-1)
-    _, first, label = np.unique(key[corners], axis=0, return_index=True, return_inverse=True)
-    rank = np.empty(len(first), dtype=np.int64)
-    rank[np.argsort(first)] = np.arange(len(first))
-    vertices = trimesh.transform_points(geometry.vertices, transform)[corners[np.sort(first)]]
-    return vertices, rank[label.reshape(-1)].reshape(-1, 3), len(geometry.vertices)
-
-
 def _counts(values: np.ndarray) -> dict:
     values = np.asarray(values)
     kinds, times = np.unique(values, return_counts=True)
@@ -662,7 +384,7 @@ def bench_godot_bake(models_dir: str | os.PathLike | None = None, *, seed: int =
     lower, upper = np.asarray(room.bounds[0]), np.asarray(room.bounds[1])
     diagonal = float(np.linalg.norm(upper - lower))
     tolerance = TOLERANCE_SHARE * diagonal
-    scene = scene_instances((folder / "node_3d.tscn").read_text(encoding="utf-8"), "room.glb")
+    scene = tscn_instances((folder / "node_3d.tscn").read_text(encoding="utf-8"), "room.glb")
     if not scene["names"]:
         raise InputError(f"godot-bake: {folder / 'node_3d.tscn'} instances no room.glb")
     bake = load_occluder(folder / "node_3d.occ")
@@ -707,7 +429,7 @@ def bench_godot_bake(models_dir: str | os.PathLike | None = None, *, seed: int =
                                 "the surfaces Godot's file holds, Godot's distance"),
     }
     if len(baked) == 1:
-        iv, if_, raw_vertices = _godot_import(room_path, objects.names[baked[0]])
+        iv, if_, raw_vertices = godot_imported_surface(room_path, objects.names[baked[0]])
         variants["ours-godot-import"] = (
             trimesh.Trimesh(iv, if_, process=False), {"distance": distance},
             f"that surface as Godot's importer indexes it ({raw_vertices} -> {len(iv)} "

@@ -71,7 +71,7 @@ def building_sources(models: str | os.PathLike | None, *, demo_room: bool = Fals
     ``godot-demo/room``. A folder that is missing or holds none of them is
     refused.
     """
-    from viscore.builtin_scenes import scene_group
+    from viscore import scene_group
 
     sources: dict = {name: name for name in scene_group("buildings")}
     if models is None:

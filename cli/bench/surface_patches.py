@@ -190,7 +190,7 @@ def bench_generate_surface_patches(models: str | os.PathLike | None = None, *,
     InputError
         If ``models`` is not a folder or holds no mesh of the kinds above.
     """
-    from viscore.builtin_scenes import scene_group
+    from viscore import scene_group
     from viscore.generators import generate_qem, generate_surface_patches
     from viscore.metrics import ReferenceViews, check_conservative
 

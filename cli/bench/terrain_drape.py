@@ -80,7 +80,7 @@ def area_above(mesh: trimesh.Trimesh, occluder: trimesh.Trimesh, up: str, *,
     down from it meets the mesh (at a distance over the threshold) and the ray
     up does not.
     """
-    from viscore.ray.embree_scene import Scene
+    from viscore import Scene
 
     if len(occluder.faces) == 0:
         return 0.0

@@ -70,14 +70,15 @@ from pathlib import Path
 
 from viscore import InputError, cpu_cores
 from viscore._jobs import (
+    JOBS_PER_CORE,
     SCHEDULER_PROBE_SECONDS,
     check_scheduler,
     connect_scheduler,
     process_pool,
     stop_pool,
 )
-from viscore.exchange.mesh_io import mesh_bytes
-from viscore.metrics.estimates import study_bytes
+from viscore.exchange import mesh_bytes
+from viscore.metrics import study_bytes
 
 from .._common import dumps, write_atomic
 from .store import StudyFolder
@@ -91,9 +92,6 @@ __all__ = ["StudySettings", "Job", "OccluderFile", "study_jobs", "occluder_file_
 #: Fields of a row that are wall times (they differ between runs; everything
 #: else in a row is deterministic given the settings).
 TIMING_FIELDS = ("seconds", "seconds_evaluate", "seconds_measure", "seconds_validate")
-
-#: Local jobs allowed per core (``--jobs`` beyond ``JOBS_PER_CORE`` x cores is refused).
-JOBS_PER_CORE = 4
 
 
 #: Suffixes of the occluder files looked for in an ``--occluder-files`` folder: those
@@ -228,7 +226,7 @@ def resolve_occluder_files(specs: list[tuple[str, str]], meshes: list[str], *,
         for), or with two for one mesh and budget; a file that cannot be read.
     """
     from viscore.generators import REGISTRY
-    from viscore.generators.levels.occluders import file_occluder
+    from viscore.generators.levels import file_occluder
 
     seen: set[str] = set()
     for name, path in specs:
@@ -373,7 +371,7 @@ def _file_occluder(job: Job):
     """The occluder of a file job, named after its row; the file must be unchanged."""
     import dataclasses
 
-    from viscore.generators.levels.occluders import file_occluder
+    from viscore.generators.levels import file_occluder
 
     occ = file_occluder(job.source)
     if file_digest(job.source) != job.digest:

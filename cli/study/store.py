@@ -1,9 +1,10 @@
 """The study folder: its SQLite store of finished jobs and its lock.
 
 A study folder is opened by one process at a time (:class:`StudyFolder`: an
-advisory ``flock`` on ``DIR/.lock``; a second ``compare`` on the same folder is
-refused with one line). Each job's row is committed to ``DIR/results.sqlite``
-(:class:`ResultStore`) in one transaction as soon as the job finishes: a re-run
+advisory ``flock`` on ``DIR/.lock``, :class:`viscore._atomic.LockedFolder`; a
+second ``compare`` on the same folder is refused with one line). Each job's
+row is committed to ``DIR/results.sqlite`` (:class:`ResultStore`) in one
+transaction as soon as the job finishes: a re-run
 resumes, and a killed run (SIGKILL included) loses only the jobs that were
 running. A store that is not a study store (another file, another schema, a
 row that is not JSON) is refused with one line naming the file, before any
@@ -12,8 +13,8 @@ folders of :mod:`viscore.cli.study.runner`) a killed run left behind. A
 study's subfolder (``occluders/``) that is a symbolic link is refused with one
 line: the study writes inside its folder, never elsewhere through a link.
 
-:func:`lock_exclusive` is the lock itself, shared with ``viscore cull``'s
-output folder.
+:func:`lock_exclusive` (the lock itself, :func:`viscore._atomic.lock_exclusive`)
+keeps its old path here.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import sqlite3
 from pathlib import Path
 
 from viscore import InputError
+from viscore._atomic import LockedFolder, lock_exclusive
 
 from .._common import check_output_folder, dumps
 
@@ -122,65 +124,6 @@ class ResultStore:
             self._db = None
 
 
-def lock_exclusive(path: str | os.PathLike, busy: str) -> int:
-    """Take an exclusive advisory lock on ``path`` for this process; returns its descriptor.
-
-    ``path`` is a lock file (created if missing) or a folder (locked as it is,
-    nothing is created in it). The lock is ``fcntl.flock(LOCK_EX | LOCK_NB)``:
-    it is released when the descriptor is closed or the process dies, SIGKILL
-    included. A path replaced while the lock was being taken (another process
-    renamed a folder over it) is locked again on what it now names.
-
-    Parameters
-    ----------
-    path : path-like
-        The lock file or folder.
-    busy : str
-        The one-line message when another process holds the lock.
-
-    Returns
-    -------
-    int
-        The descriptor; close it to release the lock.
-
-    Raises
-    ------
-    InputError
-        ``busy``, when another process holds the lock.
-    OSError
-        When the path cannot be opened or locked; its ``filename`` is ``path``.
-    """
-    import fcntl
-
-    path = Path(path)
-    for _ in range(_LOCK_ATTEMPTS):
-        try:
-            flags = os.O_RDONLY | os.O_DIRECTORY if path.is_dir() else os.O_RDWR | os.O_CREAT
-            fd = os.open(path, flags | os.O_CLOEXEC, 0o666)
-        except OSError as exc:
-            raise OSError(exc.errno, exc.strerror, str(path)) from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            same = os.path.samestat(os.fstat(fd), os.stat(path))
-        except BlockingIOError:
-            os.close(fd)
-            raise InputError(busy) from None
-        except FileNotFoundError:  # renamed away while we locked it: lock what is there now
-            os.close(fd)
-            continue
-        except OSError as exc:
-            os.close(fd)
-            raise OSError(exc.errno, f"cannot lock ({exc.strerror})", str(path)) from None
-        if same:
-            return fd
-        os.close(fd)
-    raise InputError(busy)
-
-
-#: Attempts of :func:`lock_exclusive` on a path that keeps being replaced.
-_LOCK_ATTEMPTS = 5
-
-
 def _refuse_linked_subfolders(path: Path) -> None:
     """One line when a subfolder the study writes into is a symbolic link."""
     sub = path / OCCLUDER_DIR
@@ -235,7 +178,7 @@ class StudyFolder:
     def __init__(self, path: str | os.PathLike) -> None:
         self.path = Path(path)
         self.store: ResultStore | None = None
-        self._lock_fd: int | None = None
+        self._folder: LockedFolder | None = None
 
     @property
     def occluders(self) -> Path:
@@ -243,15 +186,11 @@ class StudyFolder:
 
     def __enter__(self) -> StudyFolder:
         check_study_dir(self.path)
-        try:
-            self.path.mkdir(exist_ok=True)
-        except OSError as exc:
-            raise OSError(exc.errno, exc.strerror, str(exc.filename or self.path)) from None
-        fd = lock_exclusive(
-            self.path / LOCK_NAME,
+        folder = LockedFolder(
+            self.path, lock_file=LOCK_NAME,
             busy=f"--out {self.path}: another compare is writing this study (it holds "
                  f"{self.path / LOCK_NAME}); wait for it to finish or choose another --out")
-        self._lock_fd = fd
+        self._folder = folder.__enter__()
         try:
             _refuse_linked_subfolders(self.path)  # again, under the lock
             self.store = ResultStore(self.path / STORE_NAME)
@@ -270,6 +209,6 @@ class StudyFolder:
         if self.store is not None:
             self.store.close()
             self.store = None
-        if self._lock_fd is not None:
-            os.close(self._lock_fd)  # releases the flock
-            self._lock_fd = None
+        if self._folder is not None:
+            self._folder.__exit__(*exc)  # releases the flock
+            self._folder = None

@@ -28,6 +28,10 @@ command line a GLB scene is baked as a single surface with no material test.
 Not conservative (the simplified surface can bulge out of the original) and
 not budgeted: the distance alone decides the size.
 
+:func:`godot_imported_surface` gives one glTF surface as Godot's glTF importer
+hands it to the bake (corners swapped to clockwise, vertices merged by
+position, normal and UV), so that our bake can be run on Godot's very input.
+
 References
 ----------
 .. [1] Godot Engine contributors. ``OccluderInstance3D::_bake_surface``,
@@ -39,12 +43,17 @@ References
 .. [3] Garland, M., Heckbert, P. S. "Surface Simplification Using Quadric Error
    Metrics". Proceedings of SIGGRAPH '97, ACM, 1997, pp. 209-216.
    :DOI:`10.1145/258734.258849` (the error metric meshoptimizer's simplifier uses)
+.. [4] Godot Engine contributors. ``GLTFDocument::_parse_meshes``,
+   modules/gltf/gltf_document.cpp; ``SurfaceTool::create_from_triangle_arrays``
+   and ``SurfaceTool::index``, scene/resources/surface_tool.cpp; Godot Engine 4,
+   https://github.com/godotengine/godot (the importer emulated here)
 """
 
 from __future__ import annotations
 
-import numbers
+import os
 import time
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -54,8 +63,9 @@ from viscore._validate import as_points
 from viscore.level.scene_graph import transparent_material
 
 from ..occluder import Occluder
+from ..specs import GeneratorOption, checked_by
 
-__all__ = ["generate_godot", "bake_surface"]
+__all__ = ["generate_godot", "bake_surface", "godot_imported_surface", "OPTIONS"]
 
 #: Godot's cap on the simplified index count of one surface (12 triangles).
 GODOT_TARGET_INDEX_COUNT = 36
@@ -63,6 +73,14 @@ GODOT_TARGET_INDEX_COUNT = 36
 #: Default bake distance as a share of the bounding-box diagonal: Godot's default
 #: ``bake_simplification_distance`` is 0.1 m, about 1% of a 10 m building's diagonal.
 DEFAULT_DISTANCE_SHARE = 0.01
+
+#: The options of :func:`generate_godot`, declared once: the registry's spec, the command
+#: line's flags and the generator's own checks (:func:`..specs.checked_by`).
+OPTIONS = (
+    GeneratorOption("distance", float, None,
+                    "bake simplification distance in world units; 0 keeps the mesh",
+                    low=0, default_text="1% of the bounding-box diagonal"),
+)
 
 
 def bake_surface(vertices: np.ndarray, faces: np.ndarray, distance: float
@@ -149,6 +167,7 @@ def _surfaces(mesh) -> tuple[list[tuple[np.ndarray, np.ndarray]], int]:
                      f"got {type(mesh).__name__}")
 
 
+@checked_by(OPTIONS)
 def generate_godot(mesh: trimesh.Trimesh | trimesh.Scene, *, distance: float | None = None,
                    budget: int | None = None, seed: int = 0) -> Occluder:
     """Godot 4's occluder bake: meshoptimizer simplification per surface, borders locked.
@@ -199,11 +218,8 @@ def generate_godot(mesh: trimesh.Trimesh | trimesh.Scene, *, distance: float | N
                          + (f" ({dropped} transparent dropped)" if dropped else ""))
     points = np.concatenate([v[np.unique(f)] for v, f in surfaces if len(f)])
     points = as_points(points, "mesh vertices")
-    if distance is None:
+    if distance is None:  # (a given distance is checked by OPTIONS)
         distance = DEFAULT_DISTANCE_SHARE * float(np.linalg.norm(np.ptp(points, axis=0)))
-    elif (isinstance(distance, bool) or not isinstance(distance, numbers.Real)
-          or not np.isfinite(distance) or distance < 0):
-        raise InputError(f"distance: expected a finite number >= 0, got {distance!r}")
     distance = float(distance)
     all_vertices, all_faces, offset, worst = [], [], 0, 0.0
     for vertices, faces in surfaces:
@@ -220,3 +236,91 @@ def generate_godot(mesh: trimesh.Trimesh | trimesh.Scene, *, distance: float | N
                     double_sided=True, seconds=time.perf_counter() - start,
                     info={"surfaces": len(surfaces), "transparent_surfaces_dropped": dropped,
                           "error": worst})
+
+
+def _file_normals(path: Path) -> dict[str, np.ndarray]:
+    """The vertex normals a glTF file holds, by trimesh's geometry name (none: not there).
+
+    Read from trimesh's glTF reader's own output (:func:`trimesh.exchange.gltf.load_glb`,
+    ``load_gltf``), which passes a primitive's ``NORMAL`` attribute on as
+    ``vertex_normals`` and leaves the key out when the file has none.
+    """
+    from trimesh.exchange.gltf import load_glb, load_gltf
+
+    with open(path, "rb") as fh:
+        if path.suffix.lower() == ".glb":
+            doc = load_glb(fh)
+        else:
+            doc = load_gltf(fh, resolver=trimesh.resolvers.FilePathResolver(path))
+    return {name: np.asarray(kwargs["vertex_normals"])
+            for name, kwargs in doc.get("geometry", {}).items()
+            if isinstance(kwargs, dict) and "vertex_normals" in kwargs}
+
+
+def godot_imported_surface(path: str | os.PathLike, node: str
+                           ) -> tuple[np.ndarray, np.ndarray, int]:
+    """One glTF node's surface as Godot's glTF importer gives it to the occluder bake.
+
+    Each triangle's second and third corners swapped (glTF is
+    counter-clockwise, Godot clockwise: "convert ccw to cw" in
+    ``GLTFDocument::_parse_meshes`` [4]_), then vertices equal in position,
+    normal (when the file has normals) and UV, bit for bit as float32, merged
+    into one, in the order of their first use
+    (``SurfaceTool::create_from_triangle_arrays`` and ``SurfaceTool::index``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        A ``.glb`` or ``.gltf`` file.
+    node : str
+        The name of a node of its scene graph that places a mesh.
+
+    Returns
+    -------
+    vertices : (m, 3) float64
+        The merged vertices, in the file's world frame (the node's transform
+        applied).
+    faces : (f, 3) int64
+        Clockwise triangles indexing ``vertices``.
+    file_vertices : int
+        The vertex count of the file's mesh, before the merge.
+
+    Raises
+    ------
+    InputError
+        When the file cannot be read as a glTF scene or ``node`` places no
+        mesh in it.
+
+    Notes
+    -----
+    Deterministic. Positions are merged only where normal and UV agree too,
+    as Godot's importer does: a cube's corner stays three vertices when its
+    faces carry their own normals.
+    """
+    path = Path(path)
+    try:
+        scene = trimesh.load(path, force="scene", process=False)
+        normals = _file_normals(path)
+    except Exception as exc:  # noqa: BLE001 - a file trimesh cannot read as glTF
+        raise InputError(f"{path}: cannot be read as a glTF scene ({exc})") from None
+    try:
+        transform, name = scene.graph[node]
+        geometry = scene.geometry[name]
+    except (KeyError, ValueError, TypeError):
+        raise InputError(f"{path}: no node {node!r} placing a mesh") from None
+    if not isinstance(geometry, trimesh.Trimesh):
+        raise InputError(f"{path}: node {node!r} places no triangle mesh")
+    faces = np.asarray(geometry.faces, dtype=np.int64)[:, [0, 2, 1]]
+    attributes = [np.asarray(geometry.vertices, dtype=np.float32)]
+    if name in normals:  # normals read from the file
+        attributes.append(np.asarray(normals[name], dtype=np.float32))
+    uv = getattr(geometry.visual, "uv", None)
+    if uv is not None:
+        attributes.append(np.asarray(uv, dtype=np.float32))
+    key = np.ascontiguousarray(np.hstack(attributes)).view(np.int32)
+    corners = faces.reshape(-1)
+    _, first, label = np.unique(key[corners], axis=0, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), dtype=np.int64)
+    rank[np.argsort(first)] = np.arange(len(first))
+    vertices = trimesh.transform_points(geometry.vertices, transform)[corners[np.sort(first)]]
+    return vertices, rank[label.reshape(-1)].reshape(-1, 3), len(geometry.vertices)

@@ -71,21 +71,16 @@ import math
 import numbers
 import time
 
-import numpy as np
 import trimesh
 
 from viscore import InputError, validate_mesh
-from viscore._validate import (
-    as_fraction,
-    as_positive,
-    as_positive_int,
-    as_seed,
-)
+from viscore._validate import as_positive, as_positive_int
 from viscore.level.ground import guess_up
 from viscore.voxel.wall_thickness import WALL_QUANTILE, wall_voxel_size
 
 from .._precision_check import DEFAULT_MIN_PRECISION
 from ..occluder import Occluder
+from ..specs import GeneratorOption, checked_by
 from ._single import BYTES_PER_CELL, MAX_VOXELS, _generate_one, _resolution
 from .floor import _with_precision_floor
 
@@ -145,18 +140,12 @@ def screen_space_voxel_size(pixel_error: float, distance: float, *, fov: float =
     """
     pixel_error = as_positive(pixel_error, "pixel_error")
     distance = as_positive(distance, "distance")
-    fov = _as_fov(fov)
+    fov = _OPTION["fov"].check(fov)
     screen = as_positive_int(screen, "screen")
     return pixel_error * 2.0 * distance * math.tan(math.radians(fov) / 2.0) / screen
 
 
-def _as_fov(fov: object) -> float:
-    if isinstance(fov, bool) or not isinstance(fov, numbers.Real) or not (0 < fov < 180):
-        raise InputError(f"fov: expected degrees in (0, 180), got {fov!r}")
-    return float(fov)
-
-
-def _as_ground(value: object) -> str | float | None:
+def _as_ground(value: object, label: str = "ground") -> str | float | None:
     """``'auto'``, None (off) or a finite height, from an option value or its CLI text."""
     if value is None or (isinstance(value, str) and value.strip().lower() in ("off", "none")):
         return None
@@ -167,26 +156,26 @@ def _as_ground(value: object) -> str | float | None:
     except (TypeError, ValueError):
         height = math.nan
     if not math.isfinite(height):
-        raise InputError(f"ground: expected 'auto', 'off' or a finite height, got {value!r}")
+        raise InputError(f"{label}: expected 'auto', 'off' or a finite height, got {value!r}")
     return height
 
 
-def _as_up(value: object) -> str:
-    """``'auto'`` or an axis name ``'x'``, ``'y'``, ``'z'``."""
+def _as_up(value: object, label: str = "up") -> str:
+    """``'auto'`` or an axis name ``'x'``, ``'y'``, ``'z'`` (any case, ``+`` allowed)."""
     text = str(value).strip().lower().lstrip("+")
     if text not in ("auto", "x", "y", "z"):
-        raise InputError(f"up: expected auto, x, y or z, got {value!r}")
+        raise InputError(f"{label}: expected auto, x, y or z, got {value!r}")
     return text
 
 
-def _as_distances(value: object) -> tuple[float, ...]:
+def _as_distances(value: object, label: str = "lod_distances") -> tuple[float, ...]:
     """``lod_distances`` as a sorted tuple of positive floats (a comma string or numbers)."""
     if isinstance(value, str):
         parts = [p.strip() for p in value.split(",")]
         try:
             items = [float(p) for p in parts]
         except ValueError:
-            raise InputError(f"lod_distances: expected comma-separated numbers, got {value!r}"
+            raise InputError(f"{label}: expected comma-separated numbers, got {value!r}"
                              ) from None
     elif isinstance(value, numbers.Real) and not isinstance(value, bool):
         items = [float(value)]
@@ -194,12 +183,99 @@ def _as_distances(value: object) -> tuple[float, ...]:
         try:
             items = [float(v) for v in value]
         except (TypeError, ValueError):
-            raise InputError(f"lod_distances: expected numbers, got {value!r:.80}") from None
+            raise InputError(f"{label}: expected numbers, got {value!r:.80}") from None
     if not items or not all(math.isfinite(v) and v > 0 for v in items):
-        raise InputError(f"lod_distances: expected positive finite distances, got {value!r:.80}")
+        raise InputError(f"{label}: expected positive finite distances, got {value!r:.80}")
     if len(items) > 16:
-        raise InputError(f"lod_distances: at most 16 levels, got {len(items)}")
+        raise InputError(f"{label}: at most 16 levels, got {len(items)}")
     return tuple(sorted(set(items)))
+
+
+#: The options of :func:`generate_planar_sections`, declared once: the registry's spec,
+#: the command line's flags and the generator's own checks (:func:`.specs.checked_by`).
+#: ``ground``, ``up`` and ``lod_distances`` are read by the generator's own readers
+#: (a height or a word; an axis as ``+Z``; distances as text or numbers).
+OPTIONS = (
+    GeneratorOption("voxels", int, None, "voxels along the longest bounding-box side",
+                    low=1, high=MAX_VOXELS, nullable=True,
+                    default_text="64 unless --voxel-size or --pixel-error"),
+    GeneratorOption("voxel_size", float, None,
+                    "voxel side in world units (instead of --voxels)",
+                    low=0, low_open=True, nullable=True),
+    GeneratorOption("direction_bins", int, DEFAULT_DIRECTION_BINS,
+                    "bins of plane normals over the hemisphere", low=1, high=256),
+    GeneratorOption("depth_bins", int, DEFAULT_DEPTH_BINS,
+                    "bins of plane depths per direction", low=1, high=64),
+    GeneratorOption("alpha", float, DEFAULT_ALPHA,
+                    "alpha-completeness of the greedy search, percent", low=0),
+    GeneratorOption("measure", str, "om",
+                    "selection measure: occlusion measure or projected area",
+                    choices=_MEASURES),
+    GeneratorOption("reduce", str, "om",
+                    "budget cut keeps the cut of largest occlusion measure, "
+                    "surface area (the paper) or projected area",
+                    choices=_REDUCTIONS),
+    GeneratorOption("rdp_tolerance", float, RDP_TOLERANCE,
+                    "Ramer-Douglas-Peucker tolerance of the edge loops, voxels",
+                    low=0, low_open=True),
+    GeneratorOption("chain", str, "optimal",
+                    "simplification chains: the paper's greedy smallest-ear "
+                    "collapse, or with its stages of at most 12 triangles the "
+                    "largest inscribed polygons",
+                    choices=_CHAINS),
+    GeneratorOption("conservative", bool, False,
+                    "slice only through voxels wholly inside the mesh, so that no "
+                    "ray sees the occluder before a closed mesh"),
+    GeneratorOption("pixel_error", float, None,
+                    "screen-space error in pixels that sets the voxel size "
+                    "(with --distance or --lod-distances)",
+                    low=0, low_open=True, nullable=True),
+    GeneratorOption("distance", float, None,
+                    "viewer distance of --pixel-error, world units",
+                    low=0, low_open=True, nullable=True),
+    GeneratorOption("fov", float, DEFAULT_FOV, "that viewer's field of view, degrees",
+                    low=0, low_open=True, high=180, high_open=True),
+    GeneratorOption("screen", int, DEFAULT_SCREEN, "that viewer's screen width, pixels",
+                    low=1),
+    GeneratorOption("lod_distances", str, None,
+                    "levels of detail: comma-separated viewer distances, one "
+                    "occluder each (with --pixel-error)", nullable=True,
+                    convert=_as_distances),
+    GeneratorOption("hierarchy", bool, False,
+                    "occluder hierarchy over the mesh's parts, with a tree cut per "
+                    "camera (sec. 5); writes the tree beside the output"),
+    GeneratorOption("jobs", int, 1,
+                    "processes building the hierarchy's nodes (with --hierarchy; "
+                    "the same tree with any number)", low=1, high=256),
+    GeneratorOption("dilate", int, 0,
+                    "dilation steps of the voxel solid (sec. 5's gluing step)", low=0,
+                    high=8),
+    GeneratorOption("close", int, None,
+                    "close openings up to about 2 x this many voxels wide before the "
+                    "flood fill (scans with holes, buildings with open windows)",
+                    low=0, high=8, nullable=True,
+                    default_text="0, or with the precision floor on and a voxel "
+                    "solid without interior (or that closing grows by 10%+) the "
+                    "best of 0, 2, 3, 4 on the check views"),
+    GeneratorOption("min_precision", float, None,
+                    "precision floor: refine the voxels (x sqrt 2, twice at most) "
+                    "while the 95% lower bound of the occluder's precision on 64 "
+                    "orbit views is under it (coarser while it holds, with the "
+                    "default size); 0 turns it off", low=0, high=1, nullable=True,
+                    default_text="0.995 unless --voxels, --voxel-size, "
+                    "--pixel-error, --conservative or --lod-distances"),
+    GeneratorOption("ground", str, "auto",
+                    "a ground plane under the mesh: 'auto', 'off' or its height "
+                    "along --up (world units); the space between it and the surface "
+                    "joins the solid where the mesh hides it (terrain, open-bottomed "
+                    "buildings)",
+                    default_text="auto: the mesh's lowest point, tried beside the "
+                    "closings and kept when it passes the precision floor with "
+                    "more recall", convert=_as_ground),
+    GeneratorOption("up", str, "auto", "the up axis of --ground",
+                    choices=("auto", "x", "y", "z"), convert=_as_up),
+)
+_OPTION = {option.name: option for option in OPTIONS}
 
 
 #: The hierarchy generator (sec. 5) that ``hierarchy=True`` hands the work to, set by
@@ -219,6 +295,7 @@ def _hierarchy_builder():
     return _HIERARCHY
 
 
+@checked_by(OPTIONS)
 def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, seed: int = 0,
                              voxels: int | None = None, voxel_size: float | None = None,
                              direction_bins: int = DEFAULT_DIRECTION_BINS,
@@ -417,74 +494,15 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
     True
     """
     start = time.perf_counter()
+    # each option is checked by OPTIONS: lod_distances comes as a sorted tuple, ground as
+    # 'auto', None (off) or a height; here the rules across options, the mesh last
     if not isinstance(mesh, trimesh.Trimesh) and not hierarchy:
         raise InputError("mesh: expected a trimesh.Trimesh")
-    budget = None if budget is None else as_positive_int(budget, "budget")
-    seed = as_seed(seed)
-    direction_bins = as_positive_int(direction_bins, "direction_bins", maximum=256)
-    depth_bins = as_positive_int(depth_bins, "depth_bins", maximum=64)
-    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not (
-            math.isfinite(alpha) and alpha >= 0):
-        raise InputError(f"alpha: expected a percentage >= 0, got {alpha!r}")
-    alpha = float(alpha)
-    if measure not in _MEASURES:
-        raise InputError(f"measure: expected 'om' or 'area', got {measure!r}")
-    rdp_tolerance = as_positive(rdp_tolerance, "rdp_tolerance")
-    if chain not in _CHAINS:
-        raise InputError(f"chain: expected 'optimal' or 'greedy', got {chain!r}")
-    if reduce not in _REDUCTIONS:
-        raise InputError(f"reduce: expected one of {', '.join(_REDUCTIONS)}, got {reduce!r}")
-    for name, flag in (("conservative", conservative), ("hierarchy", hierarchy)):
-        if not isinstance(flag, (bool, np.bool_)):
-            raise InputError(f"{name}: expected True or False, got {flag!r}")
-    if isinstance(dilate, bool) or not isinstance(dilate, numbers.Integral) or not (
-            0 <= dilate <= 8):
-        raise InputError(f"dilate: expected an integer from 0 to 8, got {dilate!r}")
-    if close is not None and (isinstance(close, bool) or not isinstance(
-            close, numbers.Integral) or not 0 <= close <= 8):
-        raise InputError(f"close: expected an integer from 0 to 8, got {close!r}")
-    if close and conservative:
-        raise InputError("close: not with conservative (closing adds voxels outside the mesh)")
-    ground = _as_ground(ground)
-    if ground is not None and ground != "auto" and conservative:
-        raise InputError("ground: not with conservative (the ground fill adds voxels outside "
-                         "the mesh)")
-    up = _as_up(up)
-    jobs = as_positive_int(jobs, "jobs", maximum=256)
-    if jobs != 1 and not hierarchy:
-        raise InputError("jobs: only with hierarchy (one occluder is built in one process)")
-    fov = _as_fov(fov)
-    screen = as_positive_int(screen, "screen")
-    if voxels is not None:
-        voxels = as_positive_int(voxels, "voxels", maximum=MAX_VOXELS)
-    if voxel_size is not None:
-        voxel_size = as_positive(voxel_size, "voxel_size")
-    if pixel_error is not None:
-        pixel_error = as_positive(pixel_error, "pixel_error")
-    if distance is not None:
-        distance = as_positive(distance, "distance")
-    distances = None if lod_distances is None else _as_distances(lod_distances)
-    given = [n for n, v in (("voxels", voxels), ("voxel_size", voxel_size),
-                            ("pixel_error", pixel_error)) if v is not None]
-    if len(given) > 1:
-        raise InputError(f"{' and '.join(given)}: give one way of sizing the voxels")
-    if pixel_error is None and (distance is not None or distances is not None):
-        raise InputError("distance, lod_distances: need pixel_error (the allowed error in "
-                         "pixels)")
-    if pixel_error is not None and distance is None and distances is None:
-        raise InputError("pixel_error: needs distance (or lod_distances)")
-    if distance is not None and distances is not None:
-        raise InputError("distance and lod_distances: give one (lod_distances replaces "
-                         "distance)")
-    if min_precision is not None:
-        min_precision = as_fraction(min_precision, "min_precision")
-        if distances is not None and min_precision > 0:
-            raise InputError("min_precision: not with lod_distances (each level's voxel size "
-                             "is set by its distance)")
-    if hierarchy:
-        build = _hierarchy_builder()
-        if build is None:
-            raise InputError("hierarchy: not available yet (planar_hierarchy is not installed)")
+    distances = lod_distances
+    given = _check_rules(voxels=voxels, voxel_size=voxel_size, pixel_error=pixel_error,
+                         distance=distance, distances=distances, min_precision=min_precision,
+                         conservative=conservative, close=close, ground=ground,
+                         hierarchy=hierarchy, jobs=jobs)
     params = {"budget": budget, "seed": seed, "voxels": voxels, "voxel_size": voxel_size,
               "direction_bins": direction_bins, "depth_bins": depth_bins, "alpha": alpha,
               "measure": measure, "reduce": reduce, "rdp_tolerance": rdp_tolerance,
@@ -495,19 +513,14 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
               "close": None if close is None else int(close), "min_precision": min_precision,
               "ground": "off" if ground is None else ground, "up": up, "jobs": jobs}
     if hierarchy:  # sec. 5: a BVH over the objects, this generator at every node
+        build = _hierarchy_builder()
         return build(mesh, **{k: v for k, v in params.items() if k != "hierarchy"})
     mesh = validate_mesh(mesh)
     if up == "auto":
         up, up_reason = guess_up(mesh, level=False)
     else:
         up_reason = "given"
-    if ground == "auto":
-        ground_plane = None if conservative else {
-            "height": float(mesh.bounds[0]["xyz".index(up)]), "auto": True}
-    elif ground is None:
-        ground_plane = None
-    else:
-        ground_plane = {"height": float(ground), "auto": False}
+    ground_plane = _ground_plane(mesh, ground, up=up, conservative=conservative)
 
     options = dict(budget=budget, direction_bins=direction_bins, depth_bins=depth_bins,
                    alpha=alpha, measure=measure, reduce=reduce,
@@ -515,25 +528,9 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
                    dilate=int(dilate), close=int(close or 0), up=up)
     wall_sizing = None
     if distances is None:
-        if pixel_error is not None:
-            size = _resolution(mesh, None, screen_space_voxel_size(
-                pixel_error, distance, fov=fov, screen=screen),
-                f"pixel_error={pixel_error:g} at distance={distance:g}")
-        elif voxel_size is not None:
-            size = _resolution(mesh, None, voxel_size, f"voxel_size={voxel_size:g}")
-        elif conservative and voxels is None:
-            # the solid is the inside voxels eroded once by the 3^3 cube: size the voxels
-            # so that the walls hold 3 x 3 x 3 blocks of inside voxels
-            sized = wall_voxel_size(mesh, bytes_per_cell=BYTES_PER_CELL,
-                                    resolution=DEFAULT_VOXELS, quantile=WALL_QUANTILE,
-                                    max_resolution=MAX_VOXELS, what="planar-sections",
-                                    block=3)
-            _log.log(sized.log_level, "%s", sized.reason)
-            wall_sizing = sized.info
-            size = _resolution(mesh, None, sized.pitch, f"voxel_size={sized.pitch:g} (auto)")
-        else:
-            n = DEFAULT_VOXELS if voxels is None else voxels
-            size = _resolution(mesh, n, None, f"voxels={n}")
+        size, wall_sizing = _voxel_size(mesh, voxels=voxels, voxel_size=voxel_size,
+                                        pixel_error=pixel_error, distance=distance, fov=fov,
+                                        screen=screen, conservative=conservative)
         floor = min_precision
         if floor is None and not given and not conservative:
             floor = DEFAULT_MIN_PRECISION
@@ -549,17 +546,8 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
             out_mesh, polygons, info = _generate_one(mesh, size, ground=fill, **options)
         parts = {"polygons": polygons}
     else:
-        sizes = [_resolution(mesh, None, screen_space_voxel_size(
-            pixel_error, d, fov=fov, screen=screen),
-            f"pixel_error={pixel_error:g} at lod distance {d:g}") for d in distances]
-        lods = []
-        for d, size in zip(distances, sizes, strict=True):
-            m, polys, inf = _generate_one(mesh, size, **options)
-            lods.append({"distance": d, "mesh": m, "voxels": inf["voxels"],
-                         "voxel_size": inf["voxel_size"], "triangles": len(m.faces),
-                         "polygons": polys})
-            if len(lods) == 1:
-                out_mesh, polygons, info = m, polys, inf
+        out_mesh, polygons, info, lods = _levels_of_detail(
+            mesh, distances, pixel_error=pixel_error, fov=fov, screen=screen, options=options)
         parts = {"polygons": polygons, "lods": lods}
     info = {"close": options["close"], **info, "up": up, "up_reason": up_reason,
             "triangles_single_sided": 2 * len(out_mesh.faces)}
@@ -567,5 +555,89 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         info["wall_sizing"] = wall_sizing
     return Occluder(mesh=out_mesh, method="planar-sections", params=params, double_sided=True,
                     seconds=time.perf_counter() - start, parts=parts, info=info)
+
+
+def _check_rules(*, voxels, voxel_size, pixel_error, distance, distances, min_precision,
+                 conservative, close, ground, hierarchy, jobs) -> list[str]:
+    """The rules across options (each option checked already); returns the ways of sizing
+    the voxels given (``voxels``, ``voxel_size``, ``pixel_error``: one at most)."""
+    if close and conservative:
+        raise InputError("close: not with conservative (closing adds voxels outside the mesh)")
+    if ground is not None and ground != "auto" and conservative:
+        raise InputError("ground: not with conservative (the ground fill adds voxels outside "
+                         "the mesh)")
+    if jobs != 1 and not hierarchy:
+        raise InputError("jobs: only with hierarchy (one occluder is built in one process)")
+    given = [n for n, v in (("voxels", voxels), ("voxel_size", voxel_size),
+                            ("pixel_error", pixel_error)) if v is not None]
+    if len(given) > 1:
+        raise InputError(f"{' and '.join(given)}: give one way of sizing the voxels")
+    if pixel_error is None and (distance is not None or distances is not None):
+        raise InputError("distance, lod_distances: need pixel_error (the allowed error in "
+                         "pixels)")
+    if pixel_error is not None and distance is None and distances is None:
+        raise InputError("pixel_error: needs distance (or lod_distances)")
+    if distance is not None and distances is not None:
+        raise InputError("distance and lod_distances: give one (lod_distances replaces "
+                         "distance)")
+    if min_precision is not None and distances is not None and min_precision > 0:
+        raise InputError("min_precision: not with lod_distances (each level's voxel size "
+                         "is set by its distance)")
+    if hierarchy and _hierarchy_builder() is None:
+        raise InputError("hierarchy: not available yet (planar_hierarchy is not installed)")
+    return given
+
+
+def _ground_plane(mesh: trimesh.Trimesh, ground, *, up: str, conservative: bool) -> dict | None:
+    """The ground plane under the mesh: its height along ``up`` and whether it was guessed
+    (``ground='auto'``: the mesh's lowest point, none when conservative), or None (off)."""
+    if ground == "auto":
+        return None if conservative else {
+            "height": float(mesh.bounds[0]["xyz".index(up)]), "auto": True}
+    if ground is None:
+        return None
+    return {"height": float(ground), "auto": False}
+
+
+def _voxel_size(mesh: trimesh.Trimesh, *, voxels, voxel_size, pixel_error, distance, fov,
+                screen, conservative) -> tuple:
+    """The voxel grid's size (:func:`._single._resolution`) by the one sizing given, and
+    the wall sizing's info when the walls set it (conservative, no size given), else None."""
+    if pixel_error is not None:
+        return _resolution(mesh, None, screen_space_voxel_size(
+            pixel_error, distance, fov=fov, screen=screen),
+            f"pixel_error={pixel_error:g} at distance={distance:g}"), None
+    if voxel_size is not None:
+        return _resolution(mesh, None, voxel_size, f"voxel_size={voxel_size:g}"), None
+    if conservative and voxels is None:
+        # the solid is the inside voxels eroded once by the 3^3 cube: size the voxels
+        # so that the walls hold 3 x 3 x 3 blocks of inside voxels
+        sized = wall_voxel_size(mesh, bytes_per_cell=BYTES_PER_CELL,
+                                resolution=DEFAULT_VOXELS, quantile=WALL_QUANTILE,
+                                max_resolution=MAX_VOXELS, what="planar-sections",
+                                block=3)
+        _log.log(sized.log_level, "%s", sized.reason)
+        return _resolution(mesh, None, sized.pitch,
+                           f"voxel_size={sized.pitch:g} (auto)"), sized.info
+    n = DEFAULT_VOXELS if voxels is None else voxels
+    return _resolution(mesh, n, None, f"voxels={n}"), None
+
+
+def _levels_of_detail(mesh: trimesh.Trimesh, distances: tuple[float, ...], *,
+                      pixel_error: float, fov: float, screen: int, options: dict) -> tuple:
+    """One occluder per viewer distance, nearest first: the nearest's mesh, polygons and
+    info, and every level's entry of ``parts["lods"]``."""
+    sizes = [_resolution(mesh, None, screen_space_voxel_size(
+        pixel_error, d, fov=fov, screen=screen),
+        f"pixel_error={pixel_error:g} at lod distance {d:g}") for d in distances]
+    lods = []
+    for d, size in zip(distances, sizes, strict=True):
+        m, polys, inf = _generate_one(mesh, size, **options)
+        lods.append({"distance": d, "mesh": m, "voxels": inf["voxels"],
+                     "voxel_size": inf["voxel_size"], "triangles": len(m.faces),
+                     "polygons": polys})
+        if len(lods) == 1:
+            out_mesh, polygons, info = m, polys, inf
+    return out_mesh, polygons, info, lods
 
 

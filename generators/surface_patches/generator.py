@@ -93,6 +93,7 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import dataclass
 
 import numpy as np
 import shapely
@@ -101,7 +102,6 @@ from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
 from viscore import InputError, Scene
-from viscore._validate import as_fraction, as_positive, as_positive_int, as_seed
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 from viscore.level.ground import UP_AXES, guess_up
 
@@ -110,6 +110,7 @@ from .._convex_bands import grid_bands
 from .._plane_regions import plane_regions
 from .._polygon_chain import refine_chain, simplification_chain
 from ..occluder import Occluder
+from ..specs import GeneratorOption, checked_by
 from ._crease_weld import crease_lines, weld_points, welded_ring
 from ._ground_curtains import curtain_regions
 from ._inner_boxes import (
@@ -125,7 +126,7 @@ from ._overlap import candidate_bitmaps, select_with_overlap
 from ._sheets import SHEET_MAX_FACES, chunk_measure, face_areas, sheet_chunks
 
 __all__ = ["generate_surface_patches", "use_box_source", "DEFAULT_BUDGET", "PLANE_TOLERANCE",
-           "GRID", "EROSION", "MIN_AREA", "BOXES", "SHEETS"]
+           "GRID", "EROSION", "MIN_AREA", "BOXES", "SHEETS", "OPTIONS"]
 
 _log = logging.getLogger(__name__)
 
@@ -189,6 +190,39 @@ MEASURE_MIN_ACROSS = 6
 
 #: Largest pixel count along a side of that rasterization.
 MEASURE_MAX_PIXELS = 512
+
+#: The options of :func:`generate_surface_patches`, declared once: the registry's spec,
+#: the command line's flags and the generator's own checks (:func:`.specs.checked_by`).
+OPTIONS = (
+    GeneratorOption("plane_tolerance", float, PLANE_TOLERANCE,
+                    "coplanarity tolerance: largest distance of a region face's vertex from "
+                    "its plane, fraction of the bounding-box diagonal",
+                    low=0, low_open=True, high=CONSERVATIVE_EPS_RELATIVE),
+    GeneratorOption("min_area", float, MIN_AREA,
+                    "skip regions and pieces under this fraction of the input's face area",
+                    low=0, high=1),
+    GeneratorOption("chain", str, "optimal",
+                    "stages of at most 12 triangles: largest inscribed polygons or the paper's "
+                    "greedy chain", choices=("optimal", "greedy")),
+    GeneratorOption("boxes", str, "auto",
+                    "also offer aabb-skins boxes inside the closed parts (curved solids) to the "
+                    "selection, 12 triangles each, or patches only", choices=BOXES),
+    GeneratorOption("ground", str, "off",
+                    "also offer vertical curtains in the space open ground seals (hills, "
+                    "terrain sheets): guaranteed for viewpoints not under the ground nor below "
+                    "its rim", choices=GROUNDS),
+    GeneratorOption("up", str, "auto", "the up axis of --ground", choices=("auto", *UP_AXES)),
+    GeneratorOption("selection", str, "overlap",
+                    "value each candidate by what it adds to the chosen ones' projections (the "
+                    "paper's soup measure) or by its own measure alone", choices=SELECTIONS),
+    GeneratorOption("sheets", str, "auto",
+                    "also offer curved open sheets (terrain, vaults) as their own triangles, in "
+                    "chunks of about 64", choices=SHEETS),
+    GeneratorOption("weld", str, "auto",
+                    "move patch vertices the erosion left beside a crease of the input onto the "
+                    "line of its two planes, so that the depth buffer covers the crease",
+                    choices=WELDS),
+)
 
 
 def _region_pieces(union, *, erosion: float, grid: float, floor: float) -> list[Polygon] | None:
@@ -262,6 +296,7 @@ def _select(values: list[np.ndarray], counts: list[np.ndarray], budget: int) -> 
         cur_c[i] = flat_c[j]
 
 
+@checked_by(OPTIONS)
 def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFAULT_BUDGET,
                              seed: int = 0, plane_tolerance: float = PLANE_TOLERANCE,
                              min_area: float = MIN_AREA, chain: str = "optimal",
@@ -366,7 +401,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     Raises
     ------
     InputError
-        On an empty mesh or a bad option, before any work.
+        On an empty mesh or a bad option (checked by :data:`OPTIONS`), before
+        any work.
 
     Notes
     -----
@@ -455,39 +491,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     (0, 2, 24)
     """
     start = time.perf_counter()
-    # the options first, the mesh last: a check-only call (specs.check_only) ends at the mesh
-    if budget is not None:
-        budget = as_positive_int(budget, "budget")
-    seed = as_seed(seed, "seed")
-    plane_tolerance = as_positive(plane_tolerance, "plane_tolerance")
-    if plane_tolerance > CONSERVATIVE_EPS_RELATIVE:
-        raise InputError(f"plane_tolerance: expected a number in (0, "
-                         f"{CONSERVATIVE_EPS_RELATIVE:g}], got {plane_tolerance}")
-    min_area = as_fraction(min_area, "min_area")
-    if chain not in ("optimal", "greedy"):
-        raise InputError(f"chain: expected 'optimal' or 'greedy', got {chain!r}")
-    if boxes not in BOXES:
-        raise InputError(f"boxes: expected one of {', '.join(BOXES)}, got {boxes!r}")
-    if ground not in GROUNDS:
-        raise InputError(f"ground: expected one of {', '.join(GROUNDS)}, got {ground!r}")
-    if up not in ("auto", *UP_AXES):
-        raise InputError(f"up: expected auto, x, y or z, got {up!r}")
-    if selection not in SELECTIONS:
-        raise InputError(f"selection: expected one of {', '.join(SELECTIONS)}, "
-                         f"got {selection!r}")
-    if sheets not in SHEETS:
-        raise InputError(f"sheets: expected one of {', '.join(SHEETS)}, got {sheets!r}")
-    if weld not in WELDS:
-        raise InputError(f"weld: expected one of {', '.join(WELDS)}, got {weld!r}")
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-        raise InputError("mesh: expected a non-empty trimesh.Trimesh")
-    vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    faces = np.asarray(mesh.faces, dtype=np.int64)
-    if not np.isfinite(vertices).all():
-        raise InputError("mesh: contains NaN or infinite vertices")
-    diag = float(np.linalg.norm(np.ptp(vertices, axis=0)))
-    if diag == 0:
-        raise InputError("mesh: zero extent")
+    # the options are checked (OPTIONS); the mesh last: a check-only call ends at it
+    vertices, faces, diag = _mesh_arrays(mesh)
     params = {"budget": budget, "seed": seed, "plane_tolerance": plane_tolerance,
               "min_area": min_area, "chain": chain, "boxes": boxes, "ground": ground,
               "up": up, "selection": selection, "sheets": sheets, "weld": weld}
@@ -506,6 +511,167 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     grid = GRID * diag
 
     t0 = time.perf_counter()
+    cands, sources, cand_region, region_of, used = _planar_candidates(
+        vertices, faces, regions, diag=diag, grid=grid, floor=floor)
+    timing["pieces"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    planar_cands = len(cands)
+    ground_info: dict = {"parts": 0}
+    if ground == "auto":
+        ground_info = _add_curtains(mesh, vertices, faces, cands, sources, cand_region, up=up,
+                                    diag=diag, grid=grid, floor=floor)
+    curtain_cands = len(cands) - planar_cands
+    is_curtain = np.arange(len(cands)) >= planar_cands
+    timing["curtains"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    found = len(cands)
+    cap = _candidate_cap(budget)
+    if len(cands) > cap:  # the largest pieces; crumbs cost time only
+        keep = np.sort(np.argsort([-p.area for _, _, p in cands], kind="stable")[:cap])
+        cands = [cands[i] for i in keep]
+        sources = [sources[i] for i in keep]
+        cand_region = [cand_region[i] for i in keep]
+        is_curtain = is_curtain[keep]
+    chains, values, counts = _candidate_chains(cands, chain=chain, grid=grid)
+    timing["chains"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    closed = closed_parts(vertices, faces)
+    corners, box_values, box_info, box_reason = _box_candidates(
+        vertices, faces, closed, cands, chains, grid, boxes=boxes, budget=budget)
+    for value in box_values:  # one stage of 12 triangles each, after the patches (ties)
+        values.append(np.array([value]))
+        counts.append(np.array([TRIANGLES_PER_BOX], dtype=np.int64))
+    timing["boxes"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    chunks, sheets_skipped = _sheet_candidates(vertices, faces, area, closed, region_of,
+                                               sheets=sheets, floor=floor, budget=budget)
+    sheet_tris = [vertices[faces[members]] for members in chunks]
+    for tri in sheet_tris:  # one stage each: the chunk's own triangles, after the boxes
+        values.append(np.array([chunk_measure(tri)]))
+        counts.append(np.array([len(tri)], dtype=np.int64))
+    timing["sheets"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    stages = _selected_stages(mesh, cands, chains, values, counts, corners, sheet_tris,
+                              budget=budget, selection=selection, grid=grid)
+    timing["selection"] = time.perf_counter() - t0
+    kept_boxes = corners[stages[len(cands):len(cands) + len(corners)] >= 0]
+    kept_chunks = [m for m, s in zip(chunks, stages[len(cands) + len(corners):], strict=True)
+                   if s >= 0]
+    stages = stages[:len(cands)]
+    sheet_faces = np.concatenate(kept_chunks) if kept_chunks else np.zeros(0, dtype=np.int64)
+    # a planar stage inside a region whose faces the kept sheets hold as they are would lie
+    # on them: a second layer, which keeps the depth buffer's corner rays off one patch
+    in_sheets = np.zeros(len(faces), dtype=bool)
+    in_sheets[sheet_faces] = True
+    doubled = np.array([src is not None and s >= 0 and bool(in_sheets[src].all())
+                        for src, s in zip(sources, stages, strict=True)], dtype=bool)
+    stages = np.where(doubled, -1, stages)
+
+    t0 = time.perf_counter()
+    out = _kept_output(vertices, faces, regions, cands, chains, stages, is_curtain, cand_region,
+                       kept_boxes, sheet_faces, grid=grid, diag=diag, weld=weld)
+    timing["output"] = time.perf_counter() - t0  # the kept stages placed, welded, joined
+    if out.dropped:
+        _log.warning("surface-patches: %d chain triangles left their region and were dropped",
+                     out.dropped)
+    boxes_claim = box_info.get("conservative_guaranteed") if box_info else None
+    empty_reason = None
+    if not len(out.mesh.faces):
+        empty_reason = _empty_reason(
+            found=found, box_reason=box_reason, curtains=curtain_cands, chunks=len(chunks),
+            sheets_skipped=sheets_skipped, budget=budget, min_area=min_area, ground=ground,
+            sheets=sheets)
+        _log.warning("surface-patches: no occluder for %s: %s",
+                     mesh.metadata.get("name", "the mesh"), empty_reason)
+    info = {"conservative_guaranteed": bool(not len(kept_boxes) or boxes_claim is True),
+            "whole_input": False, "regions": len(regions), "regions_used": used,
+            "candidates": found, "polygons": out.patch_polygons,
+            "area_kept": out.area / total if total > 0 else 0.0,
+            "dropped_triangles": out.dropped,
+            "plane_tolerance": plane_tolerance * diag, "erosion": EROSION * diag,
+            "grid": grid, "eps": CONSERVATIVE_EPS_RELATIVE * diag,
+            "closed_faces": int(box_info.get("closed_faces", 0)),
+            "box_candidates": len(corners), "boxes": len(kept_boxes),
+            "boxes_guaranteed": None if boxes_claim is None else bool(boxes_claim),
+            "box_pitch": box_info.get("pitch"), "empty_reason": empty_reason,
+            "curtain_candidates": curtain_cands, "curtains": out.curtains_kept,
+            "ground_parts": ground_info["parts"],
+            "ground_parts_layered": ground_info.get("layered", 0), "up": ground_info.get("up"),
+            "guarantee": ("viewpoints not under the surface of an open part nor below its rim"
+                          if out.curtains_kept else "every viewpoint"),
+            "sheet_candidates": len(chunks), "sheets": len(kept_chunks),
+            "sheet_faces": int(len(sheet_faces)), "sheets_skipped": sheets_skipped,
+            "welded": out.welded, "seconds_steps": timing}
+    return Occluder(mesh=out.mesh, method="surface-patches", params=params, double_sided=True,
+                    seconds=time.perf_counter() - start, parts={"polygons": out.polygons},
+                    info=info)
+
+
+def _selected_stages(mesh: trimesh.Trimesh, cands: list, chains: list, values: list,
+                     counts: list, corners: np.ndarray, sheet_tris: list, *,
+                     budget: int | None, selection: str, grid: float) -> np.ndarray:
+    """Step 4: the stage kept per candidate (patches, then boxes, then sheet chunks; -1:
+    none): without a budget each whole candidate that has a measure, else the greedy
+    knapsack on the values, discounted by the overlap (``selection='overlap'``) or not."""
+    if budget is None:
+        return np.array([0 if int(c[0]) > 0 and float(x[0]) > 0 else -1
+                         for c, x in zip(counts, values, strict=True)], dtype=np.int64)
+    if selection == "overlap":
+        rings = [frame[0] + loop[:, :1] * frame[1] + loop[:, 1:2] * frame[2]
+                 for (frame, _, _), ch in zip(cands, chains, strict=True)
+                 for loop in [ch.stage_ring(0) * grid]]
+        return select_with_overlap(values, counts,
+                                   candidate_bitmaps(mesh, rings, box_faces(corners),
+                                                     sheet_tris),
+                                   budget)
+    return _select(values, counts, budget)
+
+
+def _empty_reason(*, found: int, box_reason: str, curtains: int, chunks: int,
+                  sheets_skipped: str | None, budget: int | None, min_area: float,
+                  ground: str, sheets: str) -> str:
+    """Why the occluder has no triangle: one line, each kind of candidate's reason."""
+    planar = (f"no planar region of two or more faces and at least {min_area:g} of the "
+              "face area (curved regions contribute nothing)" if not found else
+              "no patch keeps a triangle inside its region" if budget is None else
+              f"no patch fits a budget of {budget}")
+    reason = f"{planar}, and {box_reason}"
+    if ground == "auto" and not curtains:
+        reason += "; no open part seals a space under its surface above its rim (ground)"
+    if sheets == "auto":
+        reason += ("; " + sheets_skipped if sheets_skipped else
+                   "; no curved open sheet" if not chunks else
+                   "; no sheet chunk has a measure" if budget is None else
+                   f"; no sheet chunk fits a budget of {budget}")
+    return reason
+
+
+def _mesh_arrays(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray, float]:
+    """The mesh's ``(v, 3) float64`` vertices, ``(f, 3) int64`` faces and bounding-box
+    diagonal; :class:`InputError` on an empty mesh, non-finite vertices or zero extent."""
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise InputError("mesh: expected a non-empty trimesh.Trimesh")
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    if not np.isfinite(vertices).all():
+        raise InputError("mesh: contains NaN or infinite vertices")
+    diag = float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    if diag == 0:
+        raise InputError("mesh: zero extent")
+    return vertices, faces, diag
+
+
+def _planar_candidates(vertices: np.ndarray, faces: np.ndarray, regions: list, *, diag: float,
+                       grid: float, floor: float) -> tuple[list, list, list, np.ndarray, int]:
+    """Steps 1-2: the hole-free pieces of the planar regions of at least ``floor`` area and
+    :data:`MIN_FACES` faces. Returns the candidates ``(frame, exact union, piece in grid
+    units)``, per candidate its region's faces and index in ``regions``, each input face's
+    rank among the regions that gave pieces (-1: none) and the count of those regions."""
     cands = []  # (frame, exact union, hole-free piece in grid units)
     region_of = np.full(len(faces), -1, dtype=np.int64)  # faces of regions giving pieces
     sources = []  # per candidate, the input faces of its planar region (None: a curtain)
@@ -531,33 +697,30 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         cands += [(frame, union, piece) for piece in pieces]
         sources += [reg.faces] * len(pieces)
         cand_region += [k] * len(pieces)
-    timing["pieces"] = time.perf_counter() - t0
+    return cands, sources, cand_region, region_of, used
 
-    t0 = time.perf_counter()
-    planar_cands = len(cands)
-    ground_info: dict = {"parts": 0}
-    if ground == "auto":
-        up_name = guess_up(mesh, level=False)[0] if up == "auto" else up
-        curtains, ground_info = curtain_regions(vertices, faces, up=UP_AXES.index(up_name))
-        ground_info["up"] = up_name
-        for frame, region in curtains:
-            pieces = _region_pieces(region, erosion=EROSION * diag, grid=grid, floor=floor)
-            cands += [(frame, region, piece) for piece in pieces or ()]
-            sources += [None] * len(pieces or ())
-            cand_region += [-1] * len(pieces or ())
-    curtain_cands = len(cands) - planar_cands
-    is_curtain = np.arange(len(cands)) >= planar_cands
-    timing["curtains"] = time.perf_counter() - t0
 
-    t0 = time.perf_counter()
-    found = len(cands)
-    cap = _candidate_cap(budget)
-    if len(cands) > cap:  # the largest pieces; crumbs cost time only
-        keep = np.sort(np.argsort([-p.area for _, _, p in cands], kind="stable")[:cap])
-        cands = [cands[i] for i in keep]
-        sources = [sources[i] for i in keep]
-        cand_region = [cand_region[i] for i in keep]
-        is_curtain = is_curtain[keep]
+def _add_curtains(mesh: trimesh.Trimesh, vertices: np.ndarray, faces: np.ndarray, cands: list,
+                  sources: list, cand_region: list, *, up: str, diag: float, grid: float,
+                  floor: float) -> dict:
+    """Step 6: the pieces of the curtains under open ground appended to the candidates (no
+    source faces, region -1); returns :func:`._ground_curtains.curtain_regions`' info with
+    the up axis used."""
+    up_name = guess_up(mesh, level=False)[0] if up == "auto" else up
+    curtains, ground_info = curtain_regions(vertices, faces, up=UP_AXES.index(up_name))
+    ground_info["up"] = up_name
+    for frame, region in curtains:
+        pieces = _region_pieces(region, erosion=EROSION * diag, grid=grid, floor=floor)
+        cands += [(frame, region, piece) for piece in pieces or ()]
+        sources += [None] * len(pieces or ())
+        cand_region += [-1] * len(pieces or ())
+    return ground_info
+
+
+def _candidate_chains(cands: list, *, chain: str, grid: float
+                      ) -> tuple[list, list[np.ndarray], list[np.ndarray]]:
+    """Step 3: each candidate's simplification chain, its stages' values (occlusion measure,
+    world units^3) and triangle counts."""
     chains, values, counts = [], [], []
     search_from = np.sort([-p.area for _, _, p in cands])[:MAX_SEARCH]
     search_from = -search_from[-1] if len(search_from) else 0.0
@@ -571,55 +734,29 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         share = np.asarray(ch.areas, dtype=np.float64) / max(float(ch.areas[0]), 1e-300)
         values.append(full * grid**3 * share**1.5)
         counts.append(np.asarray(ch.counts, dtype=np.int64))
-    timing["chains"] = time.perf_counter() - t0
+    return chains, values, counts
 
-    t0 = time.perf_counter()
-    closed = closed_parts(vertices, faces)
-    corners, box_values, box_info, box_reason = _box_candidates(
-        vertices, faces, closed, cands, chains, grid, boxes=boxes, budget=budget)
-    for value in box_values:  # one stage of 12 triangles each, after the patches (ties)
-        values.append(np.array([value]))
-        counts.append(np.array([TRIANGLES_PER_BOX], dtype=np.int64))
-    timing["boxes"] = time.perf_counter() - t0
 
-    t0 = time.perf_counter()
-    chunks, sheets_skipped = _sheet_candidates(vertices, faces, area, closed, region_of,
-                                               sheets=sheets, floor=floor, budget=budget)
-    sheet_tris = [vertices[faces[members]] for members in chunks]
-    for tri in sheet_tris:  # one stage each: the chunk's own triangles, after the boxes
-        values.append(np.array([chunk_measure(tri)]))
-        counts.append(np.array([len(tri)], dtype=np.int64))
-    timing["sheets"] = time.perf_counter() - t0
+@dataclass(frozen=True)
+class _Output:
+    """The kept stages, boxes and sheet triangles joined into the occluder (step 8 done)."""
 
-    t0 = time.perf_counter()
-    if budget is None:
-        stages = np.array([0 if int(c[0]) > 0 and float(x[0]) > 0 else -1
-                           for c, x in zip(counts, values, strict=True)], dtype=np.int64)
-    elif selection == "overlap":
-        rings = [frame[0] + loop[:, :1] * frame[1] + loop[:, 1:2] * frame[2]
-                 for (frame, _, _), ch in zip(cands, chains, strict=True)
-                 for loop in [ch.stage_ring(0) * grid]]
-        stages = select_with_overlap(values, counts,
-                                     candidate_bitmaps(mesh, rings, box_faces(corners),
-                                                       sheet_tris),
-                                     budget)
-    else:
-        stages = _select(values, counts, budget)
-    timing["selection"] = time.perf_counter() - t0
-    kept_boxes = corners[stages[len(cands):len(cands) + len(corners)] >= 0]
-    kept_chunks = [m for m, s in zip(chunks, stages[len(cands) + len(corners):], strict=True)
-                   if s >= 0]
-    stages = stages[:len(cands)]
-    sheet_faces = np.concatenate(kept_chunks) if kept_chunks else np.zeros(0, dtype=np.int64)
-    # a planar stage inside a region whose faces the kept sheets hold as they are would lie
-    # on them: a second layer, which keeps the depth buffer's corner rays off one patch
-    in_sheets = np.zeros(len(faces), dtype=bool)
-    in_sheets[sheet_faces] = True
-    doubled = np.array([src is not None and s >= 0 and bool(in_sheets[src].all())
-                        for src, s in zip(sources, stages, strict=True)], dtype=bool)
-    stages = np.where(doubled, -1, stages)
+    mesh: trimesh.Trimesh
+    polygons: list
+    patch_polygons: int
+    area: float
+    dropped: int
+    curtains_kept: int
+    welded: int
 
-    t0 = time.perf_counter()
+
+def _kept_output(vertices: np.ndarray, faces: np.ndarray, regions: list, cands: list,
+                 chains: list, stages: np.ndarray, is_curtain: np.ndarray, cand_region: list,
+                 kept_boxes: np.ndarray, sheet_faces: np.ndarray, *, grid: float, diag: float,
+                 weld: str) -> _Output:
+    """The occluder: each kept stage's triangles that the exact union covers, in world
+    space (welded onto the input's creases with ``weld='auto'``), then the kept boxes'
+    triangles, then the kept sheets' input triangles."""
     wanted = np.unique(np.array([k for k, s in zip(cand_region, stages, strict=True)
                                  if s >= 0 and k >= 0], dtype=np.int64))
     creases, planes = ({}, None) if weld == "off" or not len(wanted) else \
@@ -678,49 +815,8 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
     else:
         occ_mesh = trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64),
                                    process=False)
-    timing["output"] = time.perf_counter() - t0  # the kept stages placed, welded, joined
-    if dropped:
-        _log.warning("surface-patches: %d chain triangles left their region and were dropped",
-                     dropped)
-    boxes_claim = box_info.get("conservative_guaranteed") if box_info else None
-    empty_reason = None
-    if not out_f:
-        planar = (f"no planar region of two or more faces and at least {min_area:g} of the "
-                  "face area (curved regions contribute nothing)" if not found else
-                  "no patch keeps a triangle inside its region" if budget is None else
-                  f"no patch fits a budget of {budget}")
-        empty_reason = f"{planar}, and {box_reason}"
-        if ground == "auto" and not curtain_cands:
-            empty_reason += ("; no open part seals a space under its surface above its rim "
-                             "(ground)")
-        if sheets == "auto":
-            empty_reason += ("; " + sheets_skipped if sheets_skipped else
-                             "; no curved open sheet" if not chunks else
-                             "; no sheet chunk has a measure" if budget is None else
-                             f"; no sheet chunk fits a budget of {budget}")
-        _log.warning("surface-patches: no occluder for %s: %s",
-                     mesh.metadata.get("name", "the mesh"), empty_reason)
-    info = {"conservative_guaranteed": bool(not len(kept_boxes) or boxes_claim is True),
-            "whole_input": False, "regions": len(regions), "regions_used": used,
-            "candidates": found, "polygons": patch_polygons,
-            "area_kept": area / total if total > 0 else 0.0, "dropped_triangles": dropped,
-            "plane_tolerance": plane_tolerance * diag, "erosion": EROSION * diag,
-            "grid": grid, "eps": CONSERVATIVE_EPS_RELATIVE * diag,
-            "closed_faces": int(box_info.get("closed_faces", 0)),
-            "box_candidates": len(corners), "boxes": len(kept_boxes),
-            "boxes_guaranteed": None if boxes_claim is None else bool(boxes_claim),
-            "box_pitch": box_info.get("pitch"), "empty_reason": empty_reason,
-            "curtain_candidates": curtain_cands, "curtains": curtains_kept,
-            "ground_parts": ground_info["parts"],
-            "ground_parts_layered": ground_info.get("layered", 0), "up": ground_info.get("up"),
-            "guarantee": ("viewpoints not under the surface of an open part nor below its rim"
-                          if curtains_kept else "every viewpoint"),
-            "sheet_candidates": len(chunks), "sheets": len(kept_chunks),
-            "sheet_faces": int(len(sheet_faces)), "sheets_skipped": sheets_skipped,
-            "welded": welded, "seconds_steps": timing}
-    return Occluder(mesh=occ_mesh, method="surface-patches", params=params, double_sided=True,
-                    seconds=time.perf_counter() - start, parts={"polygons": polygons},
-                    info=info)
+    return _Output(mesh=occ_mesh, polygons=polygons, patch_polygons=patch_polygons, area=area,
+                   dropped=dropped, curtains_kept=curtains_kept, welded=welded)
 
 
 def _whole_input(vertices: np.ndarray, faces: np.ndarray, area: np.ndarray, budget: int,

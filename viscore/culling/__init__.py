@@ -3,7 +3,14 @@ occludee bounds."""
 
 from .depth_buffer import ConservativeDepthBuffer, OccluderScene
 from .frustum_culler import ACTIVE_OCCLUDERS, FrustumCuller
-from .occludee_bounds import cluster_boxes, object_cluster_boxes
+from .occludee_bounds import (
+    AUTO_MIN_SIZE,
+    DEFAULT_CLUSTERS,
+    MAX_CLUSTERS,
+    cluster_boxes,
+    object_cluster_boxes,
+    occludee_boxes,
+)
 from .shadow_frusta import (
     MARGIN_RELATIVE,
     SHAPE_TOLERANCE,
@@ -20,4 +27,5 @@ from .shadow_frusta import (
 __all__ = ["ConservativeDepthBuffer", "OccluderScene", "FrustumCuller", "Frustum",
            "solid_frustum", "polygon_frustum", "boxes_in_frustum", "boxes_in_frusta",
            "rank_solids", "rank_planar", "solid_faces_as_polygons", "cluster_boxes",
-           "object_cluster_boxes", "ACTIVE_OCCLUDERS", "MARGIN_RELATIVE", "SHAPE_TOLERANCE"]
+           "object_cluster_boxes", "occludee_boxes", "DEFAULT_CLUSTERS", "MAX_CLUSTERS",
+           "AUTO_MIN_SIZE", "ACTIVE_OCCLUDERS", "MARGIN_RELATIVE", "SHAPE_TOLERANCE"]

@@ -684,3 +684,126 @@ def text_transform(value: str, label: str = "file", what: str = "transform") -> 
     [2.0, 3.0, 4.0]
     """
     return _transform(value, label, what)
+
+
+# ----------------------------------------------------------------------------- instances
+
+#: Godot's default ``bake_mask`` of an ``OccluderInstance3D``: every layer.
+GODOT_DEFAULT_MASK = 0xFFFFFFFF
+
+__all__ += ["tscn_instances", "GODOT_DEFAULT_MASK"]
+
+
+def tscn_instances(text: str, resource: str) -> dict:
+    """Instances of one packed scene in a Godot 4 text scene, and its occluder nodes' settings.
+
+    Parameters
+    ----------
+    text : str
+        The ``.tscn`` text (``[node ...]`` sections whose ``parent`` paths
+        start from the root, as Godot writes them [4]_).
+    resource : str
+        File name of the instanced scene (``room.glb``): nodes with
+        ``instance=ExtResource(id)`` of an ``ext_resource`` whose path ends so.
+
+    Returns
+    -------
+    dict
+        ``names`` (list of str) and ``transforms`` ((n, 4, 4) float64, world
+        transforms of the instances relative to the first
+        ``OccluderInstance3D``, the frame its bake is in: Godot's
+        ``OccluderInstance3D::_bake_node`` uses
+        ``get_global_transform().affine_inverse() * mi->get_global_transform()``);
+        ``occluder`` (its node name, ``bake_mask`` (default
+        :data:`GODOT_DEFAULT_MASK`), whether the file sets it
+        (``bake_mask_set``) and ``bake_simplification_distance``, None when
+        unset) or None; ``mesh_nodes``: every ``MeshInstance3D`` section
+        (name, parent, ``layers``, whether ``layers & bake_mask`` lets the
+        bake take it).
+
+    Raises
+    ------
+    InputError
+        On text that is not a Godot text file, a node whose parent is not in
+        the file (a node inside an instanced scene placing children of its
+        own is fine: ``Rooms/Room/RedSphere``), a malformed transform, or a
+        ``bake_mask``, ``bake_simplification_distance`` or ``layers`` that is
+        not a number.
+
+    Examples
+    --------
+    >>> scene = '''[gd_scene format=3]
+    ... [ext_resource type="PackedScene" path="res://room.glb" id="1_r"]
+    ... [node name="Root" type="Node3D"]
+    ... [node name="Room" parent="." instance=ExtResource("1_r")]
+    ... transform = Transform3D(1, 0, 0, 0, 1, 0, 0, 0, 1, 4, 0, 0)
+    ... '''
+    >>> found = tscn_instances(scene, "room.glb")
+    >>> found["names"], found["transforms"][0, :3, 3].tolist(), found["occluder"]
+    (['Room'], [4.0, 0.0, 0.0], None)
+    """
+    sections = text_sections(text.encode("utf-8"), "scene")
+    ext_ids = {attrs.get("id", "") for tag, attrs, _ in sections if tag == "ext_resource"
+               and attrs.get("path", "").endswith(resource)}
+    local: dict[str, np.ndarray] = {}
+    parent_of: dict[str, str | None] = {}
+    order = []
+    for tag, attrs, body in sections:
+        if tag != "node":
+            continue
+        name, parent = attrs.get("name", ""), attrs.get("parent")
+        path = "." if parent is None else name if parent == "." else f"{parent}/{name}"
+        value = body.get("transform")
+        local[path] = np.eye(4) if value is None else text_transform(value, "scene", path)
+        parent_of[path] = None if parent is None else parent
+        order.append((path, attrs, body))
+    world: dict[str, np.ndarray] = {}
+
+    def world_of(path: str) -> np.ndarray:
+        chain = []  # the node, then its ancestors up to one already placed or the root
+        current: str | None = path
+        while current is not None and current not in world:
+            if current not in local:
+                raise InputError(f"scene: node {current!r} is not in the file")
+            chain.append(current)
+            current = parent_of[current]
+        for node in reversed(chain):
+            parent = parent_of[node]
+            world[node] = local[node] if parent is None else world[parent] @ local[node]
+        return world[path]
+
+    occluder, base = None, np.eye(4)
+    for path, attrs, body in order:
+        if attrs.get("type") == "OccluderInstance3D" and occluder is None:
+            mask = body.get("bake_mask")
+            dist = body.get("bake_simplification_distance")
+            try:
+                distance = None if dist is None else float(dist)
+                if mask is not None and not mask.isdigit():
+                    raise ValueError(mask)
+            except ValueError:
+                raise InputError(f"scene: node {path!r}: bake_mask {mask!r} or "
+                                 f"bake_simplification_distance {dist!r} is not a number"
+                                 ) from None
+            occluder = {"name": attrs.get("name", ""),
+                        "bake_mask": GODOT_DEFAULT_MASK if mask is None else int(mask),
+                        "bake_mask_set": mask is not None,
+                        "bake_simplification_distance": distance}
+            base = np.linalg.inv(world_of(path))
+    mask = GODOT_DEFAULT_MASK if occluder is None else occluder["bake_mask"]
+    names, mats, mesh_nodes = [], [], []
+    for path, attrs, body in order:
+        ref = _RESOURCE_REF.match(attrs.get("instance", "").strip())
+        if ref and ref.group(1) == "Ext" and (
+                ref.group(2) if ref.group(2) is not None else ref.group(3)) in ext_ids:
+            names.append(attrs.get("name", ""))
+            mats.append(base @ world_of(path))
+        if attrs.get("type") == "MeshInstance3D":
+            layers = body.get("layers")
+            if layers is not None and not layers.isdigit():
+                raise InputError(f"scene: node {path!r}: layers {layers!r} is not a number")
+            layers = 1 if layers is None else int(layers)
+            mesh_nodes.append({"name": attrs.get("name", ""), "parent": attrs.get("parent"),
+                               "layers": layers, "in_bake_mask": bool(layers & mask)})
+    return {"names": names, "transforms": np.array(mats).reshape(-1, 4, 4),
+            "occluder": occluder, "mesh_nodes": mesh_nodes}

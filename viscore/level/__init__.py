@@ -3,7 +3,7 @@ the nodes a game does not draw, ground and up axis."""
 
 from .ground import UP_AXES, guess_up
 from .hidden_nodes import hidden_reason
-from .objects import LevelObjects, level_objects, occluder_objects
+from .objects import MIN_SIZE, LevelObjects, level_objects, occluder_objects
 from .scene_graph import (
     SceneObjects,
     culling_scene_descriptions,
@@ -12,7 +12,7 @@ from .scene_graph import (
     load_scene_objects,
 )
 
-__all__ = ["LevelObjects", "level_objects", "occluder_objects", "SceneObjects",
+__all__ = ["LevelObjects", "level_objects", "occluder_objects", "MIN_SIZE", "SceneObjects",
            "load_scene_objects", "culling_scene_names",
            "culling_scene_descriptions", "culling_scene_path", "hidden_reason", "UP_AXES",
            "guess_up"]
