@@ -33,7 +33,7 @@ from viscore import InputError, cpu_cores
 from viscore._jobs import connect_scheduler
 from viscore._validate import as_positive_int
 from viscore.generators import REGISTRY, check_method, parse_method
-from viscore.generators.levels import default_methods, occlude_level
+from viscore.generators.levels import check_occlude_folder, default_methods, occlude_level
 from viscore.level import UP_AXES, level_objects
 from viscore.level.objects import MIN_SIZE
 
@@ -141,6 +141,7 @@ def run_occlude(args) -> int:
             raise InputError(f"--occluders: expected comma-separated object names, got "
                              f"{args.occluders!r}")
     out = check_output_folder(args.out, "-o")
+    check_occlude_folder(out)  # an occluders/ link: refused before the level is read
     quiet = args.quiet
     with connect_scheduler(args.scheduler) as client:
         level = level_objects(args.level, up=args.up, min_size=args.min_size, names=names)
