@@ -65,5 +65,6 @@ __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOpt
            "hierarchy_files", "hierarchy_from_json", "generate_hybrid", "metric_guided_simplify",
            "occluder_objects", "scene_occluders", "file_occluder", "culling_runtimes",
            "frusta_method", "JOINED_METHODS", "joined_occluder", "occlude_level",
+           "culling_column", "default_methods", "occlude_level",
            "culling_column", "default_methods",
            "PluginError", "PLUGIN_GROUP", "plugin_versions", "check_generator"]

@@ -133,14 +133,12 @@ def connect_scheduler(address):
     at once (:func:`check_scheduler`), one that does not answer after dask's
     ``distributed.comm.timeouts.connect``; either with one line.
     """
-    if address is None:
-        return contextlib.nullcontext(None)
+    if address is None or not isinstance(address, str):  # none, or a client already
+        return contextlib.nullcontext(address)
     try:
         from distributed import Client
     except ImportError:
         raise InputError("--scheduler: needs dask.distributed (pip install distributed)") from None
-    if isinstance(address, Client):
-        return contextlib.nullcontext(address)
     check_scheduler(address)
     try:
         return Client(address)
