@@ -150,7 +150,17 @@ def main(argv: list[str] | None = None) -> int:
     # building the parser reads the registry, which discovers plugins: their warning
     # lines must already go through our handler (and --quiet must silence them)
     configure_logging(verbose="--verbose" in words, quiet="--quiet" in words)
-    parser = build_parser()
+    try:  # (plugins are imported here: a Ctrl-C then is an interruption like any other)
+        parser = build_parser()
+    except KeyboardInterrupt:
+        print("viscore: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # noqa: BLE001 - the parser itself failed: a bug of ours
+        if "--debug" in words:
+            traceback.print_exc()
+        print(f"viscore: internal error: {_one_line(f'{type(exc).__name__}: {exc}')} (this is "
+              "a bug; run 'viscore --debug ...' for the traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
     try:
         args, extras = parser.parse_known_args(argv)
     except SystemExit as exc:  # --help, --version, or a usage error already printed

@@ -34,7 +34,7 @@ from viscore._atomic import LockedFolder
 from viscore._jobs import JOBS_PER_CORE, connect_scheduler
 from viscore._validate import as_positive_int
 from viscore.generators import REGISTRY, check_method, parse_method
-from viscore.generators.levels import default_methods, occlude_level
+from viscore.generators.levels import check_occlude_folder, default_methods, occlude_level
 from viscore.level import MIN_SIZE, UP_AXES, level_objects
 
 from ._common import check_output_folder, emit
@@ -139,6 +139,7 @@ def run_occlude(args) -> int:
             raise InputError(f"--occluders: expected comma-separated object names, got "
                              f"{args.occluders!r}")
     out = check_output_folder(args.out, "-o")
+    check_occlude_folder(out)  # an occluders/ link: refused before the level is read
     quiet = args.quiet
     with connect_scheduler(args.scheduler) as client:
         level = level_objects(args.level, up=args.up, min_size=args.min_size, names=names)

@@ -5,16 +5,25 @@ Another distribution adds methods under the entry-point group
 :class:`~viscore.generators.GeneratorSpec` or a plain function. They are read
 once, on the first access to :data:`viscore.generators.REGISTRY`, unless
 ``VISCORE_NO_PLUGINS=1``; one that cannot be loaded, or whose name is taken,
-costs one warning line and is left out. A plugin's input is validated before
+costs one warning line and is left out. A plugin cannot take a command down
+while it is imported: what it prints goes to stderr (stdout stays the
+``--json`` document's), a ``sys.exit`` or a KeyboardInterrupt it raises leaves
+it out (a real Ctrl-C still stops the command), and an import that hangs is
+said after :data:`IMPORT_WARN_SECONDS` and stopped after
+:data:`IMPORT_LIMIT_SECONDS`. A plugin's input is validated before
 the call and its output checked after (:class:`PluginError`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import importlib.metadata
 import logging
 import os
+import signal
+import sys
+import threading
 import time
 
 import numpy as np
@@ -43,6 +52,13 @@ _NO_PLUGINS_ENV = "VISCORE_NO_PLUGINS"
 
 #: Version recorded for a plugin whose entry point has no distribution.
 _UNKNOWN = "unknown"
+
+#: Seconds a plugin's import may take before one warning line says so and names
+#: :data:`_NO_PLUGINS_ENV` (importing a plugin that pulls in a deep-learning stack
+#: can take this long on a loaded machine; a hung one must not look like viscore).
+IMPORT_WARN_SECONDS = 5.0
+#: Seconds after which a plugin's import is stopped and the plugin left out.
+IMPORT_LIMIT_SECONDS = 30.0
 
 
 class PluginError(RuntimeError):
@@ -90,17 +106,92 @@ def _discover_plugins(taken: dict[str, GeneratorSpec]) -> list[GeneratorSpec]:
                      PLUGIN_GROUP, type(exc).__name__, _one_line(exc))
         return []
     found: dict[str, GeneratorSpec] = {}
-    for ep in eps:
-        dist = _distribution(ep)
-        try:
-            spec = _load_plugin(ep, dist, {**taken, **found})
-        except _PluginProblem as exc:
-            _log.warning("plugin %r (%s %s, %s): %s; left out", ep.name, *dist, ep.value,
-                         _one_line(exc))
-            continue
-        found[spec.name] = spec
-        _log.debug("plugin %r (%s %s) registered", spec.name, *dist)
+    # what a plugin prints while it is imported goes to stderr: stdout is the --json
+    # document's alone
+    with contextlib.redirect_stdout(sys.stderr):
+        for ep in eps:
+            dist = _distribution(ep)
+            try:
+                spec = _load_plugin(ep, dist, {**taken, **found})
+            except _PluginProblem as exc:
+                _log.warning("plugin %r (%s %s, %s): %s; left out", ep.name, *dist, ep.value,
+                             _one_line(exc))
+                continue
+            found[spec.name] = spec
+            _log.debug("plugin %r (%s %s) registered", spec.name, *dist)
     return list(found.values())
+
+
+class _ImportTimeout(BaseException):
+    """Raised into a plugin's import that passed :data:`IMPORT_LIMIT_SECONDS` (a
+    BaseException, so that the plugin's own ``except Exception`` does not keep it)."""
+
+
+@contextlib.contextmanager
+def _import_bounds(ep, dist: tuple[str, str]):
+    """Bound a plugin's import in time, and tell a Ctrl-C from a plugin's own exceptions.
+
+    In the main thread (where Python runs signal handlers) an interval timer
+    says once, after :data:`IMPORT_WARN_SECONDS`, that the import is still
+    running and how to start without plugins, then stops it after
+    :data:`IMPORT_LIMIT_SECONDS` (:class:`_ImportTimeout`). A SIGINT during the
+    import is recorded in the yielded list, so that the caller re-raises a real
+    Ctrl-C and leaves out a plugin that raises KeyboardInterrupt itself. Elsewhere
+    (a thread, a system without ``setitimer``) the import is not bounded.
+    """
+    interrupted: list[bool] = []
+    if threading.current_thread() is not threading.main_thread() \
+            or not hasattr(signal, "setitimer"):
+        yield interrupted
+        return
+    warned = []
+
+    def on_alarm(signum, frame):
+        if not warned:
+            warned.append(True)
+            _log.warning("plugin %r (%s %s) is still importing after %g s; waiting up to %g s "
+                         "for it (set %s=1 to start without plugins)", ep.name, *dist,
+                         IMPORT_WARN_SECONDS, IMPORT_LIMIT_SECONDS, _NO_PLUGINS_ENV)
+            signal.setitimer(signal.ITIMER_REAL, IMPORT_LIMIT_SECONDS - IMPORT_WARN_SECONDS)
+            return
+        raise _ImportTimeout
+
+    def on_sigint(signum, frame):
+        interrupted.append(True)
+        raise KeyboardInterrupt
+
+    old_alarm = signal.signal(signal.SIGALRM, on_alarm)
+    # only Python's own Ctrl-C handler is wrapped (an ignored SIGINT stays ignored)
+    old_int = signal.getsignal(signal.SIGINT)
+    if old_int is signal.default_int_handler:
+        signal.signal(signal.SIGINT, on_sigint)
+    signal.setitimer(signal.ITIMER_REAL, min(IMPORT_WARN_SECONDS, IMPORT_LIMIT_SECONDS))
+    try:
+        yield interrupted
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old_alarm)
+        if old_int is signal.default_int_handler:
+            signal.signal(signal.SIGINT, old_int)
+
+
+def _import_plugin(ep, dist: tuple[str, str]):
+    """``ep.load()``, bounded (:func:`_import_bounds`); whatever the plugin raises, a
+    ``sys.exit`` or a KeyboardInterrupt of its own included, leaves it out."""
+    with _import_bounds(ep, dist) as interrupted:
+        try:
+            return ep.load()
+        except _ImportTimeout:
+            raise _PluginProblem(f"its import did not finish in {IMPORT_LIMIT_SECONDS:g} s "
+                                 f"(set {_NO_PLUGINS_ENV}=1 to start without plugins)") from None
+        except SystemExit as exc:
+            raise _PluginProblem(f"its import called sys.exit({exc.code!r})") from None
+        except KeyboardInterrupt:
+            if interrupted:  # a real Ctrl-C: the command stops
+                raise
+            raise _PluginProblem("its import raised KeyboardInterrupt") from None
+        except Exception as exc:  # noqa: BLE001 - any failure of a plugin's import is its own
+            raise _PluginProblem(f"cannot be loaded: {type(exc).__name__}: {exc}") from None
 
 
 def _one_line(text: object) -> str:
@@ -116,10 +207,7 @@ def _load_plugin(ep, dist: tuple[str, str], taken: dict) -> GeneratorSpec:
                                 else "a built-in method"))
     if not name or ":" in name or "," in name or name != name.strip() or " " in name:
         raise _PluginProblem(f"{name!r} is not a method name (no spaces, ':' or ',')")
-    try:
-        obj = ep.load()
-    except Exception as exc:  # noqa: BLE001 - any failure of a plugin's import is its own
-        raise _PluginProblem(f"cannot be loaded: {type(exc).__name__}: {exc}") from None
+    obj = _import_plugin(ep, dist)
     if isinstance(obj, GeneratorSpec):
         if obj.name != name:
             raise _PluginProblem(f"its GeneratorSpec is named {obj.name!r}, not {name!r}")

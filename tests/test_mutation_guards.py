@@ -30,6 +30,12 @@ planted bug makes one. Planted bug -> the default-run guard it fails:
   the hollow box;
 - the check's default eps x 300 or / 300 -> ``test_protrusion_just_above_default_
   eps_every_meeting_ray_violates`` (tests/test_conservativeness.py);
+- surface-patches' last containment check by ``shapely.intersects`` in place of
+  ``covers`` (issue 46) -> ``_containment_guard`` on the wall with a window, under an
+  erosion flipped outward (the stress that makes pieces leave their regions);
+- the check's orbit targets uniform in radius rather than in the ball, its volume
+  origins not rejected inside the mesh (issue 46) -> the statistical tests of the
+  samplers (``tests/test_samplers.py``), against the exact distributions;
 - the check's float64 judgement dropped (float32 distances, the check of before)
   -> ``test_grazing_coplanar_triangle_float32_flags_float64_clears`` and
   ``test_grazing_just_below_eps_is_no_violation``; made blind (clearing every
@@ -43,7 +49,9 @@ import dataclasses
 
 import numpy as np
 import pytest
+import shapely
 import test_conservativeness as check_guards
+import test_samplers as sampler_guards
 import trimesh
 from scipy import ndimage
 
@@ -51,7 +59,7 @@ import viscore.generators.aabb_skins.generator as aabb_module
 import viscore.generators.solid_frusta.generator as frusta_module
 import viscore.generators.surface_patches.generator as patches_module
 import viscore.metrics.conservativeness as conservativeness
-from viscore import VoxelGrid, load_mesh, voxel_boundary_mesh
+from viscore import VoxelGrid, directions_uniform, load_mesh, voxel_boundary_mesh
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 from viscore.generators import (
     Occluder,
@@ -337,3 +345,102 @@ def test_plant_float64_judgement_blind(monkeypatch):
         check_guards.test_grazing_just_above_eps_is_a_violation_on_every_flagged_ray()
     with pytest.raises(AssertionError):
         check_guards.test_eps_zero_coincident_occluder_only_float_noise_is_cleared()
+
+
+# ---------------------------------------------------------------- surface-patches' last check
+def _outward_erosion(monkeypatch) -> None:
+    """Stress, not a bug: the regions' erosion flipped outward, so that every piece reaches
+    past its region and only the last containment check keeps the occluder inside."""
+    monkeypatch.setattr(patches_module, "EROSION", -patches_module.EROSION)
+
+
+def _containment_guard() -> None:
+    """The guard of surface-patches' last check, under :func:`_outward_erosion`: on the
+    wall with a window (8 triangles, area 11), every chain triangle that left its region
+    is dropped (all 8) and nothing the occluder keeps lies outside the wall or is hit
+    before it by volume-domain rays."""
+    wall = _wall_with_window()
+    occ = generate_surface_patches(wall, budget=None)
+    assert occ.info["conservative_guaranteed"]
+    if occ.triangles:
+        report = check_conservative(wall, occ.mesh, rays=RAYS, domain="volume", seed=5)
+        assert report.violations == 0, report.summary()
+    assert occ.mesh.area <= 11.0 + 1e-9, f"the occluder's area {occ.mesh.area} passes the wall's"
+    assert occ.info["dropped_triangles"] == 8
+
+
+def _wall_with_window() -> trimesh.Trimesh:
+    """A 4 x 3 single-sided wall in z = 0 with a 1 x 1 window at [1.5, 2.5] x [1, 2]
+    (``tests/test_surface_patches.py``)."""
+    def quad(x0, y0, x1, y1):
+        v = np.array([[x0, y0, 0], [x1, y0, 0], [x1, y1, 0], [x0, y1, 0]], dtype=np.float64)
+        return trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]], process=False)
+
+    return trimesh.util.concatenate([quad(0, 0, 4, 1), quad(0, 2, 4, 3), quad(0, 1, 1.5, 2),
+                                     quad(2.5, 1, 4, 2)])
+
+
+def test_surface_patches_last_check_drops_what_left_its_region(monkeypatch):
+    _outward_erosion(monkeypatch)
+    _containment_guard()
+
+
+class _IntersectsForCovers:
+    """Planted: shapely for surface patches' generator, its ``covers`` answering
+    ``intersects`` (every other function unchanged)."""
+
+    def __getattr__(self, name):
+        return getattr(shapely, name)
+
+    covers = staticmethod(shapely.intersects)
+
+
+def test_plant_surface_patches_containment_by_intersects(monkeypatch):
+    # issue 46: with the erosion flipped outward the planted bug keeps all 8 triangles
+    # (area 11.00036 against 11) and 2 of 10^5 volume rays violate; no test failed
+    _outward_erosion(monkeypatch)
+    monkeypatch.setattr(patches_module, "shapely", _IntersectsForCovers())
+    with pytest.raises(AssertionError, match=CAUGHT):
+        _containment_guard()
+
+
+# ---------------------------------------------------------------- the check's ray samplers
+def _orbit_targets_uniform_in_radius(domain, frame, scene, n, rng):
+    """Planted: the orbit rays' targets uniform in radius (``rng.random(n)``) instead of in
+    the ball's volume (``np.cbrt(rng.random(n))``); the volume domain unchanged."""
+    if domain != "orbit":
+        return _REAL_DOMAIN_RAYS(domain, frame, scene, n, rng)
+    center, extent = frame
+    radius = 0.5 * extent
+    origins = center + radius * directions_uniform(n, seed=int(rng.integers(2**31)))
+    targets = center + radius * rng.random(n)[:, None] * directions_uniform(
+        n, seed=int(rng.integers(2**31)))
+    d = targets - origins
+    return origins, d / np.linalg.norm(d, axis=1)[:, None]
+
+
+def _volume_origins_without_rejection(domain, frame, scene, n, rng):
+    """Planted: the volume rays' origins uniform in the whole box, the inside of the mesh
+    not rejected; the orbit domain unchanged."""
+    if domain != "volume":
+        return _REAL_DOMAIN_RAYS(domain, frame, scene, n, rng)
+    lo, hi = frame
+    return rng.uniform(lo, hi, (n, 3)), directions_uniform(n, seed=int(rng.integers(2**31)))
+
+
+_REAL_DOMAIN_RAYS = conservativeness._domain_rays
+
+
+@pytest.mark.parametrize(("plant", "guard"), [
+    (_orbit_targets_uniform_in_radius,
+     sampler_guards.test_orbit_rays_of_the_check_follow_their_distribution),
+    (_volume_origins_without_rejection,
+     sampler_guards.test_volume_rays_of_the_check_follow_their_distribution),
+])
+def test_plant_check_samplers_off_their_distribution(monkeypatch, plant, guard):
+    # issue 46: targets drawn as rng.random(n): 71% of the rays pass within R/2 of the
+    # centre against 44%, and no test failed (the counting tests draw through the sampler)
+    guard()  # the shipped sampler passes
+    monkeypatch.setattr(conservativeness, "_domain_rays", plant)
+    with pytest.raises(AssertionError):
+        guard()

@@ -77,7 +77,7 @@ from viscore._jobs import (
     process_pool,
     stop_pool,
 )
-from viscore.exchange import mesh_bytes
+from viscore.exchange import mesh_bytes, refuse_path
 from viscore.metrics import study_bytes
 
 from .._common import dumps, write_atomic
@@ -98,6 +98,12 @@ TIMING_FIELDS = ("seconds", "seconds_evaluate", "seconds_measure", "seconds_vali
 #: :func:`viscore.load_occluder` reads as Godot or glTF files, and the usual mesh files.
 OCCLUDER_SUFFIXES = ("tscn", "tres", "occ", "res", "glb", "gltf", "obj", "ply", "off", "stl")
 
+#: Longest ``--occluder-files`` NAME: it is part of each row's occluder file name (with
+#: the mesh's stem, the budget and a key), which a filesystem caps at 255 bytes.
+MAX_FILE_ROW_NAME = 64
+#: Most files an ``--occluder-files`` folder may hold for one mesh (one study row and
+#: one assessment each; a folder of thousands would queue thousands of jobs).
+MAX_FILES_PER_MESH = 256
 #: Names an ``--occluder-files`` row may take (no ``:`` or ``,``: never a method variant).
 _FILE_ROW_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
 
@@ -234,14 +240,24 @@ def resolve_occluder_files(specs: list[tuple[str, str]], meshes: list[str], *,
         if not _FILE_ROW_NAME.fullmatch(name):
             raise InputError(f"{where}: NAME must be letters, digits and _ . + - (starting "
                              "with a letter or digit)")
+        if len(name) > MAX_FILE_ROW_NAME:
+            raise InputError(f"--occluder-files {name[:40]}...={path}: NAME has {len(name)} "
+                             f"characters, at most {MAX_FILE_ROW_NAME} (it names the study's "
+                             "occluder files)")
         if name in REGISTRY or name in methods:
             raise InputError(f"{where}: {name} is a registered method; name the occluder "
                              "files otherwise")
         if name in seen:
             raise InputError(f"{where}: {name} is given twice")
         seen.add(name)
-        if not os.path.exists(path):
-            raise InputError(f"{where}: no such file or folder")
+        try:
+            os.stat(path)
+        except FileNotFoundError:
+            if not os.path.islink(path):
+                raise InputError(f"{where}: no such file or folder") from None
+            raise refuse_path(path, where, FileNotFoundError()) from None
+        except OSError as exc:  # a loop of links, a path through a file, no permission
+            raise refuse_path(path, where, exc) from None
     out: list[OccluderFile] = []
     for mesh in meshes:
         stem = Path(mesh).stem
@@ -252,6 +268,11 @@ def resolve_occluder_files(specs: list[tuple[str, str]], meshes: list[str], *,
                 out.append(OccluderFile(name, mesh, None, str(p), ""))
                 continue
             found = _folder_files(p, stem)
+            if sum(len(paths) for paths in found.values()) > MAX_FILES_PER_MESH:
+                raise InputError(f"{where}: {sum(map(len, found.values())):,} occluder files for "
+                                 f"mesh {mesh} (budgets {min(b or 0 for b in found):,}.."
+                                 f"{max(b or 0 for b in found):,}), more than the "
+                                 f"{MAX_FILES_PER_MESH} rows a study takes per mesh and NAME")
             if not found:
                 raise InputError(
                     f"{where}: no occluder file for mesh {mesh}; looked for "

@@ -26,6 +26,7 @@ from .occlude import (
     MANIFEST_NAME,
     LevelOccluders,
     MeshOccluder,
+    check_occlude_folder,
     default_methods,
     occlude_level,
     occluder_of_mesh,
@@ -43,7 +44,7 @@ from .occluders import (
 from .runtimes import culling_column, culling_runtimes, frusta_method, method_indices
 
 __all__ = ["occlude_level", "occluder_of_mesh", "LevelOccluders", "MeshOccluder",
-           "default_methods", "MANIFEST_NAME", "JOB_DIR", "scene_occluders",
+           "default_methods", "check_occlude_folder", "MANIFEST_NAME", "JOB_DIR", "scene_occluders",
            "scene_hierarchy", "transform_occluder", "joined_occluder", "generate_held",
            "file_occluder", "JOINED_METHODS", "OCCLUDE_MANIFEST", "culling_runtimes",
            "culling_column", "frusta_method", "method_indices",

@@ -78,10 +78,12 @@ References
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import logging
 import os
 import re
+import shutil
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -92,9 +94,10 @@ import trimesh
 
 import viscore
 from viscore import InputError, OccluderInstance, cpu_cores, occonly_glb_bytes, tscn_text
-from viscore._atomic import write_atomic
+from viscore._atomic import FileSet, write_atomic
 from viscore._jobs import run_jobs
 from viscore._validate import as_positive_int, as_seed
+from viscore.exchange.file_access import PARSE_BYTES_PER_FILE_BYTE, read_regular
 from viscore.exchange.mesh_io import ply_bytes
 from viscore.level.objects import FLAT_RATIO, LevelObjects
 from viscore.level.scene_graph import geometry_digest
@@ -104,13 +107,15 @@ from ..registry import REGISTRY, generate, parse_method
 from .runtimes import _guaranteed
 
 __all__ = ["MeshOccluder", "LevelOccluders", "occluder_of_mesh", "occlude_level", "MANIFEST_NAME",
-           "JOB_DIR", "default_methods"]
+           "JOB_DIR", "default_methods", "check_occlude_folder"]
 
 _log = logging.getLogger(__name__)
 
 
 #: Files of an output folder.
 MANIFEST_NAME, JOB_DIR = "occlude.json", "occluders"
+#: Peak bytes of memory per byte of a JSON record while it is parsed.
+_JSON_BYTES_PER_BYTE = 20
 #: Longest file stem made from an object, mesh or method name.
 _STEM_CHARS = 80
 
@@ -281,14 +286,15 @@ def _job_paths(out: Path, method: str, mesh: str) -> tuple[Path, Path]:
 def _stored(out: Path, method: str, mesh: str, key: str) -> MeshOccluder | None:
     """The finished job kept in the folder, or None (missing, damaged or stale)."""
     ply, rec = _job_paths(out, method, mesh)
-    try:
-        record = json.loads(rec.read_text(encoding="utf-8"))
+    try:  # regular files only (a FIFO in their place is recomputed, never read)
+        record = json.loads(read_regular(rec, str(rec), bytes_per_byte=_JSON_BYTES_PER_BYTE))
         if not isinstance(record, dict) or record.get("key") != key:
             return None
         if record["refused"] is not None:
             v, f = np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
         else:
-            back = trimesh.load(str(ply), file_type="ply", process=False)
+            data = read_regular(ply, str(ply), bytes_per_byte=PARSE_BYTES_PER_FILE_BYTE)
+            back = trimesh.load(io.BytesIO(data), file_type="ply", process=False)
             v = np.asarray(back.vertices, dtype=np.float64)
             f = np.asarray(back.faces, dtype=np.int64).reshape(-1, 3)
             if len(f) != record["triangles"]:
@@ -296,17 +302,44 @@ def _stored(out: Path, method: str, mesh: str, key: str) -> MeshOccluder | None:
         return MeshOccluder(mesh, method, v, f, int(record["triangles"]),
                             bool(record["conservative_guaranteed"]), float(record["seconds"]),
                             record["refused"], key)
-    except (OSError, ValueError, KeyError, TypeError, IndexError):
+    except (OSError, ValueError, KeyError, TypeError, IndexError):  # InputError included
         return None
 
 
 def _keep(out: Path, job: MeshOccluder) -> None:
-    """Write a finished job: the occluder, then its record (which marks it done)."""
+    """Write a finished job: the occluder, then its record (which marks it done); both
+    or neither (a record that cannot be written takes its occluder with it)."""
     ply, rec = _job_paths(out, job.method, job.mesh)
     if job.refused is None:
         write_atomic(ply, ply_bytes(trimesh.Trimesh(job.vertices, job.faces, process=False)),
                      parents=True)
-    write_atomic(rec, json.dumps(job.record(), indent=1).encode(), parents=True)
+    try:
+        write_atomic(rec, json.dumps(job.record(), indent=1).encode(), parents=True)
+    except BaseException:
+        if job.refused is None:
+            ply.unlink(missing_ok=True)
+        raise
+
+
+def check_occlude_folder(out: str | os.PathLike) -> None:
+    """Refuse an output folder whose ``occluders/`` (or a method folder in it) is a
+    symbolic link: ``occlude`` writes only inside its folder, as a study does.
+
+    Raises
+    ------
+    InputError
+        One line naming the link and its target.
+    """
+    out = Path(out)
+    jobs = out / JOB_DIR
+    links = [jobs] if jobs.is_symlink() else (
+        [p for p in jobs.iterdir() if p.is_symlink()] if jobs.is_dir() else [])
+    if links:
+        raise InputError(f"{out}: {links[0]} is a symbolic link (to "
+                         f"{os.readlink(links[0])!r}); occlude writes only inside its folder "
+                         "(replace the link by a folder or choose another -o)")
+    if os.path.lexists(jobs) and not jobs.is_dir():
+        raise InputError(f"{out}: {jobs} is not a folder")
 
 
 # --------------------------------------------------------------------------- the level run
@@ -398,9 +431,14 @@ def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
     removed). Then ``DIR/occlude.json``: the level, up axis, settings, per
     object its size, whether chosen and per method its occluder file, node,
     triangles, ``conservative_guaranteed``, seconds or why it was refused,
-    and per method a summary. All with atomic writes, after every job has
-    finished; the manifest last. Deterministic given the level, methods,
-    budget and seed (``seconds`` aside), whatever ``jobs`` or ``scheduler``.
+    and per method a summary. All after every job has finished, as one set
+    (:class:`viscore._atomic.FileSet`: all of them or, when a write fails, none,
+    the files of an earlier run left as they were). Each finished job is kept
+    under ``occluders/`` as it finishes, its occluder and record both or
+    neither, for a rerun to resume from; an ``occluders/`` (or a method folder
+    in it) that is a symbolic link is refused before anything is written.
+    Deterministic given the level, methods, budget and seed (``seconds``
+    aside), whatever ``jobs`` or ``scheduler``.
 
     Examples
     --------
@@ -415,6 +453,7 @@ def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
     out = Path(out_dir)
     if not out.is_dir():
         raise InputError(f"out_dir: {out} is not an existing folder")
+    check_occlude_folder(out)
     labels = _check_methods(methods, budget)
     seed = as_seed(seed)
     jobs = as_positive_int(jobs, "jobs")
@@ -422,7 +461,10 @@ def occlude_level(level: LevelObjects, out_dir: str | os.PathLike, *,
     chosen = level.chosen
     mesh_ids = sorted(set(objects.mesh_ids[chosen].tolist()))
     for stale in [*out.glob(".*.tmp"), *(out / JOB_DIR).glob("*/.*.tmp")]:
-        stale.unlink(missing_ok=True)  # a killed run's half-written file
+        if stale.is_dir() and not stale.is_symlink():  # a killed run's file set
+            shutil.rmtree(stale, ignore_errors=True)
+        else:
+            stale.unlink(missing_ok=True)  # a killed run's half-written file
     # meshes of identical geometry (copies placed by node transforms) share one job,
     # one stored file and one sub-resource: the first of them by mesh index
     canonical: dict[int, int] = {}
@@ -499,6 +541,8 @@ def _write_level(level: LevelObjects, out: Path, labels: list[str],
                       "occluders": {}}
     summary: dict[str, dict] = {}
     files: list[str] = []
+    staged: dict[str, bytes] = {}  # written as one set, the manifest with them
+    stale: list[Path] = []
     for label in labels:
         stem = _stem(label)
         instances, meshes, covered, refused = [], {}, [], 0
@@ -523,12 +567,11 @@ def _write_level(level: LevelObjects, out: Path, labels: list[str],
                 "seconds": job.seconds}
         made = bool(instances)
         if made:
-            write_atomic(out / f"{stem}.tscn", tscn_text(instances, meshes).encode("utf-8"))
-            write_atomic(out / f"{stem}.glb", occonly_glb_bytes(instances, meshes))
+            staged[f"{stem}.tscn"] = tscn_text(instances, meshes).encode("utf-8")
+            staged[f"{stem}.glb"] = occonly_glb_bytes(instances, meshes)
             files += [f"{stem}.tscn", f"{stem}.glb"]
         else:
-            for suffix in (".tscn", ".glb"):
-                (out / f"{stem}{suffix}").unlink(missing_ok=True)
+            stale += [out / f"{stem}{suffix}" for suffix in (".tscn", ".glb")]
         summary[label] = {
             "objects": len(covered), "refused": refused,
             "meshes": len(meshes),
@@ -547,7 +590,12 @@ def _write_level(level: LevelObjects, out: Path, labels: list[str],
                      "occluders": None if level.names is None else list(level.names)},
         "objects_total": len(objects), "objects_chosen": len(chosen),
         "methods": summary, "objects": rows}
-    write_atomic(out / MANIFEST_NAME, (json.dumps(manifest, indent=1) + "\n").encode())
+    staged[MANIFEST_NAME] = (json.dumps(manifest, indent=1) + "\n").encode()
+    with FileSet(out) as fileset:  # every engine file and the manifest, or none of them
+        for name, data in staged.items():
+            fileset.write(name, data)
+    for path in stale:  # files of an earlier run for a method that now covers nothing
+        path.unlink(missing_ok=True)
     files.append(MANIFEST_NAME)
     return LevelOccluders(manifest=manifest, files=tuple(files), reused=reused,
                           computed=computed)

@@ -42,6 +42,7 @@ import trimesh
 
 from viscore import InputError
 from viscore._validate import as_seed
+from viscore.exchange.file_access import read_regular
 from viscore.level.scene_graph import SceneObjects
 
 from .._held_logs import call_held, release, report_parts
@@ -54,6 +55,8 @@ __all__ = ["scene_occluders", "scene_hierarchy", "transform_occluder", "file_occ
 _log = logging.getLogger(__name__)
 
 
+#: Peak bytes of memory per byte of a manifest while it is parsed.
+_JSON_BYTES_PER_BYTE = 20
 #: Smallest |determinant| of a manifest's ``to_godot`` taken as invertible (a rotation's is 1).
 _MIN_DETERMINANT = 1e-12
 
@@ -315,9 +318,13 @@ def scene_hierarchy(objects: SceneObjects, indices: Sequence[int], method: str, 
 
 def _manifest_entry(path: Path) -> tuple[dict, dict] | None:
     """The ``viscore occlude`` manifest beside ``path`` and the method summary listing it."""
-    try:
-        doc = json.loads((path.parent / OCCLUDE_MANIFEST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    manifest = path.parent / OCCLUDE_MANIFEST
+    if not os.path.lexists(manifest):
+        return None
+    try:  # a regular file only: a FIFO in its place would block the read
+        doc = json.loads(read_regular(manifest, str(manifest),
+                                      bytes_per_byte=_JSON_BYTES_PER_BYTE))
+    except ValueError:  # InputError included: not a manifest, the file stands alone
         return None
     methods = doc.get("methods") if isinstance(doc, dict) else None
     if not isinstance(methods, dict):

@@ -49,9 +49,8 @@ from .._validate import InputError
 from .godot_binary import (
     _OCCLUDER_TYPE,
     _checked_geometry,
-    _load_occ,
-    _occluder_mesh,
-    _placed,
+    _instances_mesh,
+    _load_occ_file,
     _read_file,
 )
 
@@ -62,6 +61,8 @@ __all__ = ["OccluderInstance", "tres_text", "tscn_text", "text_sections", "text_
 TEXT_FORMATS = ("3", "4")
 #: Characters Godot forbids in node names (``Node::validate_node_name``).
 _INVALID_NODE_CHARS = '.:@/"%'
+#: Largest float32, Godot's real_t.
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
 #: Largest index a PackedInt32Array holds.
 _INT32_MAX = 2**31 - 1
 #: Sub-resource id: the class name, "_" and this many characters (as Godot's
@@ -90,6 +91,8 @@ _RESOURCE_REF = re.compile(r'^(Sub|Ext)Resource\(\s*(?:"((?:[^"\\]|\\.)*)"|(\d+)
 
 def _unquote(value: str) -> str:
     if len(value) >= 2 and value[0] == '"' and value[-1] == '"':
+        if "\\" not in value:
+            return value[1:-1]
         return re.sub(r"\\(.)", r"\1", value[1:-1])
     return value
 
@@ -129,11 +132,13 @@ def _parse_godot_text(data: bytes, label: str) -> list[_Section]:
         raise InputError(f"{label}: not a Godot text file (not UTF-8 text)") from None
     sections: list[_Section] = []
     pos, n = 0, len(text)
+    counted, line = 0, 1  # line numbers counted on from the last section: linear in the text
     while True:
         pos = _SPACE.match(text, pos).end()
         if pos >= n:
             break
-        line = text.count("\n", 0, pos) + 1
+        line += text.count("\n", counted, pos)
+        counted = pos
         if text[pos] == ";":  # comment line
             end = text.find("\n", pos)
             pos = n if end < 0 else end
@@ -209,6 +214,9 @@ def _transform(value: str, label: str, what: str) -> np.ndarray:
         raise InputError(f"{label}: {what}: expected 12 numbers, got {len(vals)}")
     if not np.isfinite(vals).all():
         raise InputError(f"{label}: {what}: NaN or infinite values")
+    if np.abs(vals).max() > _FLOAT32_MAX:
+        raise InputError(f"{label}: {what}: a value of {np.abs(vals).max():.3g}, beyond "
+                         "float32's range (Godot stores transforms as float32)")
     mat = np.eye(4)
     mat[:3, :3] = vals[:9].astype(np.float32).reshape(3, 3)  # rows of Godot's Basis
     mat[:3, 3] = vals[9:].astype(np.float32)
@@ -246,19 +254,24 @@ def _external_occluder(scene_path: Path, ref_path: str, label: str,
     if not rel or "://" in rel or Path(rel).is_absolute() or re.match(r"^[A-Za-z]:", rel):
         raise InputError(f"{label}: node {node!r}: occluder path {ref_path!r} cannot be "
                          "resolved inside the scene's folder")
-    target = (folder / rel).resolve()
+    sub = f"{label} -> {ref_path}"
+    try:
+        target = (folder / rel).resolve()
+    except RuntimeError:  # pathlib's "Symlink loop"
+        raise InputError(f"{sub}: a loop of symbolic links (node {node!r})") from None
+    except OSError as exc:
+        raise InputError(f"{sub}: cannot be reached ({exc.strerror or exc}; node "
+                         f"{node!r})") from None
     if not target.is_relative_to(folder):
         raise InputError(f"{label}: node {node!r}: occluder path {ref_path!r} points outside "
                          "the scene's folder (refused)")
-    sub = f"{label} -> {ref_path}"
     suffix = target.suffix.lower()
     if suffix not in (".occ", ".res", ".tres"):
         raise InputError(f"{label}: node {node!r}: occluder {ref_path!r} is not an .occ, .res "
                          "or .tres file")
-    raw = _read_file(target, sub)
     if suffix == ".tres":
-        return _load_tres(raw, sub)
-    return _load_occ(raw, sub)
+        return _load_tres(_read_file(target, sub), sub)
+    return _load_occ_file(target, sub)
 
 
 def _load_tscn(data: bytes, path: Path, label: str) -> trimesh.Trimesh:
@@ -307,14 +320,14 @@ def _load_tscn(data: bytes, path: Path, label: str) -> trimesh.Trimesh:
         for name in reversed(chain):
             node = by_path[name]
             if "transform" in node.props:
-                mat = mat @ _transform(node.props["transform"], label,
-                                       f"node {name!r} transform")
+                local = _transform(node.props["transform"], label, f"node {name!r} transform")
+                with np.errstate(over="ignore", invalid="ignore"):  # refused when placed
+                    mat = mat @ local
             world[name] = mat
         return world[node_path]
 
     cache: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
-    parts_v, parts_f, names, counts = [], [], [], []
-    offset = 0
+    placed: list[tuple[str, tuple[str, str], np.ndarray]] = []
     for node_path, node in by_path.items():
         if node.attrs.get("type") != "OccluderInstance3D" or "occluder" not in node.props:
             continue
@@ -347,17 +360,10 @@ def _load_tscn(data: bytes, path: Path, label: str) -> trimesh.Trimesh:
                                      f"{res.attrs.get('type')}, not an {_OCCLUDER_TYPE}")
                 cache[key] = _external_occluder(path, res.attrs.get("path", ""), label,
                                                 node_path)
-        vertices, faces = cache[key]
-        mat = world_of(node_path, node_path)
-        parts_v.append(_placed(vertices, mat, label, node_path))
-        parts_f.append(faces + offset)
-        offset += len(vertices)
-        names.append(node_path)
-        counts.append(len(faces))
-    if not names:
+        placed.append((node_path, key, world_of(node_path, node_path)))
+    if not placed:
         raise InputError(f"{label}: no OccluderInstance3D node holds an occluder")
-    return _occluder_mesh(np.concatenate(parts_v), np.concatenate(parts_f), label,
-                          "godot-tscn", names, counts)
+    return _instances_mesh(cache, placed, label, "godot-tscn")
 
 
 # ----------------------------------------------------------------------------- writing

@@ -11,12 +11,21 @@ cannot hold (see :func:`validate_mesh`). Degenerate faces are dropped with a
 count in ``mesh.metadata`` and a DEBUG log line.
 
 Text formats (OBJ, OFF, ASCII STL) are decoded here, not by trimesh: UTF-8,
-UTF-16/32 with a byte-order mark, BOM-less UTF-16 (by ``charset_normalizer``
-when installed), else Latin-1, which keeps every ASCII number and keyword of
-these formats, so a comment in any 8-bit encoding never stops a load. OFF is
-parsed here (trimesh 5.2 fails on n-gons); quads and n-gons are triangulated
-as fans. ZIP archives are inspected before extraction: the sizes in the
-archive directory are checked against the memory limit first.
+UTF-16/32 with a byte-order mark, BOM-less UTF-16/32 (by the pattern of NUL
+bytes of ASCII text in them, else by ``charset_normalizer``), else Latin-1,
+which keeps every ASCII number and keyword of these formats, so a comment in
+any 8-bit encoding never stops a load. OBJ lines may end in LF, CRLF or a lone
+CR; before trimesh parses an OBJ, its faces are counted in one vectorised pass
+(a face of more than :data:`MAX_OBJ_FACE_VERTICES` vertices is refused, the
+triangles of all faces checked against the memory limit) and its element
+lines scanned once for index 0. OFF is parsed here (trimesh 5.2 fails on
+n-gons); quads and n-gons are triangulated as fans. ZIP archives are inspected
+before extraction: the sizes in the archive directory are checked against the
+memory limit first. glTF/GLB files are checked as the level loader checks them
+(:mod:`viscore.exchange.gltf_scene`: node walker, buffers, accessors). Every
+file, and every file one references (a material library, a texture, a
+buffer), is read by :mod:`viscore.exchange.file_access`: regular files only,
+inside the referring file's folder, sizes checked before reading.
 
 Writing: :func:`save_mesh` (and :func:`mesh_bytes`) write every format the
 command line writes, PLY with float64 vertices, OBJ and OFF with 17
@@ -27,7 +36,6 @@ for a mesh float32 cannot hold.
 from __future__ import annotations
 
 import codecs
-import contextvars
 import io
 import logging
 import os
@@ -40,6 +48,23 @@ import numpy as np
 import trimesh
 
 from .._validate import InputError, _human_bytes, check_memory
+from .file_access import (
+    PARSE_BYTES_PER_FILE_BYTE,
+    FolderResolver,
+    UriOutsideFolder,
+    file_kind,
+    read_regular,
+    refuse_path,
+)
+from .file_access import trimesh_loading as _loading
+from .gltf_scene import (
+    _declared_buffers,
+    _gltf_json,
+    _node_hierarchy,
+    check_gltf_geometry,
+    instanced_triangles,
+    world_transforms,
+)
 from .mesh_validation import validate_mesh
 
 __all__ = ["load_mesh", "validate_mesh", "ply_bytes"]
@@ -47,10 +72,8 @@ __all__ = ["load_mesh", "validate_mesh", "ply_bytes"]
 _log = logging.getLogger(__name__)
 
 
-#: Peak bytes of memory per byte of mesh file while trimesh parses it and the
-#: mesh is validated (measured with trimesh 5.2 on a 1.3M-face icosphere:
-#: OBJ 6.5, PLY 10, STL 9, GLB 7.5, OFF 17 x the file size in peak RSS).
-_PARSE_BYTES_PER_FILE_BYTE = 20
+#: Peak bytes of memory per byte of mesh file while it is parsed (see file_access).
+_PARSE_BYTES_PER_FILE_BYTE = PARSE_BYTES_PER_FILE_BYTE
 
 #: Bytes per triangle of a mesh held in memory with its vertices and the
 #: copies that validation and scene concatenation make (faces 24 + vertices
@@ -63,88 +86,47 @@ _TEXT_FORMATS = {"obj", "off"}
 #: Archive extensions handled here (members are loaded by their own extensions).
 _ARCHIVES = {"zip"}
 
-#: A file whose size the kernel reports as 0 (``/proc`` files) is read up to this.
-_UNSIZED_READ_LIMIT = 64 << 20
-
-#: trimesh logs (INFO/WARNING) while parsing are demoted to DEBUG on our
-#: logger: a failing load must end in one error line, not a trail of trimesh's.
-_loading = contextvars.ContextVar("viscore_mesh_loading", default=False)
-
-
-class _DemoteWhileLoading(logging.Filter):
-    def filter(self, record: logging.LogRecord) -> bool:
-        if not _loading.get():
-            return True
-        _log.debug("trimesh: %s", record.getMessage())
-        return False
-
-
-logging.getLogger("trimesh").addFilter(_DemoteWhileLoading())
-
-
 # --------------------------------------------------------------------------- files
-def _refuse_path(path: Path, label: str, exc: OSError) -> InputError:
-    """One-line InputError saying what is wrong with a path that cannot be opened."""
-    if isinstance(exc, FileNotFoundError):
-        if os.path.islink(path):
-            return InputError(f"{label}: a broken symbolic link (to {os.readlink(path)!r})")
-        return InputError(f"{label}: no such file")
-    if isinstance(exc, NotADirectoryError):
-        return InputError(f"{label}: a component of the path is a file, not a folder")
-    if isinstance(exc, PermissionError):
-        return InputError(f"{label}: permission denied")
-    if exc.errno == 40:  # ELOOP
-        return InputError(f"{label}: a loop of symbolic links")
-    return InputError(f"{label}: cannot open ({exc.strerror or exc})")
-
-
-def _kind(mode: int) -> str:
-    if stat.S_ISDIR(mode):
-        return "a directory"
-    if stat.S_ISFIFO(mode):
-        return "a named pipe (FIFO)"
-    if stat.S_ISCHR(mode):
-        return "a character device"
-    if stat.S_ISBLK(mode):
-        return "a block device"
-    if stat.S_ISSOCK(mode):
-        return "a socket"
-    return "not a regular file"
+#: The helpers of :mod:`viscore.exchange.file_access` under the names the level loader
+#: imports them by.
+_refuse_path = refuse_path
+_kind = file_kind
 
 
 def _read_regular_file(path: Path, label: str) -> bytes:
-    """The bytes of a regular file; anything else is refused without reading it.
+    """The bytes of a regular mesh file, refused before reading when a parse of it
+    would pass the memory limit (:func:`viscore.exchange.file_access.read_regular`)."""
+    return read_regular(path, label, what="a mesh file",
+                        bytes_per_byte=_PARSE_BYTES_PER_FILE_BYTE)
 
-    The file is opened non-blocking and checked with ``fstat`` on the open
-    descriptor, so a FIFO swapped in after a check is still never read.
+
+#: Share of a text's leading bytes whose pattern of NUL bytes marks it as BOM-less
+#: UTF-16 or UTF-32 (ASCII text in those encodings: every 2nd or 4th byte is a
+#: character, the others NUL).
+_UTF_NUL_SHARE = 0.95
+#: Leading bytes sampled for that test.
+_UTF_SAMPLE = 4096
+
+
+def _bomless_utf(data: bytes) -> str | None:
+    """``'utf-32-le'``, ``'utf-32-be'``, ``'utf-16-le'``, ``'utf-16-be'`` or None.
+
+    Mesh text files are ASCII numbers and keywords: in UTF-16 without a
+    byte-order mark every other byte is NUL (the odd ones little-endian, the
+    even ones big-endian), in UTF-32 three bytes of four.
     """
-    try:
-        st = os.stat(path)
-    except OSError as exc:
-        raise _refuse_path(path, label, exc) from None
-    if not stat.S_ISREG(st.st_mode):
-        raise InputError(f"{label}: {_kind(st.st_mode)}, expected a mesh file")
-    check_memory(st.st_size * _PARSE_BYTES_PER_FILE_BYTE,
-                 f"{label} ({_human_bytes(st.st_size)} file)")
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
-    except OSError as exc:
-        raise _refuse_path(path, label, exc) from None
-    with os.fdopen(fd, "rb") as fh:
-        st = os.fstat(fh.fileno())
-        if not stat.S_ISREG(st.st_mode):
-            raise InputError(f"{label}: {_kind(st.st_mode)}, expected a mesh file")
-        limit = st.st_size if st.st_size > 0 else _UNSIZED_READ_LIMIT
-        try:
-            data = fh.read(limit + 1)
-        except OSError as exc:
-            raise InputError(f"{label}: cannot read ({exc.strerror or exc})") from None
-    if len(data) > limit:
-        raise InputError(f"{label}: the file grew while being read (or reports no size and "
-                         f"holds more than {_human_bytes(_UNSIZED_READ_LIMIT)})")
-    if not data:
-        raise InputError(f"{label}: the file is empty")
-    return data
+    sample = np.frombuffer(data[:_UTF_SAMPLE - _UTF_SAMPLE % 4], dtype=np.uint8)
+    sample = sample[:len(sample) - len(sample) % 4]
+    if len(sample) < 4:
+        return None
+    nul = sample.reshape(-1, 4) == 0
+    share = nul.mean(axis=0)
+    for codec, pattern in (("utf-32-le", (0, 1, 1, 1)), ("utf-32-be", (1, 1, 1, 0)),
+                           ("utf-16-le", (0, 1, 0, 1)), ("utf-16-be", (1, 0, 1, 0))):
+        expect = np.array(pattern, dtype=bool)
+        if (share[expect] >= _UTF_NUL_SHARE).all() and (share[~expect] <= 1 - _UTF_NUL_SHARE).all():
+            return codec
+    return None
 
 
 def _decode_text(data: bytes) -> str:
@@ -157,6 +139,12 @@ def _decode_text(data: bytes) -> str:
                 return data.decode(codec)
             except UnicodeDecodeError:
                 break
+    codec = _bomless_utf(data) if b"\x00" in data[:_UTF_SAMPLE] else None
+    if codec is not None:  # (its ASCII would pass for UTF-8, NULs and all)
+        try:
+            return data.decode(codec)
+        except UnicodeDecodeError:
+            pass
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError:
@@ -189,17 +177,62 @@ def _require_text(text: str, label: str, fmt: str) -> None:
 #: An index (or number) 0 in an OBJ file; on a face or line element it is invalid
 #: (OBJ counts from 1; trimesh would read it as -1, the last vertex).
 _OBJ_ZERO_TOKEN = re.compile(r"[ \t/][+-]?0+(?=[\s/]|$)")
+#: A face or line element of an OBJ file (the text's line ends made ``\n`` first).
+_OBJ_ELEMENT = re.compile(r"^[ \t]*[fl][ \t][^\n]*", re.MULTILINE)
+#: Most vertices of one OBJ face. Real files hold triangles, quads and n-gons of
+#: a few hundred vertices (a disc's cap); a face line of millions of indices is
+#: no polygon, and trimesh's reader spends gigabytes on one.
+MAX_OBJ_FACE_VERTICES = 65_536
 
 
 def _obj_zero_index(text: str) -> str | None:
-    """The first face or line element of an OBJ text with an index 0, or None."""
-    for match in _OBJ_ZERO_TOKEN.finditer(text):  # zeros on 'v' lines are skipped
-        start = text.rfind("\n", 0, match.start()) + 1
-        end = text.find("\n", match.end())
-        line = text[start:end if end >= 0 else len(text)].strip()
-        if line[:1] in ("f", "l") and line[1:2] in (" ", "\t"):
-            return line
+    """The first face or line element of an OBJ text with an index 0, or None.
+
+    One pass over the element lines (linear in the text; zeros on ``v`` lines
+    are never looked at).
+    """
+    for line in _OBJ_ELEMENT.finditer(text):
+        if _OBJ_ZERO_TOKEN.search(line.group()):
+            return line.group().strip()
     return None
+
+
+def _obj_face_census(payload: bytes) -> tuple[int, int, int]:
+    """Triangles the faces of an OBJ text make as fans, its largest face's vertex count,
+    and the 1-based line of that face; vectorised over the bytes (no Python loop per
+    line, no list of tokens).
+    """
+    buf = np.frombuffer(payload, dtype=np.uint8)
+    if not len(buf):
+        return 0, 0, 0
+    blank = (buf == ord(" ")) | (buf == ord("\t")) | (buf == ord("\n"))
+    starts = np.flatnonzero(~blank & np.concatenate(([True], blank[:-1])))  # token starts
+    if not len(starts):
+        return 0, 0, 0
+    line_ends = np.flatnonzero(buf == ord("\n"))
+    line_of = np.searchsorted(line_ends, starts)  # 0-based line of each token (sorted)
+    first = np.flatnonzero(np.diff(line_of, prepend=-1))  # each line's first token
+    tokens = np.diff(first, append=len(starts))
+    lines = line_of[first]
+    head = starts[first]
+    after = np.minimum(head + 1, len(buf) - 1)
+    face = (buf[head] == ord("f")) & ((buf[after] == ord(" ")) | (buf[after] == ord("\t")))
+    sizes = tokens[face] - 1
+    if not len(sizes):
+        return 0, 0, 0
+    biggest = int(np.argmax(sizes))
+    triangles = int(np.maximum(sizes - 2, 0).sum())
+    return triangles, int(sizes[biggest]), int(lines[face][biggest]) + 1
+
+
+def _check_obj_faces(payload: bytes, label: str) -> None:
+    """Refuse, before trimesh parses it, an OBJ whose faces are too large or too many."""
+    triangles, largest, line = _obj_face_census(payload)
+    if largest > MAX_OBJ_FACE_VERTICES:
+        raise InputError(f"{label}: line {line:,}: a face of {largest:,} vertices; viscore "
+                         f"reads OBJ faces of up to {MAX_OBJ_FACE_VERTICES:,}")
+    check_memory(triangles * _BYTES_PER_TRIANGLE, f"{label} ({triangles:,} triangles in "
+                 "its faces)")
 
 
 def _fan(polygons: list[np.ndarray]) -> np.ndarray:
@@ -301,10 +334,13 @@ def _parse(data: bytes, fmt: str, label: str, resolver) -> trimesh.Trimesh:
     if fmt == "obj":
         text = _decode_text(data)
         _require_text(text, label, name)
+        # classic Mac line ends (a lone CR) too: trimesh splits lines at LF only
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
         line = _obj_zero_index(text)
         if line is not None:
             raise InputError(f"{label}: OBJ index 0 in {line[:60]!r} (OBJ indices start at 1)")
         payload = text.encode("utf-8")
+        _check_obj_faces(payload, label)
     elif fmt == "stl":
         binary = len(data) >= 84 and len(data) == 84 + 50 * int.from_bytes(data[80:84], "little")
         if not binary:
@@ -315,13 +351,17 @@ def _parse(data: bytes, fmt: str, label: str, resolver) -> trimesh.Trimesh:
                                  "must be 84 + 50 x its triangle count, nor ASCII 'solid ... "
                                  "facet')")
             payload = text.encode("utf-8")
-    elif fmt == "gltf":
-        import json
-
-        try:
-            json.loads(_decode_text(data))
-        except ValueError as exc:
-            raise InputError(f"{label}: not a valid GLTF file (not JSON: {exc})") from None
+    elif fmt in ("gltf", "glb"):
+        # the structure read and bounded as the level loader reads it, before trimesh
+        header, layout = _gltf_json(data, fmt, label)
+        check_gltf_geometry(header, layout, data, fmt, label)
+        tree = _node_hierarchy(header, label)
+        world_transforms(header, tree, label)  # every reachable node's transform checked
+        triangles = instanced_triangles(header, tree)
+        check_memory(triangles * _BYTES_PER_TRIANGLE,
+                     f"{label} ({triangles:,} triangles with instances baked)")
+        if isinstance(resolver, FolderResolver):
+            resolver.declared.update(_declared_buffers(header))
     token = _loading.set(True)
     try:
         # only trimesh's parsing is wrapped: a failure in our own code below is a bug
@@ -329,6 +369,11 @@ def _parse(data: bytes, fmt: str, label: str, resolver) -> trimesh.Trimesh:
         try:
             scene = trimesh.load_scene(file_obj=io.BytesIO(payload), file_type=fmt,
                                        resolver=resolver, process=False)
+        except InputError:
+            raise
+        except UriOutsideFolder as exc:
+            raise InputError(f"{label}: the file it references, {exc.uri[:120]!r}, is outside "
+                             "its folder (refused, not read)") from None
         except MemoryError:
             raise InputError(f"{label}: not enough memory to read this file") from None
         except FileNotFoundError as exc:  # an external buffer, texture or material
@@ -337,6 +382,11 @@ def _parse(data: bytes, fmt: str, label: str, resolver) -> trimesh.Trimesh:
         except Exception as exc:  # noqa: BLE001 - trimesh raises many types on malformed files
             detail = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
             raise InputError(f"{label}: not a valid {name} file ({detail})") from None
+        if isinstance(resolver, FolderResolver):
+            resolver.raise_refusal()  # a material or texture trimesh skipped: refused
+            for uri in resolver.outside:
+                _log.warning("%s: %r is outside the folder of the file: not read, its texture "
+                             "or material is skipped", label, uri[:120])
         instances = _scene_instances(scene)
         if not instances:
             raise InputError(f"{label}: {_describe_without_triangles(scene)}")
@@ -410,7 +460,11 @@ def load_mesh(source: str | os.PathLike | trimesh.Trimesh) -> trimesh.Trimesh:
         built-in scene), is a dangling link, a directory, a FIFO, a device
         or otherwise not a regular file, cannot be read, is empty, has an
         extension no reader handles, is not a valid file of its format (OBJ
-        index 0 included), holds no triangles (a point cloud, lines only), its
+        index 0 and OBJ faces of more than :data:`MAX_OBJ_FACE_VERTICES`
+        vertices included), references a file that is not a regular file, lies
+        outside its folder or is longer than its referrer declares (a glTF
+        buffer) or its content needs (an image), holds no triangles (a point
+        cloud, lines only), its
         parsed size or a ZIP's inflated size exceeds the memory limit
         (:func:`viscore._validate.check_memory`), or it fails
         :func:`validate_mesh`.
@@ -463,8 +517,7 @@ def load_mesh(source: str | os.PathLike | trimesh.Trimesh) -> trimesh.Trimesh:
     if fmt in _ARCHIVES:
         mesh = _parse_zip(data, label, readable)
     else:
-        resolver = trimesh.resolvers.FilePathResolver(str(path.resolve()))
-        mesh = _parse(data, fmt, label, resolver)
+        mesh = _parse(data, fmt, label, FolderResolver(path, label))
     return validate_mesh(mesh, name=label)
 
 

@@ -58,6 +58,7 @@ from .._validate import InputError
 from .godot_binary import (  # noqa: F401 - BINARY_FORMATS kept at its old path
     BINARY_FORMATS,
     _load_occ,
+    _load_occ_file,
     _occluder_mesh,
     _read_file,
 )
@@ -141,7 +142,7 @@ def load_occluder(path: str | os.PathLike) -> trimesh.Trimesh:
     label = str(path)
     suffix = p.suffix.lower()
     if suffix in (".occ", ".res"):
-        v, f = _load_occ(_read_file(p, label), label)
+        v, f = _load_occ_file(p, label)
         return _occluder_mesh(v, f, label, "godot-occ", [p.stem], [len(f)])
     if suffix == ".tres":
         v, f = _load_tres(_read_file(p, label), label)

@@ -4,7 +4,9 @@ Godot's 3D scene import turns a node whose name ends in ``-occ`` into an
 occluder that is also drawn, and one ending in ``-occonly`` into an occluder
 that is not drawn [2]_. :func:`_load_gltf` reads the marked nodes of a
 ``.glb``/``.gltf`` file (every mesh node when none is marked) in world space,
-resolving the file's URIs inside its folder only; :func:`occonly_glb_bytes`
+with the glTF reader of the level loader (:mod:`viscore.exchange.gltf_scene`:
+the same limits on depth and nodes, the same refusal of cycles and projective
+matrices, URIs resolved inside the file's folder only); :func:`occonly_glb_bytes`
 writes :class:`~viscore.exchange.godot_text.OccluderInstance` placements as a GLB
 whose nodes carry the ``-occonly`` suffix, one glTF mesh per distinct mesh.
 
@@ -23,20 +25,26 @@ References
 
 from __future__ import annotations
 
-import io
-import os
-import re
-import stat
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from urllib.parse import unquote
 
 import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from .._validate import InputError
-from .godot_binary import _checked_geometry, _occluder_mesh, _placed, _read_file
+from .._validate import InputError, check_memory
+from .gltf_scene import (
+    _mesh_geometries,
+    _mesh_library,
+    _node_hierarchy,
+    _node_label,
+    _parse_gltf_library,
+    _quote,
+    instanced_triangles,
+    read_gltf,
+    world_transforms,
+)
+from .godot_binary import _BYTES_PER_PLACED_TRIANGLE, _checked_geometry, _instances_mesh
 from .godot_text import OccluderInstance, _checked_scene, _unique
 
 __all__ = ["occonly_glb_bytes"]
@@ -58,93 +66,60 @@ def _occluder_hint(name: str) -> str | None:
     return None
 
 
-class _FolderResolver(trimesh.resolvers.FilePathResolver):
-    """Resolve glTF URIs inside the file's folder only; refuse and record the rest."""
-
-    def __init__(self, path: Path, label: str) -> None:
-        super().__init__(str(path.resolve()))
-        self.root = path.resolve().parent
-        self.label = label
-        self.refused: str | None = None
-
-    def get(self, name: str) -> bytes:
-        uri = unquote(str(name).strip())
-        bad = ("://" in uri or uri.startswith(("file:", "/", "\\")) or Path(uri).is_absolute()
-               or re.match(r"^[A-Za-z]:", uri) is not None)
-        target = None if bad else (self.root / uri).resolve()
-        if target is None or not target.is_relative_to(self.root):
-            self.refused = (f"{self.label}: the URI {str(name)[:120]!r} points outside the "
-                            "file's folder (refused, not read)")
-            raise InputError(self.refused)
-        try:
-            st = os.stat(target)
-        except OSError:
-            self.refused = f"{self.label}: a file it references is missing ({str(name)[:120]!r})"
-            raise InputError(self.refused) from None
-        if not stat.S_ISREG(st.st_mode):
-            self.refused = (f"{self.label}: the URI {str(name)[:120]!r} is not a regular "
-                            "file (refused)")
-            raise InputError(self.refused)
-        return target.read_bytes()
-
-
-def _object_node(node: str, parents: Mapping[str, str], carriers: set[str]) -> str:
-    """The glTF node a trimesh graph node stands for.
-
-    trimesh splits a mesh of several primitives into child nodes named
-    ``<node>_<6 hex>`` under the glTF node; those count as their parent.
-    """
-    parent = parents.get(node)
-    if (parent is not None and parent not in carriers
-            and re.fullmatch(re.escape(parent) + r"_[0-9a-f]{6}", node)):
-        return parent
-    return node
-
-
 def _load_gltf(path: Path, label: str) -> trimesh.Trimesh:
-    fmt = path.suffix.lower().lstrip(".")
-    data = _read_file(path, label)
-    resolver = _FolderResolver(path, label)
-    try:
-        with np.errstate(all="ignore"):
-            scene = trimesh.load_scene(file_obj=io.BytesIO(data), file_type=fmt,
-                                       resolver=resolver, process=False)
-    except InputError:
-        raise
-    except MemoryError:
-        raise InputError(f"{label}: not enough memory to read this file") from None
-    except Exception as exc:  # noqa: BLE001 - trimesh raises many types on bad files
-        if resolver.refused:
-            raise InputError(resolver.refused) from None
-        detail = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
-        raise InputError(f"{label}: not a valid {fmt.upper()} file ({detail})") from None
-    if resolver.refused:  # trimesh may swallow a failed image; the refusal stands
-        raise InputError(resolver.refused)
-    carriers = set(scene.graph.nodes_geometry)
-    parents = scene.graph.transforms.parents
+    """The ``-occ``/``-occonly`` nodes of a glTF/GLB file (every mesh node when none is
+    marked) in world space, read by the glTF reader the level loader uses.
+
+    The file, its node hierarchy (depth, node count, cycles, transforms) and its
+    buffers are checked by :mod:`viscore.exchange.gltf_scene` before any geometry is
+    parsed; the instanced triangles are counted before any is placed.
+    """
+    data, header, layout, fmt = read_gltf(path, label)
+    tree = _node_hierarchy(header, label)
+    triangles = instanced_triangles(header, tree)
+    check_memory(triangles * _BYTES_PER_PLACED_TRIANGLE,
+                 f"{label} ({triangles:,} triangles with instances placed)")
+    library = _mesh_library(data, header, fmt, layout, label)
+    del data
+    scene = _parse_gltf_library(library, fmt, path, label, header)
+    meshes = header.get("meshes", [])
+    count = len(meshes) if isinstance(meshes, list) else 0
+    geometries = _mesh_geometries(scene, count)
+    world = world_transforms(header, tree, label)
+    nodes = header.get("nodes", [])
+    local: dict[int, tuple[np.ndarray, np.ndarray] | None] = {}
     items = []
-    for node in sorted(carriers):
-        mat, gname = scene.graph[node]
-        geom = scene.geometry.get(gname)
-        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
+    for v in tree.order:
+        mesh = nodes[v].get("mesh")
+        if mesh is None:
             continue
-        items.append((_object_node(node, parents, carriers), np.asarray(mat, np.float64), geom))
+        if isinstance(mesh, bool) or not isinstance(mesh, int) or not 0 <= mesh < count:
+            raise InputError(f"{label}: {_node_label(nodes, v)} refers to mesh "
+                             f"{_quote(mesh)}, but the file has {count} meshes")
+        name = tree.names[v]
+        if mesh not in local:  # one glTF mesh: its primitives' triangles, once
+            parts = [scene.geometry[g] for g in geometries[mesh]]
+            parts = [g for g in parts if isinstance(g, trimesh.Trimesh) and len(g.faces)]
+            if parts:
+                vertices, offset, faces = [], 0, []
+                for g in parts:
+                    gv, gf = _checked_geometry(g.vertices, g.faces, label, f"node {name!r}")
+                    vertices.append(gv)
+                    faces.append(gf + offset)
+                    offset += len(gv)
+                local[mesh] = (np.concatenate(vertices), np.concatenate(faces))
+            else:
+                local[mesh] = None
+        if local[mesh] is None:
+            continue
+        if not np.isfinite(world[v]).all():
+            raise InputError(f"{label}: node {name!r} has a NaN or infinite transform")
+        items.append((name, mesh, world[v]))
     if not items:
         raise InputError(f"{label}: no node carries a triangle mesh")
+    items.sort(key=lambda item: item[0])
     marked = [it for it in items if _occluder_hint(it[0])]
-    parts_v, parts_f, names, counts = [], [], [], []
-    offset = 0
-    for name, mat, geom in marked or items:
-        if not np.isfinite(mat).all():
-            raise InputError(f"{label}: node {name!r} has a NaN or infinite transform")
-        vertices, faces = _checked_geometry(geom.vertices, geom.faces, label, f"node {name!r}")
-        parts_v.append(_placed(vertices, mat, label, name))
-        parts_f.append(faces + offset)
-        offset += len(vertices)
-        names.append(name)
-        counts.append(len(faces))
-    return _occluder_mesh(np.concatenate(parts_v), np.concatenate(parts_f), label,
-                          f"{fmt}-occonly" if marked else fmt, names, counts)
+    return _instances_mesh(local, marked or items, label, f"{fmt}-occonly" if marked else fmt)
 
 
 # ----------------------------------------------------------------------------- writing

@@ -41,12 +41,8 @@ References
 from __future__ import annotations
 
 import hashlib
-import io
-import json
 import logging
 import os
-import stat
-import struct
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -56,14 +52,27 @@ import numpy.typing as npt
 import trimesh
 
 from .._validate import InputError, check_memory
-from ..exchange.gltf_meshopt import EXTENSION as MESHOPT
-from ..exchange.gltf_meshopt import decode_meshopt_glb
+from ..exchange.gltf_scene import (  # noqa: F401 - the names these had here, kept
+    _CYCLE_SHOWN,
+    _GLB_HEADER,
+    _NAME_CHARS,
+    _gltf_json,
+    _Hierarchy,
+    _index_list,
+    _local_matrix,
+    _mesh_geometries,
+    _mesh_library,
+    _node_hierarchy,
+    _node_label,
+    _parse_gltf_library,
+    _quote,
+    _refuse_compressed,
+    read_gltf,
+)
+from ..exchange.gltf_scene import MAX_NODE_DEPTH as _MAX_NODE_DEPTH  # noqa: F401
 from ..exchange.mesh_io import (
     _BYTES_PER_TRIANGLE,
     _describe_without_triangles,
-    _kind,
-    _loading,
-    _read_regular_file,
     _refuse_path,
     _suffix,
     load_mesh,
@@ -97,19 +106,6 @@ _SINGULAR_RELATIVE = 1e-12
 _EYE = np.eye(4)
 _EYE.flags.writeable = False
 
-#: Deepest glTF node hierarchy read, in levels (a scene's root node is level 1).
-#: Authored hierarchies (CAD assemblies, character rigs, scene graphs exported
-#: from DCC tools) are tens of levels deep, rarely a few hundred; a chain of
-#: thousands is generated or hostile. The transforms are composed iteratively
-#: here, so depth costs nothing in viscore, but trimesh's own scene graph (which
-#: ``viscore.load_mesh`` and trimesh's exporters use on the same file) composes
-#: a path with ``numpy.linalg.multi_dot``, which recurses once per level, and
-#: fails with RecursionError near Python's default recursion limit of 1,000: a
-#: deeper file is refused here too rather than accepted by one reader of
-#: viscore and not by the other. World transforms lose about one float64 ulp
-#: per level, ~1e-13 relative at this depth.
-_MAX_NODE_DEPTH = 1_000
-
 #: Compatibility with trimesh's scene graph, which loaded glTF transforms before
 #: (trimesh 5.2, ``trimesh/scene/transforms.py``), kept so that valid files load
 #: to the same float64 transforms: below the root, a node's local transform
@@ -120,23 +116,6 @@ _NEAR_IDENTITY = 1e-8
 #: and ``transformations.fix_rigid``; e.g. a rotation matrix written in float32).
 _RIGID_REPAIR_LOW = 1e-13
 _RIGID_REPAIR_HIGH = 1e-5
-
-#: GLB layout (glTF 2.0, "GLB File Format Specification"): a 12-byte header
-#: (magic, version, total length), then chunks of (length, type, data), the
-#: first one the JSON.
-_GLB_HEADER = struct.Struct("<4sII")
-_GLB_CHUNK = struct.Struct("<I4s")
-_GLB_MAGIC = b"glTF"
-_GLB_JSON = b"JSON"
-_GLB_VERSION = 2
-_GLB_ALIGN = 4
-_UINT32_MAX = 2**32 - 1
-
-#: Longest node name quoted in a message (a hostile name could fill a screen).
-_NAME_CHARS = 60
-#: Nodes of a cycle listed in its message before "...".
-_CYCLE_SHOWN = 6
-
 
 def culling_scene_descriptions() -> dict[str, str]:
     """Name -> one-line description of every built-in culling scene.
@@ -413,6 +392,32 @@ def _from_trimesh_scene(scene: trimesh.Scene, label: str, up) -> SceneObjects:
     return _scene_objects(names, geoms, mats, scene.geometry, label, up)
 
 
+def _check_affine(names: list[str], mats: np.ndarray, label: str) -> None:
+    """Refuse a world transform whose last row is not ``0, 0, 0, 1`` (a projective map:
+    glTF nodes and Godot transforms are affine), naming the node, when the level is read."""
+    bad = ~(mats[:, 3] == _EYE[3]).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        row = ", ".join(f"{x:g}" for x in mats[i, 3])
+        raise InputError(f"{label}: node {names[i]!r} has a transform that is not affine (its "
+                         f"last row is {row}, not 0, 0, 0, 1)")
+
+
+def _flattening(names: list[str], lin: np.ndarray, det: np.ndarray, scale: np.ndarray, i: int,
+                label: str) -> InputError:
+    """The refusal of node ``i``'s transform, whose volume scale is under
+    ``_SINGULAR_RELATIVE`` x its largest entry cubed: a zero scale when a column is
+    (near) zero, otherwise a stretch so uneven (a shear) that it flattens the mesh."""
+    columns = np.linalg.norm(lin[i], axis=0)
+    if det[i] == 0 or columns.min() <= _SINGULAR_RELATIVE * columns.max():
+        why = "a singular transform (a zero scale flattens its mesh)"
+    else:
+        why = (f"a transform that flattens its mesh: its volume scale {det[i]:.3g} is under "
+               f"{_SINGULAR_RELATIVE:g} x its largest entry {scale[i]:.3g} cubed (a shear or "
+               "an uneven scale this extreme)")
+    return InputError(f"{label}: node {names[i]!r} has {why}")
+
+
 def geometry_digest(mesh: trimesh.Trimesh) -> bytes:
     """SHA-256 of a mesh's vertices (float64) and faces (int64), in order: equal exactly
     when the two are the same geometry vertex for vertex and face for face."""
@@ -431,6 +436,7 @@ def _scene_objects(names: list[str], geoms: list[str], mats: np.ndarray, geometr
     if not np.isfinite(mats).all():
         bad = names[int(np.flatnonzero(~np.isfinite(mats).all(axis=(1, 2)))[0])]
         raise InputError(f"{label}: node {bad!r} has a transform with NaN or infinite values")
+    _check_affine(names, mats, label)
     lin = mats[:, :3, :3]
     scale = np.abs(lin).max(axis=(1, 2))
     with np.errstate(over="ignore", invalid="ignore"):
@@ -443,9 +449,7 @@ def _scene_objects(names: list[str], geoms: list[str], mats: np.ndarray, geometr
                          f"({scale[huge][0]:.3g}) is beyond what float64 can hold in a volume")
     singular = ~(det > _SINGULAR_RELATIVE * cube)
     if singular.any():
-        bad = names[int(np.flatnonzero(singular)[0])]
-        raise InputError(f"{label}: node {bad!r} has a singular transform (a zero scale "
-                         "flattens its mesh)")
+        raise _flattening(names, lin, det, scale, int(np.flatnonzero(singular)[0]), label)
     names_once = list(dict.fromkeys(geoms))
     # geometries equal vertex for vertex and face for face (a level exported without
     # instancing: every copy of a room its own glTF mesh, each in the same local frame)
@@ -563,385 +567,6 @@ def see_through_material(geometry) -> bool:
     return alpha < OPAQUE_ALPHA
 
 
-# ----------------------------------------------------------- glTF: JSON and URIs
-class _UriOutsideFolder(Exception):
-    """A buffer URI that resolves outside the folder of the glTF file (never read)."""
-
-    def __init__(self, uri: str):
-        super().__init__(uri)
-        self.uri = uri
-
-
-class _FolderResolver(trimesh.resolvers.FilePathResolver):
-    """trimesh's file resolver for the assets of one glTF file, confined to its folder.
-
-    Tries the names trimesh's resolver tries (the URI, the URI without a leading
-    ``/``, its last path component), each only if it resolves (symbolic links
-    followed) inside the folder, and reads only regular files: a URI escaping the
-    folder raises :class:`_UriOutsideFolder` (recorded in ``refused``: trimesh
-    skips an image it cannot read, so those are reported after the load) and a
-    FIFO or device is refused with :class:`InputError` without being opened.
-    """
-
-    def __init__(self, path: Path, label: str):
-        super().__init__(str(path.resolve()))
-        self._label = label
-        self.refused: list[str] = []
-
-    def get(self, name: str) -> bytes:
-        folder = Path(self.parent).resolve()
-        text = str(name).strip()
-        try:
-            for candidate in (text, text.lstrip("/"), os.path.split(text)[-1]):
-                target = (folder / candidate).resolve()
-                if target.is_relative_to(folder) and target.exists():
-                    mode = os.stat(target).st_mode
-                    if not stat.S_ISREG(mode):
-                        raise InputError(f"{self._label}: URI {_quote(name)} is {_kind(mode)}, "
-                                         "not a regular file (not read)")
-                    with open(target, "rb") as fh:
-                        return fh.read()
-            escapes = not (folder / text).resolve().is_relative_to(folder)
-        except InputError:
-            raise
-        except (OSError, RuntimeError, ValueError) as exc:  # NUL byte, link loop, no access
-            raise InputError(f"{self._label}: URI {_quote(name)} cannot be read "
-                             f"({' '.join(str(exc).split())[:120]})") from None
-        if escapes:
-            self.refused.append(str(name))
-            raise _UriOutsideFolder(str(name))
-        raise FileNotFoundError(name)
-
-
-def _quote(value, limit: int = _NAME_CHARS) -> str:
-    """``repr`` of a name, URI or value from the file, cut to about ``limit`` characters."""
-    text = repr(value)
-    return text if len(text) <= limit else text[:limit] + "..."
-
-
-def _gltf_json(data: bytes, fmt: str, label: str) -> tuple[dict, tuple[int, int, int]]:
-    """The JSON of a glTF/GLB file, and for a GLB its (total length, JSON chunk length, end).
-
-    A GLB is split as trimesh's reader splits it; a malformed one is refused here
-    with the same kind of message trimesh's reader gave ("not a valid GLB file").
-    """
-    what = fmt.upper()
-    layout = (0, 0, 0)
-    if fmt == "gltf":
-        try:
-            text = data.decode("utf-8-sig")
-        except UnicodeDecodeError as exc:
-            raise InputError(f"{label}: not a valid GLTF file (not JSON: "
-                             f"{' '.join(str(exc).split())[:120]})") from None
-    else:
-        if len(data) < _GLB_HEADER.size + _GLB_CHUNK.size:
-            raise InputError(f"{label}: not a valid GLB file ({len(data)} bytes, shorter than "
-                             "the GLB header)")
-        magic, version, length = _GLB_HEADER.unpack_from(data)
-        chunk_length, chunk_type = _GLB_CHUNK.unpack_from(data, _GLB_HEADER.size)
-        if magic != _GLB_MAGIC:
-            raise InputError(f"{label}: not a valid GLB file (incorrect header: no 'glTF' magic)")
-        if version != _GLB_VERSION:
-            raise InputError(f"{label}: not a valid GLB file (GLB version {version}; only "
-                             "glTF 2.0 is supported)")
-        if chunk_type != _GLB_JSON:
-            raise InputError(f"{label}: not a valid GLB file (no initial JSON chunk)")
-        start = _GLB_HEADER.size + _GLB_CHUNK.size
-        end = start + chunk_length
-        if end > len(data):
-            raise InputError(f"{label}: not a valid GLB file (its JSON chunk of {chunk_length:,} "
-                             f"bytes runs past the end of the file)")
-        text = trimesh.util.decode_text(data[start:end])
-        layout = (length, chunk_length, end)
-    try:
-        header = json.loads(text)
-    except (ValueError, RecursionError) as exc:
-        raise InputError(f"{label}: not a valid {what} file (not JSON: "
-                         f"{' '.join(str(exc).split())[:120]})") from None
-    if not isinstance(header, dict):
-        raise InputError(f"{label}: not a valid {what} file (its JSON is a "
-                         f"{type(header).__name__}, not an object)")
-    return header, layout
-
-
-#: Required glTF extensions that compress geometry, which trimesh's reader cannot decode.
-_COMPRESSIONS = (MESHOPT, "KHR_draco_mesh_compression")
-
-
-def _refuse_compressed(header: dict, fmt: str, label: str) -> None:
-    """One line for a glTF whose geometry needs a decoder we do not have (its
-    ``extensionsRequired`` names Draco compression, or meshopt compression outside a
-    GLB, which :func:`viscore.exchange.gltf_meshopt.decode_meshopt_glb` decodes; glTF 2.0
-    sec. 3.12)."""
-    required = header.get("extensionsRequired")
-    names = [n for n in _COMPRESSIONS if isinstance(required, list) and n in required
-             and not (fmt == "glb" and n == MESHOPT)]
-    if names:
-        raise InputError(f"{label}: its geometry is compressed with {' and '.join(names)}, "
-                         f"which viscore cannot decode; export the {fmt.upper()} without "
-                         "mesh compression (gltf-transform and gltfpack can write one)")
-
-
-def _mesh_library(data: bytes, header: dict, fmt: str, layout: tuple[int, int, int],
-                  label: str) -> bytes:
-    """The same file with its node hierarchy replaced by one root node per glTF mesh.
-
-    trimesh then parses the geometry (buffers, accessors, primitives, materials
-    exactly as in the original file) without ever seeing the original nodes, and
-    node ``str(m)`` of its scene carries mesh ``m``: one geometry, or one child
-    per primitive when the mesh has several.
-    """
-    meshes = header.get("meshes", [])
-    count = len(meshes) if isinstance(meshes, list) else 0
-    flat = {k: v for k, v in header.items() if k not in ("nodes", "scenes", "scene")}
-    flat["nodes"] = [{"name": str(m), "mesh": m} for m in range(count)]
-    flat["scenes"] = [{"nodes": list(range(count))}]
-    flat["scene"] = 0
-    try:
-        text = json.dumps(flat).encode("utf-8")
-    except (ValueError, RecursionError) as exc:
-        raise InputError(f"{label}: not a valid {fmt.upper()} file "
-                         f"({' '.join(str(exc).split())[:120]})") from None
-    if fmt == "gltf":
-        return text
-    length, chunk_length, end = layout
-    text += b" " * (-len(text) % _GLB_ALIGN)
-    # the total length moves with the JSON chunk, so the binary chunks after it are
-    # read exactly as in the original file
-    total = min(_UINT32_MAX, max(0, length - chunk_length + len(text)))
-    return b"".join([_GLB_HEADER.pack(_GLB_MAGIC, _GLB_VERSION, total),
-                     _GLB_CHUNK.pack(len(text), _GLB_JSON), text, memoryview(data)[end:]])
-
-
-def _mesh_geometries(library: trimesh.Scene, count: int) -> list[list[str]]:
-    """Geometry names of each glTF mesh in :func:`_mesh_library`'s scene, in primitive order."""
-    order = {g: k for k, g in enumerate(library.geometry)}
-    parents = library.graph.transforms.parents
-    data = library.graph.transforms.node_data
-    geometries: list[list[str]] = [[] for _ in range(count)]
-    for node in library.graph.nodes_geometry:
-        owner = node if node.isdigit() else parents[node]  # a mesh, or one of its primitives
-        geometries[int(owner)].append(data[node]["geometry"])
-    return [sorted(g, key=order.__getitem__) for g in geometries]
-
-
-def _parse_gltf_library(data: bytes, fmt: str, path: Path, label: str) -> trimesh.Scene:
-    """trimesh's parse of the geometry of a glTF/GLB file (see :func:`_mesh_library`)."""
-    resolver = _FolderResolver(path, label)
-    token = _loading.set(True)
-    try:
-        try:  # only trimesh's parser is wrapped: a failure in our code below is a bug
-            with np.errstate(all="ignore"):
-                scene = trimesh.load_scene(file_obj=io.BytesIO(data), file_type=fmt,
-                                           resolver=resolver, process=False)
-        except InputError:
-            raise
-        except _UriOutsideFolder as exc:
-            raise InputError(f"{label}: buffer URI {_quote(exc.uri)} points outside the folder "
-                             f"of the file ({path.resolve().parent}); glTF URIs must stay "
-                             "inside that folder (not read)") from None
-        except MemoryError:
-            raise InputError(f"{label}: not enough memory to read this file") from None
-        except FileNotFoundError as exc:
-            missing = exc.filename or " ".join(str(exc).split())[:200]
-            raise InputError(f"{label}: a file it references is missing ({missing})") from None
-        except Exception as exc:  # noqa: BLE001 - trimesh raises many types on bad files
-            detail = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
-            raise InputError(f"{label}: not a valid {fmt.upper()} file ({detail})") from None
-    finally:
-        _loading.reset(token)
-    for uri in resolver.refused:  # images: trimesh skips a texture it cannot read
-        _log.warning("%s: image URI %s points outside the folder of the file (%s); glTF URIs "
-                     "must stay inside that folder: not read, the texture is skipped",
-                     label, _quote(uri), path.resolve().parent)
-    return scene
-
-
-# ------------------------------------------------------- glTF: the node hierarchy
-@dataclass(frozen=True)
-class _Hierarchy:
-    """The checked node hierarchy of the default scene of a glTF file."""
-
-    names: list[str]          # (N,) node names as trimesh made them (unique)
-    order: list[int]          # reachable nodes, each parent before its children
-    parent: list[int]         # (N,) parent node of each node, -1 for a root
-    depth: dict[int, int]     # level of each reachable node, roots 1
-
-
-def _node_label(nodes: list, i: int) -> str:
-    """``node 3 ('wheel')`` for messages; the name as written in the file."""
-    name = nodes[i].get("name") if isinstance(nodes[i], dict) else None
-    return f"node {i} ({_quote(name)})" if isinstance(name, str) else f"node {i} (no name)"
-
-
-def _index_list(value, size: int, what: str, label: str) -> list[int]:
-    """A JSON list of indices into an array of ``size`` items, checked."""
-    if not isinstance(value, list):
-        raise InputError(f"{label}: {what} must be a list of indices, got "
-                         f"{type(value).__name__}")
-    for v in value:
-        if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < size:
-            raise InputError(f"{label}: {what} lists {_quote(v)}, not an index below {size}")
-    return value
-
-
-def _node_hierarchy(header: dict, label: str) -> _Hierarchy:
-    """Check the node hierarchy of a glTF file and order the nodes of its default scene.
-
-    glTF 2.0, sec. 3.5.1-3.5.2: "The node hierarchy MUST be a set of disjoint
-    strict trees" (no cycles, at most one parent per node) and the nodes a
-    scene lists MUST be root nodes. All nodes are checked, not only the
-    default scene's; an index listed twice among one node's children or one
-    scene's roots counts once (as trimesh read it).
-    """
-    nodes = header.get("nodes", [])
-    if not isinstance(nodes, list):
-        raise InputError(f"{label}: 'nodes' must be a list, got {type(nodes).__name__}")
-    n = len(nodes)
-    for i, node in enumerate(nodes):
-        if not isinstance(node, dict):
-            raise InputError(f"{label}: node {i} must be a JSON object, got "
-                             f"{type(node).__name__}")
-        if "name" in node and not isinstance(node["name"], str):
-            raise InputError(f"{label}: node {i}: 'name' must be a string, got "
-                             f"{type(node['name']).__name__}")
-    # names exactly as trimesh's glTF reader made them (unique, 'world' renamed)
-    name_index: dict[str, int] = {}
-    counts: dict = {}
-    for i, node in enumerate(nodes):
-        name_index[trimesh.util.unique_name(node.get("name", str(i)), name_index,
-                                            counts=counts)] = i
-    names = [""] * n
-    for name, i in name_index.items():
-        names[i] = name
-    base = trimesh.scene.transforms.DEFAULT_BASE_FRAME
-    if base in name_index:
-        names[name_index[base]] = trimesh.util.unique_name(base, set(names))
-
-    children: list[list[int]] = []
-    for i, node in enumerate(nodes):
-        kids = _index_list(node.get("children", []), n, f"{_node_label(nodes, i)} 'children'",
-                           label)
-        children.append(list(dict.fromkeys(kids)))
-
-    # no cycles: iterative depth-first search over the children lists; a child
-    # still on the search path closes a cycle (colour 1: on the path, 2: done)
-    colour = [0] * n
-    for start in range(n):
-        if colour[start]:
-            continue
-        colour[start] = 1
-        path = [start]
-        cursor = [0]
-        while path:
-            v, k = path[-1], cursor[-1]
-            if k == len(children[v]):
-                colour[v] = 2
-                path.pop()
-                cursor.pop()
-                continue
-            cursor[-1] = k + 1
-            c = children[v][k]
-            if colour[c] == 1:
-                loop = path[path.index(c):]
-                shown = " -> ".join(str(w) for w in loop[:_CYCLE_SHOWN])
-                shown += " -> ..." if len(loop) > _CYCLE_SHOWN else f" -> {c}"
-                raise InputError(f"{label}: {_node_label(nodes, c)} is its own descendant: "
-                                 f"the node hierarchy has a cycle ({shown}), and glTF 2.0 "
-                                 "requires disjoint strict trees")
-            if colour[c] == 0:
-                colour[c] = 1
-                path.append(c)
-                cursor.append(0)
-
-    # at most one parent per node
-    parent = [-1] * n
-    for i in range(n):
-        for c in children[i]:
-            if parent[c] != -1:
-                raise InputError(f"{label}: {_node_label(nodes, c)} has two parents, "
-                                 f"{_node_label(nodes, parent[c])} and {_node_label(nodes, i)}; "
-                                 "glTF 2.0 requires disjoint strict trees (each node has at "
-                                 "most one parent)")
-            parent[c] = i
-
-    # the default scene's roots
-    scenes = header.get("scenes", [])
-    if not isinstance(scenes, list):
-        raise InputError(f"{label}: 'scenes' must be a list, got {type(scenes).__name__}")
-    roots: list[int] = []
-    if scenes:
-        index = header.get("scene", 0)
-        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(scenes):
-            raise InputError(f"{label}: 'scene' is {_quote(index)}, not an index below "
-                             f"{len(scenes)} (the number of scenes)")
-        scene = scenes[index]
-        if not isinstance(scene, dict):
-            raise InputError(f"{label}: scene {index} must be a JSON object, got "
-                             f"{type(scene).__name__}")
-        roots = list(dict.fromkeys(_index_list(scene.get("nodes", []), n,
-                                               f"scene {index} 'nodes'", label)))
-        for r in roots:
-            if parent[r] != -1:
-                raise InputError(f"{label}: {_node_label(nodes, r)} is a root of scene {index} "
-                                 f"and a child of {_node_label(nodes, parent[r])}; glTF 2.0 "
-                                 "requires a scene's nodes to be root nodes")
-
-    # depth-first order from the roots, iterative: each node once (a forest)
-    order: list[int] = []
-    depth: dict[int, int] = {}
-    stack = [(r, 1) for r in reversed(roots)]
-    while stack:
-        v, level = stack.pop()
-        order.append(v)
-        depth[v] = level
-        stack.extend((c, level + 1) for c in reversed(children[v]))
-    if depth and max(depth.values()) > _MAX_NODE_DEPTH:
-        deepest = max(depth, key=depth.__getitem__)
-        raise InputError(f"{label}: the node hierarchy is {depth[deepest]:,} levels deep (at "
-                         f"{_node_label(nodes, deepest)}), deeper than the {_MAX_NODE_DEPTH:,} "
-                         "levels viscore reads")
-    return _Hierarchy(names=names, order=order, parent=parent, depth=depth)
-
-
-#: glTF node transform properties and their number of components (sec. 3.5.3),
-#: and the JSON number types (``bool`` is an ``int`` subclass, not a number here).
-_TRANSFORM_SIZES = {"matrix": 16, "translation": 3, "rotation": 4, "scale": 3}
-_NUMBER_TYPES = {int, float}
-
-
-def _local_matrix(node: dict, label: str, where: str) -> np.ndarray:
-    """``(4, 4) float64`` local transform of a glTF node, computed as trimesh 5.2 computes it.
-
-    ``matrix`` (column-major) times T times R times S, each product a
-    ``np.dot`` in this order, so the bits match trimesh's glTF reader.
-    """
-    for key, size in _TRANSFORM_SIZES.items():
-        if key in node:
-            value = node[key]
-            if (not isinstance(value, list) or len(value) != size
-                    or not set(map(type, value)) <= _NUMBER_TYPES):
-                raise InputError(f"{label}: {where}: {key!r} must be a list of {size} numbers, "
-                                 f"got {_quote(value)}")
-    try:
-        if "matrix" in node:
-            matrix = np.array(node["matrix"], dtype=np.float64).reshape((4, 4)).T
-        else:
-            matrix = _EYE
-        if "translation" in node:
-            matrix = np.dot(matrix, trimesh.transformations.translation_matrix(
-                node["translation"]))
-        if "rotation" in node:
-            quat = np.reshape(node["rotation"], 4)[[3, 0, 1, 2]]  # glTF XYZW -> WXYZ
-            matrix = np.dot(matrix, trimesh.transformations.quaternion_matrix(quat))
-        if "scale" in node:
-            matrix = np.dot(matrix, np.diag(np.concatenate((node["scale"], [1.0]))))
-    except OverflowError:  # an integer beyond float64 in the JSON
-        raise InputError(f"{label}: {where} has a transform value beyond float64's "
-                         "range") from None
-    return matrix
-
-
 def _repair_rigid(mats: np.ndarray) -> np.ndarray:
     """trimesh's ``fix_rigid`` on ``(n, 4, 4)`` transforms: nearly rigid ones re-orthonormalised.
 
@@ -1031,19 +656,11 @@ def _hidden_summary(objects: list, shown: int = 4) -> str:
 
 def _load_gltf(path: Path, label: str) -> SceneObjects:
     """Objects of a glTF/GLB file: hierarchy checked and composed here, geometry by trimesh."""
-    fmt = _suffix(path.name)
-    data = _read_regular_file(path, label)
-    header, layout = _gltf_json(data, fmt, label)
-    _refuse_compressed(header, fmt, label)
-    if fmt == "glb":  # meshopt-compressed views and normalized positions made plain
-        plain, _ = decode_meshopt_glb(data, header, layout[2], label)
-        if plain is not data:
-            data = plain
-            header, layout = _gltf_json(data, fmt, label)
+    data, header, layout, fmt = read_gltf(path, label)
     tree = _node_hierarchy(header, label)
     library = _mesh_library(data, header, fmt, layout, label)
     del data
-    scene = _parse_gltf_library(library, fmt, path, label)
+    scene = _parse_gltf_library(library, fmt, path, label, header)
     names, geoms, mats = _gltf_objects(header, tree, scene, label)
     return _scene_objects(names, geoms, mats, scene.geometry, label, _GLTF_UP)
 
