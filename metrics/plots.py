@@ -43,7 +43,7 @@ if TYPE_CHECKING:  # pragma: no cover - hints only
     from .precision_recall import PrecisionRecall
 
 __all__ = ["distribution_plot", "ablation_plot", "recall_plot", "budget_plot",
-           "silhouette_plot", "culling_plot", "SILHOUETTE_VIEWS"]
+           "silhouette_plot", "culling_plot", "SILHOUETTE_VIEWS", "CULLING_LOG_SPAN"]
 
 #: Dots per inch of every figure: a figure of w x h inches is 100 w x 100 h pixels.
 DPI = 100
@@ -70,6 +70,14 @@ _LEGEND_ROW_INCHES = 0.3
 #: 1e-5 resolves precisions up to 0.99999, beyond the quads' own resolution at the
 #: default settings (a few hundred thousand pixels scored per view).
 _ONE_MINUS_P_FLOOR = 1e-5
+
+#: The culling plot's triangle axis turns logarithmic when its largest count is more
+#: than this many times its smallest positive one (two decades: a close-up of a wall
+#: beside a view over the whole level would leave the close-up flat on the axis).
+CULLING_LOG_SPAN = 100
+#: Panels per row of the culling plot, and inches per row.
+_CULLING_COLUMNS = 3
+_CULLING_ROW_INCHES = 2.5
 
 
 def _figure(width: float, height: float) -> Figure:
@@ -431,8 +439,15 @@ def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
 def culling_plot(result, path: str | os.PathLike, *, title: str | None = None) -> None:
     """Triangles rendered per frame for every runtime (Papaioannou et al. 2006, Figs. 5-6).
 
-    One line per runtime, and the ground truth (triangles of the visible
-    objects, what an exact culler renders) dashed.
+    Small multiples: one panel per runtime (``none`` has none of its own),
+    each with that runtime's line, the ``none`` runtime (every object in the
+    view frustum) in grey and the ground truth (triangles of the visible
+    objects, what an exact culler renders) dashed, on one shared axis. Where
+    one part holds most triangles the runtimes' lines would lie on one
+    another in a single panel; apart, each is read against the same two
+    references. The triangle axis is logarithmic when the counts span more
+    than :data:`CULLING_LOG_SPAN` (a close-up next to a view of the whole
+    level), and the frame axis has integer ticks only.
 
     Parameters
     ----------
@@ -440,8 +455,9 @@ def culling_plot(result, path: str | os.PathLike, *, title: str | None = None) -
         Of :func:`viscore.metrics.culling.simulate_culling` (not imported
         here: the simulation's module re-exports this function).
     path : str or path-like
-        Figure file (``.png``, ``.pdf`` or ``.svg``), 1100 x 420 pixels,
-        written atomically.
+        Figure file (``.png``, ``.pdf`` or ``.svg``), 1100 pixels wide and
+        :data:`_CULLING_ROW_INCHES` x 100 pixels per row of
+        :data:`_CULLING_COLUMNS` panels (plus the title), written atomically.
     title : str, optional
         Figure title.
 
@@ -451,21 +467,55 @@ def culling_plot(result, path: str | os.PathLike, *, title: str | None = None) -
         If the suffix of ``path`` is not a figure format, or the result has
         no frames.
     """
+    from matplotlib.ticker import MaxNLocator
+
     _format_of(path)
     if not len(result.cameras):
         raise InputError("result: no frames to plot")
-    fig = _figure(11, 4.2)
-    ax = fig.subplots()
+    names = [n for n in result.runtimes if n != "none"] or list(result.runtimes)
+    columns = min(_CULLING_COLUMNS, max(1, len(names)))
+    rows = -(-len(names) // columns)
+    fig = _figure(11, _CULLING_ROW_INCHES * rows + (0.4 if title else 0.0))
+    axes = np.atleast_1d(fig.subplots(rows, columns, sharex=True, sharey=True,
+                                      squeeze=False)).reshape(-1)
     x = np.arange(len(result.cameras))
-    for k, (name, rf) in enumerate(result.runtimes.items()):
-        ax.plot(x, rf.triangles_rendered, "-", color=f"C{k}", lw=1.2, label=name)
-    ax.plot(x, result.visible_triangles, "k--", lw=1.0, label="visible (ray-cast truth)")
-    ax.set_xlabel("frame along the camera path")
-    ax.set_ylabel("triangles rendered")
-    ax.set_ylim(bottom=0)
-    ax.set_xlim(0, max(1, len(x) - 1))
+    reference = result.runtimes.get("none")
+    every = [np.asarray(rf.triangles_rendered, dtype=np.float64)
+             for rf in result.runtimes.values()] + [
+        np.asarray(result.visible_triangles, dtype=np.float64)]
+    positive = np.concatenate(every)
+    positive = positive[positive > 0]
+    log = bool(len(positive)) and positive.max() > CULLING_LOG_SPAN * positive.min()
+    for k, name in enumerate(names):
+        ax = axes[k]
+        if reference is not None and name != "none":
+            ax.plot(x, reference.triangles_rendered, "-", color="0.65", lw=1.0,
+                    label="none (in view)")
+        ax.plot(x, result.visible_triangles, "k--", lw=0.9, label="visible (ray-cast truth)")
+        ax.plot(x, result.runtimes[name].triangles_rendered, "-", color=f"C{k}", lw=1.4,
+                label=name)
+        ax.set_title(name, fontsize=9, color=f"C{k}")
+        ax.grid(True, color="0.92", lw=0.6)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
+        if log:
+            ax.set_yscale("log")
+        else:
+            ax.set_ylim(bottom=0)
+        if k % columns == 0:
+            ax.set_ylabel("triangles rendered", fontsize=8)
+        if k >= len(names) - columns:
+            ax.set_xlabel("frame along the camera path", fontsize=8)
+            ax.tick_params(labelbottom=True)
+        ax.tick_params(labelsize=8)
+    for ax in axes[len(names):]:
+        ax.set_visible(False)
+    axes[0].set_xlim(0, max(1, len(x) - 1))
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles[:-1] if len(handles) > 1 else handles,
+               labels[:-1] if len(labels) > 1 else labels, loc="upper right", fontsize=8,
+               ncols=2, frameon=False)
     if title:
-        ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
-    fig.tight_layout()
+        fig.suptitle(title + (" (log scale)" if log else ""), fontsize=10, x=0.01,
+                     ha="left")
+    fig.tight_layout(rect=(0, 0, 1, 0.94 if rows == 1 else 0.97))
     _save(fig, Path(path))
