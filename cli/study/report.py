@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from viscore import InputError
+from viscore.exchange.glb_targets import with_buffer_view_targets
 
 from .._common import write_atomic
 from .store import OCCLUDER_DIR
@@ -581,7 +582,7 @@ def write_occluder_glb(original, occluder, path: str | os.PathLike) -> Path:
                                np.asarray(mesh.faces, dtype=np.int64), process=False,
                                visual=TextureVisuals(material=material))
         scene.add_geometry(copy, geom_name=name, node_name=name)
-    write_atomic(path, scene.export(file_type="glb"))
+    write_atomic(path, with_buffer_view_targets(scene.export(file_type="glb")))
     return path
 
 

@@ -36,6 +36,7 @@ import numpy.typing as npt
 import trimesh
 
 from .._validate import InputError
+from .glb_targets import with_buffer_view_targets
 from .godot_binary import _checked_geometry, _occluder_mesh, _placed, _read_file
 from .godot_text import OccluderInstance, _checked_scene, _unique
 
@@ -201,4 +202,5 @@ def occonly_glb_bytes(instances: Sequence[OccluderInstance],
         else:
             scene.graph.update(frame_to=name, frame_from=scene.graph.base_frame,
                                geometry=inst.mesh_key, matrix=matrix)
-    return trimesh.exchange.gltf.export_glb(scene, include_normals=False)
+    return with_buffer_view_targets(trimesh.exchange.gltf.export_glb(scene,
+                                                                     include_normals=False))
