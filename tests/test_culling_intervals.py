@@ -134,3 +134,36 @@ def test_simulate_culling_keep_frames_invalid_input(wall_scene, frames):
     with pytest.raises(InputError, match="keep_frames"):
         simulate_culling(wall_scene, {"none": no_culling()}, [_pose((0, 1.5, -10), (0, 0, 1))],
                          width=8, height=8, keep_frames=frames)
+
+
+def test_simulate_culling_keeps_the_objects_with_cluster_bounds(wall_scene):
+    # occludees tested through boxes of their parts (bounds=): the kept sets still hold
+    from viscore.culling.occludee_bounds import occludee_boxes
+
+    bounds, _, _ = occludee_boxes(wall_scene, "clusters", 2)
+    poses = [_pose((0, 1.5, -10), (0, 0, 1))]
+    runtimes = {"far": Runtime(cull=_cull_box, conservative=False)}
+    result = simulate_culling(wall_scene, runtimes, poses, width=96, height=54, bounds=bounds,
+                              keep_frames=[0])
+    box = wall_scene.names.index("box")
+    assert result.kept[0].culled["far"].tolist() == [box]
+    assert result.kept[0].visible.tolist() == [wall_scene.names.index("wall")]
+
+
+def test_runtimes_give_their_occluders_for_pictures():
+    from viscore.culling.depth_buffer import OccluderScene
+    from viscore.metrics.culling import depth_buffer_runtime, frusta_runtime
+
+    box = trimesh.creation.box(extents=(2, 2, 2))
+    cam = _pose((0, 0, -10), (0, 0, 1)).camera(16, 9)
+    assert no_culling().occluder_scene is None
+    solids = frusta_runtime([(box.vertices, box.faces), (box.vertices + 5, box.faces)])
+    scene = solids.occluder_scene(cam)
+    assert len(scene.faces) == 24 and scene is solids.occluder_scene(cam)  # built once
+    assert np.allclose(scene.vertices.min(axis=0), -1) and np.allclose(
+        scene.vertices.max(axis=0), 6)
+    fixed = depth_buffer_runtime([box])
+    assert len(fixed.occluder_scene(cam).faces) == 12
+    shifted = OccluderScene([box.apply_translation((0, 0, 3))])
+    per_frame = depth_buffer_runtime(lambda camera: shifted, count=1)
+    assert per_frame.occluder_scene(cam) is shifted.scene  # the frame's own occluders
