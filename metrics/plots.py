@@ -43,7 +43,8 @@ if TYPE_CHECKING:  # pragma: no cover - hints only
     from .precision_recall import PrecisionRecall
 
 __all__ = ["distribution_plot", "ablation_plot", "recall_plot", "budget_plot",
-           "silhouette_plot", "culling_plot", "SILHOUETTE_VIEWS", "CULLING_LOG_SPAN"]
+           "silhouette_plot", "culling_plot", "SILHOUETTE_VIEWS", "CULLING_LOG_SPAN",
+           "walk_plot", "picture_grid"]
 
 #: Dots per inch of every figure: a figure of w x h inches is 100 w x 100 h pixels.
 DPI = 100
@@ -78,6 +79,19 @@ CULLING_LOG_SPAN = 100
 #: Panels per row of the culling plot, and inches per row.
 _CULLING_COLUMNS = 3
 _CULLING_ROW_INCHES = 2.5
+#: Side of the walk plot, inches; frames numbered on it (about); a far view outside
+#: the plan is drawn this fraction of the way from the centre to the edge.
+_WALK_INCHES = 7.2
+_WALK_LABELS = 25
+_WALK_EDGE = 0.95
+#: Length of a camera's heading tick on a 720-pixel plan, pixels.
+_HEADING_PIXELS = 10.0
+#: Colours of the walk, its far views and the frames a report draws.
+_WALK_RGB = (0.85, 0.10, 0.45)
+_FAR_RGB = (1.0, 0.60, 0.0)
+_SHOWN_RGB = (0.05, 0.20, 0.75)
+#: Room for a label of a picture grid (a row's, a column's, the title), inches.
+_GRID_LABEL_INCHES = 0.3
 
 
 def _figure(width: float, height: float) -> Figure:
@@ -518,4 +532,175 @@ def culling_plot(result, path: str | os.PathLike, *, title: str | None = None) -
         fig.suptitle(title + (" (log scale)" if log else ""), fontsize=10, x=0.01,
                      ha="left")
     fig.tight_layout(rect=(0, 0, 1, 0.94 if rows == 1 else 0.97))
+    _save(fig, Path(path))
+
+
+def walk_plot(image: np.ndarray, points: np.ndarray, path: str | os.PathLike, *,
+              far: np.ndarray | None = None, shown: Sequence[int] = (),
+              headings: np.ndarray | None = None, title: str | None = None) -> np.ndarray:
+    """A plan picture with a camera walk drawn over it: frames numbered, far views marked.
+
+    Parameters
+    ----------
+    image : (R, C, 3) uint8
+        The plan (for example ray-cast from above).
+    points : (F, 2) float
+        Each camera's position on the plan, pixels (column, row), in walk
+        order; positions outside the picture are drawn on its edge, where the
+        line from the picture's centre to them leaves it.
+    path : str or path-like
+        Figure file (``.png``, ``.pdf`` or ``.svg``), written atomically;
+        :data:`_WALK_INCHES` inches square at :data:`DPI`.
+    far : (F,) bool, optional
+        Far views (drawn as triangles, and on the edge when outside).
+    shown : sequence of int, optional
+        Frames circled and always numbered (those drawn in a report).
+    headings : (F, 2) float, optional
+        Each camera's viewing direction on the plan, pixels (a short tick).
+    title : str, optional
+
+    Returns
+    -------
+    marks : (F, 2) float64
+        Where each camera's mark is in the written picture, pixels from its
+        top-left corner (for an image map of the frames).
+
+    Raises
+    ------
+    InputError
+        On a bad suffix, an image that is not (R, C, 3), or points that are
+        not (F, 2) finite.
+
+    Notes
+    -----
+    At most about :data:`_WALK_LABELS` frames are numbered (every k-th, plus
+    the first, the last and ``shown``), so that numbers do not pile up.
+    """
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import NullLocator
+
+    _format_of(path)
+    img = np.asarray(image)
+    pts = np.asarray(points, dtype=np.float64)
+    if img.ndim != 3 or img.shape[2] != 3:
+        raise InputError(f"image: expected (R, C, 3) RGB, got shape {img.shape}")
+    if pts.ndim != 2 or pts.shape[1] != 2 or not np.isfinite(pts).all():
+        raise InputError(f"points: expected (F, 2) finite pixel positions, got {pts.shape}")
+    n = len(pts)
+    far = np.zeros(n, dtype=bool) if far is None else np.asarray(far, dtype=bool).reshape(n)
+    rows, cols = img.shape[:2]
+    centre = np.array([cols / 2.0, rows / 2.0])
+    off = pts - centre
+    # outside the picture: pulled back along the line from its centre to the edge
+    reach = np.max(np.abs(off) / np.array([cols / 2.0, rows / 2.0]), axis=1)
+    outside = reach > 1.0
+    drawn = pts.copy()
+    drawn[outside] = centre + off[outside] / reach[outside, None] * _WALK_EDGE
+    fig = _figure(_WALK_INCHES, _WALK_INCHES)
+    ax = fig.add_axes((0.0, 0.0, 1.0, 1.0 if not title else 0.95))
+    ax.imshow(img, extent=(0, cols, rows, 0), interpolation="nearest")
+    ax.set_xlim(0, cols)
+    ax.set_ylim(rows, 0)
+    ax.xaxis.set_major_locator(NullLocator())
+    ax.yaxis.set_major_locator(NullLocator())
+    near = ~far
+    # the walk: a line through consecutive near cameras, far views on their own
+    for segment in np.split(np.arange(n), np.flatnonzero(np.diff(near.astype(int)) != 0) + 1):
+        if near[segment[0]] and len(segment) > 1:
+            ax.plot(drawn[segment, 0], drawn[segment, 1], "-", color=_WALK_RGB, lw=1.2,
+                    alpha=0.8)
+    ax.plot(drawn[near, 0], drawn[near, 1], "o", ms=3.2, color=_WALK_RGB)
+    ax.plot(drawn[far, 0], drawn[far, 1], "^", ms=7, color=_FAR_RGB, mec="k", mew=0.5)
+    if headings is not None:
+        h = np.asarray(headings, dtype=np.float64).reshape(n, 2)
+        length = np.linalg.norm(h, axis=1, keepdims=True)
+        h = np.where(length > 0, h / np.where(length > 0, length, 1.0), 0.0) * _HEADING_PIXELS
+        for (x, y), (dx, dy) in zip(drawn, h, strict=True):
+            ax.plot([x, x + dx * cols / 720], [y, y + dy * rows / 720], "-", color="k", lw=0.8)
+    shown = [int(k) for k in shown if 0 <= int(k) < n]
+    ax.plot(drawn[shown, 0], drawn[shown, 1], "o", ms=9, mfc="none", mec=_SHOWN_RGB, mew=1.6)
+    step = max(1, -(-n // _WALK_LABELS))
+    labelled = sorted(set(range(0, n, step)) | {n - 1} | set(shown))
+    for k in labelled:  # numbers up-right, up-left near the right edge
+        right = drawn[k, 0] > 0.9 * cols
+        ax.annotate(str(k), drawn[k], xytext=(-4 if right else 4, 4), textcoords="offset points",
+                    ha="right" if right else "left", fontsize=7,
+                    color=_SHOWN_RGB if k in shown else "k",
+                    bbox={"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none",
+                          "alpha": 0.75})
+    handles = [Line2D([], [], color=_WALK_RGB, marker="o", ms=4, label="camera walk"),
+               Line2D([], [], color=_FAR_RGB, marker="^", ls="none", mec="k", ms=7,
+                      label="far view" + (" (outside: on the edge)" if outside.any() else "")),
+               Line2D([], [], marker="o", ls="none", mfc="none", mec=_SHOWN_RGB, ms=9,
+                      label="frame drawn below")]
+    ax.legend(handles=handles, loc="lower right", fontsize=7, framealpha=0.85)
+    if title:
+        fig.suptitle(title, fontsize=9, y=0.985)
+    fig.canvas.draw()
+    display = ax.transData.transform(drawn)
+    marks = np.stack([display[:, 0], fig.bbox.height - display[:, 1]], axis=1)
+    _save(fig, Path(path))
+    return marks
+
+
+def picture_grid(images: Sequence[Sequence[np.ndarray]], path: str | os.PathLike, *,
+                 row_labels: Sequence[str], column_labels: Sequence[str],
+                 title: str | None = None) -> None:
+    """Pictures in a grid, a label over each column and beside each row, at one pixel per
+    pixel (``viscore occlude``'s ``preview.png``: views by methods).
+
+    Parameters
+    ----------
+    images : sequence of sequence of (H, W, 3) uint8
+        ``images[r][c]``: the pictures of a row of one size, every picture of
+        one width.
+    path : str or path-like
+        Figure file (``.png``, ``.pdf`` or ``.svg``), written atomically: the
+        pictures' own size times the grid, plus :data:`_GRID_LABEL_INCHES`
+        for the labels.
+    row_labels, column_labels : sequence of str
+        One per row and per column.
+    title : str, optional
+
+    Raises
+    ------
+    InputError
+        A bad suffix, no picture, pictures of different sizes, or labels that
+        do not match the grid.
+    """
+    _format_of(path)
+    grid = [[np.asarray(img) for img in row] for row in images]
+    if not grid or not grid[0]:
+        raise InputError("images: expected at least one picture")
+    widths = {img.shape[1] for row in grid for img in row}
+    if (any(len(row) != len(grid[0]) for row in grid) or len(widths) != 1
+            or any(img.ndim != 3 or img.shape != row[0].shape for row in grid for img in row)):
+        raise InputError("images: expected rows of equally many (H, W, 3) pictures, one size "
+                         "in a row, one width in all")
+    rows, cols = len(grid), len(grid[0])
+    if len(row_labels) != rows or len(column_labels) != cols:
+        raise InputError(f"labels: expected {rows} row and {cols} column labels")
+    w = widths.pop() / DPI
+    heights = [row[0].shape[0] / DPI for row in grid]
+    top = _GRID_LABEL_INCHES * (2 if title else 1)
+    left = _GRID_LABEL_INCHES
+    width, height = left + cols * w, top + sum(heights)
+    fig = _figure(width, height)
+    below = sum(heights)
+    for r in range(rows):
+        below -= heights[r]
+        for c in range(cols):
+            ax = fig.add_axes(((left + c * w) / width, below / height, w / width,
+                               heights[r] / height))
+            ax.imshow(grid[r][c], interpolation="nearest")
+            ax.set_axis_off()
+        fig.text(0.5 * left / width, (below + 0.5 * heights[r]) / height, row_labels[r],
+                 rotation=90, ha="center", va="center", fontsize=9)
+    for c in range(cols):
+        fig.text((left + (c + 0.5) * w) / width,
+                 (sum(heights) + 0.5 * _GRID_LABEL_INCHES) / height,
+                 column_labels[c], ha="center", va="center", fontsize=10)
+    if title:
+        fig.text(0.01, 1 - 0.5 * _GRID_LABEL_INCHES / height, title, ha="left",
+                 va="center", fontsize=10)
     _save(fig, Path(path))
