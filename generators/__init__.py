@@ -16,10 +16,13 @@ from .baselines import generate_bbox, generate_godot, generate_original, generat
 from .hybrid import generate_hybrid, metric_guided_simplify
 from .levels import (
     JOINED_METHODS,
+    culling_column,
     culling_runtimes,
+    default_methods,
     file_occluder,
     frusta_method,
     joined_occluder,
+    occlude_level,
     occluder_objects,
     scene_occluders,
 )
