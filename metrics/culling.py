@@ -481,7 +481,7 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
         b_lower, b_upper, owner = _check_bounds(bounds, n)
     names = list(runtimes)
     count = len(cameras)
-    keep = _check_keep_frames(keep_frames, count)
+    record = _check_keep_frames(keep_frames, count)
     kept: dict[int, FrameObjects] = {}
     in_view_n = np.zeros(count, np.int64)
     in_view_t = np.zeros(count, np.int64)
@@ -507,7 +507,7 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             lo, hi = b_lower[keep], b_upper[keep]
         in_view_n[f], in_view_t[f] = len(idx), int(tris[idx].sum())
         visible_n[f], visible_t[f] = int(visible.sum()), int(tris[visible].sum())
-        if f in keep:
+        if f in record:
             kept[f] = FrameObjects(in_view=idx.astype(np.int64),
                                    visible=np.flatnonzero(visible), culled={})
         for name in names:
@@ -528,7 +528,7 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             rec["culled"][f], rec["false"][f] = len(culled), len(false)
             rec["tris"][f], rec["ms"][f] = int(rendered), 1e3 * elapsed
             rec["names"].append(tuple(objects.names[i] for i in false[:10]))
-            if f in keep:
+            if f in record:
                 kept[f].culled[name] = np.sort(culled).astype(np.int64)
             if len(false) and runtimes[name].conservative:
                 _log.warning("frame %d: %s culled %d visible object(s), e.g. %s", f, name,
