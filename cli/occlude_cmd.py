@@ -14,8 +14,12 @@ itself, so nothing is left in it): a second run on the same folder is refused
 with one line.
 
 Outputs in ``DIR``: ``<method>.tscn`` and ``<method>.glb`` per method that
-covered an object, ``occlude.json`` (written last), and the finished jobs under
-``occluders/<method>/`` that let a killed run resume.
+covered an object, ``occlude.json`` (written last of the engine files), the
+finished jobs under ``occluders/<method>/`` that let a killed run resume, then
+``preview.png`` and ``report.html``
+(:func:`viscore.cli.report.occlude_page.write_occlude_report`: the level
+ray-cast from a few views with each method's occluders over it; per object,
+each method's triangles, guarantee or refusal reason).
 
 Exit codes: 0 when the run finished, also when some or all objects were
 refused (each refused object gets one line on stderr, the too-small ones at
@@ -38,6 +42,7 @@ from viscore.level import UP_AXES, level_objects
 from viscore.level.objects import MIN_SIZE
 
 from ._common import check_output_folder, emit
+from .report.occlude_page import write_occlude_report
 from .study.runner import JOBS_PER_CORE
 from .study.store import lock_exclusive
 
@@ -158,13 +163,15 @@ def run_occlude(args) -> int:
         try:
             made = occlude_level(level, out, methods=methods, budget=budget, seed=args.seed,
                                  jobs=jobs, scheduler=client, progress=bar)
+            report = write_occlude_report(out, level, made.manifest)
         finally:
             bar.close()
             os.close(fd)
     doc = made.manifest
     if not quiet:
         _refusals(doc)
-    emit(doc, args.json, _summary(doc, out, made))
+    emit(doc, args.json, _summary(doc, out, made) + ", " + ", ".join(
+        str(out / f) for f in report) + " (open report.html in a browser)")
     return 0
 
 
