@@ -67,7 +67,7 @@ from pathlib import Path
 
 import numpy as np
 
-from viscore import InputError, provenance
+from viscore import InputError, provenance, stream_seed
 from viscore._atomic import fsync_path, swap_folder
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
 from viscore.culling.occludee_bounds import (
@@ -576,8 +576,10 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
                        "split_objects": split,
                        **({"min_size": AUTO_MIN_SIZE} if bound_kind == "auto" else {})}),
            "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
-           **result.to_json(seed=seed),
+           # the intervals' resampling: its own stream of --seed, as every bootstrap's
+           **result.to_json(seed=stream_seed(seed, "bootstrap")),
            "runtimes": info, "provenance": provenance()}
+    doc["intervals"]["stream"] = "bootstrap"  # seed = stream_seed(--seed, 'bootstrap')
     # the files, all or none (the page shows the plot written before it)
     with tqdm(total=len(shown or ()), desc="report", unit="frame", disable=not progress,
               leave=False) as bar:

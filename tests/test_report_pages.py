@@ -12,7 +12,7 @@ import pytest
 import trimesh
 from PIL import Image
 
-from viscore import InputError
+from viscore import InputError, stream_seed
 from viscore.cli import cull_cmd
 from viscore.cli import main as cli_main
 from viscore.cli.report.cull_page import REPORT_FRAMES, cull_report_html, report_frames
@@ -136,6 +136,9 @@ def test_cull_writes_a_page_that_leads_with_the_intervals(run, street, tmp_path,
         assert format_interval(t["culled_share_ci"]) in html
     assert format_interval(doc["ground_truth"]["hidden_share_ci"]) in html
     assert f"blocks of {doc['intervals']['block']} consecutive frames" in html
+    # resampled from the bootstrap's own stream of --seed, recorded in cull.json
+    assert doc["intervals"]["seed"] == stream_seed(0, "bootstrap")
+    assert doc["intervals"]["stream"] == "bootstrap" and doc["seed"] == 0
     # the plan, each frame per runtime, the triangles: named to be cited
     names = set(page.figures)
     assert {"street-plan", "street-triangles"} <= names

@@ -325,8 +325,10 @@ def cull_report_html(result, objects, runtimes: Mapping, doc: Mapping, *, scene:
         "Culled share: of the objects in the view frustum, over all frames (view frustum "
         "culling first, the same for every runtime); 95% interval: circular block bootstrap "
         f"over the {count:,} frames in blocks of {iv.get('block', '?')} consecutive frames "
-        f"({iv.get('resamples', '?')} resamples, seed {iv.get('seed', '?')}; Politis and "
-        "Romano 1992), since neighbouring frames see nearly the same objects. False culls: "
+        f"({iv.get('resamples', '?')} resamples, seed {iv.get('seed', '?')}"
+        + (f", the '{iv['stream']}' stream of --seed {doc.get('seed')}" if iv.get("stream")
+           else "") + "; Politis and Romano 1992), since neighbouring frames see nearly the "
+        "same objects. False culls: "
         "culled objects the ray-cast object-id image sees, summed over frames. Triangles: "
         "of the objects sent to render, per frame. Overhead: the runtime's own time per "
         "frame. Conservative: the runtime's guarantee ('-' where it culled nothing).")
