@@ -615,8 +615,11 @@ def walk_plot(image: np.ndarray, points: np.ndarray, path: str | os.PathLike, *,
         h = np.asarray(headings, dtype=np.float64).reshape(n, 2)
         length = np.linalg.norm(h, axis=1, keepdims=True)
         h = np.where(length > 0, h / np.where(length > 0, length, 1.0), 0.0) * _HEADING_PIXELS
-        for (x, y), (dx, dy) in zip(drawn, h, strict=True):
-            ax.plot([x, x + dx * cols / 720], [y, y + dy * rows / 720], "-", color="k", lw=0.8)
+        tip = drawn + h * np.array([cols, rows]) / 720.0
+        gap = np.full(n, np.nan)  # one line of n ticks, apart
+        ax.plot(np.stack([drawn[:, 0], tip[:, 0], gap], axis=1).reshape(-1),
+                np.stack([drawn[:, 1], tip[:, 1], gap], axis=1).reshape(-1), "-", color="k",
+                lw=0.8)
     shown = [int(k) for k in shown if 0 <= int(k) < n]
     ax.plot(drawn[shown, 0], drawn[shown, 1], "o", ms=9, mfc="none", mec=_SHOWN_RGB, mew=1.6)
     step = max(1, -(-n // _WALK_LABELS))
