@@ -180,6 +180,7 @@ def occluder_bytes(path: str | os.PathLike, mesh, *, name: str) -> bytes:
     import trimesh
 
     from viscore import InputError, OccluderInstance, tres_text, tscn_text
+    from viscore.exchange.glb_targets import with_buffer_view_targets
 
     fmt = check_occluder_path(path)
     if fmt not in ("tres", "tscn", "glb"):
@@ -195,7 +196,7 @@ def occluder_bytes(path: str | os.PathLike, mesh, *, name: str) -> bytes:
         else:  # the same GLB but for its node's name (trimesh names geometries alike)
             scene = trimesh.Scene()
             scene.add_geometry(mesh, node_name=f"{name}-occonly")
-            data = trimesh.exchange.gltf.export_glb(scene)
+            data = with_buffer_view_targets(trimesh.exchange.gltf.export_glb(scene))
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
     return data

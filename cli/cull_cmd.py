@@ -33,11 +33,13 @@ removed; a run that fails or is interrupted removes the folder if it made it
 
 Outputs in ``--out`` (default ``./viscore-cull``; its parent must exist):
 ``cull.json`` (the ``--json`` document), ``triangles.png`` (triangles
-rendered per frame for every runtime, as Papaioannou et al. 2006, Figs. 5-6)
-and ``cameras.json`` (the path, replayable with ``--path``), written as one
-set, all or none: into a temporary sibling folder ``.OUT.cull-*.tmp`` first,
-which then replaces ``--out`` in one step (:meth:`viscore._atomic.LockedFolder.write_set`);
-other files in ``--out`` stay. The
+rendered per frame for every runtime, as Papaioannou et al. 2006, Figs. 5-6),
+``cameras.json`` (the path, replayable with ``--path``) and ``report.html``
+(:func:`viscore.cli.report.cull_page.cull_report_html`: the table with its
+intervals, a plan with the walk, the frames ``--report-frames`` names
+ray-cast per runtime), written as one set, all or none: into a temporary
+sibling folder ``.OUT.cull-*.tmp`` first, which then replaces ``--out`` in one step
+(:meth:`viscore._atomic.LockedFolder.write_set`); other files in ``--out`` stay. The
 table's ``conservative`` column reads ``-`` for a runtime that culled nothing
 (no false cull was possible); ``cull.json`` keeps the runtime's guarantee.
 
@@ -61,7 +63,7 @@ from pathlib import Path
 
 import numpy as np
 
-from viscore import InputError, provenance
+from viscore import InputError, provenance, stream_seed
 from viscore._atomic import LockedFolder
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
 from viscore.culling import AUTO_MIN_SIZE, DEFAULT_CLUSTERS, MAX_CLUSTERS, occludee_boxes
@@ -87,6 +89,7 @@ from viscore.metrics import (
 )
 
 from ._common import RateEstimate, check_output_folder, dumps, emit, format_duration
+from .report.cull_page import check_report_memory, cull_report_html, report_frames
 
 #: Frames of a generated camera path when ``--frames`` is not given.
 DEFAULT_FRAMES = 100
@@ -115,7 +118,7 @@ MANY_OBJECTS = 10_000
 _SETUP_PER_READ = 1.2
 
 #: The files of a run, written as one set (the main document first in the table).
-_OUTPUTS = ("cull.json", "triangles.png", "cameras.json")
+_OUTPUTS = ("cull.json", "triangles.png", "cameras.json", "report.html")
 
 
 def _default_methods() -> str:
@@ -196,6 +199,10 @@ def add_parser(sub, common) -> None:
                         f"{', '.join(JOINED_METHODS)} is made once over the occluder objects "
                         "together, so that a roof or wall continuing across objects is one "
                         "planar region, not one per object with a gap at every seam")
+    c.add_argument("--report-frames", default=None, metavar="all|N,A-B",
+                   help="frames drawn in report.html: 'all', or frames and ranges such as "
+                        "3,10-14 (default: all of a walk of up to 16 frames, else 16 spread "
+                        "over it)")
     c.add_argument("--out", default="viscore-cull",
                    help="output folder, created if missing; its parent must exist "
                         "(default ./viscore-cull)")
@@ -259,19 +266,22 @@ def _table(doc: dict) -> str:
              + ("" if doc["bounds"]["kind"] == "box" else
                 f"; {doc['bounds']['split_objects']:,} objects tested by their clusters, "
                 f"{doc['bounds']['boxes']:,} boxes in all") + ")",
-             f"{'runtime':<28} {'culled':>7} {'false':>6} {'triangles/frame':>16} "
-             f"{'overhead ms':>12} {'conservative':>12}"]
+             f"{'runtime':<28} {'culled':>7} {'95% interval':>14} {'false':>6} "
+             f"{'triangles/frame':>16} {'overhead ms':>12} {'conservative':>12}"]
     for name, t in doc["totals"].items():
-        lines.append(f"{name:<28} {t['culled_share']:>7.1%} {t['false_culls']:>6} "
+        lines.append(f"{name:<28} {t['culled_share']:>7.1%} "
+                     f"{_interval_cell(t.get('culled_share_ci')):>14} {t['false_culls']:>6} "
                      f"{t['triangles_rendered_per_frame']:>16,.0f} {t['overhead_ms']:>12.2f} "
                      f"{_conservative_cell(t):>12}")
     frames = max(1, s["frames"])
-    lines.append(f"{'ray-cast truth (visible)':<28} {gt['hidden_share']:>7.1%} {0:>6} "
+    lines.append(f"{'ray-cast truth (visible)':<28} {gt['hidden_share']:>7.1%} "
+                 f"{_interval_cell(gt.get('hidden_share_ci')):>14} {0:>6} "
                  f"{gt['triangles_visible'] / frames:>16,.0f} {'-':>12} {'-':>12}")
     lines.append("culled: share of the objects in the view frustum (view frustum culling "
                  "first, the same for all); false: culled objects visible in the ray-cast "
                  "object-id image, summed over frames; overhead: mean per frame; "
-                 "conservative: the runtime's guarantee, '-' where it culled nothing")
+                 "conservative: the runtime's guarantee, '-' where it culled nothing; "
+                 + _interval_note(doc))
     hint = _bounds_hint(doc)
     if hint:
         lines.append(hint)
@@ -298,6 +308,19 @@ def _bounds_hint(doc: dict) -> str | None:
     return (f"hint: the guaranteed runtimes cull at most {best:.1%} of the objects where the "
             f"truth hides {hidden:.1%}; if the level's objects are a few big chunks, "
             "--bounds clusters tests each through the boxes of its triangles' clusters")
+
+
+def _interval_cell(interval) -> str:
+    """``[a, b]`` percentages of a share's interval; ``-`` where undefined (one frame)."""
+    if not interval or any(v is None or not np.isfinite(v) for v in interval):
+        return "-"
+    return f"[{100 * interval[0]:.1f}, {100 * interval[1]:.1f}]"
+
+
+def _interval_note(doc: dict) -> str:
+    iv = doc.get("intervals") or {}
+    return (f"95% intervals: block bootstrap over frames (blocks of {iv.get('block', '?')} "
+            f"frames, seed {iv.get('seed', '?')})")
 
 
 def _conservative_cell(total: dict) -> str:
@@ -361,6 +384,9 @@ def run_cull(args) -> int:
         indices = occluder_objects(objects, size_threshold=threshold, names=names)
     else:
         indices = level.chosen
+    shown = report_frames(len(path) if path is not None else frames or DEFAULT_FRAMES,
+                          args.report_frames)
+    check_report_memory(width, height)
     # bars only on a terminal: redirected to a file, each redraw is another line of it
     progress = not (args.quiet or args.json) and sys.stderr.isatty()
     with LockedFolder(out, busy=f"--out {out}: another cull is writing this folder; wait "
@@ -370,9 +396,9 @@ def run_cull(args) -> int:
                         frames=frames, methods=methods, source=source, active=active,
                         reduction=reduction, width=width, height=height, files=files,
                         flat=level.flat, clusters=clusters,
-                        bound_kind=bound_kind)
+                        bound_kind=bound_kind, shown=shown)
     emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
-         "(replay with --path)")
+         "(replay with --path), report.html (open it in a browser)")
     return 0
 
 
@@ -424,7 +450,7 @@ def _check_frames_memory(frames: int, what: str) -> None:
 def _simulate(args, objects, indices, path, folder: LockedFolder, *, progress: bool, seed: int,
               frames, methods, source, active, reduction, width, height,
               files: dict | None = None, flat=None, clusters: int = 1,
-              bound_kind: str = "box") -> dict:
+              bound_kind: str = "box", shown: list[int] | None = None) -> dict:
     """The work and the files of :func:`run_cull`; returns the JSON document."""
     from tqdm import tqdm
 
@@ -445,7 +471,7 @@ def _simulate(args, objects, indices, path, folder: LockedFolder, *, progress: b
               leave=False) as bar:
         tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
-                                  progress=tick, bounds=bounds)
+                                  progress=tick, bounds=bounds, keep_frames=shown or ())
     doc = {"scene": args.scene, "occluder_objects": len(indices),
            "see_through_objects": [objects.names[i] for i in np.flatnonzero(objects.see_through)],
            "frusta_method": source, "methods": methods,
@@ -456,12 +482,20 @@ def _simulate(args, objects, indices, path, folder: LockedFolder, *, progress: b
                        "split_objects": split,
                        **({"min_size": AUTO_MIN_SIZE} if bound_kind == "auto" else {})}),
            "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
-           **result.to_json(),
+           # the intervals' resampling: its own stream of --seed, as every bootstrap's
+           **result.to_json(seed=stream_seed(seed, "bootstrap")),
            "runtimes": info, "provenance": provenance()}
-    # the files, all or none
-    folder.write_set({
-        "triangles.png": lambda p: culling_plot(
-            result, p, title=f"{args.scene}: triangles rendered per frame"),
-        "cameras.json": camera_path_json(path).encode(),
-        "cull.json": dumps(doc).encode()})
+    doc["intervals"]["stream"] = "bootstrap"  # seed = stream_seed(--seed, 'bootstrap')
+    # the files, all or none (the page shows the plot written before it)
+    with tqdm(total=len(shown or ()), desc="report", unit="frame", disable=not progress,
+              leave=False) as bar:
+        folder.write_set({
+            "triangles.png": lambda p: culling_plot(
+                result, p, title=f"{args.scene}: triangles rendered per frame"),
+            "report.html": lambda p: p.write_bytes(cull_report_html(
+                result, objects, runtimes, doc, scene=Path(str(args.scene)).stem,
+                frames=shown or [], triangles_png=p.with_name("triangles.png").read_bytes(),
+                highlight=indices, hint=_bounds_hint(doc), progress=bar.update)),
+            "cameras.json": camera_path_json(path).encode(),
+            "cull.json": dumps(doc).encode()})
     return doc

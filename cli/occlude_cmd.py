@@ -15,8 +15,12 @@ with one line, and a run that fails removes ``DIR`` if it made it and left it
 empty.
 
 Outputs in ``DIR``: ``<method>.tscn`` and ``<method>.glb`` per method that
-covered an object, ``occlude.json`` (written last), and the finished jobs under
-``occluders/<method>/`` that let a killed run resume.
+covered an object, ``occlude.json`` (written last of the engine files), the
+finished jobs under ``occluders/<method>/`` that let a killed run resume, then
+``preview.png`` and ``report.html``
+(:func:`viscore.cli.report.occlude_page.write_occlude_report`: the level
+ray-cast from a few views with each method's occluders over it; per object,
+each method's triangles, guarantee or refusal reason).
 
 Exit codes: 0 when the run finished, also when some or all objects were
 refused (each refused object gets one line on stderr, the too-small ones at
@@ -38,6 +42,7 @@ from viscore.generators.levels import check_occlude_folder, default_methods, occ
 from viscore.level import MIN_SIZE, UP_AXES, level_objects
 
 from ._common import check_output_folder, emit
+from .report.occlude_page import write_occlude_report
 
 _log = logging.getLogger(__name__)
 
@@ -153,12 +158,14 @@ def run_occlude(args) -> int:
             try:
                 made = occlude_level(level, out, methods=methods, budget=budget,
                                      seed=args.seed, jobs=jobs, scheduler=client, progress=bar)
+                report = write_occlude_report(out, level, made.manifest)
             finally:
                 bar.close()
     doc = made.manifest
     if not quiet:
         _refusals(doc)
-    emit(doc, args.json, _summary(doc, out, made))
+    emit(doc, args.json, _summary(doc, out, made) + ", " + ", ".join(
+        str(out / f) for f in report) + " (open report.html in a browser)")
     return 0
 
 

@@ -17,7 +17,10 @@ Per frame and runtime the simulation reports the objects culled (beyond view
 frustum culling), the false culls, the triangles sent to render and the
 runtime's own time (overhead). View-frustum culling is applied first and
 identically for every runtime, the ``none`` runtime included: each runtime
-sees only the boxes that intersect the view frustum.
+sees only the boxes that intersect the view frustum. The shares over the walk
+come with 95% intervals by the circular block bootstrap over frames [4]_
+(:func:`viscore.metrics.bootstrap.block_bootstrap_ratio`): neighbouring frames
+see nearly the same objects, so frames are resampled in runs.
 
 The runtimes (:func:`no_culling`, :func:`frusta_runtime`,
 :func:`depth_buffer_runtime`) and the view-frustum test are in
@@ -38,6 +41,9 @@ References
 .. [3] "Occluder Skins" (occluder generation from axis-aligned boxes for a
    hierarchical-occlusion-map culler; authors and venue not in the text we
    have), sec. 5-6 (depth buffer generation, testing the occludees).
+.. [4] Politis, D. N., Romano, J. P. "A Circular Block-Resampling Procedure
+   for Stationary Data". In: LePage, R., Billard, L. (eds.), Exploring the
+   Limits of Bootstrap, Wiley, 1992, pp. 263-270.
 """
 
 from __future__ import annotations
@@ -53,6 +59,8 @@ import numpy as np
 from viscore import InputError
 from viscore._validate import as_positive_int, check_memory
 from viscore.constants import RAY_STEP_RELATIVE
+
+from .bootstrap import BOOTSTRAP_RESAMPLES, block_bootstrap_ratio, block_length
 
 # kept for old import paths: the camera paths, the runtimes and the plot moved to
 # modules of their own
@@ -77,7 +85,7 @@ if TYPE_CHECKING:  # pragma: no cover - hints only
     from viscore.level.scene_graph import SceneObjects
 
 __all__ = ["RuntimeFrames", "CullingResult", "simulate_culling", "check_culling_memory",
-           "visible_objects",
+           "visible_objects", "FrameObjects", "CULLING_CONFIDENCE",
            "DEFAULT_WIDTH", "DEFAULT_HEIGHT",
            # kept for old import paths (defined in .camera_paths, .culling_runtimes, .plots)
            "PathCamera", "camera_path", "read_camera_path", "camera_path_json",
@@ -89,6 +97,9 @@ _log = logging.getLogger(__name__)
 
 #: Ground-truth image size, pixels (the issue's default: 1280 x 720).
 DEFAULT_WIDTH, DEFAULT_HEIGHT = 1280, 720
+
+#: Two-sided level of the intervals on the walk's shares.
+CULLING_CONFIDENCE = 0.95
 
 #: Peak bytes per ground-truth pixel: the rays (origins and directions, float64
 #: and their float32 chunks), the hit distances and triangle ids.
@@ -145,6 +156,28 @@ class RuntimeFrames:
 
 
 @dataclass(frozen=True, eq=False)
+class FrameObjects:
+    """Which objects one frame had in view, the truth saw and each runtime culled.
+
+    Kept by :func:`simulate_culling` for the frames named in ``keep_frames``
+    (the frames a report draws).
+
+    Attributes
+    ----------
+    in_view : (k,) int64
+        Objects that survive view frustum culling, ascending.
+    visible : (v,) int64
+        Objects the ray-cast truth sees (at least one pixel), ascending.
+    culled : dict of str -> (c,) int64
+        Per runtime, the objects it culled (a subset of ``in_view``), ascending.
+    """
+
+    in_view: np.ndarray
+    visible: np.ndarray
+    culled: dict
+
+
+@dataclass(frozen=True, eq=False)
 class CullingResult:
     """The simulation's figures per frame and runtime, with the ground truth.
 
@@ -167,6 +200,8 @@ class CullingResult:
     runtimes : dict of str -> RuntimeFrames
         Per runtime name (``none``, ``planar-frusta``, ``solid-frusta``,
         ``depth-buffer:<method>``, ...), in the order given.
+    kept : dict of int -> FrameObjects
+        The objects of the frames named in ``keep_frames`` (default none).
     """
 
     cameras: tuple
@@ -179,29 +214,61 @@ class CullingResult:
     visible: np.ndarray
     visible_triangles: np.ndarray
     runtimes: dict = field(default_factory=dict)
+    kept: dict = field(default_factory=dict)
 
-    def totals(self) -> dict[str, dict]:
-        """Per runtime: totals over the path (see :meth:`to_json`)."""
+    def interval_block(self) -> int:
+        """Frames per block of the intervals' bootstrap: the longest of
+        :func:`~viscore.metrics.bootstrap.block_length` over the walk's shares (the
+        truth's hidden share and each runtime's culled share), so that one resampling
+        of the walk serves them all."""
+        in_view = self.in_view.astype(np.float64)
+        if (in_view > 0).sum() < 2:
+            return 1
+        series = [self.in_view - self.visible] + [rf.culled for rf in self.runtimes.values()]
+        return max(block_length(np.asarray(x, np.float64), in_view) for x in series)
+
+    def totals(self, *, seed: int = 0, block: int | None = None) -> dict[str, dict]:
+        """Per runtime: totals over the path, with 95% intervals (see :meth:`to_json`).
+
+        ``culled_share_ci`` and ``triangles_rendered_per_frame_ci`` are circular
+        block bootstrap intervals over the frames
+        (:func:`~viscore.metrics.bootstrap.block_bootstrap_ratio`), every runtime
+        resampled alike (one ``seed``, one ``block``: default
+        :meth:`interval_block`).
+        """
         out = {}
         in_view = int(self.in_view.sum())
         frames = max(1, len(self.cameras))
+        block = self.interval_block() if block is None else block
+        ones = np.ones(len(self.cameras))
         for name, rf in self.runtimes.items():
             culled = int(rf.culled.sum())
             out[name] = {
                 "culled": culled,
                 "culled_share": culled / in_view if in_view else 0.0,
+                "culled_share_ci": self._interval(rf.culled, self.in_view, seed, block),
                 "false_culls": int(rf.false_culls.sum()),
                 "frames_with_false_culls": int((rf.false_culls > 0).sum()),
                 "triangles_rendered": int(rf.triangles_rendered.sum()),
                 "triangles_rendered_per_frame": float(rf.triangles_rendered.sum()) / frames,
+                "triangles_rendered_per_frame_ci": self._interval(rf.triangles_rendered, ones,
+                                                                  seed, block),
                 "overhead_ms": float(rf.overhead_ms.mean()) if len(rf.overhead_ms) else 0.0,
                 "overhead_ms_max": float(rf.overhead_ms.max()) if len(rf.overhead_ms) else 0.0,
                 "conservative": bool(rf.conservative),
             }
         return out
 
-    def to_json(self) -> dict:
-        """The JSON document: ``frames``, ``totals``, ``ground_truth`` and ``settings``.
+    @staticmethod
+    def _interval(num, den, seed: int, block: int) -> list[float]:
+        """[low, high] of sum(num) / sum(den) by the block bootstrap over frames."""
+        num = np.asarray(num, dtype=np.float64)
+        return list(block_bootstrap_ratio(num, np.asarray(den, dtype=np.float64),
+                                          block=min(block, max(1, len(num))),
+                                          confidence=CULLING_CONFIDENCE, seed=seed))
+
+    def to_json(self, *, seed: int = 0) -> dict:
+        """The JSON document: ``frames``, ``totals``, ``ground_truth``, ``settings``, ``intervals``.
 
         ``frames`` holds one entry per frame: ``frame`` (index), ``camera``
         (position, forward, up, fov), ``in_view``, ``visible`` and
@@ -214,8 +281,13 @@ class CullingResult:
         ``false_culls`` (sum), ``frames_with_false_culls``,
         ``triangles_rendered`` (sum) and ``triangles_rendered_per_frame``
         (mean), ``overhead_ms`` (mean per frame) and ``overhead_ms_max``, and
-        ``conservative``. ``ground_truth`` holds the same sums for an exact
-        culler (only the visible objects rendered).
+        ``conservative``, with ``culled_share_ci`` and
+        ``triangles_rendered_per_frame_ci``. ``ground_truth`` holds the same
+        sums for an exact culler (only the visible objects rendered), with
+        ``hidden_share_ci``. ``intervals`` says how the intervals were made:
+        ``method`` (the circular block bootstrap over frames, Politis and Romano
+        1992), ``confidence``, ``block`` (frames per block, :meth:`interval_block`),
+        ``resamples`` and ``seed`` (the one given here).
         """
         frames = []
         for k, cam in enumerate(self.cameras):
@@ -234,17 +306,23 @@ class CullingResult:
             frames.append(entry)
         in_view = int(self.in_view.sum())
         hidden = in_view - int(self.visible.sum())
+        block = self.interval_block()
         return {
             "settings": {"frames": len(self.cameras), "width": self.width, "height": self.height,
                          "objects": self.objects, "triangles": self.triangles},
             "frames": frames,
-            "totals": self.totals(),
+            "totals": self.totals(seed=seed, block=block),
             "ground_truth": {
                 "in_view": in_view, "visible": int(self.visible.sum()),
                 "hidden_share": hidden / in_view if in_view else 0.0,
+                "hidden_share_ci": self._interval(self.in_view - self.visible, self.in_view,
+                                                  seed, block),
                 "triangles_in_view": int(self.in_view_triangles.sum()),
                 "triangles_visible": int(self.visible_triangles.sum()),
             },
+            "intervals": {"method": "circular block bootstrap over frames",
+                          "confidence": CULLING_CONFIDENCE, "block": block,
+                          "resamples": BOOTSTRAP_RESAMPLES, "seed": seed},
         }
 
 
@@ -328,8 +406,8 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
                      path: Sequence[PathCamera], *, width: int = DEFAULT_WIDTH,
                      height: int = DEFAULT_HEIGHT,
                      progress: Callable[[int], None] | None = None,
-                     bounds: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-                     ) -> CullingResult:
+                     bounds: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                     keep_frames: Sequence[int] = ()) -> CullingResult:
     """Run every culling runtime along a camera path against the ray-cast ground truth.
 
     Parameters
@@ -355,6 +433,9 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
         of its boxes in the view frustum is; view frustum culling keeps an
         object when its box and one of its boxes may intersect the frustum.
         Default: each object's own box.
+    keep_frames : sequence of int, optional
+        Frames whose objects (in view, visible, culled per runtime) are kept
+        in :attr:`CullingResult.kept`, for pictures of them. Default none.
 
     Returns
     -------
@@ -400,6 +481,8 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
         b_lower, b_upper, owner = _check_bounds(bounds, n)
     names = list(runtimes)
     count = len(cameras)
+    record = _check_keep_frames(keep_frames, count)
+    kept: dict[int, FrameObjects] = {}
     in_view_n = np.zeros(count, np.int64)
     in_view_t = np.zeros(count, np.int64)
     visible_n = np.zeros(count, np.int64)
@@ -424,6 +507,9 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             lo, hi = b_lower[keep], b_upper[keep]
         in_view_n[f], in_view_t[f] = len(idx), int(tris[idx].sum())
         visible_n[f], visible_t[f] = int(visible.sum()), int(tris[visible].sum())
+        if f in record:
+            kept[f] = FrameObjects(in_view=idx.astype(np.int64),
+                                   visible=np.flatnonzero(visible), culled={})
         for name in names:
             if f == 0:  # warm-up, untimed: compiling the kernels is not a frame's overhead
                 runtimes[name].cull(camera, lo, hi)
@@ -442,6 +528,8 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             rec["culled"][f], rec["false"][f] = len(culled), len(false)
             rec["tris"][f], rec["ms"][f] = int(rendered), 1e3 * elapsed
             rec["names"].append(tuple(objects.names[i] for i in false[:10]))
+            if f in record:
+                kept[f].culled[name] = np.sort(culled).astype(np.int64)
             if len(false) and runtimes[name].conservative:
                 _log.warning("frame %d: %s culled %d visible object(s), e.g. %s", f, name,
                              len(false), objects.names[int(false[0])])
@@ -454,4 +542,17 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     return CullingResult(cameras=cameras, width=width, height=height, objects=n,
                          triangles=objects.total_triangles, in_view=in_view_n,
                          in_view_triangles=in_view_t, visible=visible_n,
-                         visible_triangles=visible_t, runtimes=results)
+                         visible_triangles=visible_t, runtimes=results, kept=kept)
+
+
+def _check_keep_frames(frames: Sequence[int], count: int) -> frozenset:
+    """``keep_frames`` of :func:`simulate_culling` as a set, each a frame of the path."""
+    try:
+        keep = [int(k) for k in frames]
+        exact = all(int(k) == k for k in frames)
+    except (TypeError, ValueError):
+        raise InputError("keep_frames: expected a sequence of frame numbers") from None
+    if not exact or any(not 0 <= k < count for k in keep):
+        raise InputError(f"keep_frames: expected frame numbers in [0, {count}), got "
+                         f"{list(frames)[:5]}")
+    return frozenset(keep)

@@ -64,11 +64,18 @@ class Runtime:
         runtime must never cull a visible object.
     occluders : int
         Occluders (solids, polygons or meshes) it holds; 0 for ``none``.
+    occluder_scene : callable, optional
+        ``occluder_scene(camera) -> Scene or None``: the Embree scene of the
+        occluders it draws or tests for that camera (a hierarchy's cut for the
+        frame; every solid of the frusta runtimes, which use the best ranked
+        of them), for pictures of the frame; None (the default) for a runtime
+        without occluders.
     """
 
     cull: Callable[[PerspectiveCamera, np.ndarray, np.ndarray], np.ndarray]
     conservative: bool = True
     occluders: int = 0
+    occluder_scene: Callable[[PerspectiveCamera], object] | None = None
 
 
 def _nothing(camera, lower, upper) -> np.ndarray:
@@ -121,9 +128,43 @@ def frusta_runtime(solids: Sequence, *, mode: str = "solid", active: int = 15,
     """
     from viscore.culling.frustum_culler import FrustumCuller
 
-    culler = FrustumCuller(list(solids), polygons=polygons, mode=mode, active=active, cap=cap,
+    solids = list(solids)
+    culler = FrustumCuller(solids, polygons=polygons, mode=mode, active=active, cap=cap,
                            rank=rank)
-    return Runtime(cull=culler.cull, conservative=bool(conservative), occluders=culler.count)
+    return Runtime(cull=culler.cull, conservative=bool(conservative), occluders=culler.count,
+                   occluder_scene=_solids_scene(solids, polygons))
+
+
+def _solids_scene(solids: list, polygons: Sequence | None) -> Callable:
+    """``occluder_scene`` of a frusta runtime: its solids and polygons (fans) in one
+    Embree scene, built on first use and kept."""
+    built: list = []
+
+    def scene(camera):
+        if not built:
+            import trimesh
+
+            from viscore import Scene
+
+            parts = [(np.asarray(v, np.float64), np.asarray(f, np.int64)) for v, f in solids]
+            for p in polygons or ():
+                p = np.asarray(p, np.float64)
+                fan = np.stack([np.zeros(len(p) - 2, np.int64), np.arange(1, len(p) - 1),
+                                np.arange(2, len(p))], axis=1)
+                parts.append((p, fan))
+            parts = [(v, f) for v, f in parts if len(f)]
+            if not parts:
+                built.append(None)
+            else:
+                offsets = np.cumsum([0] + [len(v) for v, _ in parts[:-1]])
+                mesh = trimesh.Trimesh(np.vstack([v for v, _ in parts]),
+                                       np.vstack([f + o for (_, f), o in zip(parts, offsets,
+                                                                             strict=True)]),
+                                       process=False)
+                built.append(Scene(mesh))
+        return built[0]
+
+    return scene
 
 
 def depth_buffer_runtime(occluders, *, reduction: int = 4, conservative: bool = True,
@@ -179,7 +220,11 @@ def depth_buffer_runtime(occluders, *, reduction: int = 4, conservative: bool = 
             height=max(1, rows // reduction))
         return buffer.occluded(lower, upper)
 
-    return Runtime(cull=cull, conservative=bool(conservative), occluders=n)
+    def scene(camera: PerspectiveCamera):
+        return per_frame(camera).scene
+
+    return Runtime(cull=cull, conservative=bool(conservative), occluders=n,
+                   occluder_scene=scene)
 
 
 # --------------------------------------------------------------------------- view frustum

@@ -43,7 +43,8 @@ if TYPE_CHECKING:  # pragma: no cover - hints only
     from .precision_recall import PrecisionRecall
 
 __all__ = ["distribution_plot", "ablation_plot", "recall_plot", "budget_plot",
-           "silhouette_plot", "culling_plot", "SILHOUETTE_VIEWS"]
+           "silhouette_plot", "culling_plot", "SILHOUETTE_VIEWS", "CULLING_LOG_SPAN",
+           "walk_plot", "picture_grid"]
 
 #: Dots per inch of every figure: a figure of w x h inches is 100 w x 100 h pixels.
 DPI = 100
@@ -70,6 +71,27 @@ _LEGEND_ROW_INCHES = 0.3
 #: 1e-5 resolves precisions up to 0.99999, beyond the quads' own resolution at the
 #: default settings (a few hundred thousand pixels scored per view).
 _ONE_MINUS_P_FLOOR = 1e-5
+
+#: The culling plot's triangle axis turns logarithmic when its largest count is more
+#: than this many times its smallest positive one (two decades: a close-up of a wall
+#: beside a view over the whole level would leave the close-up flat on the axis).
+CULLING_LOG_SPAN = 100
+#: Panels per row of the culling plot, and inches per row.
+_CULLING_COLUMNS = 3
+_CULLING_ROW_INCHES = 2.5
+#: Side of the walk plot, inches; frames numbered on it (about); a far view outside
+#: the plan is drawn this fraction of the way from the centre to the edge.
+_WALK_INCHES = 7.2
+_WALK_LABELS = 25
+_WALK_EDGE = 0.95
+#: Length of a camera's heading tick on a 720-pixel plan, pixels.
+_HEADING_PIXELS = 10.0
+#: Colours of the walk, its far views and the frames a report draws.
+_WALK_RGB = (0.85, 0.10, 0.45)
+_FAR_RGB = (1.0, 0.60, 0.0)
+_SHOWN_RGB = (0.05, 0.20, 0.75)
+#: Room for a label of a picture grid (a row's, a column's, the title), inches.
+_GRID_LABEL_INCHES = 0.3
 
 
 def _figure(width: float, height: float) -> Figure:
@@ -431,8 +453,15 @@ def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
 def culling_plot(result, path: str | os.PathLike, *, title: str | None = None) -> None:
     """Triangles rendered per frame for every runtime (Papaioannou et al. 2006, Figs. 5-6).
 
-    One line per runtime, and the ground truth (triangles of the visible
-    objects, what an exact culler renders) dashed.
+    Small multiples: one panel per runtime (``none`` has none of its own),
+    each with that runtime's line, the ``none`` runtime (every object in the
+    view frustum) in grey and the ground truth (triangles of the visible
+    objects, what an exact culler renders) dashed, on one shared axis. Where
+    one part holds most triangles the runtimes' lines would lie on one
+    another in a single panel; apart, each is read against the same two
+    references. The triangle axis is logarithmic when the counts span more
+    than :data:`CULLING_LOG_SPAN` (a close-up next to a view of the whole
+    level), and the frame axis has integer ticks only.
 
     Parameters
     ----------
@@ -440,8 +469,9 @@ def culling_plot(result, path: str | os.PathLike, *, title: str | None = None) -
         Of :func:`viscore.metrics.culling.simulate_culling` (not imported
         here: the simulation's module re-exports this function).
     path : str or path-like
-        Figure file (``.png``, ``.pdf`` or ``.svg``), 1100 x 420 pixels,
-        written atomically.
+        Figure file (``.png``, ``.pdf`` or ``.svg``), 1100 pixels wide and
+        :data:`_CULLING_ROW_INCHES` x 100 pixels per row of
+        :data:`_CULLING_COLUMNS` panels (plus the title), written atomically.
     title : str, optional
         Figure title.
 
@@ -451,21 +481,229 @@ def culling_plot(result, path: str | os.PathLike, *, title: str | None = None) -
         If the suffix of ``path`` is not a figure format, or the result has
         no frames.
     """
+    from matplotlib.ticker import MaxNLocator
+
     _format_of(path)
     if not len(result.cameras):
         raise InputError("result: no frames to plot")
-    fig = _figure(11, 4.2)
-    ax = fig.subplots()
+    names = [n for n in result.runtimes if n != "none"] or list(result.runtimes)
+    columns = min(_CULLING_COLUMNS, max(1, len(names)))
+    rows = -(-len(names) // columns)
+    fig = _figure(11, _CULLING_ROW_INCHES * rows + (0.4 if title else 0.0))
+    axes = np.atleast_1d(fig.subplots(rows, columns, sharex=True, sharey=True,
+                                      squeeze=False)).reshape(-1)
     x = np.arange(len(result.cameras))
-    for k, (name, rf) in enumerate(result.runtimes.items()):
-        ax.plot(x, rf.triangles_rendered, "-", color=f"C{k}", lw=1.2, label=name)
-    ax.plot(x, result.visible_triangles, "k--", lw=1.0, label="visible (ray-cast truth)")
-    ax.set_xlabel("frame along the camera path")
-    ax.set_ylabel("triangles rendered")
-    ax.set_ylim(bottom=0)
-    ax.set_xlim(0, max(1, len(x) - 1))
+    reference = result.runtimes.get("none")
+    every = [np.asarray(rf.triangles_rendered, dtype=np.float64)
+             for rf in result.runtimes.values()] + [
+        np.asarray(result.visible_triangles, dtype=np.float64)]
+    positive = np.concatenate(every)
+    positive = positive[positive > 0]
+    log = bool(len(positive)) and positive.max() > CULLING_LOG_SPAN * positive.min()
+    for k, name in enumerate(names):
+        ax = axes[k]
+        if reference is not None and name != "none":
+            ax.plot(x, reference.triangles_rendered, "-", color="0.65", lw=1.0,
+                    label="none (in view)")
+        ax.plot(x, result.visible_triangles, "k--", lw=0.9, label="visible (ray-cast truth)")
+        ax.plot(x, result.runtimes[name].triangles_rendered, "-", color=f"C{k}", lw=1.4,
+                label=name)
+        ax.set_title(name, fontsize=9, color=f"C{k}")
+        ax.grid(True, color="0.92", lw=0.6)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
+        if log:
+            ax.set_yscale("log")
+        else:
+            ax.set_ylim(bottom=0)
+        if k % columns == 0:
+            ax.set_ylabel("triangles rendered", fontsize=8)
+        if k >= len(names) - columns:
+            ax.set_xlabel("frame along the camera path", fontsize=8)
+            ax.tick_params(labelbottom=True)
+        ax.tick_params(labelsize=8)
+    for ax in axes[len(names):]:
+        ax.set_visible(False)
+    axes[0].set_xlim(0, max(1, len(x) - 1))
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles[:-1] if len(handles) > 1 else handles,
+               labels[:-1] if len(labels) > 1 else labels, loc="upper right", fontsize=8,
+               ncols=2, frameon=False)
     if title:
-        ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
-    fig.tight_layout()
+        fig.suptitle(title + (" (log scale)" if log else ""), fontsize=10, x=0.01,
+                     ha="left")
+    fig.tight_layout(rect=(0, 0, 1, 0.94 if rows == 1 else 0.97))
+    _save(fig, Path(path))
+
+
+def walk_plot(image: np.ndarray, points: np.ndarray, path: str | os.PathLike, *,
+              far: np.ndarray | None = None, shown: Sequence[int] = (),
+              headings: np.ndarray | None = None, title: str | None = None) -> np.ndarray:
+    """A plan picture with a camera walk drawn over it: frames numbered, far views marked.
+
+    Parameters
+    ----------
+    image : (R, C, 3) uint8
+        The plan (for example ray-cast from above).
+    points : (F, 2) float
+        Each camera's position on the plan, pixels (column, row), in walk
+        order; positions outside the picture are drawn on its edge, where the
+        line from the picture's centre to them leaves it.
+    path : str or path-like
+        Figure file (``.png``, ``.pdf`` or ``.svg``), written atomically;
+        :data:`_WALK_INCHES` inches square at :data:`DPI`.
+    far : (F,) bool, optional
+        Far views (drawn as triangles, and on the edge when outside).
+    shown : sequence of int, optional
+        Frames circled and always numbered (those drawn in a report).
+    headings : (F, 2) float, optional
+        Each camera's viewing direction on the plan, pixels (a short tick).
+    title : str, optional
+
+    Returns
+    -------
+    marks : (F, 2) float64
+        Where each camera's mark is in the written picture, pixels from its
+        top-left corner (for an image map of the frames).
+
+    Raises
+    ------
+    InputError
+        On a bad suffix, an image that is not (R, C, 3), or points that are
+        not (F, 2) finite.
+
+    Notes
+    -----
+    At most about :data:`_WALK_LABELS` frames are numbered (every k-th, plus
+    the first, the last and ``shown``), so that numbers do not pile up.
+    """
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import NullLocator
+
+    _format_of(path)
+    img = np.asarray(image)
+    pts = np.asarray(points, dtype=np.float64)
+    if img.ndim != 3 or img.shape[2] != 3:
+        raise InputError(f"image: expected (R, C, 3) RGB, got shape {img.shape}")
+    if pts.ndim != 2 or pts.shape[1] != 2 or not np.isfinite(pts).all():
+        raise InputError(f"points: expected (F, 2) finite pixel positions, got {pts.shape}")
+    n = len(pts)
+    far = np.zeros(n, dtype=bool) if far is None else np.asarray(far, dtype=bool).reshape(n)
+    rows, cols = img.shape[:2]
+    centre = np.array([cols / 2.0, rows / 2.0])
+    off = pts - centre
+    # outside the picture: pulled back along the line from its centre to the edge
+    reach = np.max(np.abs(off) / np.array([cols / 2.0, rows / 2.0]), axis=1)
+    outside = reach > 1.0
+    drawn = pts.copy()
+    drawn[outside] = centre + off[outside] / reach[outside, None] * _WALK_EDGE
+    fig = _figure(_WALK_INCHES, _WALK_INCHES)
+    ax = fig.add_axes((0.0, 0.0, 1.0, 1.0 if not title else 0.95))
+    ax.imshow(img, extent=(0, cols, rows, 0), interpolation="nearest")
+    ax.set_xlim(0, cols)
+    ax.set_ylim(rows, 0)
+    ax.xaxis.set_major_locator(NullLocator())
+    ax.yaxis.set_major_locator(NullLocator())
+    near = ~far
+    # the walk: a line through consecutive near cameras, far views on their own
+    for segment in np.split(np.arange(n), np.flatnonzero(np.diff(near.astype(int)) != 0) + 1):
+        if near[segment[0]] and len(segment) > 1:
+            ax.plot(drawn[segment, 0], drawn[segment, 1], "-", color=_WALK_RGB, lw=1.2,
+                    alpha=0.8)
+    ax.plot(drawn[near, 0], drawn[near, 1], "o", ms=3.2, color=_WALK_RGB)
+    ax.plot(drawn[far, 0], drawn[far, 1], "^", ms=7, color=_FAR_RGB, mec="k", mew=0.5)
+    if headings is not None:
+        h = np.asarray(headings, dtype=np.float64).reshape(n, 2)
+        length = np.linalg.norm(h, axis=1, keepdims=True)
+        h = np.where(length > 0, h / np.where(length > 0, length, 1.0), 0.0) * _HEADING_PIXELS
+        tip = drawn + h * np.array([cols, rows]) / 720.0
+        gap = np.full(n, np.nan)  # one line of n ticks, apart
+        ax.plot(np.stack([drawn[:, 0], tip[:, 0], gap], axis=1).reshape(-1),
+                np.stack([drawn[:, 1], tip[:, 1], gap], axis=1).reshape(-1), "-", color="k",
+                lw=0.8)
+    shown = [int(k) for k in shown if 0 <= int(k) < n]
+    ax.plot(drawn[shown, 0], drawn[shown, 1], "o", ms=9, mfc="none", mec=_SHOWN_RGB, mew=1.6)
+    step = max(1, -(-n // _WALK_LABELS))
+    labelled = sorted(set(range(0, n, step)) | {n - 1} | set(shown))
+    for k in labelled:  # numbers up-right, up-left near the right edge
+        right = drawn[k, 0] > 0.9 * cols
+        ax.annotate(str(k), drawn[k], xytext=(-4 if right else 4, 4), textcoords="offset points",
+                    ha="right" if right else "left", fontsize=7,
+                    color=_SHOWN_RGB if k in shown else "k",
+                    bbox={"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none",
+                          "alpha": 0.75})
+    handles = [Line2D([], [], color=_WALK_RGB, marker="o", ms=4, label="camera walk"),
+               Line2D([], [], color=_FAR_RGB, marker="^", ls="none", mec="k", ms=7,
+                      label="far view" + (" (outside: on the edge)" if outside.any() else "")),
+               Line2D([], [], marker="o", ls="none", mfc="none", mec=_SHOWN_RGB, ms=9,
+                      label="frame drawn below")]
+    ax.legend(handles=handles, loc="lower right", fontsize=7, framealpha=0.85)
+    if title:
+        fig.suptitle(title, fontsize=9, y=0.985)
+    fig.canvas.draw()
+    display = ax.transData.transform(drawn)
+    marks = np.stack([display[:, 0], fig.bbox.height - display[:, 1]], axis=1)
+    _save(fig, Path(path))
+    return marks
+
+
+def picture_grid(images: Sequence[Sequence[np.ndarray]], path: str | os.PathLike, *,
+                 row_labels: Sequence[str], column_labels: Sequence[str],
+                 title: str | None = None) -> None:
+    """Pictures in a grid, a label over each column and beside each row, at one pixel per
+    pixel (``viscore occlude``'s ``preview.png``: views by methods).
+
+    Parameters
+    ----------
+    images : sequence of sequence of (H, W, 3) uint8
+        ``images[r][c]``: the pictures of a row of one size, every picture of
+        one width.
+    path : str or path-like
+        Figure file (``.png``, ``.pdf`` or ``.svg``), written atomically: the
+        pictures' own size times the grid, plus :data:`_GRID_LABEL_INCHES`
+        for the labels.
+    row_labels, column_labels : sequence of str
+        One per row and per column.
+    title : str, optional
+
+    Raises
+    ------
+    InputError
+        A bad suffix, no picture, pictures of different sizes, or labels that
+        do not match the grid.
+    """
+    _format_of(path)
+    grid = [[np.asarray(img) for img in row] for row in images]
+    if not grid or not grid[0]:
+        raise InputError("images: expected at least one picture")
+    widths = {img.shape[1] for row in grid for img in row}
+    if (any(len(row) != len(grid[0]) for row in grid) or len(widths) != 1
+            or any(img.ndim != 3 or img.shape != row[0].shape for row in grid for img in row)):
+        raise InputError("images: expected rows of equally many (H, W, 3) pictures, one size "
+                         "in a row, one width in all")
+    rows, cols = len(grid), len(grid[0])
+    if len(row_labels) != rows or len(column_labels) != cols:
+        raise InputError(f"labels: expected {rows} row and {cols} column labels")
+    w = widths.pop() / DPI
+    heights = [row[0].shape[0] / DPI for row in grid]
+    top = _GRID_LABEL_INCHES * (2 if title else 1)
+    left = _GRID_LABEL_INCHES
+    width, height = left + cols * w, top + sum(heights)
+    fig = _figure(width, height)
+    below = sum(heights)
+    for r in range(rows):
+        below -= heights[r]
+        for c in range(cols):
+            ax = fig.add_axes(((left + c * w) / width, below / height, w / width,
+                               heights[r] / height))
+            ax.imshow(grid[r][c], interpolation="nearest")
+            ax.set_axis_off()
+        fig.text(0.5 * left / width, (below + 0.5 * heights[r]) / height, row_labels[r],
+                 rotation=90, ha="center", va="center", fontsize=9)
+    for c in range(cols):
+        fig.text((left + (c + 0.5) * w) / width,
+                 (sum(heights) + 0.5 * _GRID_LABEL_INCHES) / height,
+                 column_labels[c], ha="center", va="center", fontsize=10)
+    if title:
+        fig.text(0.01, 1 - 0.5 * _GRID_LABEL_INCHES / height, title, ha="left",
+                 va="center", fontsize=10)
     _save(fig, Path(path))

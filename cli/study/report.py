@@ -2,7 +2,9 @@
 
 :func:`write_report` writes one self-contained HTML page (no script, no
 stylesheet or image outside the file: the plots are inline ``data:`` URIs),
-so it opens offline and can be mailed or archived as one file. The page
+so it opens offline and can be mailed or archived as one file; it is the
+``compare.html.j2`` template of :mod:`viscore.cli.report.page`, the look it
+shares with ``cull``'s and ``occlude``'s pages. The page
 leads with the answer a study is run for (:func:`best_at_precision`: per
 mesh and budget, the method of highest recall at precision >= 0.995, with its
 interval and whether it carries the conservativeness guarantee), then the
@@ -37,14 +39,16 @@ import dataclasses
 import math
 import os
 from collections.abc import Mapping, Sequence
-from html import escape
 from pathlib import Path
 
 import numpy as np
+from markupsafe import Markup
 
 from viscore import InputError
+from viscore.exchange.glb_targets import with_buffer_view_targets
 
 from .._common import write_atomic
+from ..report.page import render_page
 from .store import OCCLUDER_DIR
 
 __all__ = ["write_report", "write_occluder_glb", "write_occluder_glbs", "best_at_precision",
@@ -95,80 +99,9 @@ OCCLUDER_RGBA = (0.95, 0.45, 0.1, 1.0)
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
-_STYLE = """
-body { font: 14px/1.45 system-ui, sans-serif; margin: 1.5em 0; padding: 0 1.5em;
-       color: #222; }
-p, ul { max-width: 76em; }
-h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em; }
-table { border-collapse: collapse; margin: 0.5em 0; font-size: 13px; }
-th, td { border: 1px solid #ccc; padding: 0.2em 0.45em; }
-td { white-space: nowrap; }
-.scroll { overflow-x: auto; }
-th { background: #f3f3f3; text-align: left; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; }
-td.best { font-weight: bold; background: #e4f3e4; }
-table.summary td.none { color: #a33; }
-figure { display: inline-block; margin: 0.5em 1em 1em 0; vertical-align: top; }
-figure img { max-width: 100%; border: 1px solid #ddd; }
-figcaption { font-size: 0.9em; color: #555; }
-.note { color: #555; font-size: 0.9em; }
-"""
-
-
-def _number(value, digits: int = 4) -> str:
-    if isinstance(value, (bool, np.bool_)):
-        return str(bool(value))
-    if isinstance(value, (int, np.integer)):
-        return f"{int(value):,}" if abs(int(value)) >= 10_000 else str(int(value))
-    v = float(value)
-    if not math.isfinite(v):
-        return "-"
-    if v != 0 and (abs(v) >= 1e4 or abs(v) < 1e-3):
-        return f"{v:.{digits}g}"
-    return f"{v:.{digits}f}"
-
 
 def _count(n: int, one: str, many: str | None = None) -> str:
     return f"{n} {one if n == 1 else (many or one + 's')}"
-
-
-def _cell(value) -> tuple[str, bool]:
-    """Escaped text of a table cell, and whether it is numeric (right-aligned)."""
-    if value is None:
-        return "-", False
-    if isinstance(value, (list, tuple, np.ndarray)):
-        parts = [_cell(v)[0] for v in value]
-        return ("[" + ", ".join(parts) + "]"), True
-    if isinstance(value, (int, float, np.integer, np.floating, np.bool_)):
-        return escape(_number(value)), True
-    return escape(str(value)), False
-
-
-def _table(rows: Sequence[Mapping], columns: Sequence[tuple[str, str]], *, row_class: str,
-           extra: Sequence[str] | None = None, extra_header: str | None = None,
-           best: Sequence[frozenset] | None = None, table_class: str = "",
-           cell_class: Mapping[tuple[int, str], str] | None = None) -> str:
-    """An HTML table; ``best[k]`` names the keys of row ``k`` shown as best values."""
-    head = "".join(f"<th>{escape(h)}</th>" for _, h in columns)
-    if extra is not None:
-        head += f"<th>{escape(extra_header or '')}</th>"
-    body = []
-    for k, r in enumerate(rows):
-        cells = []
-        for key, _ in columns:
-            text, numeric = _cell(r.get(key))
-            classes = (["num"] if numeric else []) + (
-                ["best"] if best is not None and key in best[k] else [])
-            if cell_class and (k, key) in cell_class:
-                classes.append(cell_class[k, key])
-            attr = f' class="{" ".join(classes)}"' if classes else ""
-            cells.append(f"<td{attr}>{text}</td>")
-        if extra is not None:
-            cells.append(f"<td>{extra[k]}</td>")
-        body.append(f'<tr class="{row_class}">' + "".join(cells) + "</tr>")
-    attr = f' class="{table_class}"' if table_class else ""
-    return (f'<div class="scroll"><table{attr}>\n<thead><tr>{head}</tr></thead>\n<tbody>\n'
-            + "\n".join(body) + "\n</tbody>\n</table></div>")
 
 
 def _guaranteed(row: Mapping) -> bool | None:
@@ -289,8 +222,9 @@ def best_at_precision(rows: Sequence[Mapping], *, budgets: Sequence[int] | None 
     return out
 
 
-def _summary_html(summary: list[dict], precision: float) -> str:
-    """The summary table; a (mesh, budget) without a qualifier says so in its method cell."""
+def _summary_rows(summary: list[dict], precision: float) -> list[dict]:
+    """The summary table's rows; a (mesh, budget) without a qualifier says so in its
+    method cell (of class ``none``)."""
     shown = []
     for e in summary:
         row = dict(e)
@@ -299,21 +233,9 @@ def _summary_html(summary: list[dict], precision: float) -> str:
         if row["method"] is None:
             row["method"] = (f"none reaches precision {precision:g}"
                              f" ({_count(row['candidates'], 'eligible result')})")
+            row["_classes"] = {"method": "none"}
         shown.append(row)
-    none = {(k, "method"): "none" for k, e in enumerate(summary) if e["method"] is None}
-    return _table(shown, SUMMARY_COLUMNS, row_class="summary", table_class="summary",
-                  cell_class=none)
-
-
-def _key_values(doc: Mapping, css_class: str) -> str:
-    lines = []
-    for key, value in doc.items():
-        if isinstance(value, Mapping):
-            text = ", ".join(f"{escape(str(k))}: {_cell(v)[0]}" for k, v in value.items())
-        else:
-            text = _cell(value)[0]
-        lines.append(f"<tr><th>{escape(str(key))}</th><td>{text}</td></tr>")
-    return f'<table class="{css_class}">\n' + "\n".join(lines) + "\n</table>"
+    return shown
 
 
 def _as_mapping(value, name: str) -> dict:
@@ -349,7 +271,7 @@ def _data_uri(path: Path) -> str:
     return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
 
 
-def _file_links(rows: Sequence[Mapping], out_dir: Path) -> list[str] | None:
+def _file_links(rows: Sequence[Mapping], out_dir: Path) -> list[Markup] | None:
     """Relative links to each row's occluder mesh and its .glb, where they exist."""
     if not any(r.get("occluder_file") for r in rows):
         return None
@@ -360,9 +282,9 @@ def _file_links(rows: Sequence[Mapping], out_dir: Path) -> list[str] | None:
         if name:
             for file in (Path("occluders") / name, (Path("occluders") / name).with_suffix(".glb")):
                 if (out_dir / file).is_file():
-                    parts.append(f'<a href="{escape(file.as_posix(), quote=True)}">'
-                                 f"{escape(file.suffix.lstrip('.'))}</a>")
-        links.append(" ".join(parts) or "-")
+                    parts.append(Markup('<a href="{}">{}</a>').format(
+                        file.as_posix(), file.suffix.lstrip(".")))
+        links.append(Markup(" ").join(parts) if parts else Markup("-"))
     return links
 
 
@@ -444,72 +366,27 @@ def write_report(out_dir: str | os.PathLike, rows: Sequence[Mapping], *,
     methods = list(dict.fromkeys(str(r.get("method")) for r in rows))
     protocol = settings.get("protocol")
     summary = best_at_precision(rows, budgets=settings.get("budgets"))
-    best = [set() for _ in rows]
+    best: list[set] = [set() for _ in rows]
     for e in summary:
         for i in e["winners"]:
             best[i].update(("method", "recall"))
-    parts = [
-        "<!DOCTYPE html>",
-        '<html lang="en">',
-        "<head>",
-        '<meta charset="utf-8">',
-        '<meta name="viewport" content="width=device-width, initial-scale=1">',
-        f'<meta name="generator" content="viscore {escape(str(provenance.get("viscore", "")))}">',
-        "<title>viscore compare: report</title>",
-        f"<style>{_STYLE}</style>",
-        "</head>",
-        "<body>",
-        "<h1>viscore compare</h1>",
-        f"<p>{_count(len(rows), 'result')}: {_count(len(methods), 'method')} "
-        f"({escape(', '.join(methods))}) on {_count(len(meshes), 'mesh', 'meshes')} "
-        f"({escape(', '.join(meshes))})"
-        + (f", {escape(str(protocol))} protocol" if protocol else "") + ".</p>",
-        f'<h2 id="summary">Highest recall at precision &ge; {SUMMARY_PRECISION:g}</h2>',
-        f"<p>For each mesh and triangle budget, the method of highest recall among the "
-        f"results of precision &ge; {SUMMARY_PRECISION:g} (point estimate) whose occluder "
-        "fits the budget (a method that ignores the budget competes at every budget it "
-        "fits). Conservative guarantee: the generator's own report for that occluder, else "
-        "the registry's promise for the method on closed meshes; the violation upper bound "
-        "is what the rays measured.</p>",
-        _summary_html(summary, SUMMARY_PRECISION),
-        '<h2 id="results">Results</h2>',
-        _table(rows, REPORT_COLUMNS, row_class="result", extra=_file_links(rows, out_dir),
-               extra_header="files", best=[frozenset(b) for b in best]),
-        '<p class="note">Intervals: 95% percentile bootstrap over views (Efron 1987). '
-        "Occlusion measure with its standard error over random directions. Violation upper "
-        "bound: one-sided Clopper-Pearson bound on the rate of rays the occluder stops before "
-        "the original. \"-\": undefined (no quads of that kind) or not measured. "
-        "Highlighted: the summary's choice for a budget.</p>",
-    ]
-    if paired_rows:
-        versus = sorted({str(p.get("versus")) for p in paired_rows})
-        parts += [
-            '<h2 id="paired">Paired comparisons</h2>',
-            f"<p>Each method against {escape(', '.join(versus))} on the same views: "
-            "difference, 95% paired bootstrap interval, bootstrap probability of being "
-            "better.</p>",
-            _table(list(paired_rows), PAIRED_COLUMNS, row_class="paired"),
-        ]
-    if culling_rows:
-        parts += [
-            '<h2 id="culling">Culling on the built-in city</h2>',
-            "<p>Each method's occluders feed a conservative depth buffer along the city's "
-            "camera path; a false cull is an object culled yet visible in the ray-cast "
-            "object-id image.</p>",
-            _table(list(culling_rows), CULLING_COLUMNS, row_class="culling"),
-        ]
-    if figures:
-        parts.append('<h2 id="plots">Plots</h2>')
-        parts += [f'<figure><img src="{uri}" alt="{escape(caption, quote=True)}">'
-                  f"<figcaption>{escape(caption)}</figcaption></figure>"
-                  for caption, uri in figures]
-    if settings:
-        parts += ['<h2 id="settings">Settings</h2>', _key_values(settings, "settings")]
-    if provenance:
-        parts += ['<h2 id="provenance">Provenance</h2>', _key_values(provenance, "provenance")]
-    parts += ["</body>", "</html>", ""]
+    for k, r in enumerate(rows):
+        r["_classes"] = {key: "best" for key in best[k]}
+    versus = sorted({str(p.get("versus")) for p in paired_rows})
+    intro = (f"{_count(len(rows), 'result')}: {_count(len(methods), 'method')} "
+             f"({', '.join(methods)}) on {_count(len(meshes), 'mesh', 'meshes')} "
+             f"({', '.join(meshes)})" + (f", {protocol} protocol" if protocol else "") + ".")
+    html = render_page(
+        "compare.html.j2", title="viscore compare: report", heading="viscore compare",
+        version=str(provenance.get("viscore", "")), intro=intro,
+        floor=f"{SUMMARY_PRECISION:g}", summary=_summary_rows(summary, SUMMARY_PRECISION),
+        summary_columns=SUMMARY_COLUMNS, rows=rows, columns=REPORT_COLUMNS,
+        links=_file_links(rows, out_dir), paired=[dict(p) for p in paired_rows],
+        paired_columns=PAIRED_COLUMNS, versus=", ".join(versus),
+        culling=[dict(c) for c in culling_rows], culling_columns=CULLING_COLUMNS,
+        figures=figures, settings=settings, provenance=provenance)
     path = out_dir / "report.html"
-    write_atomic(path, "\n".join(parts).encode("utf-8"))
+    write_atomic(path, html.encode("utf-8"))
     return path
 
 
@@ -581,7 +458,7 @@ def write_occluder_glb(original, occluder, path: str | os.PathLike) -> Path:
                                np.asarray(mesh.faces, dtype=np.int64), process=False,
                                visual=TextureVisuals(material=material))
         scene.add_geometry(copy, geom_name=name, node_name=name)
-    write_atomic(path, scene.export(file_type="glb"))
+    write_atomic(path, with_buffer_view_targets(scene.export(file_type="glb")))
     return path
 
 

@@ -639,6 +639,10 @@ def mesh_bytes(mesh: trimesh.Trimesh, format: str, *, name: str | os.PathLike | 
                 f"(extent {extent:.3g}, coordinates up to {np.abs(vertices).max():.3g}); "
                 "write .obj, .off or .ply (float64)")
     data = trimesh.exchange.export.export_mesh(mesh, None, file_type=fmt)
+    if fmt == "glb":  # trimesh leaves bufferView.target out
+        from .glb_targets import with_buffer_view_targets
+
+        return with_buffer_view_targets(data)
     return data if isinstance(data, bytes) else data.encode()
 
 

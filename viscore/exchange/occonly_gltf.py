@@ -33,6 +33,7 @@ import numpy.typing as npt
 import trimesh
 
 from .._validate import InputError, check_memory
+from .glb_targets import with_buffer_view_targets
 from .gltf_scene import (
     _mesh_geometries,
     _mesh_library,
@@ -176,4 +177,5 @@ def occonly_glb_bytes(instances: Sequence[OccluderInstance],
         else:
             scene.graph.update(frame_to=name, frame_from=scene.graph.base_frame,
                                geometry=inst.mesh_key, matrix=matrix)
-    return trimesh.exchange.gltf.export_glb(scene, include_normals=False)
+    return with_buffer_view_targets(trimesh.exchange.gltf.export_glb(scene,
+                                                                     include_normals=False))
