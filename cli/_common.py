@@ -180,7 +180,7 @@ def occluder_bytes(path: str | os.PathLike, mesh, *, name: str) -> bytes:
     import trimesh
 
     from viscore import InputError, OccluderInstance, tres_text, tscn_text
-    from viscore.exchange.glb_targets import with_buffer_view_targets
+    from viscore.exchange import with_buffer_view_targets
 
     fmt = check_occluder_path(path)
     if fmt not in ("tres", "tscn", "glb"):

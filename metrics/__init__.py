@@ -82,8 +82,10 @@ from .plots import (
     budget_plot,
     culling_plot,
     distribution_plot,
+    picture_grid,
     recall_plot,
     silhouette_plot,
+    walk_plot,
 )
 from .precision_recall import PrecisionRecall, jsonable
 from .quads import QuadCounts, classify_quads, classify_quads_depth, sample_quads
@@ -120,7 +122,7 @@ __all__ = [
     "measure_bytes", "evaluation_bytes", "conservativeness_bytes", "study_bytes", "jsonable",
     # figures
     "ablation_plot", "distribution_plot", "silhouette_image", "SILHOUETTE_COLOURS",
-    "recall_plot", "budget_plot", "silhouette_plot",
+    "recall_plot", "budget_plot", "silhouette_plot", "walk_plot", "picture_grid",
 ]
 
 

@@ -289,13 +289,17 @@ def test_cli_imports_the_library_through_its_faces():
     assert not wrong, "CLI imports past the faces:\n" + "\n".join(wrong)
 
 
+#: What every command-line module may import of ``cli/``: the shared helpers and the
+#: report pages (presentation, shared by cull, occlude and compare).
+CLI_SHARED = ("viscore.cli._common", "viscore.cli.report")
+
 #: A subcommand module's own subpackage (``compare``'s study runner).
 OWN_SUBPACKAGE = {"viscore.cli.compare_cmd": "viscore.cli.study"}
 
 
 def test_cli_modules_import_no_benchmark_nor_another_subcommand():
     """``cli/*_cmd.py`` and ``cli/bench/*`` (and the study runner) import, of the command
-    line, only ``cli/_common.py`` and their own subpackage: library code a subcommand
+    line, only ``cli/_common.py``, the report pages and their own subpackage: library code a subcommand
     needs from a benchmark or from another subcommand belongs in the library."""
     modules = _modules()
     wrong = []
@@ -310,7 +314,7 @@ def test_cli_modules_import_no_benchmark_nor_another_subcommand():
                 continue
             targets = {target} if target != "viscore.cli" else {f"{target}.{n}" for n in names}
             for t in targets:
-                if t == "viscore.cli._common" or (own and (t == own or
+                if t in CLI_SHARED or t.startswith("viscore.cli.report.") or (own and (t == own or
                                                            t.startswith(own + "."))):
                     continue
                 wrong.append(f"{path.relative_to(ROOT)}:{line}: {t}")

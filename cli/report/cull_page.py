@@ -203,7 +203,7 @@ def _far(objects, positions: np.ndarray) -> np.ndarray:
 def _plan(objects, cameras, frames: Sequence[int], scene: str, highlight) -> tuple[Picture,
                                                                                   list]:
     """The plan with the walk on it, and the image-map marks of the drawn frames."""
-    from viscore.metrics.plots import walk_plot
+    from viscore.metrics import walk_plot
 
     plan = plan_picture(objects, highlight=highlight)
     positions = np.array([c.position for c in cameras], dtype=np.float64)

@@ -110,7 +110,7 @@ def write_occlude_report(out: str | Path, level, manifest: Mapping) -> list[str]
     Each file is written atomically. Pictures: one ray per pixel per view for
     the level and one per view and method for its occluders.
     """
-    from viscore.metrics.plots import picture_grid
+    from viscore.metrics import picture_grid
 
     out = Path(out)
     objects = level.objects

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from viscore import InputError, OrthoCamera, PerspectiveCamera
-from viscore.ray.render import ObjectImage, object_image, overlay, shade
+from viscore.ray import ObjectImage, object_image, overlay, shade
 
 #: Pixels across a frame picture; its height follows the truth's aspect ratio.
 FRAME_WIDTH = 480

@@ -45,7 +45,7 @@ import numpy as np
 from markupsafe import Markup
 
 from viscore import InputError
-from viscore.exchange.glb_targets import with_buffer_view_targets
+from viscore.exchange import with_buffer_view_targets
 
 from .._common import write_atomic
 from ..report.page import render_page

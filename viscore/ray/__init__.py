@@ -4,6 +4,7 @@ from .cameras import OrthoCamera, PerspectiveCamera, camera_basis, cube_cameras
 from .embree_scene import AllHits, Scene, cpu_cores, get_workers, set_workers
 from .enclosing_ball import minimum_enclosing_ball
 from .images import coverage_image, depth_image
+from .render import ObjectImage, object_image, overlay, shade
 from .samplers import (
     directions_fibonacci,
     directions_uniform,
@@ -16,4 +17,5 @@ from .samplers import (
 __all__ = ["Scene", "AllHits", "cpu_cores", "get_workers", "set_workers", "OrthoCamera",
            "PerspectiveCamera", "camera_basis", "cube_cameras", "coverage_image", "depth_image",
            "directions_fibonacci", "directions_uniform", "directions_uniform_batches",
-           "grid_positions", "rays_between", "stream_seed", "minimum_enclosing_ball"]
+           "grid_positions", "rays_between", "stream_seed", "minimum_enclosing_ball",
+           "ObjectImage", "object_image", "shade", "overlay"]
