@@ -1,8 +1,8 @@
 """viscore.metrics: occlusion measure, quad precision/recall, conservativeness, uncertainty.
 
 The numbers researchers cite, built on the viscore core: the occlusion
-measure (Silvennoinen et al. 2014, sec. 3), the orbit precision/recall
-protocol (ibid., sec. 6.1), the volume protocol (Wu et al. 2022, sec. 3.2),
+measure (Silvennoinen et al. 2014 [1]_, sec. 3), the orbit precision/recall
+protocol (ibid., sec. 6.1), the volume protocol (Wu et al. 2022 [2]_, sec. 3.2),
 the depth-aware variant of both, the ray-wise conservativeness check, and
 intervals and models for each figure.
 

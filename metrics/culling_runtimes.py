@@ -103,7 +103,7 @@ def frusta_runtime(solids: Sequence, *, mode: str = "solid", active: int = 15,
         furthest silhouette point.
     rank : {'faces', 'eq4'}, optional
         Ranking of the solids: 'faces' (default), a solid ranks as its best
-        face by eq. 3, or 'eq4', f_solid = Vol / |V|^3. With 'front-faces'
+        face by eq. 3, or 'eq4', ``f_solid = Vol / |V|^3``. With 'front-faces'
         and 'faces', solid frusta cull every box the planar frusta of the same
         solids cull, every frame (:class:`viscore.culling.FrustumCuller`).
     conservative : bool, optional

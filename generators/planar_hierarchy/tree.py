@@ -358,8 +358,8 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
 
     What the builder logs at the nodes is held back while they are built and
     said once per distinct line at the end, with how many nodes gave it
-    (``hierarchy: 29 of 57 nodes: ...``; one node: ``hierarchy node 12:
-    ...``; :func:`viscore.generators._held_logs.report_parts`), refusals
+    (``hierarchy: 29 of 57 nodes: ...``; one node:
+    ``hierarchy node 12: ...``; :func:`viscore.generators._held_logs.report_parts`), refusals
     included (``no occluder: ...``).
 
     Raises

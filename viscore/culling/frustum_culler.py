@@ -128,8 +128,8 @@ class FrustumCuller:
         Near cap of the solid frusta (see :func:`~viscore.culling.solid_frustum`). 'eq2'
         (default): the paper's single plane. 'front-faces': the exact shadow.
     rank : {'eq4', 'faces'}, optional
-        Ranking of the solids in 'solid' mode. 'eq4' (default): f_solid =
-        Vol / |V|^3 ([1]_ eq. 4), polygons by |eq. 3|. 'faces': a solid ranks
+        Ranking of the solids in 'solid' mode. 'eq4' (default):
+        ``f_solid = Vol / |V|^3`` ([1]_ eq. 4), polygons by eq. 3. 'faces': a solid ranks
         as its best face by eq. 3 (the planar mode's score of that face).
 
     Attributes

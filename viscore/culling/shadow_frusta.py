@@ -693,7 +693,7 @@ def boxes_in_frusta(frusta: list[Frustum], lower: npt.ArrayLike,
 
 # ----------------------------------------------------------------------------- ranking
 def rank_solids(volumes: npt.ArrayLike, centers: npt.ArrayLike, eye: npt.ArrayLike) -> np.ndarray:
-    """Importance of solid occluders, f_solid = Vol / |V|^3 (Papaioannou et al. 2006, eq. 4).
+    """Importance of solid occluders, ``f_solid = Vol / |V|^3`` (Papaioannou et al. 2006, eq. 4).
 
     Parameters
     ----------
@@ -723,7 +723,7 @@ def rank_solids(volumes: npt.ArrayLike, centers: npt.ArrayLike, eye: npt.ArrayLi
 
 def rank_planar(areas: npt.ArrayLike, normals: npt.ArrayLike, centers: npt.ArrayLike,
                 eye: npt.ArrayLike, *, two_sided: bool = False) -> np.ndarray:
-    """Importance of planar occluders, f_planar = -A N.V / |V|^2 (eq. 3, after Coorg and Teller).
+    """Importance of planar occluders, ``-A N.V / |V|^2`` (eq. 3, after Coorg and Teller).
 
     Parameters
     ----------

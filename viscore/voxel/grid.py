@@ -395,7 +395,7 @@ def inside_voxels_winding(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGr
     """Non-surface voxels inside the mesh by the generalized winding number at their centres.
 
     A voxel is kept when no triangle touches its closed cube (it is not in
-    ``surface``) and the winding number [4]_ at its centre is at least 1/2 in
+    ``surface``) and the winding number (Jacobson et al. 2013) at its centre is at least 1/2 in
     absolute value. Cavities, sealed by the voxelization or not, have winding
     number 0 and are left out.
 
@@ -454,7 +454,7 @@ def inside_voxels_winding(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGr
     one warning, and every candidate voxel is evaluated. On the open built-in
     buildings at the wall-based voxel size the evaluations drop from
     0.5-1.8 million to 0.5-11% of that (the tower 2.5 thousand of 541
-    thousand; the warehouse, with voxels at |w| near 1/2, 113 thousand of
+    thousand; the warehouse, with voxels at ``|w|`` near 1/2, 113 thousand of
     a million). The last answer is kept by content: solid-frusta asks again
     for the grid and candidates its box source has just asked.
 

@@ -331,7 +331,7 @@ def _winding_gradient_bounds(edges: tuple[np.ndarray, np.ndarray, np.ndarray],
 
 
 def points_inside(scene, points) -> np.ndarray:
-    """Inside test of points: |winding number| >= 1/2.
+    """Inside test of points: ``|winding number| >= 1/2``.
 
     Signed crossings along six rays from each point give the winding number
     of a closed, consistently oriented surface exactly; where the six counts
