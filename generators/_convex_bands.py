@@ -39,6 +39,7 @@ def convex_bands(part: Polygon) -> list[Polygon]:
     ys = np.unique(np.concatenate([np.asarray(r.coords)[:, 1]
                                    for r in (part.exterior, *part.interiors)]))
     x0, x1 = float(part.bounds[0]) - 1.0, float(part.bounds[2]) + 1.0
+    below: list
     done, below = [], []
     for a, b in zip(ys[:-1], ys[1:], strict=True):  # a loop over rows, not over points
         cut = shapely.set_precision(shapely.intersection(part, shapely.box(x0, a, x1, b)), 1.0)

@@ -338,13 +338,13 @@ class GeneratorSpec:
         for key, value in params.items():
             if key == "budget":
                 out[key] = None if value is None else as_positive_int(value, name(key))
-                if out[key] is not None and self.budgeted and out[key] < self.min_budget:
+                if out[key] is not None and self.budgeted and out[key] < self.min_budget:  # type: ignore[operator]
                     raise InputError(f"{name(key)}: {self.name} needs at least "
                                      f"{self.min_budget} triangles, got {out[key]}")
             elif key == "seed":
                 out[key] = as_seed(value, name(key))
             elif key in known:
-                out[key] = known[key].check(value, name(key))
+                out[key] = known[key].check(value, name(key))  # type: ignore[assignment]
             else:
                 valid = ", ".join(name(k) for k in (*COMMON_OPTIONS, *known))
                 raise InputError(f"{self.name}: unknown option {name(key)} (takes: {valid})")
@@ -515,7 +515,7 @@ class _FunctionGenerator:
              *(inspect.Parameter(o.name, kw, default=o.default) for o in options)])
         self.__name__ = getattr(function, "__name__", name)
         self.__qualname__ = getattr(function, "__qualname__", self.__name__)
-        self.__module__ = getattr(function, "__module__", None)
+        self.__module__ = getattr(function, "__module__", None)  # type: ignore[assignment]
         self.__doc__ = getattr(function, "__doc__", None)
 
     def __call__(self, mesh, *, budget=None, seed=0, **options) -> Occluder:

@@ -96,10 +96,10 @@ def _scene(name: str) -> trimesh.Trimesh:
             mesh.remove_unreferenced_vertices()
         return mesh
     if name == "quad":
-        return trimesh.Trimesh([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]],
+        return trimesh.Trimesh([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]],  # type: ignore[arg-type]
                                [[0, 1, 2], [0, 2, 3]], process=False)
     if name == "triangle":
-        return trimesh.Trimesh([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False)
+        return trimesh.Trimesh([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False)  # type: ignore[arg-type]
     box = trimesh.creation.box()
     if name == "huge-box":
         box.apply_scale(_HUGE)
@@ -160,7 +160,7 @@ def _check_options(spec: GeneratorSpec, label: str) -> None:
     takes_any = params is None or any(p.kind is inspect.Parameter.VAR_KEYWORD
                                       for p in params.values())
     for option in spec.options:
-        if not takes_any and option.name not in params:
+        if not takes_any and option.name not in params:  # type: ignore[operator]
             raise _fail(label, "options", f"option {option.name!r} is declared but the "
                         "function takes no such keyword")
         if option.default is not None:
@@ -319,6 +319,6 @@ def check_generator(method: str | GeneratorSpec | Callable, *,
                                 f"{found.rays} {domain}-domain rays hit the occluder before the "
                                 f"mesh (violation rate <= {found.violation_upper_bound:.3g} at "
                                 f"{found.confidence:.0%}, one-sided)", scene)
-            entry["violation_upper_bound"] = max(bounds)
-        report[scene] = entry
+            entry["violation_upper_bound"] = max(bounds)  # type: ignore[assignment]
+        report[scene] = entry  # type: ignore[assignment]
     return report

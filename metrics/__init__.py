@@ -126,9 +126,9 @@ def evaluate(mesh, occluder, *, protocol: str = "orbit", **params) -> PrecisionR
 
     function = {"orbit": orbit_precision_recall,
                 "volume": volume_precision_recall}[check_protocol(protocol)]
-    known = list(inspect.signature(function).parameters)[2:]
+    known = list(inspect.signature(function).parameters)[2:]  # type: ignore[arg-type]
     unknown = sorted(set(params) - set(known))
     if unknown:
         raise InputError(f"{unknown[0]}: not a setting of the {protocol} protocol "
                          f"(settings: {', '.join(known)})")
-    return function(mesh, occluder, **params)
+    return function(mesh, occluder, **params)  # type: ignore[operator]

@@ -231,7 +231,7 @@ def assess_occluder(reference: ReferenceViews | trimesh.Trimesh, occluder, *,
     pr = views.score(scene)
     start = time.perf_counter()
     if target is not None:
-        om = occlusion_measure(scene, directions=directions, resolution=measure_resolution,
+        om = occlusion_measure(scene, directions=directions, resolution=measure_resolution,  # type: ignore[arg-type]
                                seed=stream_seed(seed, "occlusion-measure"),
                                frame=orbit_frame(target))  # the occluder mesh's own window
         measure, measure_se = om.occlusion_measure, om.occlusion_measure_se

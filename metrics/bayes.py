@@ -343,7 +343,7 @@ def hierarchical_beta_model(result: PrecisionRecall, *, quantity: str = "recall"
     sampler = emcee.EnsembleSampler(walkers, 2, _log_posterior, args=(k, n, w), vectorize=True)
     state = np.random.RandomState(np.random.MT19937(emcee_seq)).get_state()
     sampler.random_state = state  # emcee's setter fails silently: check that it took
-    if not np.array_equal(sampler.random_state[1], state[1]):
+    if not np.array_equal(sampler.random_state[1], state[1]):  # type: ignore[index]
         raise RuntimeError("emcee did not take the generator state")
     sampler.run_mcmc(start, steps, progress=False)
     chain = sampler.get_chain(discard=burn, flat=True)

@@ -513,7 +513,7 @@ def _edge_marks(objects: SceneObjects, up: np.ndarray, frame, level: float | np.
                 ib = np.clip(((pts @ e2 - b0) / cell).astype(np.int64), 0, shape[1] - 1)
                 if per_cell:  # between each cell's floor (a step over it) and its ceiling
                     h = pts @ up
-                    keep = (h > level[ia, ib]) & (h < ceiling[ia, ib])
+                    keep = (h > level[ia, ib]) & (h < ceiling[ia, ib])  # type: ignore[index]
                     ia, ib = ia[keep], ib[keep]
                 marks[ia, ib] = True
     return marks

@@ -528,7 +528,7 @@ def check_conservative(mesh: trimesh.Trimesh | Scene, occluder: trimesh.Trimesh 
     start = time.perf_counter()
     original = scene_of(mesh, "mesh")
     other = scene_of(occluder, "occluder")
-    eps = CONSERVATIVE_EPS_RELATIVE * original.diagonal if eps is None else eps
+    eps = CONSERVATIVE_EPS_RELATIVE * original.diagonal if eps is None else eps  # type: ignore[union-attr]
     if frame is None:
         frame = orbit_frame(mesh) if domain == "orbit" else evaluation_box(mesh)[:2]
     rng = np.random.default_rng(seed)
@@ -537,8 +537,8 @@ def check_conservative(mesh: trimesh.Trimesh | Scene, occluder: trimesh.Trimesh 
     worst: list[tuple] = []  # (-gap, ray index, description), best first
     for first in range(0, rays if other is not None else 0, _RAYS_PER_BATCH):
         n = min(_RAYS_PER_BATCH, rays - first)
-        o, d = _domain_rays(domain, frame, original, n, rng)
-        bad, gap, t_orig, t_occ, dropped = _violating_rays(original, other, o, d, eps)
+        o, d = _domain_rays(domain, frame, original, n, rng)  # type: ignore[arg-type]
+        bad, gap, t_orig, t_occ, dropped = _violating_rays(original, other, o, d, eps)  # type: ignore[arg-type]
         violations += len(bad)
         cleared += dropped
         for k in np.argsort(-gap, kind="stable")[:WORST_RAYS]:

@@ -410,7 +410,7 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     for f, pose in enumerate(cameras):
         camera = pose.camera(width, height)
         origins, directions = camera.rays()
-        visible = visible_objects(scene, triangle_object, objects.see_through, origins,
+        visible = visible_objects(scene, triangle_object, objects.see_through, origins,  # type: ignore[arg-type]
                                   directions)
         del origins, directions
         in_view = view_frustum_mask(camera, lower, upper)
@@ -439,18 +439,18 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             false = culled[visible[culled]]
             rendered = tris[idx].sum() - tris[culled].sum()
             rec = per[name]
-            rec["culled"][f], rec["false"][f] = len(culled), len(false)
-            rec["tris"][f], rec["ms"][f] = int(rendered), 1e3 * elapsed
-            rec["names"].append(tuple(objects.names[i] for i in false[:10]))
+            rec["culled"][f], rec["false"][f] = len(culled), len(false)  # type: ignore[index]
+            rec["tris"][f], rec["ms"][f] = int(rendered), 1e3 * elapsed  # type: ignore[index]
+            rec["names"].append(tuple(objects.names[i] for i in false[:10]))  # type: ignore[attr-defined]
             if len(false) and runtimes[name].conservative:
                 _log.warning("frame %d: %s culled %d visible object(s), e.g. %s", f, name,
                              len(false), objects.names[int(false[0])])
         if progress is not None:
             progress(1)
-    results = {k: RuntimeFrames(culled=per[k]["culled"], false_culls=per[k]["false"],
-                                triangles_rendered=per[k]["tris"], overhead_ms=per[k]["ms"],
+    results = {k: RuntimeFrames(culled=per[k]["culled"], false_culls=per[k]["false"],  # type: ignore[arg-type]
+                                triangles_rendered=per[k]["tris"], overhead_ms=per[k]["ms"],  # type: ignore[arg-type]
                                 conservative=runtimes[k].conservative,
-                                false_cull_names=tuple(per[k]["names"])) for k in names}
+                                false_cull_names=tuple(per[k]["names"])) for k in names}  # type: ignore[arg-type]
     return CullingResult(cameras=cameras, width=width, height=height, objects=n,
                          triangles=objects.total_triangles, in_view=in_view_n,
                          in_view_triangles=in_view_t, visible=visible_n,

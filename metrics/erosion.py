@@ -518,10 +518,10 @@ def occlusion_measure(mesh: trimesh.Trimesh | Scene, *, directions: int | npt.Ar
     area = np.empty(n)
     rays = 0
     k = 0
-    for batch in _direction_batches(directions, seed):
+    for batch in _direction_batches(directions, seed):  # type: ignore[arg-type]
         for d in batch:
             cam = OrthoCamera(d, center, extent, resolution)
-            inside = _ray_inside(scene, cam)
+            inside = _ray_inside(scene, cam)  # type: ignore[arg-type]
             covered = _coverage(inside, resolution)
             counted = _CountingInside(inside)
             pixel = cam.pixel_size

@@ -129,9 +129,9 @@ def evaluation_bytes(protocol: str, *, views: int | None = None, quads: int, res
     """
     per_pixel = BYTES_PER_ORBIT_PIXEL + (BYTES_PER_DEPTH_AWARE_PIXEL if depth_aware else 0)
     if protocol == "orbit":
-        batch = min(views, max(1, RAYS_PER_BATCH // (resolution * resolution)))
-        return (batch * resolution * resolution * per_pixel
-                + quads * BYTES_PER_SCORED_QUAD + views * BYTES_PER_RESULT_VIEW)
+        batch = min(views, max(1, RAYS_PER_BATCH // (resolution * resolution)))  # type: ignore[type-var]
+        return (batch * resolution * resolution * per_pixel  # type: ignore[operator]
+                + quads * BYTES_PER_SCORED_QUAD + views * BYTES_PER_RESULT_VIEW)  # type: ignore[operator]
     return 6 * resolution * resolution * per_pixel + quads * BYTES_PER_SCORED_QUAD
 
 

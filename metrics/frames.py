@@ -41,7 +41,7 @@ __all__ = ["orbit_frame", "evaluation_box", "volume_positions"]
 EXTENT_FACTOR = 1.01
 
 
-def orbit_frame(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
+def orbit_frame(mesh: trimesh.Trimesh | Scene) -> tuple[np.ndarray, float]:
     """Centre and window extent of the orbit protocol for an original mesh.
 
     Returns
@@ -68,7 +68,7 @@ MAX_GRID_POSITIONS = 50_000_000
 _BYTES_PER_CELL = 400
 
 
-def evaluation_box(mesh: trimesh.Trimesh, *, spacing: float | None = None,
+def evaluation_box(mesh: trimesh.Trimesh | Scene, *, spacing: float | None = None,
                    padding: float | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """The padded bounding box B' of the volume protocol and the view spacing dx.
 
@@ -181,8 +181,8 @@ def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
         idx = np.argwhere(parent)
         centres = first + (idx * size + (size - 1) / 2) * dx
         ok = ~points_inside(scene, centres)
-        parent[tuple(idx[~ok].T)] = False
-        levels.append(parent)
+        parent[tuple(idx[~ok].T)] = False  # type: ignore[index]
+        levels.append(parent)  # type: ignore[arg-type]
     assigned = np.zeros(valid.shape, dtype=bool)
     out_pos, out_w = [], []
     for level in range(len(levels) - 1, -1, -1):

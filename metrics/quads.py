@@ -353,7 +353,7 @@ def occluder_counts(ref: ImageQuads, occluder_region: np.ndarray | None) -> Quad
     if occluder_region is None:
         b = np.zeros(len(quads), dtype=np.int64)
     elif ref.levels is not None:
-        b = level_sums(occluder_region, ref.levels, ref.level.astype(np.int64), quads)
+        b = level_sums(occluder_region, ref.levels, ref.level.astype(np.int64), quads)  # type: ignore[union-attr]
     else:
         b = rect_sums(occluder_region, quads)
-    return tally(ref.n, ref.a, b)
+    return tally(ref.n, ref.a, b)  # type: ignore[arg-type]

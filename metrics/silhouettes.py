@@ -84,7 +84,7 @@ def silhouette_image(mesh: trimesh.Trimesh | Scene, occluder: trimesh.Trimesh | 
     other = scene_of(occluder, "occluder")
     center, extent = orbit_frame(mesh) if frame is None else frame
     cam = OrthoCamera(direction, center, extent, resolution)
-    orig = _coverage(_ray_inside(original, cam), resolution)
+    orig = _coverage(_ray_inside(original, cam), resolution)  # type: ignore[arg-type]
     occ = (_coverage(_ray_inside(other, cam), resolution) if other is not None
            else np.zeros_like(orig))
     image = np.empty(orig.shape + (3,), dtype=np.uint8)

@@ -300,7 +300,7 @@ class FileSet:
             if exc_type is None:
                 self._commit()
         finally:
-            shutil.rmtree(self._tmp, ignore_errors=True)
+            shutil.rmtree(self._tmp, ignore_errors=True)  # type: ignore[arg-type]
             self._tmp = None
 
     def _commit(self) -> None:
@@ -310,7 +310,7 @@ class FileSet:
             target = self.folder / name
             try:
                 old = self._keep_old(target)
-                os.replace(self._tmp / name, target)
+                os.replace(self._tmp / name, target)  # type: ignore[operator]
             except OSError as exc:
                 self._undo(moved)
                 raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from None
@@ -321,7 +321,7 @@ class FileSet:
         """A hard link to the file at ``target`` in the temporary folder, or None."""
         if not os.path.isfile(target) or os.path.islink(target):
             return None
-        old = self._tmp / f".old-{target.name}"
+        old = self._tmp / f".old-{target.name}"  # type: ignore[operator]
         try:
             os.link(target, old)
         except OSError:  # a filesystem without hard links: the undo removes the new file

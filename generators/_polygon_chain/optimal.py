@@ -236,7 +236,7 @@ def best_inscribed(ring: np.ndarray, region: Polygon, kmax: int
     rounds = [ok]
     if (not isinstance(region, Polygon) or len(region.interiors)
             or len(np.unique(xy, axis=0)) < n):
-        rounds.append(None)
+        rounds.append(None)  # type: ignore[arg-type]
     for rules in rounds:
         if rules is None:
             rules = _pocket_rules(xy, region, ok)

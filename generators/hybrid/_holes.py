@@ -57,13 +57,13 @@ def sample_polygon(polygon, count: int, rng: np.random.Generator) -> np.ndarray:
     A polygon of no area gives its representative point ``count`` times.
     """
     verts, tris = triangulate_polygon(polygon) if polygon.area > 0 else (None, [])
-    if len(tris) == 0:
+    if len(tris) == 0:  # type: ignore[arg-type]
         p = polygon.representative_point()
         return np.repeat([[p.x, p.y]], count, axis=0)
-    a, b, c = verts[tris[:, 0]], verts[tris[:, 1]], verts[tris[:, 2]]
+    a, b, c = verts[tris[:, 0]], verts[tris[:, 1]], verts[tris[:, 2]]  # type: ignore[index]
     ab, ac = b - a, c - a
     area = 0.5 * np.abs(ab[:, 0] * ac[:, 1] - ab[:, 1] * ac[:, 0])
-    pick = rng.choice(len(tris), size=count, p=area / area.sum())
+    pick = rng.choice(len(tris), size=count, p=area / area.sum())  # type: ignore[arg-type]
     r1, r2 = rng.random(count), rng.random(count)
     s = np.sqrt(r1)
     w0, w1, w2 = 1 - s, s * (1 - r2), s * r2

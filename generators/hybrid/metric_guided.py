@@ -273,7 +273,7 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
     t_ref = time.perf_counter()
     if reference is None:
         reference = ReferenceViews(original, protocol="volume", spacing=spacing, quads=quads,
-                                   resolution=resolution, seed=seed)
+                                   resolution=resolution, seed=seed)  # type: ignore[arg-type]
     seconds_reference = time.perf_counter() - t_ref
     info = {"faces_before": 0 if occ is None else len(occ.faces),
             "eps_p": eps_p, "eps_r": eps_r, "skip_unseen": bool(skip_unseen),

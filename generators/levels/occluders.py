@@ -123,10 +123,10 @@ def transform_occluder(occluder: Occluder, matrix: np.ndarray) -> Occluder:
     if solids or "solids" in occluder.parts or "boxes" in occluder.parts:
         parts["solids"] = solids
     if "polygons" in occluder.parts:
-        parts["polygons"] = [_move(p, m) for p in occluder.parts["polygons"]]
+        parts["polygons"] = [_move(p, m) for p in occluder.parts["polygons"]]  # type: ignore[misc]
     if "hierarchy" in occluder.parts:
         stretch = float(np.linalg.svd(m[:3, :3], compute_uv=False).max())
-        parts["hierarchy"] = _move_node(occluder.parts["hierarchy"], m, stretch)
+        parts["hierarchy"] = _move_node(occluder.parts["hierarchy"], m, stretch)  # type: ignore[assignment]
     for key, value in occluder.parts.items():
         if key not in ("solids", "boxes", "polygons", "hierarchy"):
             parts[key] = value
@@ -134,7 +134,7 @@ def transform_occluder(occluder: Occluder, matrix: np.ndarray) -> Occluder:
                                info={**occluder.info, "transformed": True})
 
 
-def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, *,
+def scene_occluders(objects: SceneObjects, indices: Sequence[int] | np.ndarray, method: str, *,
                     seed: int = 0, progress: Callable[[int], None] | None = None,
                     made: Mapping[int, tuple[Occluder, list]] | None = None,
                     **params) -> dict[int, Occluder]:
@@ -219,7 +219,7 @@ JOINED_METHODS = ("surface-patches",)
 _JOINED = -2
 
 
-def joined_occluder(objects: SceneObjects, indices: Sequence[int], method: str, *,
+def joined_occluder(objects: SceneObjects, indices: Sequence[int] | np.ndarray, method: str, *,
                     seed: int = 0, **params) -> Occluder:
     """One world-space occluder of the union of some objects, by one registered method.
 
@@ -286,7 +286,7 @@ def joined_occluder(objects: SceneObjects, indices: Sequence[int], method: str, 
     return occ
 
 
-def scene_hierarchy(objects: SceneObjects, indices: Sequence[int], method: str, *,
+def scene_hierarchy(objects: SceneObjects, indices: Sequence[int] | np.ndarray, method: str, *,
                     seed: int = 0, **params) -> Occluder:
     """One occluder of a hierarchical method over all the given objects together.
 

@@ -81,7 +81,7 @@ def _guaranteed(occluder: Occluder, method: str) -> bool:
 
 
 def _solids(occluders: Sequence[Occluder]) -> list[tuple[np.ndarray, np.ndarray]]:
-    solids = []
+    solids: list[tuple[np.ndarray, np.ndarray]] = []
     for occ in occluders:
         if len(occ.parts.get("solids", [])):
             solids.extend((np.asarray(v), np.asarray(f)) for v, f in occ.parts["solids"])
@@ -123,7 +123,8 @@ def _hierarchy_source(occluders: list[Occluder], width_of: Callable) -> Callable
     return per_frame
 
 
-def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Sequence[str], *,
+def culling_runtimes(objects: SceneObjects, indices: Sequence[int] | np.ndarray,
+                     methods: Sequence[str], *,
                      active: int = 15, reduction: int = 4, seed: int = 0,
                      frusta: bool = True, frusta_source: str | None = None,
                      cap: str = "front-faces", rank: str = "faces",
@@ -274,7 +275,7 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
     runtimes: dict[str, Runtime] = {"none": no_culling()}
     info: dict[str, dict] = {"none": {"method": None, "occluders": 0, "conservative": True}}
     if frusta:
-        solids = _solids(occluders(source).values())
+        solids = _solids(list(occluders(source).values()))
         unsure = [i for i, o in occluders(source).items() if not _guaranteed(o, source)]
         conservative = not unsure
         for mode in ("planar", "solid"):

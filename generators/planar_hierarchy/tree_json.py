@@ -235,7 +235,7 @@ def hierarchy_from_json(path: str | os.PathLike) -> dict:
     if 0 in seen:
         raise InputError(f"{label}: the root is some node's child")
     for n in nodes:
-        n["children"] = [nodes[c] for c in n["children"]]
+        n["children"] = [nodes[c] for c in n["children"]]  # type: ignore[attr-defined]
     if len(_walk(nodes[0])) != len(nodes):
         raise InputError(f"{label}: some nodes are not below the root")
     nodes[0]["builder"] = str(doc.get("builder", ""))

@@ -110,6 +110,7 @@ def select_greedy(bitmaps: np.ndarray, pixel: float, *, alpha: float, measure: s
     base = np.zeros(nd)
     done = np.zeros(n, dtype=bool)
     bound = np.full(n, np.inf)  # gain at the last evaluation (pixel units)
+    chosen: list[int]
     chosen, totals = [], []
     scale = pixel**2 if measure == "area" else pixel**3
     current = 0.0
@@ -217,8 +218,8 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
                 best_next = int(nexts[best][stage[best]])
         else:
             if reduce == "om" and cover is None:
-                cover = counts_img > 0
-                base = soup_measures(cover, pixel)
+                cover = counts_img > 0  # type: ignore[operator]
+                base = soup_measures(cover, pixel)  # type: ignore[arg-type]
             for i, ch in enumerate(chains):
                 s = int(stage[i])
                 if s >= ch.stages:
@@ -235,7 +236,7 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
                         img = img + bitmaps_of(i, nxt)
                     after = img > 0
                     changed = (after != cover).reshape(len(after), -1).any(axis=1)
-                    vals = base.copy()
+                    vals = base.copy()  # type: ignore[union-attr]
                     if changed.any():
                         vals[changed] = soup_measures(after[changed], pixel)
                     val = float(vals.sum())

@@ -153,7 +153,7 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
     timing["greedy"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     for i in chosen:  # stages inside the candidate; the largest ones for chain='optimal'
-        chains[i] = refine_chain(chains[i], cands[i][1].polygon,
+        chains[i] = refine_chain(chains[i], cands[i][1].polygon,  # type: ignore[call-overload]
                                  search=chain == "optimal" and budget is not None)
     timing["chains"] = time.perf_counter() - t0
     t0 = time.perf_counter()

@@ -151,7 +151,7 @@ def screen_space_voxel_size(pixel_error: float, distance: float, *, fov: float =
 
 
 def _as_fov(fov: object) -> float:
-    if isinstance(fov, bool) or not isinstance(fov, numbers.Real) or not (0 < fov < 180):
+    if isinstance(fov, bool) or not isinstance(fov, numbers.Real) or not (0 < fov < 180):  # type: ignore[operator]
         raise InputError(f"fov: expected degrees in (0, 180), got {fov!r}")
     return float(fov)
 
@@ -163,7 +163,7 @@ def _as_ground(value: object) -> str | float | None:
     if isinstance(value, str) and value.strip().lower() == "auto":
         return "auto"
     try:
-        height = float(value) if not isinstance(value, bool) else math.nan
+        height = float(value) if not isinstance(value, bool) else math.nan  # type: ignore[arg-type]
     except (TypeError, ValueError):
         height = math.nan
     if not math.isfinite(height):
@@ -192,7 +192,7 @@ def _as_distances(value: object) -> tuple[float, ...]:
         items = [float(value)]
     else:
         try:
-            items = [float(v) for v in value]
+            items = [float(v) for v in value]  # type: ignore[attr-defined]
         except (TypeError, ValueError):
             raise InputError(f"lod_distances: expected numbers, got {value!r:.80}") from None
     if not items or not all(math.isfinite(v) and v > 0 for v in items):

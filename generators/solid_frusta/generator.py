@@ -576,7 +576,7 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
         _log.warning("solid-frusta: %s is not closed and consistently oriented; solids may "
                      "show through holes", mesh.metadata.get("name", "mesh"))
     return Occluder(
-        mesh=out, method="solid-frusta", double_sided=False,
+        mesh=out, method="solid-frusta", double_sided=False,  # type: ignore[arg-type]
         seconds=time.perf_counter() - start,
         params={"voxels": voxels, "solids": solids, "pieces": pieces,
                 "shrink_steps": shrink_steps, "budget": budget, "seed": seed,

@@ -113,7 +113,7 @@ def select_with_overlap(values: list[np.ndarray], counts: list[np.ndarray],
         if not fresh[i]:  # its share against the others as they are now, then pick again
             fresh[i] = True
             if stage[i] < 0:
-                gain = float(soup_totals([i], covers > 0, bitmaps, base)[0] - base.sum())
+                gain = float(soup_totals([i], covers > 0, bitmaps, base)[0] - base.sum())  # type: ignore[arg-type]
             else:
                 others = (covers - bitmaps[i]) > 0
                 gain = float(base.sum()) - float(soup_measures(others, 1.0).sum())
@@ -130,7 +130,7 @@ def select_with_overlap(values: list[np.ndarray], counts: list[np.ndarray],
 
 
 def candidate_bitmaps(mesh, rings: list[np.ndarray], box_loops: list[np.ndarray],
-                      sheets: list[np.ndarray] = ()) -> np.ndarray:
+                      sheets: list[np.ndarray] | tuple[np.ndarray, ...] = ()) -> np.ndarray:
     """``(k, N, R, R) bool``: the patch candidates' world loops, then each box (six loops in a
     row, OR-ed), then each sheet chunk (``(m, 3, 3)`` triangles, OR-ed), seen along the
     measure directions over ``mesh``'s orbit frame."""

@@ -543,7 +543,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         for frame, region in curtains:
             pieces = _region_pieces(region, erosion=EROSION * diag, grid=grid, floor=floor)
             cands += [(frame, region, piece) for piece in pieces or ()]
-            sources += [None] * len(pieces or ())
+            sources += [None] * len(pieces or ())  # type: ignore[list-item]
             cand_region += [-1] * len(pieces or ())
     curtain_cands = len(cands) - planar_cands
     is_curtain = np.arange(len(cands)) >= planar_cands
@@ -649,11 +649,11 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
         loop = ch.stage_ring(int(s)) * grid
         ring = o + loop[:, :1] * u + loop[:, 1:2] * v
         if k >= 0 and k in creases:  # onto the creases the erosion left (._crease_weld)
-            moved = weld_points(world, k, creases, planes, reach=reach)
+            moved = weld_points(world, k, creases, planes, reach=reach)  # type: ignore[arg-type]
             moved_xy = np.stack([(moved - o) @ u, (moved - o) @ v], axis=1)
             if welded_ring(pts, moved_xy, inv.reshape(-1, 3), union, tolerance=grid):
                 world, pts = moved, moved_xy
-                ring = weld_points(ring, k, creases, planes, reach=reach)
+                ring = weld_points(ring, k, creases, planes, reach=reach)  # type: ignore[arg-type]
                 welded += 1
         out_v.append(world)
         out_f.append(inv.reshape(-1, 3) + offset)

@@ -381,6 +381,7 @@ def _plane_regions(tri: np.ndarray, unit: np.ndarray, twice: np.ndarray, facet: 
     group = group.reshape(-1)
     order = np.argsort(group, kind="stable")
     bounds = np.flatnonzero(np.r_[True, group[order][1:] != group[order][:-1], True])
+    planes: list[np.ndarray]
     planes, segs, start = [], [], [0]
     large = _LONE_FACET_SHARE * float(twice[ok].sum())
     for a, b in zip(bounds[:-1], bounds[1:], strict=True):  # a loop over planes
@@ -461,6 +462,8 @@ class OccluderScene:
 
         items = occluders if isinstance(occluders, list | tuple) and not _is_pair(occluders) \
             else [occluders]
+        verts: list[np.ndarray]
+        solid: list[np.ndarray]
         verts, faces, facet, solid, bounds = [], [], [], [], []
         count = 0
 
@@ -661,7 +664,7 @@ class OccluderScene:
         """(f,) int64 convex-piece label of each triangle for this eye: the solid's label
         when the eye is strictly outside the solid, the planar facet's label otherwise."""
         outside = self._front_planes(np.asarray(eye, dtype=np.float64)).any(axis=1)
-        return self._piece_of(np.arange(len(self._facet)), outside)[1]
+        return self._piece_of(np.arange(len(self._facet)), outside)[1]  # type: ignore[arg-type]
 
 
 def _is_pair(item) -> bool:
@@ -842,7 +845,7 @@ def _full_corner_depth(occ: OccluderScene, camera: PerspectiveCamera, width: int
     d = f + xs[None, :, None] * r + ys[:, None, None] * u
     d = (d / np.linalg.norm(d, axis=2)[..., None]).reshape(-1, 3)
     t, tri = occ.scene.first_hit(eye[None], d)
-    label = occ._piece_of(tri, occ._front_planes(eye).any(axis=1))[1].reshape(h + 1, w + 1)
+    label = occ._piece_of(tri, occ._front_planes(eye).any(axis=1))[1].reshape(h + 1, w + 1)  # type: ignore[arg-type]
     t = t.reshape(h + 1, w + 1)
     lab = label[:-1, :-1]
     same = ((lab >= 0) & (lab == label[:-1, 1:]) & (lab == label[1:, :-1])
@@ -1034,7 +1037,7 @@ class ConservativeDepthBuffer:
         cam = self.camera
         eye = cam.position
         h, w = self.depth.shape
-        bounds, front = _screen_boxes(lo, hi, eye, cam.basis, cam._half, cam._half_vertical,
+        bounds, front = _screen_boxes(lo, hi, eye, cam.basis, cam._half, cam._half_vertical,  # type: ignore[arg-type]
                                       w, h)
         gap = np.maximum(lo - eye, 0) + np.maximum(eye - hi, 0)
         nearest = np.sqrt(np.einsum("ij,ij->i", gap, gap))

@@ -271,6 +271,7 @@ class FrustumCuller:
         """
         import trimesh
 
+        solids: list[tuple[np.ndarray, np.ndarray]]
         solids, polygons = [], []
         unit = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
         for occ in occluders:

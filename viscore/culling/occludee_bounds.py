@@ -101,7 +101,7 @@ def cluster_boxes(vertices: npt.ArrayLike, faces: npt.ArrayLike, clusters: int
         return (-float(span.max()), next(made), group, int(np.argmax(span)))
 
     heap = [entry(np.arange(len(f)))]
-    done = []
+    done: list = []
     while heap and len(heap) + len(done) < clusters:
         neg, _, group, axis = heapq.heappop(heap)
         if neg == 0.0:

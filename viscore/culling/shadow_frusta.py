@@ -618,7 +618,7 @@ def _inside_any(planes: np.ndarray, owner: np.ndarray, lo: np.ndarray,
     rows = np.concatenate([planes[:, :3], -np.abs(planes[:, :3]), planes[:, 3:]], axis=1)
     worst = boxes @ rows.T
     starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
-    return (np.minimum.reduceat(worst, starts, axis=1) >= 0).any(axis=1)
+    return (np.minimum.reduceat(worst, starts, axis=1) >= 0).any(axis=1)  # type: ignore[return-value]
 
 
 def _fast_boxes(lower, upper) -> tuple[np.ndarray, np.ndarray]:

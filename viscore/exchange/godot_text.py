@@ -130,7 +130,7 @@ def _parse_godot_text(data: bytes, label: str) -> list[_Section]:
     sections: list[_Section] = []
     pos, n = 0, len(text)
     while True:
-        pos = _SPACE.match(text, pos).end()
+        pos = _SPACE.match(text, pos).end()  # type: ignore[union-attr]
         if pos >= n:
             break
         line = text.count("\n", 0, pos) + 1
@@ -284,7 +284,7 @@ def _load_tscn(data: bytes, path: Path, label: str) -> trimesh.Trimesh:
     world: dict[str, np.ndarray] = {}
 
     def world_of(node_path: str, asked_by: str) -> np.ndarray:
-        chain = []  # from the node up to the first ancestor already known or the root
+        chain: list = []  # from the node up to the first ancestor already known or the root
         current: str | None = node_path
         while current is not None and current not in world:
             node = by_path.get(current)

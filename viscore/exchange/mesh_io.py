@@ -165,7 +165,7 @@ def _decode_text(data: bytes) -> str:
         try:
             from charset_normalizer import from_bytes
         except ImportError:  # pragma: no cover - it is a dependency
-            from_bytes = None
+            from_bytes = None  # type: ignore[assignment]
         if from_bytes is not None:
             best = from_bytes(data[:65536]).best()
             if best is not None and best.encoding.startswith("utf_"):
@@ -377,7 +377,7 @@ def _parse_zip(data: bytes, label: str, readable: set[str]) -> trimesh.Trimesh:
     resolver = trimesh.resolvers.ZipResolver(files)
     meshes = [_parse(files[i.filename].getvalue(), _suffix(i.filename),
                      f"{label}:{i.filename}", resolver) for i in members]
-    return meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
+    return meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)  # type: ignore[return-value]
 
 
 def _suffix(name: str) -> str:

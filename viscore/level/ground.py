@@ -117,7 +117,7 @@ def ground_fill(surface: np.ndarray, grid: VoxelGrid, *, up: object = "z",
     top = n - 1 - np.argmax(column[..., ::-1], axis=-1)  # highest surface voxel per column
     layers = np.arange(n)
     low = ground_layer(grid, k, height)
-    fill = (layers >= low) & (layers <= top[..., None]) & any_hit[..., None]
+    fill = (layers >= low) & (layers <= top[..., None]) & any_hit[..., None]  # type: ignore[index]
     return np.ascontiguousarray(np.moveaxis(fill, -1, k))
 
 

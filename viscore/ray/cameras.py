@@ -72,7 +72,7 @@ def camera_basis(forward: npt.ArrayLike, up: npt.ArrayLike | None = None
         u = as_vector(up, "up")
     r = np.cross(f, u)
     rn = np.linalg.norm(r)
-    if rn < 1e-9 * max(1.0, np.linalg.norm(u)):
+    if rn < 1e-9 * max(1.0, np.linalg.norm(u)):  # type: ignore[operator]
         raise InputError("up: parallel to the viewing direction")
     r = r / rn
     return f, r, np.cross(r, f)
@@ -175,7 +175,7 @@ class OrthoCamera:
             Distance along ``direction`` from the ray start plane.
         """
         f, r, u = self.basis
-        p = np.asarray(points, dtype=np.float64) - self.center
+        p = np.asarray(points, dtype=np.float64) - self.center  # type: ignore[operator]
         col = (p @ r / self.extent + 0.5) * self.resolution
         row = (0.5 - p @ u / self.extent) * self.resolution
         return np.stack([col, row], axis=1), p @ f + self.start
@@ -290,7 +290,7 @@ class PerspectiveCamera:
         NaN pixel coordinates.
         """
         f, r, u = self.basis
-        p = np.asarray(points, dtype=np.float64) - self.position
+        p = np.asarray(points, dtype=np.float64) - self.position  # type: ignore[operator]
         z = p @ f
         rows, cols = self.shape
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -306,7 +306,7 @@ class PerspectiveCamera:
         -------
         inside : (n,) bool
         """
-        pixel, _ = self.project(self.position + np.asarray(directions, dtype=np.float64))
+        pixel, _ = self.project(self.position + np.asarray(directions, dtype=np.float64))  # type: ignore[operator]
         rows, cols = self.shape
         with np.errstate(invalid="ignore"):
             return ((pixel[:, 0] >= 0) & (pixel[:, 0] <= cols)

@@ -187,7 +187,7 @@ def _kernel_signatures() -> dict:
 
     def array(dtype, ndim: int = 1, layout: str = "C", readonly: bool = False,
               aligned: bool = True):
-        return types.Array(dtype, ndim, layout, readonly=readonly, aligned=aligned)
+        return types.Array(dtype, ndim, layout, readonly=readonly, aligned=aligned)  # type: ignore[call-overload]
 
     f64, f32 = types.float64, types.float32
     rays = array(f64, readonly=True)  # a writable array converts to it
@@ -538,7 +538,7 @@ class Scene:
                                               flags, first_ray=a)
                         tfar32 = None
                         if tfar is not None:
-                            tfar32 = dists[:m]
+                            tfar32 = dists[:m]  # type: ignore[index]
                             _unit_tfar(tfar[a:b], scale, _EMBREE_MISS_T, tfar32)
                         if intersect:
                             res = scene.run(o32[:m], d32[:m], dists=tfar32, output=1)

@@ -185,7 +185,7 @@ def voxel_grid(bounds: np.ndarray, *, resolution: int | None = None,
             f"cells and would need about {gib:.3g} GiB; the limit is {MAX_VOXEL_CELLS:,} cells")
     shape = counts.astype(np.int64)
     origin = 0.5 * (bounds[0] + bounds[1]) - 0.5 * shape * pitch
-    return VoxelGrid(origin=origin, pitch=float(pitch), shape=tuple(int(s) for s in shape))
+    return VoxelGrid(origin=origin, pitch=float(pitch), shape=tuple(int(s) for s in shape))  # type: ignore[arg-type]
 
 
 def _sat_overlap(tri: np.ndarray, center: np.ndarray, half: float) -> np.ndarray:
@@ -956,7 +956,7 @@ def voxel_boundary_mesh(solid: np.ndarray, grid: VoxelGrid) -> trimesh.Trimesh:
     nodes = np.arange(4 * nq)  # node 4 q + i: corner i of quad q; also edge i of quad q
     n_lattice = int(np.prod(np.array(lattice, dtype=np.int64)))
     key = np.minimum(va, vb) * n_lattice + np.maximum(va, vb)
-    order = np.lexsort((owner[nodes // 4], key))
+    order = np.lexsort((owner[nodes // 4], key))  # type: ignore[index]
     first, second = order[0::2], order[1::2]  # pairs: each edge has 2 or 4 faces
     # join the corners of paired faces that sit on the same grid vertex
     nxt = lambda e: 4 * (e // 4) + (e % 4 + 1) % 4  # noqa: E731  (corner i + 1 of the quad)
