@@ -2,14 +2,6 @@
 
 Shared by the command line (tables, meshes, reports) and the figure module of
 :mod:`viscore.metrics` (plots written beside a study).
-
-The core's shared set (STYLE rule 3: private to the package, imported by
-``viscore.metrics``, ``viscore.generators`` and ``viscore.cli`` alike):
-:func:`write_atomic`, :func:`check_output_path`, :func:`file_mode` (the
-mode a new file gets, for writers that make their own temporary files, such
-as the command line's all-or-none output folders), :func:`swap_folder`
-(a whole folder of files replaced in one step) and :class:`FileSet` (files
-written beside others in a folder, all or none).
 """
 
 from __future__ import annotations

@@ -1,24 +1,7 @@
 """Godot 4 text resources and scenes (``.tres``/``.tscn``) in and out.
 
-Read: text resources (``.tres``) whose main resource is an
-``ArrayOccluder3D`` [2]_ (``vertices = PackedVector3Array(...)``, ``indices =
-PackedInt32Array(...)``), and text scenes (``.tscn``) whose
-``OccluderInstance3D`` nodes [3]_ hold such occluders as sub-resources (or as
-external ``.occ``/``.tres`` files beside the scene, the binary ones read by
-:mod:`viscore.exchange.godot_binary`), placed by the ``transform`` of the node and of
-its ancestors [4]_. Written: :func:`tres_text` (one ``ArrayOccluder3D``) and
-:func:`tscn_text` (one ``OccluderInstance3D`` per :class:`OccluderInstance`,
-instances of one mesh sharing one sub-resource). :class:`OccluderInstance`
-and the checks of the writers' input live here too; the ``-occonly`` glTF
-writer of :mod:`viscore.exchange.occonly_gltf` shares them.
-
-Godot's text format stores a ``Transform3D`` as its 3x3 basis **row by row**
-followed by the origin: ``Transform3D(xx, xy, xz, yx, yy, yz, zx, zy, zz, ox,
-oy, oz)`` is the affine map ``p -> B @ p + o`` with ``B[0] = (xx, xy, xz)``
-(Godot's ``Basis`` stores rows, ``Basis::xform`` dots each row with the
-point). Godot stores geometry as float32 (``real_t``); values read here are
-those float32 values widened to float64, and values written round-trip to
-the same float32 values.
+Reads and writes ``ArrayOccluder3D`` resources [2]_ and scenes of
+``OccluderInstance3D`` nodes [3]_ in Godot's text format [4]_.
 
 References
 ----------

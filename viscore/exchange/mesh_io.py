@@ -1,28 +1,4 @@
-"""Mesh files in and out: any file trimesh reads, as a triangle soup, and every format we write.
-
-Input meshes are never assumed watertight, manifold, oriented or connected
-(DESIGN.md, "The core"). What cannot be used at all is refused with one
-:class:`~viscore.InputError` naming the file and saying what it is: a missing
-path, a dangling link, a directory, a FIFO or device (never read: a FIFO
-would block), an unreadable or empty file, a file that is not the format its
-name says, a file with no triangles (a point cloud, lines only), NaN or
-infinite coordinates, zero extent, or a mesh whose scale float32 ray tracing
-cannot hold (see :func:`validate_mesh`). Degenerate faces are dropped with a
-count in ``mesh.metadata`` and a DEBUG log line.
-
-Text formats (OBJ, OFF, ASCII STL) are decoded here, not by trimesh: UTF-8,
-UTF-16/32 with a byte-order mark, BOM-less UTF-16 (by ``charset_normalizer``
-when installed), else Latin-1, which keeps every ASCII number and keyword of
-these formats, so a comment in any 8-bit encoding never stops a load. OFF is
-parsed here (trimesh 5.2 fails on n-gons); quads and n-gons are triangulated
-as fans. ZIP archives are inspected before extraction: the sizes in the
-archive directory are checked against the memory limit first.
-
-Writing: :func:`save_mesh` (and :func:`mesh_bytes`) write every format the
-command line writes, PLY with float64 vertices, OBJ and OFF with 17
-significant digits, STL and GLB (float32 by their specifications) refused
-for a mesh float32 cannot hold.
-"""
+"""Mesh files in and out: any file trimesh reads, as a triangle soup, and every format we write."""
 
 from __future__ import annotations
 

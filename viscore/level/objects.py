@@ -1,18 +1,7 @@
 """A game level as objects: glTF nodes, or a single mesh split into parts, and its up axis.
 
-A level is a glTF/GLB scene, every mesh node one object with instancing
-honoured (glTF 2.0 [1]_, sec. 3.5 and 3.7), or a single mesh (OBJ, PLY, OFF,
-STL) such as an exported game map, split here into objects; which objects
-get occluders is chosen by size, never the flat ground alone
-(:mod:`viscore.generators.levels` makes their occluders); a
-glTF of a single object is split as a single mesh is, and a flat object far
-larger than the rest of the level (:data:`LEVEL_SPAN`: an outer ground
-plane around a town) or a sky around it
-(:meth:`viscore.level.scene_graph.SceneObjects.sky`) does not set the scale of the
-size threshold. A sky gets no occluders: nothing of the level lies behind it.
-Nor does a see-through object (a transparent glTF material, alpha blended or
-alpha tested: glass, water, leaves), which Godot's occluder bake skips too.
-:func:`occluder_objects` chooses by name or by an absolute size in world units.
+Every mesh node of a glTF scene [1]_ is an object (instancing honoured, secs. 3.5
+and 3.7), or a single mesh is split into parts; some objects get occluders.
 
 References
 ----------

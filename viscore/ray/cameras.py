@@ -1,11 +1,8 @@
 """Cameras as ray bundles: orthographic, perspective and the cube of six frusta.
 
-Each camera yields one ray per pixel centre, ``(R*R, 3) float64`` origins and
-unit directions (``(H*W, 3)`` for a non-square perspective camera), row-major
-with row 0 at the top edge (towards ``up``) and column 0 at the left edge.
-The orthographic camera follows the orbit protocol of Silvennoinen et al.
-2014 [1]_, sec. 6.1; the six 90-degree frusta follow the volume protocol of
-Wu et al. 2022 [2]_, sec. 3.2.
+The orthographic camera of the orbit protocol (Silvennoinen et al. 2014 [1]_,
+sec. 6.1) and the six 90-degree frusta of the volume protocol (Wu et al. 2022 [2]_,
+sec. 3.2).
 
 References
 ----------

@@ -1,27 +1,4 @@
-"""Embree scene of one triangle soup: batched first-hit, any-hit and all-hits queries.
-
-The one place that holds an Embree handle (DESIGN.md, "The core"). The scene
-is built once, in robust mode so that rays through shared edges are not lost,
-from the mesh translated to its bounding-box centre and scaled to unit size
-(by a power of two, so the scaling itself is exact): Embree computes in
-float32, whose error is relative, so a mesh of size 1e-12 or 1e17 is traced
-as accurately as one of size 1. Queries take and return float64 in world
-units: ray origins are mapped into the unit frame, distances mapped back.
-Batches are cut into equal chunks of 16384 to 65536 rays that a pool of
-threads (one per core by default, the calling thread among them) claims in
-order, converting, checking and tracing each chunk in its own reused
-float32 buffers. A chunk costs three calls that hold the GIL only while
-they start: one compiled pass (:func:`_unit_frame`) that maps the float64
-rays to the float32 unit frame and checks them on the way, embreex's
-``EmbreeScene.run`` (which releases the GIL while it traces), and one
-compiled pass (:func:`_store_hits`) that writes the float64 distances and
-int64 triangles; numpy is left for the rare chunk with a bad or non-unit
-ray. The dozen numpy passes these replace cost 17-22 ns a ray on one
-thread, where the two compiled ones cost 7-8 (against 106 ns of tracing a
-coherent ray and 240 an incoherent one on the 56k-triangle bunny), most of
-it reading the float64 rays and writing the float64 hits. Two threads get
-1.9-2.1x of one.
-"""
+"""Embree scene of one triangle soup: batched first-hit, any-hit and all-hits queries."""
 
 from __future__ import annotations
 

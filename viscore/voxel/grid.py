@@ -1,24 +1,8 @@
 """Voxelization of triangle soups: surface, outside, inner and inside voxels.
 
-- Surface voxels: every voxel a triangle touches, by the exact separating-axis
-  triangle/box overlap test of Akenine-Moeller [3]_, as in Silvennoinen et al.
-  [1]_, sec. 4.1, and the occluder-skins paper of Leone et al. [2]_, sec. 4.
-- Outside voxels: 6-connected flood fill from the grid border through
-  non-surface voxels ([1]_, sec. 4.1); the rest is solid.
-- Inner voxels: the six-direction rule of [2]_, sec. 4 (a non-surface voxel
-  with a surface voxel somewhere along each of +-X, +-Y, +-Z).
-- Inside voxels: voxels whose whole cube is inside the mesh by the
-  generalized winding number (:func:`inside_voxels_winding`), so that a
-  cavity sealed by the voxelization is never taken for solid; and, for open
-  meshes, ray-parity votes along the three axes (:func:`inside_voxels_parity`).
-- The voxel mesh: two triangles per face between a solid and an empty voxel,
-  oriented towards the empty one; closed and 2-manifold ([1]_, sec. 4.1).
-
-The mesh's bounding box is centred in the grid, whose size is one voxel more
-than the box needs, so the box's faces pass through voxel centres (an
-axis-aligned face touches one layer of voxels, not the two on either side of
-a voxel boundary); two more layers pad every side, so the grid border is
-always outside.
+Surface voxels by exact triangle/box overlap (Akenine-Moeller [3]_) as in
+Silvennoinen et al. [1]_, sec. 4.1, and Leone et al. [2]_, sec. 4; inside voxels by
+the generalized winding number [4]_.
 
 References
 ----------
