@@ -1,13 +1,7 @@
 """Assessment of one occluder: precision/recall, occlusion measure, conservativeness.
 
-The pipeline every study runs per occluder, in one place: score it against
-the original's :class:`~viscore.metrics.ReferenceViews` (the quad precision
-and recall of Silvennoinen et al. 2014, sec. 6.1, or the volume protocol of
-Wu et al. 2022, sec. 3.2), its total occlusion measure (Silvennoinen et al.
-2014, sec. 3) and the ray-wise conservativeness check with a one-sided
-Clopper-Pearson bound. The result is one frozen dataclass whose fields carry
-the JSON names of the toolkit, and which goes to JSON and back without a
-hand-written list of fields.
+The orbit (Silvennoinen et al. 2014, sec. 6.1) or volume (Wu et al. 2022, sec.
+3.2) precision and recall, the occlusion measure (sec. 3) and the ray-wise check.
 
 References
 ----------

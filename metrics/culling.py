@@ -1,31 +1,7 @@
 """Scene culling simulation: objects culled per frame along a camera path, against ray-cast truth.
 
-Occluders exist to cull objects. This module walks a camera along a path
-through a scene of objects (:class:`viscore.level.scene_graph.SceneObjects`) and, at
-every frame, asks each culling *runtime* which objects' bounding boxes it
-hides, as a scene-graph renderer does (Papaioannou et al. 2006 [1]_, sec. 4,
-Tables 1-2 and Figures 5-6: primitives rendered per frame along pre-recorded
-viewpoint paths; Hudson et al. 1997 [2]_ for the shadow frusta). The truth is
-a full-resolution ray-cast object-id image (one ray per pixel centre, the
-first hit's triangle mapped to its object): an object with at least one pixel
-is visible, and culling it is a *false cull*. The depth-buffer runtime of the
-occluder-skins paper [3]_ (sec. 5-6: occluders drawn into a reduced depth
-buffer, each occludee's screen rectangle tested at its nearest depth) is one
-of the runtimes.
-
-Per frame and runtime the simulation reports the objects culled (beyond view
-frustum culling), the false culls, the triangles sent to render and the
-runtime's own time (overhead). View-frustum culling is applied first and
-identically for every runtime, the ``none`` runtime included: each runtime
-sees only the boxes that intersect the view frustum.
-
-The runtimes (:func:`no_culling`, :func:`frusta_runtime`,
-:func:`depth_buffer_runtime`) and the view-frustum test are in
-:mod:`viscore.metrics.culling_runtimes`, the camera paths
-(:func:`camera_path`, :func:`read_camera_path`) in
-:mod:`viscore.metrics.camera_paths`, the figure (:func:`culling_plot`) in
-:mod:`viscore.metrics.plots`; their names import from here too, as they
-always did. This module never imports :mod:`viscore.generators`.
+As Papaioannou et al. 2006 [1]_ (sec. 4, Tables 1-2, Figs. 5-6) count primitives
+rendered per frame, with the shadow frusta of Hudson et al. 1997 [2]_.
 
 References
 ----------

@@ -4,14 +4,6 @@ The geometry both protocols share, below :class:`~viscore.metrics.ReferenceViews
 and the one-call protocols of :mod:`viscore.metrics.orbit` and
 :mod:`viscore.metrics.volume` (which re-export these names):
 
-- orbit (Silvennoinen et al. 2014, sec. 6.1 [1]_): the image plane through the
-  centre of the original's smallest enclosing sphere, square extent = its
-  diameter x 1.01 (:func:`orbit_frame`);
-- volume (Wu et al. 2022, sec. 3.2 [2]_): the bounding box grown by the
-  padding (:func:`evaluation_box`), the view positions on a grid of spacing dx
-  outside the mesh, optionally merged as an octree (:func:`volume_positions`),
-  and the test of which 90-degree frusta can see a box (:func:`frusta_see_box`).
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder

@@ -1,17 +1,5 @@
 """Every figure of the toolkit, drawn on :class:`matplotlib.figure.Figure`.
 
-One place for the plots of ``viscore uncertainty`` (per-view distributions,
-convergence ablation), ``viscore compare`` (recall per view, recall and
-precision against the budget, silhouettes) and ``viscore cull`` (triangles
-rendered per frame, :func:`culling_plot`). No function here touches
-``matplotlib.pyplot`` or calls ``matplotlib.use``: each builds its own
-:class:`~matplotlib.figure.Figure`, renders it with the Agg canvas
-(:class:`~matplotlib.backends.backend_agg.FigureCanvasAgg`) and writes the
-file atomically (a temporary file in the same folder, then ``os.replace``),
-so a notebook's backend is left alone and a killed run never leaves half an
-image. matplotlib is imported inside the functions: importing
-:mod:`viscore.metrics` does not import it.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder

@@ -1,16 +1,7 @@
 """The original mesh's views, computed once and used to score any number of occluders.
 
-Everything an evaluation of the orbit or the volume protocol needs from the
-original mesh: the cameras (orbit view directions, or volume positions and
-their frusta), the quads of every image with the original's per-quad
-tallies, the per-position weights, the seeds. :meth:`ReferenceViews.score`
-then casts only the occluder and classifies the stored quads, so a study or
-a metric-guided generator pays for the original once.
-
-The protocols are those of :mod:`viscore.metrics.orbit` (Silvennoinen et
-al. 2014, sec. 6.1) and :mod:`viscore.metrics.volume` (Wu et al. 2022,
-sec. 3.2): the same seed gives bit for bit the
-same quads and counts as evaluating the pair in one call.
+The protocols of :mod:`viscore.metrics.orbit` (Silvennoinen et al. 2014, sec.
+6.1) and :mod:`viscore.metrics.volume` (Wu et al. 2022, sec. 3.2).
 
 References
 ----------
