@@ -1,14 +1,4 @@
-"""Convex bands: a polygon with holes cut into convex pieces that meet edge to edge.
-
-A wall and its windows, as a planar polygon with holes, cannot be drawn as one
-simple polygon; cut along the rows through every vertex and merged upward
-where the union stays convex, it becomes the bands between rows of windows and
-the piers between windows: pieces with no gap between them, each a convex
-polygon that a fan of ``n - 2`` triangles draws, and each a candidate that an
-occluder's selection can take or leave on its own. Shared by the
-surface-patches generator (its step 2) and the hybrid generator's planar
-patches (a perforated wall is ranked band by band).
-"""
+"""Convex bands: a polygon with holes cut into convex pieces that meet edge to edge."""
 
 from __future__ import annotations
 

@@ -1,13 +1,4 @@
-"""Generator plugins: methods of other installed packages, found by entry point.
-
-Another distribution adds methods under the entry-point group
-``viscore.generators`` (:data:`PLUGIN_GROUP`), each naming a
-:class:`~viscore.generators.GeneratorSpec` or a plain function. They are read
-once, on the first access to :data:`viscore.generators.REGISTRY`, unless
-``VISCORE_NO_PLUGINS=1``; one that cannot be loaded, or whose name is taken,
-costs one warning line and is left out. A plugin's input is validated before
-the call and its output checked after (:class:`PluginError`).
-"""
+"""Generator plugins: methods of other installed packages, found by entry point."""
 
 from __future__ import annotations
 

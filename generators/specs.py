@@ -1,23 +1,4 @@
-"""What a method is to the toolkit: its options and its spec, and a spec from a plain function.
-
-:class:`GeneratorOption` (name, type, default, range, choices, help) and
-:class:`GeneratorSpec` (the function, its options, budget rules and claims)
-declare a method; the command line builds its flags from them and
-:func:`viscore.generators.generate` checks every value against them before any
-work. :meth:`GeneratorSpec.from_function` derives a spec from a plain function:
-its keyword-only parameters with defaults become the options, their types from
-the defaults or annotations and their help from the numpydoc ``Parameters``
-section. The table of methods is :data:`viscore.generators.REGISTRY`.
-
-:meth:`GeneratorSpec.check_options` runs a method's own argument checks (its
-cross-option rules: ``pixel_error`` needs ``distance``, ``close`` not with
-``conservative``) without doing any work, so that a command refuses a method
-variant before it creates a folder: the spec's :attr:`~GeneratorSpec.checker`.
-The toolkit's own methods have a check-only call of their generator
-(:func:`check_only`, :func:`check_only_call`), which runs the generator itself
-on a stand-in mesh that ends the call at its first use, so the generator's
-validation stays the one source of its rules.
-"""
+"""What a method is to the toolkit: its options and its spec, and a spec from a plain function."""
 
 from __future__ import annotations
 

@@ -1,23 +1,5 @@
 """Hole test of the hybrid generator's planar patches (Wu et al. 2022, sec. 3.1.1, Fig. 6).
 
-A hole of a planar patch is either an opening of the building (a door, a
-window: it must stay open, or the occluder hides what players see through
-it) or the footprint of a decoration whose faces were cut out of the wall (a
-ledge, a pillar, a frame: removing the small decoration patch leaves the hole,
-and filling it costs nothing). The paper's test: triangulate the hole, place
-test segments of length ``l_s`` (1% of the bounding-box diagonal, sec. 4.2)
-along the plane's normal at points sampled uniformly inside it; if one segment
-misses the input there is a hollow and the hole stays open, if all of them hit
-the hole is filled.
-
-Here each segment runs ``l_s`` both ways from its sample point along the
-normal (two rays of length ``l_s``, one batched Embree any-hit query per
-direction for all points of all holes of the patch), so a decoration standing
-on either side of the wall, or the back face of a thin slab, stops it; a
-doorway through a thin wall, with the room behind it deeper than ``l_s``, does
-not. Sample points keep a margin of ``l_s / 20`` from the hole's rim, so that
-rays grazing a window reveal do not count as hits.
-
 References
 ----------
 .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in

@@ -1,24 +1,7 @@
 """Occluders for the objects of a level: each distinct mesh generated once, placed per instance.
 
-The bridge between a level's objects (:mod:`viscore.level`) and the registered
-generators: the chosen objects (:func:`viscore.level.objects.occluder_objects`)
-get an occluder from each method; each distinct mesh is generated once, in its
-own frame, and every instance gets the occluder moved by its transform
-(conservativeness is kept by any invertible affine map: a point inside the
-mesh stays inside its image). A hierarchy's nodes (Silvennoinen et al. 2014
-[1]_, sec. 5) move the same way. The runtimes they feed are built in
-:mod:`viscore.generators.levels.runtimes`.
-
-A method of :data:`JOINED_METHODS` (``surface-patches``) is run for the
-culling runtime once on all the occluder objects together, in world space
-(:func:`joined_occluder`), unless per-object occluders are asked for: its
-occluder is cut from planar regions, and a roof or wall that continues
-across neighbouring objects (the rooms of a level) is then one region. Cut
-object by object, each piece is eroded inside its own object's surface, and
-the sliver between two neighbours' pieces is a real gap in the occluders
-that the conservative depth buffer must keep open along every seam. The
-joined occluder is conservative for the union of the objects' surfaces,
-which is what the scene draws.
+A hierarchy's nodes (Silvennoinen et al. 2014 [1]_, sec. 5) are placed the
+same way.
 
 References
 ----------

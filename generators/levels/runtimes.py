@@ -1,12 +1,8 @@
 """The culling runtimes a level's occluders feed, and compare's culling column.
 
-:func:`culling_runtimes` builds the runtimes compared in the culling
-simulation (:mod:`viscore.metrics.culling`, which never imports generators):
-no occlusion culling, shadow frusta of convex solids and of their faces
-(Papaioannou et al. 2006 [1]_), and a conservative depth buffer per method
-(occluder skins [2]_, sec. 5-6), fed per frame by the cut of a hierarchy
-(Silvennoinen et al. 2014 [3]_, sec. 5) when the method makes one. The
-occluders come from :mod:`viscore.generators.levels.occluders`.
+Shadow frusta (Papaioannou et al. 2006 [1]_), a depth buffer per method
+(occluder skins [2]_, secs. 5-6), fed by a hierarchy's cut (Silvennoinen et al.
+2014 [3]_, sec. 5).
 
 References
 ----------

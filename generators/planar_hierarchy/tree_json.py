@@ -1,11 +1,4 @@
-"""An occluder hierarchy on disk: ``STEM.hierarchy.json`` and one PLY per node.
-
-:func:`hierarchy_to_json` writes the tree of
-:func:`viscore.generators.planar_hierarchy.build_hierarchy`, every file or none
-(:class:`viscore._atomic.FileSet`); :func:`hierarchy_files` gives the same files
-as names and bytes, for a writer of a larger set (``viscore generate`` writes
-them and OUT as one set); :func:`hierarchy_from_json` reads and checks it back.
-"""
+"""An occluder hierarchy on disk: ``STEM.hierarchy.json`` and one PLY per node."""
 
 from __future__ import annotations
 

@@ -1,18 +1,6 @@
 """Planar sections, step 4.5: greedy alpha-complete selection, then the budget cut.
 
-Silvennoinen et al. 2014 [1]_, sec. 4.5. Start from the empty cut; at each
-step add the whole candidate polygon (the first stage of its chain) that
-maximizes the total occlusion measure (sec. 3, eqs. 2-3) of the polygon
-soup, until adding any polygon would raise it by less than ``alpha``
-percent. Then reduce the cut to the budget one triangle at a time: among the
-cuts one step further down one chain, keep the one of largest surface area
-(the paper's rule) or, as an option, of largest occlusion measure.
-
-The soup's measure, its projections and bitmaps are those of
-:mod:`viscore.generators._soup_measure` (sec. 3, eqs. 2-3, over N
-orthographic directions of the upper hemisphere); the ray-cast core serves
-the 3D objects (the original mesh in the evaluation, the voxel mesh in the
-slicing test).
+Silvennoinen et al. 2014 [1]_, sec. 4.5.
 
 References
 ----------

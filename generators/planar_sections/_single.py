@@ -1,11 +1,4 @@
-"""One planar-sections occluder at one voxel size (Silvennoinen et al. 2014, sec. 4).
-
-The pipeline of :func:`viscore.generators.planar_sections.generate_planar_sections`
-for one voxel size: the voxel solid (sec. 4.1), the slices (sec. 4.2), their
-polygons and simplification chains (sec. 4.3-4.4), the greedy selection by
-occlusion measure (sec. 4.5) and the budget cut. The module docstring of
-:mod:`viscore.generators.planar_sections.generator` gives the method.
-"""
+"""One planar-sections occluder at one voxel size (Silvennoinen et al. 2014, sec. 4)."""
 
 from __future__ import annotations
 

@@ -1,14 +1,4 @@
-"""The precision floor of planar sections: voxel sizes checked on orbit views.
-
-With the default sizing, :func:`viscore.generators.planar_sections.generate_planar_sections`
-refines (or coarsens) the voxels and tries closings until the occluder's
-precision on :data:`FLOOR_VIEWS` orbit views reaches the floor
-(:func:`_with_precision_floor`). The runs that do not wait on each other (the
-closings, the ground fills, the coarser sizes) are made side by side on
-:func:`viscore.get_workers` threads, and kept by the rules one thread keeps them
-by: the occluder, the log lines and ``info`` (but the seconds) do not depend on
-the thread count.
-"""
+"""The precision floor of planar sections: voxel sizes checked on orbit views."""
 
 from __future__ import annotations
 

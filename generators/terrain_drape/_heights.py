@@ -1,11 +1,4 @@
-"""The lowest surface of a mesh as a height field, sampled by vertical rays.
-
-:func:`lowest_surface` casts one ray per grid point straight up from below the
-mesh (``viscore.Scene``, the mesh's one Embree scene) and keeps the height of
-the first hit: the underside a viewer below would see, which for an open
-terrain sheet is the sheet itself and for a level is its ground wherever
-nothing hangs lower. Grid points whose ray misses are off the footprint.
-"""
+"""The lowest surface of a mesh as a height field, sampled by vertical rays."""
 
 from __future__ import annotations
 
