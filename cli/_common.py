@@ -4,11 +4,6 @@ Output paths are checked before any work (:func:`check_output_file`,
 :func:`check_output_folder`: a probe that files can be made there). A long
 run says how long first, on stderr (:func:`warn_estimate`,
 :class:`RateEstimate`).
-
-Files are written by the core's shared helpers (:func:`viscore._atomic.write_atomic`,
-:func:`viscore._atomic.file_mode`), meshes by :func:`viscore.exchange.save_mesh`,
-and an occluder for an engine by :func:`write_occluder` (a mesh format, or Godot's
-``.tres`` / ``.tscn``; a ``.glb`` whose one node carries Godot's ``-occonly`` suffix).
 """
 
 from __future__ import annotations

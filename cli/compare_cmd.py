@@ -1,36 +1,5 @@
 """``viscore compare [MESH ...]``: every registered method on every mesh, with intervals.
 
-Every argument is checked before any work and before the study folder is
-created or touched: the methods and ``--versus`` against the registry (a
-method variant's options also by its generator's own rules across options,
-:func:`viscore.generators.check_method`), each
-budget against each budgeted method's registry entry
-(:meth:`viscore.generators.GeneratorSpec.check_params`, ``min_budget``), the
-sizes (views, quads, pixels, rays) and
-``--jobs`` (at most :data:`viscore.cli.study.runner.JOBS_PER_CORE` per core) against
-the memory they imply (:func:`viscore.cli.study.runner.study_memory`,
-:func:`viscore._validate.check_memory`), the seed by the one seed rule, the
-meshes by loading them, ``--out``, and ``--scheduler`` by connecting to the
-cluster. Then the study folder is opened for
-this process alone (:class:`viscore.cli.study.store.StudyFolder`): a second
-``compare`` on the same folder is refused with one line, and a damaged store
-is refused with one line naming it.
-
-Occluders made by other tools join as rows: ``--occluder-files NAME=PATH``
-(repeatable) assesses PATH (one file for every mesh, or a folder of
-``<mesh>.<ext>`` / ``<mesh>.<budget>.<ext>`` files) as the method ``NAME``,
-with its paired comparisons, plots and report entries; drawn double-sided,
-its conservativeness claim False unless the file says so. Such a row is
-resumed while the file's content is unchanged (its key holds the content's
-SHA-256) and assessed again once it changes.
-
-Outputs in the study folder: ``results.{json,csv,md}``, ``recall.png``,
-``budget.png``, ``silhouettes_*.png``, ``report.html`` (one self-contained
-page: the table with intervals, the plots inline, the paired comparisons,
-settings and provenance) and, beside each kept occluder
-``occluders/*.ply``, a ``.glb`` holding the original (grey, translucent) and
-the occluder (coloured).
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder

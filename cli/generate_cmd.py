@@ -1,28 +1,4 @@
-"""``viscore generate METHOD MESH -o OUT [options]``: run one registered generator.
-
-The methods, their descriptions and their options all come from
-:data:`viscore.generators.REGISTRY`: this module has no per-method code.
-Parts an occluder carries as geometry of their own are written beside OUT:
-a tree (``parts["hierarchy"]``) as ``STEM.hierarchy.json`` plus one PLY per
-node, levels of detail (``parts["lods"]``) as ``STEM.lod<i>.ply``; the
-``--json`` document lists them. OUT and its parts are one set, written all or
-none (:class:`viscore._atomic.FileSet`: staged in a temporary folder beside
-them, then moved into place, OUT last): a failure on any file leaves none of
-them, and earlier files of those names as they were. OUT is checked before
-any work: its format, its folder, and that files can be made there (that
-folder holds every file written, OUT and the parts beside it); a refusal
-names ``-o`` and the path. So are the method's own rules across its options
-(:meth:`viscore.generators.GeneratorSpec.check_options`), before the mesh is
-loaded.
-
-OUT's suffix names its format (:func:`viscore.cli._common.occluder_bytes`): a
-mesh (``.ply``, ``.obj``, ``.off``, ``.stl``), a Godot 4
-``ArrayOccluder3D`` resource (``.tres``), a Godot 4 scene of one
-``OccluderInstance3D`` node named after MESH (``.tscn``), or a GLB whose one
-node is ``<MESH>-occonly`` (``.glb``; the mesh's GLB otherwise unchanged), so
-that Godot imports it as an occluder. Each reads back through
-:func:`viscore.load_occluder` as the occluder's float32 triangles.
-"""
+"""``viscore generate METHOD MESH -o OUT [options]``: run one registered generator."""
 
 from __future__ import annotations
 

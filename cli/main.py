@@ -1,19 +1,6 @@
 """The ``viscore`` command line: parse, call one public function, format.
 
 Exit codes, the same for every subcommand:
-
-- 0: success.
-- 1: a check that ran and failed (``validate``).
-- 2: bad input or usage (an option out of range, a missing or unreadable file,
-  an unwritable output): one line on stderr naming the option or file and the
-  problem.
-- 3: internal error (a bug, or a library failing on input it should have
-  handled): one line on stderr saying so; run again with ``viscore --debug``
-  for the traceback.
-- 130: interrupted (Ctrl-C), one line on stderr.
-
-``--quiet`` silences log lines (INFO and WARNING), so a failing command prints
-exactly its one error line.
 """
 
 from __future__ import annotations

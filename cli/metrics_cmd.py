@@ -1,27 +1,4 @@
-"""``viscore measure``, ``viscore evaluate`` and ``viscore validate``.
-
-Every option is checked before any work: ranges first (one line, exit 2),
-then the memory the options imply, estimated from them alone and refused with
-the estimate and the limit (:func:`viscore._validate.check_memory`), then the
-meshes are loaded. The estimates below were measured as peak RSS growth with
-``/usr/bin/time -f %M`` on fat-torus, 2 cores (the library adds its own
-checks for what depends on the mesh, such as the volume protocol's positions).
-The figures and the estimates live in :mod:`viscore.metrics.estimates`.
-
-The OCCLUDER of ``evaluate`` and ``validate`` is read by
-:func:`viscore.load_occluder`: any mesh file, and engines' occluder files
-(Godot 4 ``.tscn``, ``.tres``, binary ``.occ``, ``-occonly`` glTF), in world
-space.
-
-``validate`` with many rays times a first batch of :data:`_ETA_PROBE_RAYS`
-rays (same mesh, occluder and settings; its result is dropped) and, when the
-whole run is estimated beyond a few minutes
-(:data:`viscore.cli._common.ESTIMATE_WARN_SECONDS`), says so on stderr before
-starting it. Its memory does not grow with ``--rays`` (one batch at a time),
-its time does: ``--rays`` is capped at :data:`MAX_RAYS` (about 9 hours at the
-rate measured on a 2-core machine, :data:`RAYS_PER_SECOND`), and a larger
-count is refused with one line giving its time at that rate.
-"""
+"""``viscore measure``, ``viscore evaluate`` and ``viscore validate``."""
 
 from __future__ import annotations
 

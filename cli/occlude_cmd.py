@@ -1,32 +1,4 @@
-"""``viscore occlude LEVEL -o DIR``: occluders for every large object of a level, as Godot files.
-
-Parse, one call (:func:`viscore.generators.levels.occlude.occlude_level`),
-format. Every option is checked before any work and before ``DIR`` is made:
-the methods and their variants (:func:`viscore.generators.check_method`: each
-option, and its generator's own rules across options),
-``--budget`` against each method's ``min_budget``, ``--min-size`` in (0, 1],
-``--jobs`` (at most :data:`viscore._jobs.JOBS_PER_CORE` per core),
-``--up``, ``-o`` (its parent must exist and be writable), ``--scheduler`` (by
-connecting), then the level itself (read, split, objects chosen; an unknown
-``--occluders`` name). Then ``DIR`` is made if missing and locked for this
-process alone (:class:`viscore._atomic.LockedFolder`, the lock on ``DIR``
-itself, so nothing is left in it): a second run on the same folder is refused
-with one line, and a run that fails removes ``DIR`` if it made it and left it
-empty.
-
-Outputs in ``DIR``: ``<method>.tscn`` and ``<method>.glb`` per method that
-covered an object, ``occlude.json`` (written last of the engine files), the
-finished jobs under ``occluders/<method>/`` that let a killed run resume, then
-``preview.png`` and ``report.html``
-(:func:`viscore.cli.report.occlude_page.write_occlude_report`: the level
-ray-cast from a few views with each method's occluders over it; per object,
-each method's triangles, guarantee or refusal reason).
-
-Exit codes: 0 when the run finished, also when some or all objects were
-refused (each refused object gets one line on stderr, the too-small ones at
-most :data:`REFUSED_LINES` lines then a count; all are in ``occlude.json``, and
-a method that covered nothing writes no ``.tscn``/``.glb``); 2 for bad input.
-"""
+"""``viscore occlude LEVEL -o DIR``: occluders for every large object of a level, as Godot files."""
 
 from __future__ import annotations
 

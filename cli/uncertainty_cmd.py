@@ -1,12 +1,5 @@
 """``viscore uncertainty MESH OCCLUDER`` and ``viscore uncertainty ablation MESH OCCLUDER``.
 
-Bootstrap intervals and hierarchical Beta models of one occluder's precision
-and recall (orbit protocol of Silvennoinen et al. 2014, sec. 6.1, or volume
-protocol of Wu et al. 2022, sec. 3.2), and the convergence ablation of Wu et
-al. 2022, Figure 10 (standard deviation against quads per view and view
-spacing). Every argument is checked, and every mesh loaded, before any work;
-the output files are written together or not at all.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder

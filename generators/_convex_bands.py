@@ -1,14 +1,4 @@
-"""Convex bands: a polygon with holes cut into convex pieces that meet edge to edge.
-
-A wall and its windows, as a planar polygon with holes, cannot be drawn as one
-simple polygon; cut along the rows through every vertex and merged upward
-where the union stays convex, it becomes the bands between rows of windows and
-the piers between windows: pieces with no gap between them, each a convex
-polygon that a fan of ``n - 2`` triangles draws, and each a candidate that an
-occluder's selection can take or leave on its own. Shared by the
-surface-patches generator (its step 2) and the hybrid generator's planar
-patches (a perforated wall is ranked band by band).
-"""
+"""Convex bands: a polygon with holes cut into convex pieces that meet edge to edge."""
 
 from __future__ import annotations
 
@@ -39,6 +29,7 @@ def convex_bands(part: Polygon) -> list[Polygon]:
     ys = np.unique(np.concatenate([np.asarray(r.coords)[:, 1]
                                    for r in (part.exterior, *part.interiors)]))
     x0, x1 = float(part.bounds[0]) - 1.0, float(part.bounds[2]) + 1.0
+    below: list
     done, below = [], []
     for a, b in zip(ys[:-1], ys[1:], strict=True):  # a loop over rows, not over points
         cut = shapely.set_precision(shapely.intersection(part, shapely.box(x0, a, x1, b)), 1.0)

@@ -1,13 +1,4 @@
-"""Log records held back while a generator runs another many times, then said once.
-
-A generator that calls a builder per part (the hierarchy's node builder, once
-per node) or another method inside it (solid-frusta's aabb-skins boxes) would
-pass on the same warning once per call: 29 identical lines for the 57 nodes of
-``city-block``. :func:`held_records` holds back this thread's records from the
-toolkit's loggers for a block; :func:`release` passes records on as they were,
-and :func:`report_parts` says each distinct message once, with how many parts
-gave it (``hierarchy: 29 of 57 nodes: ...``).
-"""
+"""Log records held back while a generator runs another many times, then said once."""
 
 from __future__ import annotations
 

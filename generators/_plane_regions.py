@@ -1,23 +1,11 @@
 """The input's faces grouped by plane, across loose parts.
 
+After the planar-patch grouping of Wu et al. 2022 [1]_ (sec. 3.1.1, step 1),
+joined by plane across loose parts.
+
 Shared by the surface-patches generator (its step 1) and the hybrid
 generator's planar patches (a panelled wall becomes one patch, so that its
 openings and recesses are holes the hole test can judge).
-
-The planar-patch grouping of Wu et al. 2022 [1]_ (sec. 3.1.1, step 1) joins
-faces across shared edges whose dihedral angle is small; game geometry is
-loose parts (a panelled wall of separate boxes, duplicated faces, decals
-floating on a wall), so here faces are grouped by the plane they lie in
-whatever their connectivity: both orientations of a plane are one plane.
-
-Greedy seeded clustering, largest face first: the largest face not yet
-grouped fixes a plane (its normal, through its first vertex, exactly); every
-ungrouped face whose normal is within :data:`NORMAL_ANGLE` of it (either
-sign) and whose three vertices lie within ``tolerance`` of that plane joins
-it. Candidates come from a k-d tree over (normal, offset) of every face, both
-signs of the seed queried, and are tested exactly. A face then lies within
-``tolerance`` of its region's plane at every point (the slab is convex), and
-the region's plane passes exactly through its seed face.
 
 References
 ----------

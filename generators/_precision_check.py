@@ -1,12 +1,4 @@
 """The precision check that generators run on orbit views of the mesh before they keep an occluder.
-
-A generator that cannot guarantee its precision (the planar sections' precision
-floor, the terrain drape's choice of grid) scores each candidate on
-:data:`CHECK_VIEWS` orbit views of the original, drawn with a seed of their own
-(the generator's plus :data:`CHECK_SEED_OFFSET`, so that they are never the
-views a study scores on), and keeps it when the one-sided 95% lower bound of
-the precision, ``P - CHECK_Z SE``, reaches the floor, with the views as the
-units of the standard error (:func:`ratio_se`).
 """
 
 from __future__ import annotations

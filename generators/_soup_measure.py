@@ -1,32 +1,7 @@
 """The occlusion measure of a polygon soup over orthographic directions, on bitmaps.
 
-Silvennoinen et al. 2014 [1]_, sec. 3, eqs. 2-3: the measure of a soup is the
-mean over N fixed directions of the upper hemisphere (an orthographic
-projection along -d is the mirror image of the one along d, so M(d) = M(-d))
-of the directional measure of its projection, each an R x R image of the
-original mesh's orbit frame (:func:`viscore.metrics.orbit_frame`). Shared by
-the selections that value polygons by what they add to a soup (planar
-sections' sec. 4.5 greedy, surface patches' overlap-aware knapsack).
-
-Projections. Each candidate is projected once per direction and a soup's
-image is the OR of its polygons' bitmaps, so a selection step costs no
-projection. The candidates are flat polygons, not 3D objects: a ray parallel
-to d hits a planar polygon exactly when its pixel centre lies inside the
-polygon's projection, an affine image of the polygon. We therefore rasterize
-that projected polygon at the pixel centres (a numba scanline fill,
-even-odd), which gives the coverage a ray cast of its triangles would give,
-without an Embree scene per candidate.
-
-The directional measure of an image is that of
-:func:`viscore.metrics.directional_occlusion_measure` without boundary rays
-(the boundary taken half-way between covered and uncovered pixel centres;
-a test checks the two agree), batched over candidates in a numba kernel
-(distance transforms of Felzenszwalb and Huttenlocher [2]_). A direction in
-which a candidate's bitmap adds no pixel to the soup's keeps the soup's
-value without a distance transform. The batches are split over
-:func:`viscore.get_workers` threads; the kernels release the GIL and each
-part writes its own values, so results are the same on any number of
-threads.
+Silvennoinen et al. 2014 [1]_, sec. 3, eqs. 2-3: the mean over fixed
+directions of the measure of the soup's orthographic projection.
 
 References
 ----------

@@ -1,30 +1,5 @@
 """The ``Occluder`` type every generator returns, and the schema of its ``parts``.
 
-``Occluder.parts`` holds the method's own geometry beside the triangle mesh,
-for runtimes that draw something other than triangles (a box rasterizer, a
-shadow-frustum culler with convex solids, a hierarchy walked per view). Every
-key is optional: a method fills the keys it has and a consumer checks for the
-key it needs. All coordinates are world units (the input mesh's), float64.
-
-``boxes`` : (k, 2, 3) float64
-    Axis-aligned boxes; ``boxes[i, 0]`` is the lower corner and
-    ``boxes[i, 1]`` the upper corner (``lower <= upper`` per axis).
-``polygons`` : list of (m_i, 3) float64
-    Planar polygons, each a closed loop of ``m_i >= 3`` vertices in order
-    (the closing edge from the last vertex to the first is implied), drawn
-    double-sided.
-``solids`` : list of (vertices, faces)
-    Convex solids: ``vertices`` (v, 3) float64 and ``faces`` (f, 3) int64
-    triangles indexing them, outward-facing.
-``hierarchy`` : dict
-    The root node of a tree. Each node is a dict with ``bounds``, a (2, 3)
-    float64 lower/upper corner of the region the node covers; ``occluder``,
-    the :class:`trimesh.Trimesh` to draw when the walk stops at this node
-    (it may have no faces); and ``children``, a list of nodes (empty at a
-    leaf). A child's bounds lie inside its parent's.
-
-:func:`check_parts` checks a ``parts`` dict against this schema.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder

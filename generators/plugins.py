@@ -1,18 +1,4 @@
-"""Generator plugins: methods of other installed packages, found by entry point.
-
-Another distribution adds methods under the entry-point group
-``viscore.generators`` (:data:`PLUGIN_GROUP`), each naming a
-:class:`~viscore.generators.GeneratorSpec` or a plain function. They are read
-once, on the first access to :data:`viscore.generators.REGISTRY`, unless
-``VISCORE_NO_PLUGINS=1``; one that cannot be loaded, or whose name is taken,
-costs one warning line and is left out. A plugin cannot take a command down
-while it is imported: what it prints goes to stderr (stdout stays the
-``--json`` document's), a ``sys.exit`` or a KeyboardInterrupt it raises leaves
-it out (a real Ctrl-C still stops the command), and an import that hangs is
-said after :data:`IMPORT_WARN_SECONDS` and stopped after
-:data:`IMPORT_LIMIT_SECONDS`. A plugin's input is validated before
-the call and its output checked after (:class:`PluginError`).
-"""
+"""Generator plugins: methods of other installed packages, found by entry point."""
 
 from __future__ import annotations
 

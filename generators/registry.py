@@ -1,28 +1,5 @@
 """The generator registry: the one mapping from CLI names to generators and their options.
 
-Each generator is ``function(mesh, *, budget=..., seed=..., **options) -> Occluder``.
-Its :class:`GeneratorSpec` declares the options beyond ``budget`` and ``seed``
-(:class:`GeneratorOption`: name, type, default, range, choices, help); the
-command line builds ``viscore generate METHOD`` and its flags from them, and
-:func:`generate` checks every value against them before any work. A family
-that declares its options beside its generator (an ``OPTIONS`` table, the
-generator wrapped by :func:`viscore.generators.specs.checked_by`: surface
-patches, planar sections, godot) hands the same table to its spec here, so
-that the generator's own checks and the spec's are one declaration. A new method
-is one module plus one entry in :data:`REGISTRY`: it then appears in
-``viscore generate --help`` and joins every study, with no change under ``cli/``.
-
-Plugins: another installed distribution adds methods under the entry-point
-group ``viscore.generators`` (:data:`PLUGIN_GROUP`), each naming either a
-:class:`GeneratorSpec` or a plain function ``f(mesh, *, budget, seed,
-**options)`` returning an :class:`Occluder` or a :class:`trimesh.Trimesh`
-(:meth:`GeneratorSpec.from_function` turns it into a spec). They are
-discovered once, on the first access to :data:`REGISTRY` (so importing the
-package stays cheap), unless ``VISCORE_NO_PLUGINS=1``. A plugin that cannot
-be loaded, or whose name is taken, costs one warning line and is left out.
-:func:`generate` validates a plugin's input mesh before calling it and its
-output after (:class:`PluginError`).
-
 References
 ----------
 .. [1] Garland, M., Heckbert, P. S. "Surface Simplification Using Quadric Error

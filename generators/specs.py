@@ -1,27 +1,4 @@
-"""What a method is to the toolkit: its options and its spec, and a spec from a plain function.
-
-:class:`GeneratorOption` (name, type, default, range, choices, help) and
-:class:`GeneratorSpec` (the function, its options, budget rules and claims)
-declare a method; the command line builds its flags from them and
-:func:`viscore.generators.generate` checks every value against them before any
-work. A method's options are declared once, beside its generator, and the
-generator's own arguments are checked from the same declarations
-(:func:`checked_by`), so that a direct call and a call by name refuse the same
-values with the same message. :meth:`GeneratorSpec.from_function` derives a
-spec from a plain function: its keyword-only parameters with defaults become
-the options, their types from the defaults or annotations and their help from
-the numpydoc ``Parameters`` section. The table of methods is
-:data:`viscore.generators.REGISTRY`.
-
-:meth:`GeneratorSpec.check_options` runs a method's own argument checks (its
-cross-option rules: ``pixel_error`` needs ``distance``, ``close`` not with
-``conservative``) without doing any work, so that a command refuses a method
-variant before it creates a folder: the spec's :attr:`~GeneratorSpec.checker`.
-The toolkit's own methods have a check-only call of their generator
-(:func:`check_only`, :func:`check_only_call`), which runs the generator itself
-on a stand-in mesh that ends the call at its first use, so the generator's
-validation stays the one source of its rules.
-"""
+"""What a method is to the toolkit: its options and its spec, and a spec from a plain function."""
 
 from __future__ import annotations
 
@@ -463,13 +440,13 @@ class GeneratorSpec:
         for key, value in params.items():
             if key == "budget":
                 out[key] = None if value is None else as_positive_int(value, name(key))
-                if out[key] is not None and self.budgeted and out[key] < self.min_budget:
+                if out[key] is not None and self.budgeted and out[key] < self.min_budget:  # type: ignore[operator]
                     raise InputError(f"{name(key)}: {self.name} needs at least "
                                      f"{self.min_budget} triangles, got {out[key]}")
             elif key == "seed":
                 out[key] = as_seed(value, name(key))
             elif key in known:
-                out[key] = known[key].check(value, name(key))
+                out[key] = known[key].check(value, name(key))  # type: ignore[assignment]
             else:
                 valid = ", ".join(name(k) for k in (*COMMON_OPTIONS, *known))
                 raise InputError(f"{self.name}: unknown option {name(key)} (takes: {valid})")
@@ -640,7 +617,7 @@ class _FunctionGenerator:
              *(inspect.Parameter(o.name, kw, default=o.default) for o in options)])
         self.__name__ = getattr(function, "__name__", name)
         self.__qualname__ = getattr(function, "__qualname__", self.__name__)
-        self.__module__ = getattr(function, "__module__", None)
+        self.__module__ = getattr(function, "__module__", None)  # type: ignore[assignment]
         self.__doc__ = getattr(function, "__doc__", None)
 
     def __call__(self, mesh, *, budget=None, seed=0, **options) -> Occluder:

@@ -1,43 +1,5 @@
 """The generator contract, checked: for a method author's own test suite.
 
-:func:`check_generator` runs one method (a registered name, a
-:class:`~viscore.generators.GeneratorSpec` or a plain function) on small
-built-in scenes made here with trimesh (closed and open, flat, a single
-triangle, a huge and a tiny scale) and raises :class:`AssertionError`
-naming the first broken rule of the contract every generator keeps:
-
-``options``
-    Each declared option is a keyword the function takes, its default
-    (unless ``None``, computed from the mesh) passes its own declaration,
-    and values out of its range or choices are refused with
-    :class:`~viscore.InputError` before any work.
-``runs``
-    No exception on a scene, except an :class:`~viscore.InputError` refusing
-    a scene without volume (open, flat, one triangle).
-``finite output``
-    An :class:`~viscore.generators.Occluder` or a :class:`trimesh.Trimesh`,
-    finite vertices, faces indexing them, parts on the schema.
-``non-empty output``
-    At least one triangle on the closed scenes (every method can occlude
-    something behind a closed solid); the others may give none.
-``budget``
-    A method that takes a budget meets it or says it did not
-    (``info["over_budget"]`` True).
-``determinism``
-    The same seed gives the same vertices and faces, bit for bit.
-``conservative claim``
-    Where the occluder claims ``info["conservative_guaranteed"]``, no
-    sampled ray hits it before the original (``viscore.metrics.check_conservative``),
-    neither from the orbit sphere nor from the volume domain: only rays that
-    start outside the mesh but within its bounding box see into sealed
-    cavities and rooms (a hollow box, a room whose door is narrower than a
-    voxel), where a voxel method that fills what the flood fill cannot reach
-    puts occluder the orbit never sees.
-
-DESIGN.md names the path ``viscore.testing.check_generator``; it lives here
-(``viscore.generators.testing``) because the core package ``viscore`` may not
-import the generators, not even lazily.
-
 References
 ----------
 .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
@@ -96,10 +58,10 @@ def _scene(name: str) -> trimesh.Trimesh:
             mesh.remove_unreferenced_vertices()
         return mesh
     if name == "quad":
-        return trimesh.Trimesh([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]],
+        return trimesh.Trimesh([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]],  # type: ignore[arg-type]
                                [[0, 1, 2], [0, 2, 3]], process=False)
     if name == "triangle":
-        return trimesh.Trimesh([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False)
+        return trimesh.Trimesh([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False)  # type: ignore[arg-type]
     box = trimesh.creation.box()
     if name == "huge-box":
         box.apply_scale(_HUGE)
@@ -160,7 +122,7 @@ def _check_options(spec: GeneratorSpec, label: str) -> None:
     takes_any = params is None or any(p.kind is inspect.Parameter.VAR_KEYWORD
                                       for p in params.values())
     for option in spec.options:
-        if not takes_any and option.name not in params:
+        if not takes_any and option.name not in params:  # type: ignore[operator]
             raise _fail(label, "options", f"option {option.name!r} is declared but the "
                         "function takes no such keyword")
         if option.default is not None:
@@ -319,6 +281,6 @@ def check_generator(method: str | GeneratorSpec | Callable, *,
                                 f"{found.rays} {domain}-domain rays hit the occluder before the "
                                 f"mesh (violation rate <= {found.violation_upper_bound:.3g} at "
                                 f"{found.confidence:.0%}, one-sided)", scene)
-            entry["violation_upper_bound"] = max(bounds)
-        report[scene] = entry
+            entry["violation_upper_bound"] = max(bounds)  # type: ignore[assignment]
+        report[scene] = entry  # type: ignore[assignment]
     return report

@@ -1,8 +1,8 @@
 """viscore.metrics: occlusion measure, quad precision/recall, conservativeness, uncertainty.
 
 The numbers researchers cite, built on the viscore core: the occlusion
-measure (Silvennoinen et al. 2014, sec. 3), the orbit precision/recall
-protocol (ibid., sec. 6.1), the volume protocol (Wu et al. 2022, sec. 3.2),
+measure (Silvennoinen et al. 2014 [1]_, sec. 3), the orbit precision/recall
+protocol (ibid., sec. 6.1), the volume protocol (Wu et al. 2022 [2]_, sec. 3.2),
 the depth-aware variant of both, the ray-wise conservativeness check, and
 intervals and models for each figure.
 
@@ -157,9 +157,9 @@ def evaluate(mesh, occluder, *, protocol: str = "orbit", **params) -> PrecisionR
 
     function = {"orbit": orbit_precision_recall,
                 "volume": volume_precision_recall}[check_protocol(protocol)]
-    known = list(inspect.signature(function).parameters)[2:]
+    known = list(inspect.signature(function).parameters)[2:]  # type: ignore[arg-type]
     unknown = sorted(set(params) - set(known))
     if unknown:
         raise InputError(f"{unknown[0]}: not a setting of the {protocol} protocol "
                          f"(settings: {', '.join(known)})")
-    return function(mesh, occluder, **params)
+    return function(mesh, occluder, **params)  # type: ignore[operator]

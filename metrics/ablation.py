@@ -1,14 +1,7 @@
 """Convergence ablation: spread of precision and recall over seeded repeats.
 
-The ablation of the building-occluders paper, sec. 4.1 and Figure 10
-(Wu et al. 2022 [1]_): the standard deviation of P and R over ten repeats as a function
-of the quads per view (100 ... 100,000, with the views' images fixed and only
-the quads redrawn) and of the view spacing (the paper goes from 8% down to 0.5%
-of the bounding-box diagonal; the default here is 16%, 8% and 4%, which keeps the
-run to minutes: pass ``spacing_list`` for more; volume protocol, the position grid
-shifted at random per repeat);
-and, for the orbit protocol, of the number of views (directions redrawn per
-repeat).
+The ablation of Wu et al. 2022 [1]_, sec. 4.1 and Fig. 10: the standard deviation
+of P and R over repeats against quads per view, views and view spacing.
 
 References
 ----------

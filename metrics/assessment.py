@@ -1,13 +1,7 @@
 """Assessment of one occluder: precision/recall, occlusion measure, conservativeness.
 
-The pipeline every study runs per occluder, in one place: score it against
-the original's :class:`~viscore.metrics.ReferenceViews` (the quad precision
-and recall of Silvennoinen et al. 2014, sec. 6.1, or the volume protocol of
-Wu et al. 2022, sec. 3.2), its total occlusion measure (Silvennoinen et al.
-2014, sec. 3) and the ray-wise conservativeness check with a one-sided
-Clopper-Pearson bound. The result is one frozen dataclass whose fields carry
-the JSON names of the toolkit, and which goes to JSON and back without a
-hand-written list of fields.
+The orbit (Silvennoinen et al. 2014, sec. 6.1) or volume (Wu et al. 2022, sec.
+3.2) precision and recall, the occlusion measure (sec. 3) and the ray-wise check.
 
 References
 ----------
@@ -231,7 +225,7 @@ def assess_occluder(reference: ReferenceViews | trimesh.Trimesh, occluder, *,
     pr = views.score(scene)
     start = time.perf_counter()
     if target is not None:
-        om = occlusion_measure(scene, directions=directions, resolution=measure_resolution,
+        om = occlusion_measure(scene, directions=directions, resolution=measure_resolution,  # type: ignore[arg-type]
                                seed=stream_seed(seed, "occlusion-measure"),
                                frame=orbit_frame(target))  # the occluder mesh's own window
         measure, measure_se = om.occlusion_measure, om.occlusion_measure_se

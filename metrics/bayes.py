@@ -1,39 +1,7 @@
 """Hierarchical Beta model of per-view recall (or precision), sampled with emcee.
 
-A Bayesian model of how the occluder's quality varies between views, beside
-the bootstrap of the pooled figure. Within one view the Q quads are
-independent draws, so the quad tallies of :class:`metrics.QuadCounts` are
-binomial: of the n_i quads that the original fully occludes, k_i are also
-fully occluded by the occluder (recall; for precision, of the quads the
-occluder occludes, those the original occludes too). Each view has its own
-rate theta_i, and the views are a sample from a population:
-
-    k_i | theta_i ~ Binomial(n_i, theta_i)
-    theta_i ~ Beta(mu phi, (1 - mu) phi)
-    mu ~ Uniform(0, 1),  log phi ~ Normal(log 20, 3)
-
-theta_i is integrated out analytically (beta-binomial likelihood), so the
-sampler explores (logit mu, log phi) only: the hierarchical model of Gelman
-et al. (2013, sec. 5.3), with a proper weak prior on the concentration phi
-(the uniform-in-mu, phi^-5/2 prior of that section is improper when every
-view is perfect). Reported: the population mean mu, the between-view
-standard deviation sqrt(mu (1 - mu) / (1 + phi)), and the share of views
-whose rate is below a threshold, with emcee's acceptance fraction,
-integrated autocorrelation time and effective sample size (Foreman-Mackey
-et al. 2013; Goodman and Weare 2010).
-
-View weights: each view's log-likelihood is multiplied by its weight
-``per_view["weight"]``, normalised to sum to the number of views used, the
-weighted pseudo-likelihood of Savitsky and Toth (2016). These are the
-weights of the pooled estimate: 1 for orbit views, the block volume of a
-merged volume-protocol position (Wu et al. 2022, sec. 3.2, eq. 7), so the
-population is the same one the pooled figure averages over (a position
-standing for a large block counts for its volume), while the total
-information stays that of the views actually evaluated. With equal weights
-the model is the plain one above.
-
-The rates are per quad (each quad weighs one), unlike the pooled pixel-
-weighted precision and recall, which weigh quads by their pixels.
+The hierarchical model of Gelman et al. 2013, sec. 5.3, with a beta-binomial
+likelihood and a weak prior on the concentration, sampled by emcee.
 
 References
 ----------
@@ -343,7 +311,7 @@ def hierarchical_beta_model(result: PrecisionRecall, *, quantity: str = "recall"
     sampler = emcee.EnsembleSampler(walkers, 2, _log_posterior, args=(k, n, w), vectorize=True)
     state = np.random.RandomState(np.random.MT19937(emcee_seq)).get_state()
     sampler.random_state = state  # emcee's setter fails silently: check that it took
-    if not np.array_equal(sampler.random_state[1], state[1]):
+    if not np.array_equal(sampler.random_state[1], state[1]):  # type: ignore[index]
         raise RuntimeError("emcee did not take the generator state")
     sampler.run_mcmc(start, steps, progress=False)
     chain = sampler.get_chain(discard=burn, flat=True)

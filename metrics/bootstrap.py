@@ -1,18 +1,8 @@
 """Bootstrap intervals over views: percentile and BCa (Efron 1987; Efron and Tibshirani 1993),
 and over the frames of a walk by blocks (Politis and Romano 1992; Politis and White 2004).
 
-Views (or view positions) are the independent units of every protocol;
-quads and pixels within one view are not, so resampling draws whole views
-with replacement. Every pooled figure of the toolkit is a ratio of sums over
-views, sum(num) / sum(den): pooled precision Nt / (Nt + Nf) and recall
-Nt / (Nt + Pf) of the orbit protocol (Silvennoinen et al. 2014, sec. 6.1),
-the volume-weighted means sum(w P_x) / sum(w) of the volume protocol (Wu et
-al. 2022, sec. 3.2, eqs. 5 and 7), and the total occlusion measure, 4 pi
-times a plain mean (den = 1).
-
-BCa follows Efron (1987): bias correction z0 from the share of resamples
-below the estimate, and acceleration from the jackknife (leave one view out),
-eq. 14.15 of Efron and Tibshirani (1993).
+Every pooled figure is a ratio of sums over views (Silvennoinen et al. 2014, sec.
+6.1; Wu et al. 2022, sec. 3.2): views are resampled with replacement.
 
 Frames along a camera walk are not independent: neighbouring frames see
 nearly the same objects. :func:`block_bootstrap_ratio` therefore resamples

@@ -1,12 +1,7 @@
 """Camera paths of the culling simulation: generated walks through a scene, and JSON files.
 
-:func:`camera_path` generates a deterministic walk through a scene's free
-space (streets at eye height, close-ups of walls, elevated passes, far
-views), the kind of pre-recorded viewpoint path along which Papaioannou et
-al. 2006 [1]_ (sec. 4, Figures 5-6) count the primitives rendered per frame;
-:func:`read_camera_path` reads one from JSON and :func:`camera_path_json`
-writes one; :func:`check_camera_path` refuses cameras too far to see the
-scene. The simulation that walks them is :mod:`viscore.metrics.culling`.
+The kind of viewpoint path along which Papaioannou et al. 2006 [1]_ (sec. 4,
+Figs. 5-6) count the primitives rendered per frame.
 
 References
 ----------
@@ -513,7 +508,7 @@ def _edge_marks(objects: SceneObjects, up: np.ndarray, frame, level: float | np.
                 ib = np.clip(((pts @ e2 - b0) / cell).astype(np.int64), 0, shape[1] - 1)
                 if per_cell:  # between each cell's floor (a step over it) and its ceiling
                     h = pts @ up
-                    keep = (h > level[ia, ib]) & (h < ceiling[ia, ib])
+                    keep = (h > level[ia, ib]) & (h < ceiling[ia, ib])  # type: ignore[index]
                     ia, ib = ia[keep], ib[keep]
                 marks[ia, ib] = True
     return marks

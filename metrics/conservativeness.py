@@ -1,56 +1,8 @@
 """Ray-wise conservativeness: is the occluder ever hit before the original?
 
-Along a ray from the evaluation domain, the occluder must not be hit before
-the original; a violation is t_occluder < t_original - eps (a miss is
-t = inf). The rate comes with a one-sided Clopper-Pearson upper bound [4]_.
-Conservative occluders are the goal of the occluder-skins paper [1]_ (sec. 4)
-and the box-filling note [2]_; the building-occluders paper calls the same
-property conservative enforcement [3]_ (sec. 3.1). Flat occluders (planar
-sections, single polygons) and flat originals are accepted: a ray that meets
-a flat original and a coplanar occluder at the same point is no violation.
-
-Tolerance. ``eps`` (default ``CONSERVATIVE_EPS_RELATIVE`` = 1e-5 of the
-original's bounding-box diagonal) is a distance along the ray, applied to
-float64 distances. Embree traces in float32 (in each mesh's own unit frame,
-:class:`viscore.Scene`), and a float32 hit distance is off by about
-2^-24 x (the ray's length scale) / cos(incidence): at grazing incidence
-(cos 0.0024 on the sloped roof of ``building-cottage``) a triangle of the
-original and one of the occluder in the same plane come out more than eps
-apart although they meet the ray at the same point to 1e-13. So a ray that
-float32 flags (gap > eps) is judged again in float64, unless
-
-- the original was hit and the gap exceeds eps by more than the float32
-  error bound of both hits, ``FLOAT32_ERROR_FACTOR`` (16) x 2^-24 x
-  (|origin - centre| + t + 2 diagonal) / cos(incidence) each (the mesh's
-  bounding-box centre and diagonal, the hit triangle's incidence; measured
-  errors stay under 0.85 / 16 of it): a violation as it stands;
-- the original was missed and no triangle of it lies within
-  ``max(eps, 1e-6 diagonal)`` of the occluder's hit point along the occluder
-  triangle's normal (two Embree segment probes): a violation as it stands.
-
-The float64 judgement takes the exact Moller-Trumbore [5]_ distances of the
-ray to the occluder triangle Embree hit and to the occluder's triangles that
-the same probes find through the ray's crossing of its plane (the smallest
-met; else the distance to that plane), and to the original's triangle Embree
-hit and those the probes find through the float64 occluder point (the
-smallest met; else infinity, and the ray stays a violation). A triangle is
-met when the ray's barycentric coordinates are within ``BARYCENTRIC_SLACK``
-(1e-9) of the closed triangle, at t >= 0, and the ray is not in its plane
-(cos(incidence) > 1e-12). The ray is then a violation when
-``t_occluder < t_original - eps - e``, e being the float64 error bound of
-both distances, the float32 bound's form at 2^-53 (5e-12 of the diagonal at
-cos 1e-3): what keeps a coincident occluder from counting with ``eps=0``.
-
-Why that is sound. The check only drops rays that float32 flagged, and only
-when float64 finds a triangle of the original that the ray itself meets no
-more than eps + e behind the occluder's float64 point. So an occluder in front
-of the original by more than eps plus float64 error (e) is reported on every
-ray float32 flags, at any incidence, and no report counts more violations
-than the float32 check of before. A violation that float32 itself misses
-(its error pulling the gap under eps) stays missed, as before: away from
-grazing incidence the float32 error is about 1e-7 of the diagonal, a
-hundredth of eps. ``ConservativenessReport.cleared`` counts the float32
-candidates that float64 dropped.
+A violation is a ray that meets the occluder before the original; the rate comes
+with a one-sided Clopper-Pearson upper bound [4]_ (conservative occluders: [1]_
+sec. 4, [2]_, [3]_).
 
 References
 ----------
@@ -528,7 +480,7 @@ def check_conservative(mesh: trimesh.Trimesh | Scene, occluder: trimesh.Trimesh 
     start = time.perf_counter()
     original = scene_of(mesh, "mesh")
     other = scene_of(occluder, "occluder")
-    eps = CONSERVATIVE_EPS_RELATIVE * original.diagonal if eps is None else eps
+    eps = CONSERVATIVE_EPS_RELATIVE * original.diagonal if eps is None else eps  # type: ignore[union-attr]
     if frame is None:
         frame = orbit_frame(mesh) if domain == "orbit" else evaluation_box(mesh)[:2]
     rng = np.random.default_rng(seed)
@@ -537,8 +489,8 @@ def check_conservative(mesh: trimesh.Trimesh | Scene, occluder: trimesh.Trimesh 
     worst: list[tuple] = []  # (-gap, ray index, description), best first
     for first in range(0, rays if other is not None else 0, _RAYS_PER_BATCH):
         n = min(_RAYS_PER_BATCH, rays - first)
-        o, d = _domain_rays(domain, frame, original, n, rng)
-        bad, gap, t_orig, t_occ, dropped = _violating_rays(original, other, o, d, eps)
+        o, d = _domain_rays(domain, frame, original, n, rng)  # type: ignore[arg-type]
+        bad, gap, t_orig, t_occ, dropped = _violating_rays(original, other, o, d, eps)  # type: ignore[arg-type]
         violations += len(bad)
         cleared += dropped
         for k in np.argsort(-gap, kind="stable")[:WORST_RAYS]:

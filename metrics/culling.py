@@ -1,34 +1,7 @@
 """Scene culling simulation: objects culled per frame along a camera path, against ray-cast truth.
 
-Occluders exist to cull objects. This module walks a camera along a path
-through a scene of objects (:class:`viscore.level.scene_graph.SceneObjects`) and, at
-every frame, asks each culling *runtime* which objects' bounding boxes it
-hides, as a scene-graph renderer does (Papaioannou et al. 2006 [1]_, sec. 4,
-Tables 1-2 and Figures 5-6: primitives rendered per frame along pre-recorded
-viewpoint paths; Hudson et al. 1997 [2]_ for the shadow frusta). The truth is
-a full-resolution ray-cast object-id image (one ray per pixel centre, the
-first hit's triangle mapped to its object): an object with at least one pixel
-is visible, and culling it is a *false cull*. The depth-buffer runtime of the
-occluder-skins paper [3]_ (sec. 5-6: occluders drawn into a reduced depth
-buffer, each occludee's screen rectangle tested at its nearest depth) is one
-of the runtimes.
-
-Per frame and runtime the simulation reports the objects culled (beyond view
-frustum culling), the false culls, the triangles sent to render and the
-runtime's own time (overhead). View-frustum culling is applied first and
-identically for every runtime, the ``none`` runtime included: each runtime
-sees only the boxes that intersect the view frustum. The shares over the walk
-come with 95% intervals by the circular block bootstrap over frames [4]_
-(:func:`viscore.metrics.bootstrap.block_bootstrap_ratio`): neighbouring frames
-see nearly the same objects, so frames are resampled in runs.
-
-The runtimes (:func:`no_culling`, :func:`frusta_runtime`,
-:func:`depth_buffer_runtime`) and the view-frustum test are in
-:mod:`viscore.metrics.culling_runtimes`, the camera paths
-(:func:`camera_path`, :func:`read_camera_path`) in
-:mod:`viscore.metrics.camera_paths`, the figure (:func:`culling_plot`) in
-:mod:`viscore.metrics.plots`; their names import from here too, as they
-always did. This module never imports :mod:`viscore.generators`.
+As Papaioannou et al. 2006 [1]_ (sec. 4, Tables 1-2, Figs. 5-6) count primitives
+rendered per frame, with the shadow frusta of Hudson et al. 1997 [2]_.
 
 References
 ----------
@@ -493,7 +466,7 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     for f, pose in enumerate(cameras):
         camera = pose.camera(width, height)
         origins, directions = camera.rays()
-        visible = visible_objects(scene, triangle_object, objects.see_through, origins,
+        visible = visible_objects(scene, triangle_object, objects.see_through, origins,  # type: ignore[arg-type]
                                   directions)
         del origins, directions
         in_view = view_frustum_mask(camera, lower, upper)
@@ -535,10 +508,10 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
                              len(false), objects.names[int(false[0])])
         if progress is not None:
             progress(1)
-    results = {k: RuntimeFrames(culled=per[k]["culled"], false_culls=per[k]["false"],
-                                triangles_rendered=per[k]["tris"], overhead_ms=per[k]["ms"],
+    results = {k: RuntimeFrames(culled=per[k]["culled"], false_culls=per[k]["false"],  # type: ignore[arg-type]
+                                triangles_rendered=per[k]["tris"], overhead_ms=per[k]["ms"],  # type: ignore[arg-type]
                                 conservative=runtimes[k].conservative,
-                                false_cull_names=tuple(per[k]["names"])) for k in names}
+                                false_cull_names=tuple(per[k]["names"])) for k in names}  # type: ignore[arg-type]
     return CullingResult(cameras=cameras, width=width, height=height, objects=n,
                          triangles=objects.total_triangles, in_view=in_view_n,
                          in_view_triangles=in_view_t, visible=visible_n,

@@ -5,19 +5,6 @@ A runtime answers, each frame, which occludee boxes its occluders hide
 occluders they use are inputs (this module never imports
 :mod:`viscore.generators`):
 
-- :func:`no_culling` (``none``): no occlusion culling.
-- :func:`frusta_runtime`: shadow frusta of convex solids (Papaioannou et al.
-  2006 [1]_, Hudson et al. 1997 [2]_; :class:`viscore.culling.FrustumCuller`),
-  ``mode='solid'`` (``solid-frusta``) or every face its own planar occluder
-  (``planar-frusta``).
-- :func:`depth_buffer_runtime`: a conservative reduced-resolution depth
-  buffer of occluder meshes (the occluder-skins paper [3]_, sec. 5-6;
-  :mod:`viscore.culling.depth_buffer`), from a fixed list or a per-frame callable (a
-  hierarchy's cut for the frame).
-
-:func:`view_frustum_mask` is the view-frustum culling that the simulation
-(:mod:`viscore.metrics.culling`) applies first, identically for every runtime.
-
 References
 ----------
 .. [1] Papaioannou, G., Gaitatzes, A., Christopoulos, D. "Efficient Occlusion
@@ -110,7 +97,7 @@ def frusta_runtime(solids: Sequence, *, mode: str = "solid", active: int = 15,
         furthest silhouette point.
     rank : {'faces', 'eq4'}, optional
         Ranking of the solids: 'faces' (default), a solid ranks as its best
-        face by eq. 3, or 'eq4', f_solid = Vol / |V|^3. With 'front-faces'
+        face by eq. 3, or 'eq4', ``f_solid = Vol / |V|^3``. With 'front-faces'
         and 'faces', solid frusta cull every box the planar frusta of the same
         solids cull, every frame (:class:`viscore.culling.FrustumCuller`).
     conservative : bool, optional

@@ -1,33 +1,5 @@
 """Erosion-based occlusion measure of an object (Silvennoinen et al. 2014, sec. 3).
 
-The directional measure is M(d) = integral over r of A(I_{d,r}), the area of
-the projection I_d eroded by a disk of radius r (eq. 1), which equals the
-integral over I_d of the Euclidean distance D(x) from x to the boundary of
-I_d (eq. 3). The total measure M (eq. 2) is estimated as 4 pi times the mean
-of M(d) over N uniform random directions, with its standard error.
-
-Estimator. I_d is sampled by one ray per pixel centre of an orthographic
-image. The boundary of I_d crosses the segment between every pair of
-4-neighbouring pixel centres of which one is covered and the other is not;
-each crossing is located by bisection along that segment (``boundary_steps``
-more rays per crossing, a few per cent of the image's rays), and D is the
-exact Euclidean distance from each covered pixel centre to the nearest
-crossing (a separable distance transform of sampled functions,
-Felzenszwalb and Huttenlocher 2012, run on the crossings, which lie on the
-pixel rows and columns). M(d) is the Riemann sum of D over the covered
-pixels. Without rays (an image alone) the crossings are the mid-points
-between the pixel centres.
-
-Why not the distance between pixel centres (the paper's Riemann sum of a
-binary distance transform)? It overestimates D by the gap between the true
-boundary and the nearest uncovered pixel centre, which depends on the edge's
-angle to the pixel axes: +0.16% (disk) to +0.8% (axis-aligned square) at
-512 px, converging at first order only. Subtracting half a pixel is exact
-for axis-aligned edges only and undershoots on curved and oblique ones
-(disk -0.43%, squares turned 10-30 degrees -0.61% at 512 px). With the
-bisected crossings the error is below 0.05% at 512 px and below 0.3% at
-128 px for disks, turned squares and parallelograms (see the tests).
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
@@ -518,10 +490,10 @@ def occlusion_measure(mesh: trimesh.Trimesh | Scene, *, directions: int | npt.Ar
     area = np.empty(n)
     rays = 0
     k = 0
-    for batch in _direction_batches(directions, seed):
+    for batch in _direction_batches(directions, seed):  # type: ignore[arg-type]
         for d in batch:
             cam = OrthoCamera(d, center, extent, resolution)
-            inside = _ray_inside(scene, cam)
+            inside = _ray_inside(scene, cam)  # type: ignore[arg-type]
             covered = _coverage(inside, resolution)
             counted = _CountingInside(inside)
             pixel = cam.pixel_size

@@ -1,25 +1,5 @@
 """Memory estimates of the evaluations, from their settings alone (before any work).
 
-The command line refuses settings whose memory would exceed the limit
-(:func:`viscore._validate.check_memory`) before loading anything; it asks this
-module for the figure instead of keeping its own constants. Each byte figure
-below says its unit and where it comes from. The library's own checks (the
-reference views' working set, the volume protocol's positions) stay where they
-are; these figures cover what a command or a study holds on top of them.
-
-Two figures per quad, for two different things:
-
-- :data:`BYTES_PER_STORED_QUAD` (18 B): what :class:`viscore.metrics.ReferenceViews`
-  keeps per quad of every view for the life of the views (four int16 corners,
-  int32 pixel and original counts, an int16 depth level; the library's own
-  ``_BYTES_PER_QUAD``). A study's workers hold the views of a mesh, so
-  :func:`study_bytes` counts views x quads x 18 B.
-- :data:`BYTES_PER_SCORED_QUAD` (128 B): the transient peak per quad while one
-  view's quads are drawn and counted (int64 draws, summed-area lookups, masks),
-  measured as peak RSS growth between ``evaluate --quads 1000`` and
-  ``--quads 1000000`` (~75 B, rounded up). :func:`evaluation_bytes` counts one
-  view's quads at this figure.
-
 Examples
 --------
 >>> evaluation_bytes("orbit", views=8, quads=1000, resolution=64) > 0
@@ -129,9 +109,9 @@ def evaluation_bytes(protocol: str, *, views: int | None = None, quads: int, res
     """
     per_pixel = BYTES_PER_ORBIT_PIXEL + (BYTES_PER_DEPTH_AWARE_PIXEL if depth_aware else 0)
     if protocol == "orbit":
-        batch = min(views, max(1, RAYS_PER_BATCH // (resolution * resolution)))
-        return (batch * resolution * resolution * per_pixel
-                + quads * BYTES_PER_SCORED_QUAD + views * BYTES_PER_RESULT_VIEW)
+        batch = min(views, max(1, RAYS_PER_BATCH // (resolution * resolution)))  # type: ignore[type-var]
+        return (batch * resolution * resolution * per_pixel  # type: ignore[operator]
+                + quads * BYTES_PER_SCORED_QUAD + views * BYTES_PER_RESULT_VIEW)  # type: ignore[operator]
     return 6 * resolution * resolution * per_pixel + quads * BYTES_PER_SCORED_QUAD
 
 

@@ -4,14 +4,6 @@ The geometry both protocols share, below :class:`~viscore.metrics.ReferenceViews
 and the one-call protocols of :mod:`viscore.metrics.orbit` and
 :mod:`viscore.metrics.volume` (which re-export these names):
 
-- orbit (Silvennoinen et al. 2014, sec. 6.1 [1]_): the image plane through the
-  centre of the original's smallest enclosing sphere, square extent = its
-  diameter x 1.01 (:func:`orbit_frame`);
-- volume (Wu et al. 2022, sec. 3.2 [2]_): the bounding box grown by the
-  padding (:func:`evaluation_box`), the view positions on a grid of spacing dx
-  outside the mesh, optionally merged as an octree (:func:`volume_positions`),
-  and the test of which 90-degree frusta can see a box (:func:`frusta_see_box`).
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
@@ -41,7 +33,7 @@ __all__ = ["orbit_frame", "evaluation_box", "volume_positions"]
 EXTENT_FACTOR = 1.01
 
 
-def orbit_frame(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
+def orbit_frame(mesh: trimesh.Trimesh | Scene) -> tuple[np.ndarray, float]:
     """Centre and window extent of the orbit protocol for an original mesh.
 
     Returns
@@ -68,7 +60,7 @@ MAX_GRID_POSITIONS = 50_000_000
 _BYTES_PER_CELL = 400
 
 
-def evaluation_box(mesh: trimesh.Trimesh, *, spacing: float | None = None,
+def evaluation_box(mesh: trimesh.Trimesh | Scene, *, spacing: float | None = None,
                    padding: float | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """The padded bounding box B' of the volume protocol and the view spacing dx.
 
@@ -181,8 +173,8 @@ def volume_positions(mesh: trimesh.Trimesh, *, spacing: float | None = None,
         idx = np.argwhere(parent)
         centres = first + (idx * size + (size - 1) / 2) * dx
         ok = ~points_inside(scene, centres)
-        parent[tuple(idx[~ok].T)] = False
-        levels.append(parent)
+        parent[tuple(idx[~ok].T)] = False  # type: ignore[index]
+        levels.append(parent)  # type: ignore[arg-type]
     assigned = np.zeros(valid.shape, dtype=bool)
     out_pos, out_w = [], []
     for level in range(len(levels) - 1, -1, -1):

@@ -1,10 +1,6 @@
 """Orbit precision/recall: orthographic views from uniform directions around the mesh.
 
-Silvennoinen et al. 2014, sec. 6.1 [1]_, with its settings fixed: N view
-directions uniform on the sphere; orthographic; the image plane through the
-centre of the original's smallest enclosing sphere; square extent = its
-diameter x 1.01; R x R pixels, one ray per pixel centre; Q random quads per
-view inside the screen bounding box of the original's covered pixels.
+Silvennoinen et al. 2014, sec. 6.1 [1]_, with its settings fixed.
 
 References
 ----------

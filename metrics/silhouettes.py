@@ -1,12 +1,5 @@
 """Colour-coded silhouettes of an occluder over its original (Silvennoinen et al. 2014, Fig. 7).
 
-Silvennoinen et al. 2014, sec. 6: "The original geometry is rendered in
-black, the intersection of the original geometry and the generated occluder
-is yellow. Over-occluded parts are coded in blue." The images are
-orthographic coverage images of the orbit protocol's frame (the original's
-smallest enclosing sphere x 1.01, flat originals included); flat occluders
-and originals are drawn from either side.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
@@ -84,7 +77,7 @@ def silhouette_image(mesh: trimesh.Trimesh | Scene, occluder: trimesh.Trimesh | 
     other = scene_of(occluder, "occluder")
     center, extent = orbit_frame(mesh) if frame is None else frame
     cam = OrthoCamera(direction, center, extent, resolution)
-    orig = _coverage(_ray_inside(original, cam), resolution)
+    orig = _coverage(_ray_inside(original, cam), resolution)  # type: ignore[arg-type]
     occ = (_coverage(_ray_inside(other, cam), resolution) if other is not None
            else np.zeros_like(orig))
     image = np.empty(orig.shape + (3,), dtype=np.uint8)

@@ -1,14 +1,7 @@
 """Uncertainty report of one occluder: bootstrap intervals and Bayesian summaries.
 
-Gathers, for one (mesh, occluder) pair, an interval for every Monte-Carlo
-figure: percentile and BCa bootstrap intervals over views (Efron 1987) for
-the pooled precision and recall of the orbit protocol (Silvennoinen et al.
-2014, sec. 6.1) or the volume protocol (Wu et al. 2022, sec. 3.2), computed
-by :mod:`viscore.metrics.bootstrap`, and for the total occlusion measure
-(Silvennoinen et al. 2014, sec. 3); and the hierarchical Beta models of
-per-view recall and precision (:mod:`viscore.metrics.bayes`; Gelman et al.
-2013, sec. 5.3) with their emcee convergence diagnostics (Foreman-Mackey et
-al. 2013).
+Bootstrap intervals over views (Efron 1987) and hierarchical Beta models of the
+orbit (Silvennoinen et al. 2014, sec. 6.1) or volume (Wu et al. 2022, sec. 3.2) figures.
 
 References
 ----------

@@ -1,21 +1,7 @@
 """Volume precision/recall: six 90-degree frusta from view positions filling the space.
 
-The 3D-domain protocol of Wu et al. 2022, sec. 3.2, eqs. 4-7: view positions on a grid of spacing dx
-(default 4% of the bounding-box diagonal) filling the bounding box grown by
-the padding (default: its smallest side) minus the inside of the mesh; six
-90-degree frusta per position, R x R, Q quads per frustum over the whole
-screen; P_x and R_x per position from the sums over its six frusta; P and R
-their (volume-weighted) means over positions where they are defined.
-
-Accelerations (Wu et al. 2022, sec. 3.3): frusta that cannot see the
-bounding box of either mesh are skipped (exact: they would count zeros), and,
-with ``merge_views``, 2 x 2 x 2 blocks of valid positions merge into one
-sample with 8 times the weight, repeatedly, as an octree. The sample is one
-of the block's grid positions drawn at random (seeded), and only positions
-one cell away from the mesh merge, so that the merged estimate is an
-unbiased estimate of the plain grid's answer whose interval covers it (one
-sample at each block's centre, the paper's rule, is a midpoint rule whose
-bias moved the answer beyond its interval).
+The 3D-domain protocol of Wu et al. 2022, sec. 3.2, eqs. 4-7, with the
+accelerations of its sec. 3.3.
 
 References
 ----------

@@ -299,8 +299,8 @@ OWN_SUBPACKAGE = {"viscore.cli.compare_cmd": "viscore.cli.study"}
 
 def test_cli_modules_import_no_benchmark_nor_another_subcommand():
     """``cli/*_cmd.py`` and ``cli/bench/*`` (and the study runner) import, of the command
-    line, only ``cli/_common.py``, the report pages and their own subpackage: library code a subcommand
-    needs from a benchmark or from another subcommand belongs in the library."""
+    line, only ``cli/_common.py``, the report pages and their own subpackage: library code
+    a subcommand needs from a benchmark or another subcommand belongs in the library."""
     modules = _modules()
     wrong = []
     for name, path in modules.items():

@@ -1,19 +1,7 @@
 """Atomic output files: a write lands whole or not at all, with the mode ``open`` gives.
 
-Shared by the command line (tables, meshes, reports, output folders) and the
-figure module of :mod:`viscore.metrics` (plots written beside a study).
-
-The core's shared set (STYLE rule 3: private to the package, imported by
-``viscore.metrics``, ``viscore.generators`` and ``viscore.cli`` alike):
-:func:`write_atomic`, :func:`check_output_path`, :func:`file_mode` (the
-mode a new file gets, for writers that make their own temporary files),
-:func:`swap_folder` (a whole folder of files replaced in one step),
-:class:`FileSet` (files written beside others in a folder, all or none),
-:func:`lock_exclusive` (a file or folder held by one process) and
-:class:`LockedFolder` (an output folder made, held by this process alone and
-cleaned of what a killed run left, its files written as one set: ``viscore
-cull``'s ``--out``, ``viscore occlude``'s ``-o``, a study folder of ``viscore
-compare``).
+Shared by the command line (tables, meshes, reports) and the figure module of
+:mod:`viscore.metrics` (plots written beside a study).
 """
 
 from __future__ import annotations
@@ -309,7 +297,7 @@ class FileSet:
             if exc_type is None:
                 self._commit()
         finally:
-            shutil.rmtree(self._tmp, ignore_errors=True)
+            shutil.rmtree(self._tmp, ignore_errors=True)  # type: ignore[arg-type]
             self._tmp = None
 
     def _commit(self) -> None:
@@ -319,7 +307,7 @@ class FileSet:
             target = self.folder / name
             try:
                 old = self._keep_old(target)
-                os.replace(self._tmp / name, target)
+                os.replace(self._tmp / name, target)  # type: ignore[operator]
             except OSError as exc:
                 self._undo(moved)
                 raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from None
@@ -330,7 +318,7 @@ class FileSet:
         """A hard link to the file at ``target`` in the temporary folder, or None."""
         if not os.path.isfile(target) or os.path.islink(target):
             return None
-        old = self._tmp / f".old-{target.name}"
+        old = self._tmp / f".old-{target.name}"  # type: ignore[operator]
         try:
             os.link(target, old)
         except OSError:  # a filesystem without hard links: the undo removes the new file

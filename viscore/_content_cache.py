@@ -1,14 +1,4 @@
-"""Results of pure functions of large arrays, kept by the arrays' content.
-
-The precision floor of planar sections generates up to eight times per mesh,
-and each generation and each scoring used to recompute what depends on the
-mesh alone: whether it is closed and oriented (seconds on a million
-triangles), its smallest enclosing ball, the coverage of a ground fill. A
-:class:`ContentCache` keeps the last few results of one function by a
-BLAKE2b digest of its array arguments (16 bytes; tens of milliseconds on a
-million triangles, against seconds for the results kept), so a caller gets
-the same answer without holding the mesh's identity.
-"""
+"""Results of pure functions of large arrays, kept by the arrays' content."""
 
 from __future__ import annotations
 

@@ -1,15 +1,4 @@
-"""numba compilation that works from a read-only install.
-
-``numba.njit(cache=True)`` looks for a writable folder for its on-disk cache
-when the function is *decorated* (at import): beside the source file
-(``__pycache__``), else the user's cache folder (``~/.cache/numba``), else
-``NUMBA_CACHE_DIR``. A system-wide install run by another user, or a user
-without a writable home, has none of them and numba raises ``RuntimeError:
-cannot cache function ...: no locator available``, so that nothing could even
-be imported. :func:`njit_cached` asks for the cache and, where numba finds no
-place for it, compiles without one (each process then compiles on first use,
-a few seconds, instead of loading the cache).
-"""
+"""numba compilation that works from a read-only install."""
 
 from __future__ import annotations
 

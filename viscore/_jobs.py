@@ -1,14 +1,4 @@
-"""Jobs run here, in worker processes or on a dask.distributed cluster.
-
-One runner for every command that spreads work (``compare``'s study,
-``occlude``'s meshes, the planar hierarchy's nodes): how a worker process
-starts (:func:`worker_init`), how a pool is stopped at once on an error or
-Ctrl-C (:func:`stop_pool`), how a scheduler address is checked and connected
-(:func:`connect_scheduler`), and :func:`run_jobs`, which runs a function over
-argument tuples and hands each result to a callback in this process as it
-finishes. Part of the core's shared helpers (with ``_validate`` and
-``_atomic``): the command line may import it.
-"""
+"""Jobs run here, in worker processes or on a dask.distributed cluster."""
 
 from __future__ import annotations
 

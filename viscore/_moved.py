@@ -1,12 +1,4 @@
-"""Old module paths of moved modules, kept working by one alias table.
-
-The core was flat before it was sorted into folders by job (``ray``,
-``exchange``, ``level``, ``voxel``, ``culling``), and a few modules of the
-other packages moved too. ``import viscore.scene`` and ``from viscore.voxels
-import voxelize`` still work: the finder below hands back the module that
-lives at the new path, the same object, so a name patched through either
-path is patched for both.
-"""
+"""Old module paths of moved modules, kept working by one alias table."""
 
 from __future__ import annotations
 

@@ -102,8 +102,8 @@ def scene_path(name: str) -> Path:
     """
     if name in _PROCEDURAL:
         path = _procedural_dir() / _PROCEDURAL[name][0]
-    elif name in _PYMESHLAB and _pymeshlab_samples() is not None:
-        path = _pymeshlab_samples() / _PYMESHLAB[name][0]
+    elif name in _PYMESHLAB and (samples := _pymeshlab_samples()) is not None:
+        path = samples / _PYMESHLAB[name][0]
     else:
         raise InputError(f"{name}: not a built-in scene (built-in: {', '.join(scene_names())})")
     if not path.is_file():

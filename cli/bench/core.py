@@ -1,12 +1,5 @@
 """Speed benchmarks behind ``viscore bench rays|voxels|evaluate``.
 
-Figures are printed, never asserted in tests. Each benchmark measures its own
-reference in the same run (a bare embreex call for rays, the ``bench rays``
-throughput for the evaluation), because the machines are shared and noisy.
-They live in the command-line layer because they need all of the chain
-(core, metrics and a generator's occluder), and only the CLI sits above all
-three.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder

@@ -1,12 +1,7 @@
 """``viscore bench cull``: per-frame overhead of the culling runtimes.
 
-:func:`bench_cull` times the two runtimes of issue 13 on one core, on the
-built-in ``city`` along its generated camera path: the shadow-frustum runtime
-(Papaioannou et al. 2006 [1]_: 1.89-2.63 ms per frame in their Tables 1-2)
-with 15 active convex solids and 1,000 occludee boxes per frame (target under
-2 ms), and the conservative depth buffer at 320 x 180 (the quarter-size
-buffer of a 1280 x 720 screen, occluder skins [2]_ sec. 7) with the same
-1,000 boxes (target under 5 ms). Figures, never assertions.
+Papaioannou et al. 2006 [1]_ (Tables 1-2) and the occluder skins [2]_ (sec. 7)
+are the references; figures, never assertions.
 
 References
 ----------

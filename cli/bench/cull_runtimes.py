@@ -1,24 +1,11 @@
 """Per-frame cost of the culling runtimes, on one core, beside references from the same run.
 
+Papaioannou et al. [1]_, sec. 3 and Tables 1-2, are the reference for the
+frusta; figures, never assertions.
+
 Behind ``viscore bench cull``. A procedural city of box buildings (one to
 three boxes each, as convex solids) and street-level occludees (small boxes)
 is walked by a camera at eye height; each frame is timed for
-
-- the shadow-frustum runtime (:class:`viscore.culling.FrustumCuller`) with
-  the 15 active occluders of Papaioannou et al. [1]_ sec. 3, in 'solid' mode
-  (the paper's eq. 2 cap, and the exact front-face caps with face ranking)
-  and 'planar' mode, 1,000 occludees per frame (target < 2 ms; [1]_ Tables 1-2
-  report 0.99-2.63 ms in 2006);
-- the conservative depth buffer (:mod:`viscore.culling.depth_buffer`) at 320 x 180
-  for a 1280 x 720 screen ([2]_ sec. 5-7; target < 5 ms): building the
-  buffer (rays at tile corners, refined along silhouettes) and testing the
-  occludees, separately, and the rays it casts per frame;
-- references: a bare numpy pass over the occludee boxes (projecting their
-  8 corners, what any screen-space test does at least), and one bare
-  ``EmbreeScene.run`` over the buffer's corner rays (float32 prepared).
-
-The machines are shared: figures are the median and the best over the
-frames, printed, never asserted.
 
 References
 ----------

@@ -1,24 +1,5 @@
 """Benchmark of the hybrid generator behind ``viscore bench generate hybrid``.
 
-For each built-in building (``viscore.builtin_scenes.scene_group('buildings')``)
-and, when a models folder is given, each Kenney building (``kenney/*.glb``
-under it): the hybrid occluder's wall time (and per stage), faces, the
-single-sided triangle count, and its precision and recall on the volume
-protocol of Wu et al. 2022 (sec. 3.2), beside ``qem`` at the same face count
-and ``godot`` at its own; the holes its planar patches filled and kept open
-(and why: :data:`viscore.generators.hybrid._holes.OPEN_REASONS`); and the
-effect of hole filling (sec. 3.1.1 step 4, Fig. 6): the patch candidates alone
-at the reduction's N_P faces with and without filling (equal faces up to one
-patch), and the whole hybrid without filling at the filled run's face count
-as its budget. Figures are printed, never asserted in tests.
-
-The evaluation views are not the metric-guided step's own: another seed and a
-jittered position grid, so that the selection is not judged on the views it
-was fitted to. Their settings (spacing, resolution, quads) default to the
-metric-guided step's former ones (8% of the diagonal, 64 pixels, 1,000 quads
-per frustum; that step now uses 12% and 32 pixels), cheaper than the paper's
-(4%, 256, 5,000); the result records them.
-
 References
 ----------
 .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in

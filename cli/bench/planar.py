@@ -1,17 +1,5 @@
 """Benchmarks and ablations of ``planar-sections``: figures, never assertions.
 
-- :func:`bench_generate_planar_sections`: the bunny case of the paper's
-  Table 1 (53 triangles, 64^3 voxels; wall time and orbit precision/recall at
-  256 views), and every built-in scene at 64 triangles next to ``godot`` (at
-  its default distance, and at no more triangles) and ``qem`` (and the
-  hairball at 16 triangles, Fig. 1).
-- :func:`bins_sweep`: recall at 53 triangles and seconds against the
-  numbers of direction and depth bins (sec. 4.2), on the bunny.
-- :func:`measure_ablation`: per-view recall over 256 views of occluders
-  selected by the occlusion measure and by surface (projected) area (Fig. 11).
-- :func:`resolution_ablation`: precision and recall against the voxel
-  resolution (Fig. 9).
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder

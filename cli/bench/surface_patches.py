@@ -1,23 +1,5 @@
 """Benchmark of the surface-patches generator behind ``viscore bench generate surface-patches``.
 
-For each built-in building (``viscore.builtin_scenes.scene_group('buildings')``)
-and, when a models folder is given, each Kenney building (``kenney/*.glb``,
-``building*.glb``) and the room of Godot's occlusion demo
-(``godot-occlusion-demo/room.glb``) under it: the input's triangles, the
-occluder's at the default budget (260, so every figure is at <= 260 faces), the
-generation's wall time, precision and recall with their 95% bootstrap
-intervals on the volume protocol of Wu et al. 2022 (sec. 3.2), and the
-violations of the ray-wise conservativeness check in its orbit and volume
-domains; then the mean recall over the built-in buildings (the issue's target:
->= 0.85), and a speed row: a building of :data:`SPEED_TRIANGLES` triangles made
-here (:func:`speed_building`), timed against ``qem`` to the same budget on the
-same mesh in the same run (the target: under 10 s on 2 cores). Figures are
-printed, never asserted in tests.
-
-The volume views are those of ``viscore bench generate hybrid`` (8% of the
-diagonal, 64 pixels, 1,000 quads per frustum, jittered grid, seed 1), so that
-the two benchmarks' rows compare; the result records them.
-
 References
 ----------
 .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in

@@ -1,25 +1,6 @@
 """Table 1 of the planar-sections paper as one command: its five rows beside ours.
 
-Silvennoinen et al. 2014 [1]_, Table 1, measures planar sections on five
-scenes (BUNNY, DRAGON, TERRAIN, MACHINE, BUDDHA) at five triangle budgets:
-precision and recall by the orbit protocol of sec. 6.1, and the wall time on
-a GPU. Their meshes are not ours to ship, so :func:`table1_meshes` makes
-stand-ins of the same kind and size, deterministically, from what a fresh
-clone has (the pymeshlab samples and numpy):
-
-- BUNNY: the pymeshlab bunny (56,172 triangles; the paper's has 4,968);
-- DRAGON: the same bunny subdivided twice (898,752 triangles, the same surface
-  at 16 times the triangles: what a million-triangle scan costs);
-- TERRAIN: a fractal height field, an open sheet 100 x 100 x 33 of 59,858
-  triangles (spectral synthesis, amplitude ~ 1 / f^2.2, seeded);
-- MACHINE: an assembly of 461 parts (a base plate, shafts, gears, bolts) of
-  about 400,000 triangles (:func:`machine_assembly`);
-- BUDDHA: the pymeshlab cow subdivided four times (1,485,824 triangles).
-
-:func:`bench_table1` runs ``planar-sections`` with its defaults at each row's
-budget, and ``qem`` at the same budget and ``godot`` at the largest bake with
-no more triangles (:func:`.planar.godot_within`), each scored on the same
-orbit views: seconds, precision and recall with their bootstrap intervals.
+Silvennoinen et al. 2014 [1]_, Table 1.
 
 References
 ----------

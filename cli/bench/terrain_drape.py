@@ -1,18 +1,4 @@
-"""Benchmark of occluders for open height fields behind ``viscore bench generate terrain-drape``.
-
-On the built-in ``terrain`` and height fields made here from seeds (none of
-them tuned on: smooth hills, the same turned y-up, the hills with a lake cut
-out, and two fractal sheets, the rougher one Table 1's TERRAIN stand-in of
-:func:`.table1.fractal_terrain`), at the TERRAIN row's budget (23 triangles,
-Silvennoinen et al. 2014, Table 1: P 99.9%, R 82.3%), each method's
-triangles, wall time, orbit precision and recall with 95% intervals (256
-views, the generators' check views never among them), and the share of the
-occluder's area that stands above the surface by more than 0.5% of the
-diagonal (:func:`area_above`): where an occluder stands above the ground, it
-hides what lies on it (rocks, props, characters) from a viewer above, which
-the orbit protocol, counting coverage only, does not see. Figures are
-printed, never asserted in tests.
-"""
+"""Benchmark of occluders for open height fields behind ``viscore bench generate terrain-drape``."""
 
 from __future__ import annotations
 

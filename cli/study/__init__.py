@@ -1,17 +1,4 @@
-"""The study runner behind ``viscore compare``: jobs, their store, tables and report.
-
-- :mod:`.store`: :class:`ResultStore` (the SQLite file of finished jobs),
-  :class:`StudyFolder` (the folder opened and locked by one process),
-  :func:`check_study_dir`.
-- :mod:`.runner`: :class:`StudySettings`, :class:`Job`, :func:`run_study` (the
-  local process pool, each mesh's views reaching each worker once; or dask),
-  :func:`study_memory` (from :mod:`viscore.metrics.estimates`).
-- :mod:`.tables`: the Markdown and CSV tables and the paired comparisons.
-- :mod:`.report`: ``report.html`` and the ``.glb`` beside each occluder.
-
-The names below are re-exported so that ``viscore.cli.study.StudySettings``
-and the other paths of the former single module keep working.
-"""
+"""The study runner behind ``viscore compare``: jobs, their store, tables and report."""
 
 from .report import CULLING_COLUMNS, write_occluder_glb, write_occluder_glbs, write_report
 from .runner import (

@@ -1,18 +1,5 @@
 """What people look at after ``viscore compare``: ``report.html`` and a ``.glb`` per occluder.
 
-:func:`write_report` writes one self-contained HTML page (no script, no
-stylesheet or image outside the file: the plots are inline ``data:`` URIs),
-so it opens offline and can be mailed or archived as one file; it is the
-``compare.html.j2`` template of :mod:`viscore.cli.report.page`, the look it
-shares with ``cull``'s and ``occlude``'s pages. The page
-leads with the answer a study is run for (:func:`best_at_precision`: per
-mesh and budget, the method of highest recall at precision >= 0.995, with its
-interval and whether it carries the conservativeness guarantee), then the
-full results table at the page's width, the winners marked.
-:func:`write_occluder_glb` writes a glTF 2.0 binary holding the original
-(grey, translucent) and the occluder (coloured, opaque), for any glTF viewer;
-:func:`write_occluder_glbs` writes one beside every kept occluder of a study.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder

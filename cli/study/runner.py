@@ -1,48 +1,5 @@
 """Comparison studies: every registered method on every mesh, evaluated and stored.
 
-The orchestration of ``viscore compare`` (the data flow: metrics -> cli for
-tables, plots, studies). The original's views
-(:class:`viscore.metrics.ReferenceViews`) are built once per mesh and settings
-and reach each worker once; each (mesh, method, budget, settings, seed) job
-generates its occluder with :func:`viscore.generators.generate` and assesses
-it with :func:`viscore.metrics.assess_occluder` (precision/recall, occlusion
-measure, conservativeness). Jobs run in a local process pool, or on a
-dask.distributed cluster with ``scheduler``; each job is deterministic given
-its settings, so both give identical rows.
-
-Occluder files. A study may also assess occluders made by other tools
-(``compare --occluder-files NAME=PATH``, :func:`resolve_occluder_files`): a
-row ``NAME`` per mesh (and per budget a folder's file names state), assessed
-exactly as a generated occluder and paired, plotted and reported like one. The
-file is read by :func:`viscore.generators.levels.occluders.file_occluder`
-(any format :func:`viscore.load_occluder` reads; drawn double-sided; not
-conservative unless the file says so). Its row key adds the SHA-256 of the
-file's content to the usual (mesh, method, budget, settings), so a resumed
-study reuses the row while the file is unchanged and assesses it again once
-it changes.
-
-Views once per worker. In the local pool, a worker builds a mesh's views
-(from the mesh the parent loaded, not loaded again) and pickles them once to a
-file in a temporary folder of the study (``DIR/.views-*.tmp/``); each job of
-that mesh carries the file's path, and each worker process loads a file once
-and keeps the views of one mesh (:func:`views_from_file`), so the ~35 MiB of
-views are not pickled into every job. The folder is removed when the jobs end,
-on Ctrl-C and on errors too; one a killed run left behind is removed when the
-study folder is next opened (:class:`viscore.cli.study.store.StudyFolder`).
-On dask the views are one future, which dask moves to each worker once. A
-scheduler address is probed first (:func:`check_scheduler`): a TCP port that
-refuses the connection is reported at once, with one line; dask's own connect
-timeout (``distributed.comm.timeouts.connect``, 30 s by default) is left for
-an address that does not answer at all.
-
-Crash safety. The study folder is opened by this process alone
-(:class:`~viscore.cli.study.store.StudyFolder`). Each job's occluder file is
-written atomically under ``occluders/``, then its row is committed to the
-store, as soon as the job finishes. On Ctrl-C the pending jobs are cancelled
-and the worker processes killed at once, after committing every job already
-finished; the workers ignore SIGINT (the parent stops them) and die with their
-parent (``PR_SET_PDEATHSIG``), so no orphan keeps computing.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder

@@ -1,21 +1,4 @@
-"""The study folder: its SQLite store of finished jobs and its lock.
-
-A study folder is opened by one process at a time (:class:`StudyFolder`: an
-advisory ``flock`` on ``DIR/.lock``, :class:`viscore._atomic.LockedFolder`; a
-second ``compare`` on the same folder is refused with one line). Each job's
-row is committed to ``DIR/results.sqlite`` (:class:`ResultStore`) in one
-transaction as soon as the job finishes: a re-run
-resumes, and a killed run (SIGKILL included) loses only the jobs that were
-running. A store that is not a study store (another file, another schema, a
-row that is not JSON) is refused with one line naming the file, before any
-work. Opening a folder removes the temporary files (and the temporary views
-folders of :mod:`viscore.cli.study.runner`) a killed run left behind. A
-study's subfolder (``occluders/``) that is a symbolic link is refused with one
-line: the study writes inside its folder, never elsewhere through a link.
-
-:func:`lock_exclusive` (the lock itself, :func:`viscore._atomic.lock_exclusive`)
-keeps its old path here.
-"""
+"""The study folder: its SQLite store of finished jobs and its lock."""
 
 from __future__ import annotations
 

@@ -1,53 +1,7 @@
 """Planar sections, step 4.4 refined: the largest inscribed stages of few triangles.
 
-Silvennoinen et al. 2014 [1]_, sec. 4.4, builds each candidate's chain by
-greedy vertex collapse, the smallest ear first
-(:mod:`.simplify`). Greedy collapse is myopic: on the bunny at 64^3
-its stages of 3 to 8 triangles keep 55-85 % of the candidate's area, while
-the best polygon on the same vertices keeps 65-90 %, and at a 53-triangle
-budget the occluder's polygons end at 3 to 8 triangles each. This module
-replaces the low end of a chain (stages of at most :data:`MAX_TRIANGLES`
-triangles) by the polygon of largest area, for each triangle count, among
-those whose vertices are vertices of the candidate and which lie in the
-candidate: the paper's constraint (every stage inside the original
-candidate, so the error stays that of the voxelization and RDP), its
-objective at a fixed triangle count, without the greedy order. Stages above
-:data:`MAX_TRIANGLES` triangles stay the greedy ones. (Beyond the paper:
-``planar-sections --chain greedy`` keeps the paper's chain throughout.)
-
-The search (exact, dynamic programming)
----------------------------------------
-Choosing vertices ``i_1 < ... < i_k`` of the loop cuts off, between each
-two consecutive ones, the *pocket* bounded by the loop from ``i_j`` to
-``i_j+1`` and the chord back. When every chord lies in the candidate and no
-pocket holds a hole of the candidate, the chosen polygon is the candidate
-minus its pockets, so its area is the candidate's minus the pockets' signed
-areas (shoelace prefix sums make each pocket O(1)), and minimizing the sum
-of pockets over k chords is a shortest path with k steps around the loop:
-O(n^2 k) per start vertex, O(n^3 k) in all. Chords are tested once
-(``shapely.covers`` on the candidate polygon, holes included, exact on the
-integer pixel coordinates of the loops). Every edge of a polygon inside the
-candidate is such a chord, so this search relaxes the problem: where its
-best polygon passes the final check, it is the optimum. A candidate with
-holes is one loop through bridges (:mod:`viscore.generators.planar_sections._loops`): there a chord
-inside the candidate can still skip a hole or reach around one, so where
-the relaxed search fails the check, it is run again with each pocket checked
-itself (shapely, all pockets at once: counter-clockwise, of its shoelace area
-once repaired, covered by the candidate; a pocket of zero shoelace area must
-bound no area at all, as one winding once around a part of the candidate and
-once the other way around a hole of the same area does not). That second
-search can miss the optimum (a pocket through a bridge that crosses its own
-chord is refused though its polygon is feasible) but never returns an
-infeasible polygon. n is at most :data:`POOL`: the search chooses among the
-vertices of the greedy chain's stage with at most that many vertices (all
-the candidate's when it has fewer; none, the chain staying greedy, when the
-chain stopped above it). Each polygon found is checked again (the same test),
-triangulated by ``mapbox_earcut``, and its triangles must tile it inside the
-candidate without overlap; one that fails a check is not used. Greedy
-stages holding a triangle the candidate does not cover (from a loop through
-bridges that is not weakly simple: holes touching each other at a vertex, a
-hole left out of the loop) are dropped too, so that every stage of the
-refined chain lies in the candidate.
+Silvennoinen et al. 2014 [1]_, sec. 4.4, collapse vertices greedily; stages of
+few triangles are found exactly here, by dynamic programming.
 
 References
 ----------
@@ -236,7 +190,7 @@ def best_inscribed(ring: np.ndarray, region: Polygon, kmax: int
     rounds = [ok]
     if (not isinstance(region, Polygon) or len(region.interiors)
             or len(np.unique(xy, axis=0)) < n):
-        rounds.append(None)
+        rounds.append(None)  # type: ignore[arg-type]
     for rules in rounds:
         if rules is None:
             rules = _pocket_rules(xy, region, ok)

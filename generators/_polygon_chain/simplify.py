@@ -5,34 +5,6 @@ polygon, repeatedly remove the vertex v_k whose triangle (v_k-1, v_k, v_k+1)
 has the smallest area among those whose removal keeps the polygon inside the
 original candidate, until one triangle is left; each stage is triangulated.
 
-Which removals keep the polygon inside: removing a convex vertex whose
-triangle holds no other part of the polygon cuts that triangle off (an ear,
-in the sense of ear clipping), so the result is a subset of the current
-stage and so of the candidate. Removing a reflex vertex adds its triangle,
-which lies inside the original candidate only where an earlier step cut that
-area away; we do not consider those moves (on the bunny's largest hole-free
-slice at 64^3, a shapely prototype that allows them builds the same chain,
-stage for stage): every stage is then nested in the one before, and the
-removed ears, in reverse, triangulate every stage (the triangles of the
-stage with j triangles are the last j - 1 ears plus the
-final triangle), so the chain needs no separate triangulator and each stage
-has exactly its vertex count minus two triangles, zero-area ones included
-(they are dropped from the counts). A simple polygon always has an ear
-(the two-ears theorem); where zero-width parts (loops overlapping along an
-edge after earlier cuts) leave no ear by the strict test below, the chain
-falls back to the usual loose test of ear clipping (no vertex strictly
-inside the triangle; not in the conservative variant), and should even that
-find none, the stage reached is triangulated by ``mapbox_earcut`` and the
-chain stops there.
-
-The ear test runs in exact arithmetic: the loops of :mod:`viscore.generators.planar_sections._loops`
-have integer pixel-corner coordinates. Loops with bridged holes are weakly
-simple (a bridge is walked twice, loops may touch at a vertex): a vertex at
-the position of a corner of the ear blocks it only when one of its edges
-enters the ear (or runs along the new edge in the same direction), any
-other vertex in the closed ear blocks it. Containment and validity are
-checked with shapely in the tests.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder

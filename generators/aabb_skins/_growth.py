@@ -1,10 +1,7 @@
 """numba kernels of the greedy maximal-box growth of the AABB-skins generator.
 
-The box growth of Leone et al. [1]_, sec. 4 (boxes grown from seed voxels
-one layer per direction) and the maximal-box expansion of Naaji's
-box-filling note [2]_ (the largest box over all lower corners, from per-axis
-run lengths). The per-voxel box search cannot be vectorised with numpy;
-numba compiles it.
+The box growth of Leone et al. [1]_, sec. 4, and the maximal-box expansion of
+Naaji's box-filling note [2]_.
 
 References
 ----------

@@ -1,56 +1,7 @@
 """AABB skins: conservative occluders made of axis-aligned boxes inside the mesh.
 
-The occluder-skins method of Leone et al. [1]_, sec. 4, with the box-filling
-note of Naaji [2]_: voxelize; surface voxels by exact triangle/box overlap;
-inner voxels; per-axis run lengths of inner voxels along the positive axes;
-greedy growth that picks, at each step, the box of maximal volume over all
-inner voxels (the note's expansion along +X, +Y, +Z from a lower corner),
-marks its voxels taken, and repeats until a threshold: maximum number of
-boxes, minimum box volume ([1]_), or a filled fraction of the inner volume
-([2]_). With ``seed_voxel="densest"`` boxes instead grow from the untaken
-inner voxel that lies deepest inside, by one layer per direction in turn
-([1]_, sec. 4, after Danell). [1]_ defines "densest" as the largest average
-distance to all surface voxels; read literally that picks voxels at the rim
-(for a ball of radius R the mean distance from radius r to the sphere is
-R + r^2 / 3R, largest at the boundary), so the seed is the voxel farthest
-from its nearest surface voxel (Euclidean distance transform), ties broken
-by the mean of the distances to the surface along the six axis directions
-the paper's inner-voxel rule uses.
-
-Inner voxels are non-surface voxels inside the mesh by the generalized
-winding number (Jacobson et al. [3]_) at their centres
-(:func:`viscore.voxel.grid.inside_voxels_winding`). The papers' rules alone
-(flood fill from the border, or a surface voxel in each of the six axis
-directions) take every enclosed cavity for solid: the inside of a hollow
-shell, or a room whose door is narrower than a voxel. For a mesh that is
-closed and consistently oriented the winding number is constant on each
-connected region of non-surface voxels, so the inside is exact and whole
-voxels are inside: ``info["inside"] == "winding-number"`` and the boxes are
-guaranteed conservative. Any other mesh (open, or with flipped triangles)
-takes its candidates from the flood fill, or, where the fill leaks through
-holes, from the core's ray-parity votes, and keeps those whose centre is
-inside (by bounds on the winding number's change from voxel to voxel, the
-same voxels as evaluating it at every centre; see
-:func:`viscore.voxel.grid.inside_voxels_winding`); ``info["inside"]`` says which
-(``"flood-fill"``, ``"ray-parity"``).
-Nothing is guaranteed then: a box can reach through a hole, and a gap
-narrower than a voxel (a teapot's lid on its body) hides from the surface
-voxels while rays still pass through it.
-
-Voxel size: a voxel is inner only when its closed cube touches no triangle,
-so a wall of thickness ``t`` holds one wherever the grid falls only when
-the voxel side ``p`` satisfies ``p < t / 2`` for a wall along the axes
-(``p < t / sqrt(6)``, about ``t / 2.45``, at worst;
-:mod:`viscore.voxel.wall_thickness`). With ``voxel_sizing="auto"`` (the default, when no
-``voxels`` or ``voxel_size`` is given) the side is the extent-based one
-(longest side / 64), or finer where the mesh's walls, measured by rays along
-the inward normals (:func:`viscore.voxel.wall_thickness.wall_thickness`), ask for
-it: 0.9 x that bound at the area-weighted 20% quantile of the walls
-(:func:`viscore.voxel.wall_thickness.wall_voxel_size`), so that walls above it
-hold inner voxels. Where that grid would not fit the memory guard or the
-cost cap (:data:`viscore.voxel.wall_thickness.AUTO_MAX_CELLS` cells), the
-finest grid that fits is taken and one log line says how much wall area
-then gets no occluder.
+The occluder-skins method of Leone et al. [1]_, sec. 4, with the box filling of
+Naaji [2]_.
 
 References
 ----------

@@ -1,16 +1,5 @@
 """Baselines every study includes: quadric decimation, the bounding box, the original.
 
-- ``qem``: quadric edge-collapse decimation (pymeshlab) down to the triangle
-  budget [1]_; the stand-in for the commercial simplifiers that the planar
-  sections paper [2]_ (Table 1) and the building occluder paper [3]_ (Table 2)
-  compare against. Not conservative.
-- ``bbox``: the mesh's axis-aligned bounding box, 12 triangles; the
-  non-conservative extreme (precision low, recall 1 on the orbit protocol).
-  Not budgeted: :func:`viscore.generators.generate` flags a budget under 12.
-- ``original``: the mesh itself; P = R = 1, a check on the metrics.
-
-The engine baseline ``godot`` lives in :mod:`viscore.generators.baselines.godot`.
-
 References
 ----------
 .. [1] Garland, M., Heckbert, P. S. "Surface Simplification Using Quadric Error

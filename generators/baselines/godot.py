@@ -5,33 +5,6 @@ material is transparent (alpha blending or alpha scissor), moves the
 surface's vertices to world space and simplifies it on its own with
 meshoptimizer's ``meshopt_simplify``:
 
-- ``target_index_count = min(index_count, 36)`` (at most 12 triangles, a
-  target the error limit normally stops far short of),
-- ``target_error = bake_simplification_distance / meshopt_simplifyScale(vertices)``
-  (the distance in world units made relative to the surface's extent),
-- ``options = SIMPLIFY_LOCK_BORDER`` (open boundary vertices never move, so a
-  surface whose every part has a border keeps all its triangles),
-
-then keeps the referenced vertices and appends the surface to one occluder
-array mesh. A distance of zero skips the simplification. This module makes
-the same call through the ``meshoptimizer`` Python package on float32
-positions, as Godot does.
-
-What a "surface" is here: for a :class:`trimesh.Scene` (a GLB or glTF file
-read with ``trimesh.load``), each geometry placed by a scene node is one
-surface, as each glTF primitive becomes a Godot surface; transparent ones
-(glTF ``alphaMode`` ``BLEND`` or ``MASK``) are dropped. A
-:class:`trimesh.Trimesh` is one surface: ``viscore.load_mesh`` and so
-``viscore generate`` concatenate multi-part files into one mesh, so on the
-command line a GLB scene is baked as a single surface with no material test.
-
-Not conservative (the simplified surface can bulge out of the original) and
-not budgeted: the distance alone decides the size.
-
-:func:`godot_imported_surface` gives one glTF surface as Godot's glTF importer
-hands it to the bake (corners swapped to clockwise, vertices merged by
-position, normal and UV), so that our bake can be run on Godot's very input.
-
 References
 ----------
 .. [1] Godot Engine contributors. ``OccluderInstance3D::_bake_surface``,

@@ -1,37 +1,5 @@
 """Conservative enforcement of the voxel-based candidate (Wu et al. 2022, sec. 3.1.2, eqs. 1-3).
 
-Quadric simplification moves vertices off the isosurface, some of them
-outwards, where the occluder would hide what the building does not. The paper
-pushes them back by minimising the spring energy of eq. 1 (each edge of the
-coarse mesh a spring at its length before enforcement) plus, for every point
-found outside the isosurface, the penalty of eq. 2, ``E_SDF(p) = phi(p)^2 / 2``
-where the signed distance ``phi`` to the isosurface is positive (eq. 3), by a
-quasi-Newton method. Here:
-
-- ``phi`` is a signed distance field: libigl's ``signed_distance`` of the
-  isosurface mesh (sign by the fast winding number, robust where marching
-  cubes leaves touching sheets)
-  sampled once on the isosurface's own grid, and trilinearly interpolated, so
-  that energy and gradient are exact for the interpolant and cheap to evaluate;
-- the points tested are the coarse mesh's vertices (the sum of eq. 3 runs
-  over them), optionally also edge midpoints and face centroids ("any point
-  p of M_coarse" in eq. 1, sampled), each a fixed barycentric combination of
-  vertices, so the gradient reaches the vertices through a sparse matrix;
-- the minimiser is scipy's L-BFGS-B with the analytic gradient;
-- the paper's automatic weighting ("if a same continuous collision happens
-  repeatedly, more E_SDF terms will be added") becomes rounds: after each
-  solve the vertices are checked against libigl's exact signed distance, and
-  every point still outside by more than the tolerance gets its weight
-  multiplied by :data:`WEIGHT_GROWTH` (a new one starts at
-  :data:`WEIGHT_START`) and its target moved inwards by its exact excess, up
-  to :data:`MAX_ROUNDS` rounds; the round with the smallest worst excess is
-  kept, so enforcement never leaves the mesh further outside than it was. The continuous collision
-  detection of the paper (Macklin et al. 2020) is replaced by these discrete
-  checks at the sampled points.
-
-Lengths inside the solver are in units of the grid pitch, so the two energies
-are of one scale whatever the building's size.
-
 References
 ----------
 .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in

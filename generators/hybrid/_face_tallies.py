@@ -1,11 +1,4 @@
-"""Incremental precision and recall tallies of face removal, for the metric-guided step.
-
-The state of :func:`viscore.generators.hybrid.metric_guided_simplify`: the
-occluder cast once per image with every hit along each pixel ray, and each
-face's recall loss and precision gain kept exactly up to date as faces go
-(numba kernels). The notes on incremental scoring are in
-:mod:`viscore.generators.hybrid.metric_guided`.
-"""
+"""Incremental precision and recall tallies of face removal, for the metric-guided step."""
 
 from __future__ import annotations
 

@@ -1,23 +1,5 @@
 """Hole test of the hybrid generator's planar patches (Wu et al. 2022, sec. 3.1.1, Fig. 6).
 
-A hole of a planar patch is either an opening of the building (a door, a
-window: it must stay open, or the occluder hides what players see through
-it) or the footprint of a decoration whose faces were cut out of the wall (a
-ledge, a pillar, a frame: removing the small decoration patch leaves the hole,
-and filling it costs nothing). The paper's test: triangulate the hole, place
-test segments of length ``l_s`` (1% of the bounding-box diagonal, sec. 4.2)
-along the plane's normal at points sampled uniformly inside it; if one segment
-misses the input there is a hollow and the hole stays open, if all of them hit
-the hole is filled.
-
-Here each segment runs ``l_s`` both ways from its sample point along the
-normal (two rays of length ``l_s``, one batched Embree any-hit query per
-direction for all points of all holes of the patch), so a decoration standing
-on either side of the wall, or the back face of a thin slab, stops it; a
-doorway through a thin wall, with the room behind it deeper than ``l_s``, does
-not. Sample points keep a margin of ``l_s / 20`` from the hole's rim, so that
-rays grazing a window reveal do not count as hits.
-
 References
 ----------
 .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
@@ -57,13 +39,13 @@ def sample_polygon(polygon, count: int, rng: np.random.Generator) -> np.ndarray:
     A polygon of no area gives its representative point ``count`` times.
     """
     verts, tris = triangulate_polygon(polygon) if polygon.area > 0 else (None, [])
-    if len(tris) == 0:
+    if len(tris) == 0:  # type: ignore[arg-type]
         p = polygon.representative_point()
         return np.repeat([[p.x, p.y]], count, axis=0)
-    a, b, c = verts[tris[:, 0]], verts[tris[:, 1]], verts[tris[:, 2]]
+    a, b, c = verts[tris[:, 0]], verts[tris[:, 1]], verts[tris[:, 2]]  # type: ignore[index]
     ab, ac = b - a, c - a
     area = 0.5 * np.abs(ab[:, 0] * ac[:, 1] - ab[:, 1] * ac[:, 0])
-    pick = rng.choice(len(tris), size=count, p=area / area.sum())
+    pick = rng.choice(len(tris), size=count, p=area / area.sum())  # type: ignore[arg-type]
     r1, r2 = rng.random(count), rng.random(count)
     s = np.sqrt(r1)
     w0, w1, w2 = 1 - s, s * (1 - r2), s * r2

@@ -3,47 +3,6 @@
 The five steps of the paper's patch-based mesh simplification, on a triangle
 soup (loose parts, duplicated and intersecting faces, open boundaries):
 
-1. planar patches: faces joined across every edge whose dihedral angle is
-   below :data:`PLANAR_ANGLE` (1e-3 rad, the paper's threshold); the paper's
-   region growing with a fixed threshold between neighbours reaches exactly
-   the connected components of that face graph, which scipy computes at once.
-   Game walls are loose panels that share no edge, so (``coplanar=True``,
-   the default) the planar patches that join no curved patch are then
-   regrouped by plane across loose parts (:mod:`.._plane_regions`, within
-   :data:`COPLANAR_TOLERANCE`, faces facing the same way: a slab's top does
-   not take in the bottoms of the walls on it): a panelled wall becomes one patch whose
-   openings, recesses and cut-out decorations are its holes, the case of the
-   paper's Fig. 6;
-2. curved patches: planar patches joined across any shared edge whose
-   dihedral angle is below ``eps_a`` (pi / 3 in the paper's Table 1). A curved
-   patch is a group of at least two planar patches; a planar patch that joins
-   nothing stays planar, so every face ends in exactly one patch (Fig. 5).
-   ``grouping='xatlas'`` takes xatlas's charts as the groups instead (a chart
-   inside one planar patch is planar, any other chart curved);
-3. simplification: curved patches by quadric edge collapse with the paper's
-   appendix weights (planar quadric weight 1e-3, boundary weight 1e3,
-   boundaries kept, topology kept; pymeshlab); planar patches projected to
-   their plane, their union (shapely) with every boundary ring simplified by
-   Ramer-Douglas-Peucker (scikit-image) and re-triangulated by a constrained
-   ear-clipping triangulation with holes (mapbox-earcut);
-4. hole filling: a hole of a planar patch is filled when the segment test of
-   :mod:`viscore.generators.hybrid._holes` says the input is solid there
-   (a removed decoration, a recess), and kept open otherwise (doors,
-   windows). With ``bands=True`` (beyond the paper, off by default) a piece
-   whose holes stay open (a wall and its windows) is then cut into convex
-   bands (:mod:`.._convex_bands`), each its own patch, so that the reduction
-   can keep the piers of a perforated wall without the rest; on the eight
-   built-in buildings it gave a lower mean recall after the metric-guided
-   step (0.856 at 94 faces against 0.871 at 89 whole);
-5. reduction: patches sorted by area, largest first, added until the face
-   count first exceeds ``N_P`` (600 in Table 1). Planar patches far down that
-   order are not simplified at all (:data:`PROCESS_FACTOR`).
-
-Edges shared by three or more faces (non-manifold edges of a soup) join every
-pair of their faces, and two faces across an edge that they both run in the
-same direction (inconsistent winding) are compared with one normal flipped,
-so coplanar faces of a soup group whatever their winding.
-
 References
 ----------
 .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in

@@ -1,20 +1,5 @@
 """Voxel-based candidates of the hybrid occluder generator (Wu et al. 2022, sec. 3.1.2).
 
-Steps 1 and 2 of the paper's voxel-based mesh simplification: the
-generalized winding number (Jacobson et al. [2]_, evaluated by libigl's fast
-winding number, Barill et al. [3]_, through
-:func:`viscore.voxel.winding.winding_numbers`) on a grid of spacing ``l / N_v``
-(``l`` the bounding-box diagonal, ``N_v = 64`` in Table 1), its 0.5
-isosurface by marching cubes (scikit-image), and quadric simplification of
-the isosurface (pymeshlab). Step 3, conservative enforcement, is
-:mod:`viscore.generators.hybrid._enforce`.
-
-The grid is padded by one layer of zero-valued samples beyond the bounding
-box, so the isosurface is closed; its triangles are oriented outwards (the
-winding number falls across it). Triangle soups with flipped parts give
-winding numbers near -1 inside them: the magnitude ``|w|`` is contoured, so
-inside is ``|w| >= 1/2`` as in :func:`viscore.voxel.winding.points_inside`.
-
 References
 ----------
 .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in

@@ -4,43 +4,6 @@ The method of Wu, He, Pan and Gao [1]_ for buildings made of hundreds of
 loose, intersecting, open parts, where neither voxelization nor mesh
 simplification works alone:
 
-1. patch-based candidates (sec. 3.1.1, :mod:`._patches`): planar
-   patches (dihedral angle below 1e-3), curved patches (below ``eps_a``) or
-   xatlas charts, quadric simplification of curved patches with boundaries
-   kept, Ramer-Douglas-Peucker and constrained re-triangulation of planar
-   ones, hole filling checked by ray segments (:mod:`._holes`), and
-   the reduction by patch area to ``N_P`` faces;
-2. voxel-based candidates (sec. 3.1.2, :mod:`._voxel`): generalized
-   winding number on an ``N_v`` grid, its 0.5 isosurface, quadric
-   simplification, and conservative enforcement (eqs. 1-3,
-   :mod:`._enforce`);
-3. combination and metric-guided occluder simplification (sec. 3.3,
-   :func:`viscore.generators.hybrid.metric_guided_simplify`).
-
-How the candidates are combined, as we read the paper: the two coarse
-meshes are *not* merged geometrically. Their faces are pooled into one
-candidate set ("we combine the generated coarse meshes to populate the
-candidate face set as a large solution space", sec. 1; "combining the
-outputs ... to form a large candidate set of faces, as the initial occluder
-M_occluder", sec. 3; Table 2: 500 patch faces + 53 voxel faces = 553
-combined), and the metric-guided step alone selects the subset: first it
-drops every face whose removal raises precision by more than ``eps_p``, then
-faces whose removal lowers recall by less than ``eps_r`` (Fig. 4e colours the
-final faces by their source). No face is preferred for its source.
-
-The budget. The paper's metric-guided step stops at its thresholds (its
-average, 260 faces, is what ``eps_P = eps_R = 1e-3`` reached on its data).
-Here, when the step would stop above ``budget``, its recall step goes on,
-least recall loss first, until ``budget`` faces are left (``max_faces`` of
-:func:`~viscore.generators.hybrid.metric_guided_simplify`; ``info['mgos']``
-records ``removed_budget`` and ``eps_r_final``). Without the metric-guided
-step (``mgos=False``, the ablation of Fig. 11 a-d) the candidate set is
-returned as it is and may exceed the budget.
-
-Ablation switches (Fig. 11): ``candidates='voxel'`` with ``enforce`` False or
-True (a, b), ``'patch'`` (c), ``'combined'`` (d), each with ``mgos`` (e: patch
-with MGOS, f: combined with MGOS, the method).
-
 References
 ----------
 .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in

@@ -5,57 +5,6 @@ the precision P and recall R of the volume protocol (sec. 3.2, eqs. 4-7),
 measured against the original's views computed once
 (:class:`viscore.metrics.ReferenceViews`):
 
-1. Precision step: every face whose removal *raises* precision by more than
-   ``eps_p`` goes, each judged against the whole occluder and all removed
-   together (the paper does not update P in this step). The extracted text
-   reads "P(M) - P(M - f_i) > eps_P", which would remove faces whose removal
-   *lowers* precision; we read it as ``P(M - f) - P(M) > eps_p``, the step
-   that raises precision, as the paper's text around it ("improve ... to a
-   99.4% in precision") requires.
-2. Recall step: faces whose removal lowers recall by less than ``eps_r``
-   go, one at a time, recall updated after each: always the face of least
-   recall loss first (the greedy the paper calls naive only for its cost:
-   "greedily remove faces that produce the smallest recall reduction"), ties
-   broken by the most false occlusion removed. The losses are kept exactly
-   up to date after every removal (see below), so the greedy is exact, not
-   lazy.
-
-Incremental scoring. The occluder is cast once per image with every hit
-along each pixel ray (:meth:`viscore.Scene.all_hits`); each pixel keeps its
-list of faces (CSR arrays) and a count of those still present. A pixel's
-coverage changes only when its last face goes; a quad stays fully covered
-while none of its pixels does. Recall's denominators depend on the original
-only, so R is linear in the per-quad flags: each face's recall loss is the
-weighted size of the fully covered quads in which it is the only face of
-some pixel, kept up to date as faces go (a numba kernel visits only the
-quads that contain a changed pixel). Precision's change is exact per face
-from the same quad sets. Nothing is re-cast per candidate. Where two faces
-overlap closer than the all-hits step (coplanar duplicates), the ray lists
-miss one of them; pixels about to lose their last face are therefore
-re-cast against the remaining faces before each removal, so the tallies
-stay those of a fresh :meth:`~viscore.metrics.ReferenceViews.score`.
-Exact duplicate faces (the same three points) share one ray record, and a
-hit also lists the faces coplanar with the hit face that clearly contain the
-hit point (overlapping patches). A ray through an edge shared by two faces
-lists one of them, so the kept loss of either can be overestimated there,
-never underestimated (of the pixels re-cast on the built-in buildings, an
-unlisted face covered under 0.6%; 8-15% for hybrid candidate sets before
-coplanar faces were listed).
-
-Skipping rules (sec. 3.3, "Sample Skipping"):
-
-- ``skip_unseen``: frusta that cannot see the occluder's bounding box are
-  not cast, and images the occluder covers nowhere keep constant tallies
-  (it only loses faces). Exact.
-- ``skip_backfacing``: a face's removal is judged without the views on the
-  negative side of its plane, i.e. without pixels whose ray meets it from
-  behind. The paper's engine draws occluders single-sided, where this is
-  exact; the volume protocol here (Embree) hits both sides, so for a
-  double-sided occluder it is exact only while such a pixel has a nearer
-  front face of the occluder (a closed, outward-oriented occluder seen from
-  outside). It changes only the choices, never the tallies. See
-  :func:`metric_guided_simplify` for its measured effect.
-
 References
 ----------
 .. [1] Wu, K., He, X., Pan, Z., Gao, X. "Occluder Generation for Buildings in
@@ -273,7 +222,7 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
     t_ref = time.perf_counter()
     if reference is None:
         reference = ReferenceViews(original, protocol="volume", spacing=spacing, quads=quads,
-                                   resolution=resolution, seed=seed)
+                                   resolution=resolution, seed=seed)  # type: ignore[arg-type]
     seconds_reference = time.perf_counter() - t_ref
     info = {"faces_before": 0 if occ is None else len(occ.faces),
             "eps_p": eps_p, "eps_r": eps_r, "skip_unseen": bool(skip_unseen),

@@ -1,24 +1,7 @@
 """Occluders for the objects of a level: each distinct mesh generated once, placed per instance.
 
-The bridge between a level's objects (:mod:`viscore.level`) and the registered
-generators: the chosen objects (:func:`viscore.level.objects.occluder_objects`)
-get an occluder from each method; each distinct mesh is generated once, in its
-own frame, and every instance gets the occluder moved by its transform
-(conservativeness is kept by any invertible affine map: a point inside the
-mesh stays inside its image). A hierarchy's nodes (Silvennoinen et al. 2014
-[1]_, sec. 5) move the same way. The runtimes they feed are built in
-:mod:`viscore.generators.levels.runtimes`.
-
-A method of :data:`JOINED_METHODS` (``surface-patches``) is run for the
-culling runtime once on all the occluder objects together, in world space
-(:func:`joined_occluder`), unless per-object occluders are asked for: its
-occluder is cut from planar regions, and a roof or wall that continues
-across neighbouring objects (the rooms of a level) is then one region. Cut
-object by object, each piece is eroded inside its own object's surface, and
-the sliver between two neighbours' pieces is a real gap in the occluders
-that the conservative depth buffer must keep open along every seam. The
-joined occluder is conservative for the union of the objects' surfaces,
-which is what the scene draws.
+A hierarchy's nodes (Silvennoinen et al. 2014 [1]_, sec. 5) are placed the
+same way.
 
 References
 ----------
@@ -126,10 +109,10 @@ def transform_occluder(occluder: Occluder, matrix: np.ndarray) -> Occluder:
     if solids or "solids" in occluder.parts or "boxes" in occluder.parts:
         parts["solids"] = solids
     if "polygons" in occluder.parts:
-        parts["polygons"] = [_move(p, m) for p in occluder.parts["polygons"]]
+        parts["polygons"] = [_move(p, m) for p in occluder.parts["polygons"]]  # type: ignore[misc]
     if "hierarchy" in occluder.parts:
         stretch = float(np.linalg.svd(m[:3, :3], compute_uv=False).max())
-        parts["hierarchy"] = _move_node(occluder.parts["hierarchy"], m, stretch)
+        parts["hierarchy"] = _move_node(occluder.parts["hierarchy"], m, stretch)  # type: ignore[assignment]
     for key, value in occluder.parts.items():
         if key not in ("solids", "boxes", "polygons", "hierarchy"):
             parts[key] = value
@@ -137,7 +120,7 @@ def transform_occluder(occluder: Occluder, matrix: np.ndarray) -> Occluder:
                                info={**occluder.info, "transformed": True})
 
 
-def scene_occluders(objects: SceneObjects, indices: Sequence[int], method: str, *,
+def scene_occluders(objects: SceneObjects, indices: Sequence[int] | np.ndarray, method: str, *,
                     seed: int = 0, progress: Callable[[int], None] | None = None,
                     made: Mapping[int, tuple[Occluder, list]] | None = None,
                     **params) -> dict[int, Occluder]:
@@ -222,7 +205,7 @@ JOINED_METHODS = ("surface-patches",)
 _JOINED = -2
 
 
-def joined_occluder(objects: SceneObjects, indices: Sequence[int], method: str, *,
+def joined_occluder(objects: SceneObjects, indices: Sequence[int] | np.ndarray, method: str, *,
                     seed: int = 0, **params) -> Occluder:
     """One world-space occluder of the union of some objects, by one registered method.
 
@@ -289,7 +272,7 @@ def joined_occluder(objects: SceneObjects, indices: Sequence[int], method: str, 
     return occ
 
 
-def scene_hierarchy(objects: SceneObjects, indices: Sequence[int], method: str, *,
+def scene_hierarchy(objects: SceneObjects, indices: Sequence[int] | np.ndarray, method: str, *,
                     seed: int = 0, **params) -> Occluder:
     """One occluder of a hierarchical method over all the given objects together.
 

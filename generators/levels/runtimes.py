@@ -1,12 +1,8 @@
 """The culling runtimes a level's occluders feed, and compare's culling column.
 
-:func:`culling_runtimes` builds the runtimes compared in the culling
-simulation (:mod:`viscore.metrics.culling`, which never imports generators):
-no occlusion culling, shadow frusta of convex solids and of their faces
-(Papaioannou et al. 2006 [1]_), and a conservative depth buffer per method
-(occluder skins [2]_, sec. 5-6), fed per frame by the cut of a hierarchy
-(Silvennoinen et al. 2014 [3]_, sec. 5) when the method makes one. The
-occluders come from :mod:`viscore.generators.levels.occluders`.
+Shadow frusta (Papaioannou et al. 2006 [1]_), a depth buffer per method
+(occluder skins [2]_, secs. 5-6), fed by a hierarchy's cut (Silvennoinen et al.
+2014 [3]_, sec. 5).
 
 References
 ----------
@@ -81,7 +77,7 @@ def _guaranteed(occluder: Occluder, method: str) -> bool:
 
 
 def _solids(occluders: Sequence[Occluder]) -> list[tuple[np.ndarray, np.ndarray]]:
-    solids = []
+    solids: list[tuple[np.ndarray, np.ndarray]] = []
     for occ in occluders:
         if len(occ.parts.get("solids", [])):
             solids.extend((np.asarray(v), np.asarray(f)) for v, f in occ.parts["solids"])
@@ -123,7 +119,8 @@ def _hierarchy_source(occluders: list[Occluder], width_of: Callable) -> Callable
     return per_frame
 
 
-def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Sequence[str], *,
+def culling_runtimes(objects: SceneObjects, indices: Sequence[int] | np.ndarray,
+                     methods: Sequence[str], *,
                      active: int = 15, reduction: int = 4, seed: int = 0,
                      frusta: bool = True, frusta_source: str | None = None,
                      cap: str = "front-faces", rank: str = "faces",
@@ -274,7 +271,7 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int], methods: Seq
     runtimes: dict[str, Runtime] = {"none": no_culling()}
     info: dict[str, dict] = {"none": {"method": None, "occluders": 0, "conservative": True}}
     if frusta:
-        solids = _solids(occluders(source).values())
+        solids = _solids(list(occluders(source).values()))
         unsure = [i for i, o in occluders(source).items() if not _guaranteed(o, source)]
         conservative = not unsure
         for mode in ("planar", "solid"):

@@ -76,6 +76,7 @@ def index_hierarchy(tree: dict) -> HierarchyIndex:
     """
     if not isinstance(tree, dict):
         raise InputError(f"tree: expected the root node (a dict), got {type(tree).__name__}")
+    nodes: list
     nodes, parent, depth = [], [], []
     stack = [(tree, -1, 0)]
     while stack:

@@ -1,56 +1,5 @@
 """Hierarchical occluders and their runtime tree cut (Silvennoinen et al. 2014, sec. 5).
 
-A scene is a set of objects: the connected components of one mesh, or the
-meshes of a list (the files given). A bounding volume hierarchy is built over
-the objects, and every node gets its own occluder, built from the geometry of
-all the objects below it by a per-node builder (planar sections [1]_ by
-default). At runtime :func:`cut_hierarchy` picks, for a camera, the nodes
-whose error is below a pixel threshold on screen: coarse nodes far away,
-leaves near the camera.
-
-The pieces the paper leaves open, and the choices made here:
-
-- **Objects.** Connected components are taken over vertices merged at equal
-  positions (a soup read from STL would otherwise give one object per
-  triangle). Tiny components are not merged by a size rule: the BVH stops
-  at ``max_leaves`` leaves, so a 10,000-part soup gives at most that many
-  leaves, each the parts that lie together in space (the median splits
-  keep them compact).
-- **BVH.** Top-down median split: a node's objects are sorted by the centre
-  of their bounding boxes along the longest axis of those centres and cut
-  into two halves of equal count. The node with the largest bounding-box
-  diagonal is split first, until every leaf holds at most ``leaf_objects``
-  objects or there are ``max_leaves`` leaves. (A median split rather than
-  SAH: SAH minimises ray-traversal cost, which is not what an occluder tree
-  is for; median splits give balanced trees of compact nodes, about
-  ``log2(leaves)`` levels deep.)
-- **Voxel size per node.** Sec. 5 applies "our algorithm independently for
-  each node" at the resolution the allowed error sets (sec. 4.1); it does
-  not tie a node's voxel size to its children's. Each node is voxelized with
-  ``voxels`` voxels along the longest side of its geometry's bounding box,
-  so voxel size grows with the node's extent; it is then raised to at least
-  its children's largest, so that the voxel size (and the error) never
-  decreases from a child to its parent.
-- **Dilation.** At inner nodes the voxel solid of sec. 4.1 (after the
-  outside flood fill) gets one dilation step: every OUTSIDE voxel with an
-  INSIDE 6-neighbour becomes INSIDE, so that objects less than two voxels
-  apart are glued into one solid ("This has the effect of gluing neighbors
-  together", sec. 5) and the solid grows by one voxel (the error stays
-  bounded). Leaves are single objects (nothing to glue) and are not dilated.
-  A builder that takes a ``dilation`` (or ``dilate``) keyword voxelizes
-  the node itself, as planar sections does;
-  any other builder is given the closed voxel mesh of the dilated solid
-  (:func:`dilated_voxel_mesh`), which it voxelizes again: at the same voxel
-  size, that grid is offset by half a voxel and adds half a voxel of error.
-- **Error.** A node records ``voxel_size`` and ``error`` (world units): how
-  far its solid may reach beyond its geometry, ``voxel_size * (1 +
-  dilation)``, plus half a voxel when the builder re-voxelized a voxel mesh.
-  ``bounds`` is the box around the geometry's bounding box grown by
-  ``error`` on every side (which holds the voxel solid), the node's
-  occluder (planar sections may reach past the solid by a pixel footprint
-  and the RDP tolerance) and its children's bounds; so bounds nest, and the
-  cut measures distances to everything the node draws.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
@@ -358,8 +307,8 @@ def build_hierarchy(mesh_or_meshes, *, node_occluder=None, budget: int | None = 
 
     What the builder logs at the nodes is held back while they are built and
     said once per distinct line at the end, with how many nodes gave it
-    (``hierarchy: 29 of 57 nodes: ...``; one node: ``hierarchy node 12:
-    ...``; :func:`viscore.generators._held_logs.report_parts`), refusals
+    (``hierarchy: 29 of 57 nodes: ...``; one node:
+    ``hierarchy node 12: ...``; :func:`viscore.generators._held_logs.report_parts`), refusals
     included (``no occluder: ...``).
 
     Raises

@@ -1,11 +1,4 @@
-"""An occluder hierarchy on disk: ``STEM.hierarchy.json`` and one PLY per node.
-
-:func:`hierarchy_to_json` writes the tree of
-:func:`viscore.generators.planar_hierarchy.build_hierarchy`, every file or none
-(:class:`viscore._atomic.FileSet`); :func:`hierarchy_files` gives the same files
-as names and bytes, for a writer of a larger set (``viscore generate`` writes
-them and OUT as one set); :func:`hierarchy_from_json` reads and checks it back.
-"""
+"""An occluder hierarchy on disk: ``STEM.hierarchy.json`` and one PLY per node."""
 
 from __future__ import annotations
 
@@ -235,7 +228,7 @@ def hierarchy_from_json(path: str | os.PathLike) -> dict:
     if 0 in seen:
         raise InputError(f"{label}: the root is some node's child")
     for n in nodes:
-        n["children"] = [nodes[c] for c in n["children"]]
+        n["children"] = [nodes[c] for c in n["children"]]  # type: ignore[attr-defined]
     if len(_walk(nodes[0])) != len(nodes):
         raise InputError(f"{label}: some nodes are not below the root")
     nodes[0]["builder"] = str(doc.get("builder", ""))

@@ -1,28 +1,7 @@
 """Planar sections, step 4.3: edge loops of a slice bitmap, holes bridged, RDP.
 
-Silvennoinen et al. 2014 [1]_, sec. 4.3. The covered pixels of a slice are
-unit squares; the edge loops are the boundary of their union, along pixel
-edges. We form that union with shapely (GEOS) from one rectangle per run of
-covered pixels in a row: GEOS returns each connected part as a polygon with
-its outer loop and its hole loops, and handles loops that meet at pixel
-corners (two squares touching at a corner are two polygons; a hole touching
-its outer loop at a corner stays a hole touching at one point). Each polygon
-is then simplified by Ramer-Douglas-Peucker [2]_ with the tolerance of the
-paper, one voxel (``shapely``'s topology-preserving variant of it: loops
-never cross each other or themselves, which plain RDP can make them do on
-parts one or two voxels wide), and its holes are bridged to the enclosing
-loop: each hole, in order of its leftmost vertex, is joined by the shortest
-segment from one of its vertices to a vertex of the loop built so far that
-stays inside the polygon, giving one weakly simple loop (the bridge is
-walked twice) per connected part.
-
-The paper bridges before simplifying; simplifying the loops first and
-bridging the simplified loops gives the same loops without having to keep
-the bridge's four end vertices out of RDP.
-
-All coordinates are in pixels (column, row), integers: RDP keeps a subset of
-the pixel corners, so the simplification chain (:mod:`viscore.generators._polygon_chain`)
-runs on exact integer geometry.
+Silvennoinen et al. 2014 [1]_, sec. 4.3, with Ramer-Douglas-Peucker [2]_ at
+one voxel.
 
 References
 ----------

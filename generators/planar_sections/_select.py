@@ -1,18 +1,6 @@
 """Planar sections, step 4.5: greedy alpha-complete selection, then the budget cut.
 
-Silvennoinen et al. 2014 [1]_, sec. 4.5. Start from the empty cut; at each
-step add the whole candidate polygon (the first stage of its chain) that
-maximizes the total occlusion measure (sec. 3, eqs. 2-3) of the polygon
-soup, until adding any polygon would raise it by less than ``alpha``
-percent. Then reduce the cut to the budget one triangle at a time: among the
-cuts one step further down one chain, keep the one of largest surface area
-(the paper's rule) or, as an option, of largest occlusion measure.
-
-The soup's measure, its projections and bitmaps are those of
-:mod:`viscore.generators._soup_measure` (sec. 3, eqs. 2-3, over N
-orthographic directions of the upper hemisphere); the ray-cast core serves
-the 3D objects (the original mesh in the evaluation, the voxel mesh in the
-slicing test).
+Silvennoinen et al. 2014 [1]_, sec. 4.5.
 
 References
 ----------
@@ -110,6 +98,7 @@ def select_greedy(bitmaps: np.ndarray, pixel: float, *, alpha: float, measure: s
     base = np.zeros(nd)
     done = np.zeros(n, dtype=bool)
     bound = np.full(n, np.inf)  # gain at the last evaluation (pixel units)
+    chosen: list[int]
     chosen, totals = [], []
     scale = pixel**2 if measure == "area" else pixel**3
     current = 0.0
@@ -217,8 +206,8 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
                 best_next = int(nexts[best][stage[best]])
         else:
             if reduce == "om" and cover is None:
-                cover = counts_img > 0
-                base = soup_measures(cover, pixel)
+                cover = counts_img > 0  # type: ignore[operator]
+                base = soup_measures(cover, pixel)  # type: ignore[arg-type]
             for i, ch in enumerate(chains):
                 s = int(stage[i])
                 if s >= ch.stages:
@@ -235,7 +224,7 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
                         img = img + bitmaps_of(i, nxt)
                     after = img > 0
                     changed = (after != cover).reshape(len(after), -1).any(axis=1)
-                    vals = base.copy()
+                    vals = base.copy()  # type: ignore[union-attr]
                     if changed.any():
                         vals[changed] = soup_measures(after[changed], pixel)
                     val = float(vals.sum())

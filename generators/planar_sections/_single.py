@@ -1,11 +1,4 @@
-"""One planar-sections occluder at one voxel size (Silvennoinen et al. 2014, sec. 4).
-
-The pipeline of :func:`viscore.generators.planar_sections.generate_planar_sections`
-for one voxel size: the voxel solid (sec. 4.1), the slices (sec. 4.2), their
-polygons and simplification chains (sec. 4.3-4.4), the greedy selection by
-occlusion measure (sec. 4.5) and the budget cut. The module docstring of
-:mod:`viscore.generators.planar_sections.generator` gives the method.
-"""
+"""One planar-sections occluder at one voxel size (Silvennoinen et al. 2014, sec. 4)."""
 
 from __future__ import annotations
 
@@ -153,7 +146,7 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
     timing["greedy"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     for i in chosen:  # stages inside the candidate; the largest ones for chain='optimal'
-        chains[i] = refine_chain(chains[i], cands[i][1].polygon,
+        chains[i] = refine_chain(chains[i], cands[i][1].polygon,  # type: ignore[call-overload]
                                  search=chain == "optimal" and budget is not None)
     timing["chains"] = time.perf_counter() - t0
     t0 = time.perf_counter()

@@ -1,31 +1,6 @@
 """Planar sections, steps 4.1 and 4.2: the voxel solid and its maximal-area slices.
 
-Silvennoinen et al. 2014 [1]_, sec. 4.1: voxelize (exact triangle/box
-overlap, 6-connected flood fill of the outside, enclosed voxels solid) with
-the core's :func:`viscore.voxelize`. Sec. 4.2: bin the plane directions and
-depths; in each bin sample every direction and depth and keep the slice of
-maximal area.
-
-Slicing by pixel-centre sampling of the voxel solid. The paper rasterizes
-the closed voxel mesh with the near plane at the slicing depth and counts
-front and back faces in the stencil buffer: the parity of the voxel mesh's
-crossings behind each pixel. That parity is, by construction of the voxel
-mesh (the boundary of the solid voxels), whether the pixel centre lies in a
-solid voxel. We look that voxel up directly (one index computation per pixel,
-a numba loop) instead of casting rays against the voxel mesh: the answer is
-the same (a test checks it against ray parity on
-:func:`viscore.voxel_boundary_mesh`), it costs no ray, and it has no float32
-ties on the voxel faces, which the planes of axis-aligned directions run
-along. Pixel side = voxel side (:data:`PIXELS_PER_VOXEL`): a voxel seen
-face-on covers exactly one pixel centre wherever it lies, so every voxel
-covers at least one pixel, as the paper requires.
-
-Conservative variant (beyond the paper): the solid is the voxels wholly
-inside the mesh by the generalized winding number (Jacobson et al. [2]_,
-:func:`viscore.voxel.grid.inside_voxels_winding`; exact on closed, consistently
-oriented meshes), eroded by one more voxel (3 x 3 x 3): every point of a
-pixel square whose centre lies in an eroded voxel is then within 0.71 voxel
-of it, so inside the uneroded inside voxels.
+Silvennoinen et al. 2014 [1]_, secs. 4.1-4.2.
 
 References
 ----------

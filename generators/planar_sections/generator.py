@@ -3,57 +3,6 @@
 The method of Silvennoinen et al. 2014 [1]_, sec. 4, on the ray-cast core
 instead of a GPU, one module per step:
 
-- 4.1 voxel solid (:func:`viscore.voxelize`: exact triangle/box overlap,
-  flood fill of the outside) and 4.2 interior sampling, maximal-area slice
-  per bin of directions and depths: :mod:`._slices`;
-- 4.3 edge loops along pixel boundaries, holes bridged, Ramer-Douglas-Peucker
-  with the voxel size as tolerance: :mod:`._loops`;
-- 4.4 progressive simplification chain per polygon (smallest ear first,
-  nested stages, each triangulated): :mod:`viscore.generators._polygon_chain.simplify`;
-- 4.5 greedy alpha-complete selection maximizing the total occlusion
-  measure of the polygon soup (sec. 3), then the budget cut one triangle at
-  a time: :mod:`._select`.
-
-Where the defaults depart from the paper (each with a switch back): the
-chains' stages of at most 12 triangles are the largest polygons on the
-candidate's vertices inside the candidate, found exactly
-(:mod:`viscore.generators._polygon_chain.optimal`; ``chain='greedy'`` is the paper's chain), and
-the budget cut keeps the cut of largest occlusion measure rather than of
-largest surface area (``reduce='area'`` is the paper's rule). On the bunny
-(53 triangles, 64^3, 256 views) the paper's chain and cut give R 0.783, the
-defaults R 0.837 with 8 direction bins, at P 0.9997 either way.
-
-Beyond the paper: a conservative variant (slices only through voxels wholly
-inside the mesh, eroded once more; its default voxels are sized for the
-mesh's walls, which must hold a 3 x 3 x 3 block of inside voxels to survive
-the erosion, about four voxels of thickness:
-:func:`viscore.voxel.wall_thickness.wall_voxel_size` with ``block=3``), a
-screen-space error knob that sets the voxel size from the error a viewer
-would see (the paper's premise, sec. 4: "a voxel resolution appropriate for
-the allowed Euclidean error"), one occluder per viewing distance (levels of
-detail, sec. 4's "multiple simplified versions"), closing of openings before
-the flood fill (``close``) for scans with holes and buildings with open
-windows, and a precision floor (``min_precision``): with the default voxel
-size the occluder is scored on orbit views of its own, finer voxels are used
-while it over-occludes (thin parts), and a solid without an interior, or one
-that closing changes much, is also tried closed, keeping the closing of
-largest recall that passes the floor.
-
-Measured (orbit protocol, 256 views; ``viscore bench generate
-planar-sections``): the bunny at 53 triangles and 64^3, P 0.9998 R 0.844 in
-4 s (Table 1: P 0.999, R 0.835); at 64 triangles and 64^3 the fat torus R
-0.902, teapot 0.944, fandisk 0.907, and with the defaults (precision floor,
-closing) the bunny 0.934, fat torus 0.955, teapot 0.961, fandisk 0.956,
-building-house 0.979, sponge 0.959, all at P >= 0.995. The RDP
-tolerance is the paper's, one voxel (:data:`RDP_TOLERANCE`); a larger one
-trades precision for recall (with the paper's chain and cut, 64 views:
-bunny R 0.773 / 0.823 / 0.868 at 1 / 1.5 / 2 voxels, cow P 0.9985 / 0.9966
-/ 0.9905, fat torus R 0.869 / 0.826 / 0.778). The voxel size does the same
-(Fig. 9; bunny, paper's chain and cut, 256 views): P / R 0.961 / 0.970 at
-16 voxels, 0.997 / 0.886 at 32, 0.9998 / 0.776 at 64, 1.0 / 0.713 at 128.
-An open sheet (the terrain) or walls with openings wider than a voxel have no
-interior to slice: their slices are strips one or two voxels wide.
-
 References
 ----------
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
@@ -152,7 +101,7 @@ def _as_ground(value: object, label: str = "ground") -> str | float | None:
     if isinstance(value, str) and value.strip().lower() == "auto":
         return "auto"
     try:
-        height = float(value) if not isinstance(value, bool) else math.nan
+        height = float(value) if not isinstance(value, bool) else math.nan  # type: ignore[arg-type]
     except (TypeError, ValueError):
         height = math.nan
     if not math.isfinite(height):
@@ -181,7 +130,7 @@ def _as_distances(value: object, label: str = "lod_distances") -> tuple[float, .
         items = [float(value)]
     else:
         try:
-            items = [float(v) for v in value]
+            items = [float(v) for v in value]  # type: ignore[attr-defined]
         except (TypeError, ValueError):
             raise InputError(f"{label}: expected numbers, got {value!r:.80}") from None
     if not items or not all(math.isfinite(v) and v > 0 for v in items):

@@ -1,45 +1,7 @@
 """Solid occluders for shadow-frustum culling: a few convex solids inside the mesh.
 
-Papaioannou et al. [1]_ cull with convex solid occluders (boxes, cylinders)
-that were modelled by hand (sec. 2: "solid occluders are manually defined").
-This generator makes them: the candidates are the axis-aligned boxes of the
-aabb-skins generator ([2]_, sec. 4,
-:func:`viscore.generators.aabb_skins.generate_aabb_skins`) and convex
-pieces, the convex hulls of clusters of inner voxels (k-means on the inner
-voxel centres, each hull grown to the voxels' cubes), each shrunk towards its
-deepest voxel until it lies inside the mesh. A greedy pass then keeps the
-``solids`` candidates that add the most covered inner voxels, in that order.
-
-Containment of a convex piece H (shrunk by a bisection of ``shrink_steps``
-steps on the scale factor) is accepted when:
-
-1. every vertex of H is inside the mesh by the winding number
-   (:func:`viscore.voxel.winding.points_inside`; implied by 2-3 when H contains
-   the inner voxel it shrinks towards);
-2. no edge of a mesh triangle meets H widened by :data:`MARGIN_PITCH` voxels
-   (segment clipping against its planes, float64, every mesh edge near H):
-   this also catches mesh vertices inside H;
-3. no edge of H crosses a mesh triangle (Embree segment queries; within
-   float32 rounding of a triangle's edge, test 2 on the widened H catches it).
-
-If a mesh triangle met H, their intersection (a convex polygon) would have a
-vertex that is a triangle vertex in H, a triangle edge crossing H's boundary
-(2), or an edge of H crossing the triangle (3); so the surface does not meet
-H, and H, connected and with its vertices inside (1), lies inside a closed,
-consistently oriented mesh: no ray from outside hits it before the mesh.
-
-Voxel size: as for aabb-skins, an inner voxel's closed cube touches no
-triangle, so a wall of thickness ``t`` holds one wherever the grid falls
-only when the voxel side is under ``t / 2`` along the axes (``t / sqrt(6)``
-at worst; :mod:`viscore.voxel.wall_thickness`). With ``voxel_sizing="auto"`` (the
-default, when no ``voxels`` is given) the side is the extent-based one (longest side / 64), or
-0.9 x that bound at the area-weighted 20% quantile of the walls measured by
-rays along the inward normals where that is finer
-(:func:`viscore.voxel.wall_thickness.wall_voxel_size`), within the memory guard
-(twice the box source's bytes per cell: the boxes' grid and this one) and
-:data:`viscore.voxel.wall_thickness.AUTO_MAX_CELLS` cells; where
-it would not fit, the finest grid that fits is taken and one log line says
-how much wall area then gets no solid. The boxes come from the same grid.
+Papaioannou et al. [1]_ (sec. 2) model their convex solid occluders by hand;
+these are grown from the boxes of Leone et al. [2]_, sec. 4.
 
 References
 ----------
@@ -576,7 +538,7 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
         _log.warning("solid-frusta: %s is not closed and consistently oriented; solids may "
                      "show through holes", mesh.metadata.get("name", "mesh"))
     return Occluder(
-        mesh=out, method="solid-frusta", double_sided=False,
+        mesh=out, method="solid-frusta", double_sided=False,  # type: ignore[arg-type]
         seconds=time.perf_counter() - start,
         params={"voxels": voxels, "solids": solids, "pieces": pieces,
                 "shrink_steps": shrink_steps, "budget": budget, "seed": seed,

@@ -1,32 +1,4 @@
-"""Welding eroded patches back onto the creases of the input they came from.
-
-Step 2 of surface-patches erodes each planar region's union inward (by
-:data:`.generator.EROSION`, four grid steps) before the pieces are snapped
-and simplified, so that every patch lies strictly inside the input. Where two
-regions of the input meet along an edge (a wall's corner, a facade built of
-several planes, a wall modelled with the floor it stands on) their patches
-then end a hair apart on either side of the crease. The input has no gap
-there, but the conservative depth buffer (:mod:`viscore.culling.depth_buffer`) must
-take the occluder as it is: every pixel the seam crosses stays open, and a
-wall of patches hides nothing behind its corners. On the UCSD level, seams of
-this kind held the depth buffer of surface patches to 11.1% of objects culled
-where the level's own triangles cull 25.6%.
-
-:func:`crease_lines` finds, for each region, the input edges it shares with
-a face of another plane (vertices matched by position, as game meshes split
-them at hard edges), and :func:`weld_points` moves a patch vertex that lies
-within ``reach`` of such an edge onto the line where the two planes meet, at
-the foot of its perpendicular. A vertex near creases of two other planes
-goes to the point of the three planes. Both patches then end on the same
-line, which is what the depth buffer's rule "Two regions along their line"
-asks, and the pixels across the crease get a depth. The line lies in both
-planes and, where the regions' vertices lie on them, through the shared
-edge; :func:`welded_ring` refuses a move that would leave the region's union
-by more than a grid step (nearly parallel planes, whose line strays from the
-edge) or fold a triangle, keeping that patch as it was. A welded patch so
-stays on the input's surface within a grid step and the plane tolerance, far
-under the conservativeness check's eps. Beyond the papers.
-"""
+"""Welding eroded patches back onto the creases of the input they came from."""
 
 from __future__ import annotations
 

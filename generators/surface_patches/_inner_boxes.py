@@ -1,26 +1,7 @@
 """Surface patches, the boxes: aabb-skins boxes inside the input's closed parts.
 
-Curved regions give no patch (a facet alone in its plane is skipped), so a
-sphere or the round parts of a solid would get no occluder. Where the input
-has thick closed parts, the boxes of the occluder-skins method (Leone et al.
-[1]_, sec. 4, with the box filling of Naaji [2]_; the ``aabb-skins``
-generator) fill them, and join the patches in one selection by occlusion
-measure per triangle.
-
-1. Closed parts (:func:`closed_parts`): the connected parts of the input
-   (vertices merged at equal positions) whose every edge is used as often in
-   one direction as in the other. Their union is closed and consistently
-   oriented (:func:`viscore.voxel.winding.is_closed_oriented`), the condition of the
-   boxes' guarantee, whatever the other parts are (open sheets, loose
-   panels, flipped faces).
-2. Candidate boxes (:func:`candidate_boxes`): the box source (aabb-skins,
-   set by the registry with :func:`use_box_source`) run on that union alone.
-3. Their value (:func:`unshadowed_measures`): each box face seen head-on,
-   as a patch is valued (Silvennoinen et al. [3]_, sec. 3, eq. 1), counting
-   only the pixels whose ray out of the face along its normal meets no patch
-   candidate: a box inside a closed block whose flat faces are patches
-   already adds nothing and is never chosen, a box inside a sphere keeps its
-   whole measure.
+The boxes of the occluder-skins method (Leone et al. [1]_, sec. 4, with the
+box filling of Naaji [2]_).
 
 References
 ----------

@@ -1,27 +1,7 @@
 """Surface patches, step 4 with overlap: the knapsack's values discounted by the soup.
 
-The selection of :mod:`.generator` raises, at each step, the candidate whose
-next stage adds the most value per added triangle. Taken one by one, the
-values count twice what two candidates cover together: the two faces of a
-thick wall, a floor and the ceiling under it, a box behind the wall that
-hides it. Silvennoinen et al. [1]_, sec. 4.5, select by the occlusion
-measure of the whole soup instead (sec. 3, eqs. 2-3: the mean over
-orthographic directions of the measure of the soup's projection), so a
-polygon adds only what the others do not already block.
-
-Here each candidate's value is scaled by its *share*: the measure it adds
-to the soup of the other chosen candidates, over the measure it has alone,
-both over the directions and with the whole candidates' bitmaps of
-:mod:`viscore.generators._soup_measure`.
-A share is recomputed only for the candidate at the top of the queue and
-only when a candidate joined the soup since (lazy evaluation, Minoux [2]_):
-shares shrink as the soup grows, except where two polygons side by side
-block wider beams than either, so a stale share is almost always an upper
-bound. Stages within a candidate keep the generator's values (the full
-stage's head-on measure, scaled by area^1.5), times the share. A candidate
-that covers no pixel of the images (under a pixel of the whole input's
-frame: a house's wall in a level a hundred times its size) cannot be
-measured against the soup and keeps its own value (share 1).
+Selection by the occlusion measure of the whole soup (Silvennoinen et al. [1]_,
+sec. 4.5 and sec. 3, eqs. 2-3).
 
 References
 ----------
@@ -113,7 +93,7 @@ def select_with_overlap(values: list[np.ndarray], counts: list[np.ndarray],
         if not fresh[i]:  # its share against the others as they are now, then pick again
             fresh[i] = True
             if stage[i] < 0:
-                gain = float(soup_totals([i], covers > 0, bitmaps, base)[0] - base.sum())
+                gain = float(soup_totals([i], covers > 0, bitmaps, base)[0] - base.sum())  # type: ignore[arg-type]
             else:
                 others = (covers - bitmaps[i]) > 0
                 gain = float(base.sum()) - float(soup_measures(others, 1.0).sum())
@@ -130,7 +110,7 @@ def select_with_overlap(values: list[np.ndarray], counts: list[np.ndarray],
 
 
 def candidate_bitmaps(mesh, rings: list[np.ndarray], box_loops: list[np.ndarray],
-                      sheets: list[np.ndarray] = ()) -> np.ndarray:
+                      sheets: list[np.ndarray] | tuple[np.ndarray, ...] = ()) -> np.ndarray:
     """``(k, N, R, R) bool``: the patch candidates' world loops, then each box (six loops in a
     row, OR-ed), then each sheet chunk (``(m, 3, 3)`` triangles, OR-ed), seen along the
     measure directions over ``mesh``'s orbit frame."""

@@ -1,35 +1,7 @@
 """Surface patches, the sheets: curved open surfaces offered as the input's own triangles.
 
-Planar regions give curved surfaces nothing (a facet alone in its plane is
-skipped), and the boxes need a closed part. A level's terrain (a hill, a
-valley, a road's embankment), a vault or a curved wall is neither: open and
-curved. The only occluder known to be conservative for such a surface from
-every viewpoint is a part of the surface itself (a point of the occluder is a
-point of the input, so a ray meets the input there or before). Simplified,
-it no longer is: a decimated hill passes in front of the hill somewhere, and
-one pushed under it is seen through its holes and past its rim (a flat sheet
-with a hole hides nothing under it from every viewpoint above).
-
-So the sheets are offered whole, in chunks of their own triangles, to the
-same selection as the patches and the boxes (Silvennoinen et al. [1]_,
-sec. 4.5: value per triangle, by occlusion measure):
-
-1. Sheets (:func:`sheet_chunks`): the height-field patches of the input's
-   open part (:func:`viscore.culling._creases.height_field_patches`: triangles
-   joined across edges, facing one way along an axis, whose projections do
-   not overlap, and not all in one plane), the same sets the conservative
-   depth buffer's crease rule covers across their seams, but for those mostly
-   made of large planar regions (a brush's top and its bevels, which the
-   regions' pieces cover); then the edge-connected sets of the open faces in
-   no patch and no region. Faces of closed parts are left to the boxes.
-2. Chunks: each sheet cut by a square grid across its mean normal into cells
-   of about :data:`SHEET_CHUNK` triangles (a triangle goes by its centroid),
-   each cell's triangles split into their edge-connected sets; chunks side
-   by side keep their shared vertices exactly, so the depth buffer joins the
-   chosen ones back into one patch.
-3. Value (:func:`chunk_measure`): the occlusion measure of the chunk seen
-   along its mean normal (Silvennoinen et al. [1]_, sec. 3, eq. 1), as a
-   planar stage is valued head-on.
+Valued per triangle by occlusion measure, as the selection of Silvennoinen et al.
+[1]_, sec. 4.5, values candidates.
 
 References
 ----------

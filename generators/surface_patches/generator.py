@@ -1,74 +1,10 @@
 """Surface patches: conservative occluders cut from the input's own planar surface.
 
+After the planar patches of Wu et al. [1]_ (sec. 3.1.1) and the simplification
+chain and selection of Silvennoinen et al. [2]_ (secs. 4.4-4.5).
+
 For thin, open game geometry (walls thinner than a voxel, loose panels,
 single-sided sheets, open rooms) where the volume methods find no inside:
-
-1. planar regions (:mod:`.._plane_regions`): the input's faces grouped by plane
-   within ``plane_tolerance`` across loose parts and duplicated faces, both
-   orientations of a plane being one plane (after the planar patches of Wu
-   et al. [1]_, sec. 3.1.1, without their connectivity);
-2. each region's triangles projected into its plane and joined (shapely
-   ``union_all``), eroded inward by :data:`EROSION` (mitred, so the result is
-   a subset of the true erosion), snapped to the integer grid of
-   :data:`GRID` (``shapely.set_precision``); a part with holes (a wall and its
-   windows) is split into convex *bands*
-   (:func:`viscore.generators._convex_bands.convex_bands`): cut along the grid
-   rows through every vertex, each piece merged with the one below it where
-   their union is convex (the wall between two rows of windows, the piers
-   between windows). Bands meet edge to edge, with no gap between them, so a
-   depth buffer covers a wall of bands without a seam. (Until this version a
-   slit one grid step wide was cut from each hole leftwards out of the part,
-   giving one hole-free piece per part: a real gap along every slit, and a
-   chain of at most 12 triangles covers little of a wall of many windows: the
-   volume recall of the eight built-in buildings at 260 faces went from a mean
-   of 0.850 with slits to 0.860 with bands.) Beyond the paper, which slices
-   solids into hole-free polygons;
-3. each piece's simplification chain of Silvennoinen et al. [2]_, sec. 4.4,
-   every stage inside the piece (:mod:`viscore.generators._polygon_chain`:
-   greedy smallest-ear collapse, strict ear test, then the largest inscribed
-   stages of at most 12 triangles);
-4. selection under the budget: each stage's value is the occlusion measure
-   of the flat polygon seen head-on (Silvennoinen et al. [2]_, sec. 3, eq. 1:
-   :func:`viscore.metrics.directional_occlusion_measure` of its in-plane
-   rasterization), and a greedy multiple-choice knapsack raises, at each step,
-   the one candidate whose next stage adds the most measure per added
-   triangle within the budget. By default (``selection='overlap'``,
-   :mod:`._overlap`) each candidate's value is scaled by its share of the
-   soup: the occlusion measure it adds to the chosen candidates'
-   projections over the measure it has alone, over the orthographic
-   directions of the paper's sec. 4.5 (eqs. 2-3), so the second face of a
-   thick wall adds little; on the eight built-in buildings the mean volume
-   recall at 260 triangles goes from 0.855 with the values taken one by one
-   (``selection='separate'``) to 0.878;
-5. boxes where thick parts hold them (``boxes='auto'``, :mod:`._inner_boxes`):
-   curved regions give no patch, so the closed, consistently oriented parts
-   of the input (a sphere, a column, a solid block) are also filled with the
-   axis-aligned boxes of the occluder-skins method of Leone et al. [3]_,
-   sec. 4 (the ``aabb-skins`` generator, with the box filling of Naaji
-   [4]_), run on the union of those parts alone; each box is a candidate of
-   12 triangles in the same selection, valued as the patches are: the
-   head-on measure of its six faces, counting only the pixels whose ray out
-   of the face meets no patch candidate (a box behind patches adds nothing);
-6. curtains under open ground (``ground='auto'``, :mod:`._ground_curtains`):
-   curved open ground (a hill) gives no patch and no box, but it seals the
-   space between its surface and its rim's height from every viewpoint on
-   or above the ground; vertical cuts of that space are offered as planar
-   regions to steps 2-4, and the claim narrows to such viewpoints
-   (``info["guarantee"]``);
-7. sheets (``sheets='auto'``, :mod:`._sheets`): the curved open surfaces
-   (a terrain, a vault) that give no patch, no box and no curtain are
-   offered as their own triangles, in chunks of about 64, to the same
-   selection: a part of the input's surface is conservative from every
-   viewpoint, and the conservative depth buffer covers a sheet across its
-   creases (:mod:`viscore.culling._creases`). Beyond the papers, which simplify
-   closed solids;
-8. welding (``weld='auto'``, :mod:`._crease_weld`): the erosion of step 2
-   leaves a seam on either side of every crease where two regions of the
-   input meet (a wall's corner, a facade of several planes), and the
-   conservative depth buffer sees through each; a kept patch's vertices
-   beside such a crease move onto the line of the two planes, so that the
-   patches meet there (on the UCSD level, 2,860 triangles: 11.1% of objects
-   culled before, the level's own 14,481 triangles 25.6%).
 
 References
 ----------
@@ -786,11 +722,11 @@ def _kept_output(vertices: np.ndarray, faces: np.ndarray, regions: list, cands: 
         loop = ch.stage_ring(int(s)) * grid
         ring = o + loop[:, :1] * u + loop[:, 1:2] * v
         if k >= 0 and k in creases:  # onto the creases the erosion left (._crease_weld)
-            moved = weld_points(world, k, creases, planes, reach=reach)
+            moved = weld_points(world, k, creases, planes, reach=reach)  # type: ignore[arg-type]
             moved_xy = np.stack([(moved - o) @ u, (moved - o) @ v], axis=1)
             if welded_ring(pts, moved_xy, inv.reshape(-1, 3), union, tolerance=grid):
                 world, pts = moved, moved_xy
-                ring = weld_points(ring, k, creases, planes, reach=reach)
+                ring = weld_points(ring, k, creases, planes, reach=reach)  # type: ignore[arg-type]
                 welded += 1
         out_v.append(world)
         out_f.append(inv.reshape(-1, 3) + offset)

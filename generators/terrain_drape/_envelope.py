@@ -1,31 +1,4 @@
-"""The hidden floor under an open height field: below it, some line through a point misses it.
-
-A sheet ``z = h(p)`` over a footprint (an open terrain, a floor) covers a
-point ``x = (p, z)`` below it in an orthographic view along ``d`` exactly when
-the line through ``x`` along ``d`` meets the sheet. Below the sheet, the line
-meets it iff it rises above ``h`` somewhere over the footprint (it starts
-under the graph, so it crosses it). In the vertical plane of the line's
-horizontal direction ``u`` that is a one-dimensional question: a line through
-``(0, z)`` stays under the graph of ``h`` along the chord iff it stays under
-the graph's lower convex envelope ``c_u``, and such a line exists iff
-``z <= c_u(0)`` (a supporting line of a convex function; the converse by the
-convex combination of the two graph points that define ``c_u(0)``). So ``x``
-is hidden from every direction iff ``z > g(p) = max_u c_u(p)``: the *hidden
-floor*. Between ``g`` and ``h`` lies a shell that every orthographic view of
-the sheet, from above or below, covers; an occluder inside it never covers a
-pixel the sheet leaves open (the orbit protocol's false occlusion).
-
-:func:`hidden_floor` evaluates ``g`` on a grid of heights, for the lattice
-directions ``(a, b)`` with ``max(|a|, |b|) <= reach``: along such a direction
-the grid points of one line are exactly ``p0 + k (a, b)``, so every envelope
-is taken over samples, with no interpolation. Directions between the lattice
-directions can give a higher envelope; the generator leaves a margin and
-checks its result on rays (:mod:`._line_check`).
-
-This is beyond the source papers, which slice closed solids (planar sections,
-sec. 4.1) or fill buildings' interiors; it is ours, and the argument above is
-its proof.
-"""
+"""The hidden floor under an open height field: below it, some line through a point misses it."""
 
 from __future__ import annotations
 

@@ -1,24 +1,4 @@
-"""A few-triangle surface under a height field, by linear programming on a grid of quads.
-
-The drape must stay between two height fields on the sample grid, ``low <= f
-<= high``: under the lowest surface (``high``) and, for the guaranteed
-variant, above the hidden floor (``low``; :mod:`._envelope`), or with no
-lower bound at all (``low = -inf``: the highest drape under the surface). The drape
-is a piecewise-linear height function on ``nx`` x ``ny`` quads (two triangles
-each) spanning a rectangle of the grid; its unknowns are the heights at the
-quads' corners, and at each sample point inside a triangle it is a convex
-combination of three of them, so ``low <= f <= high`` there is linear.
-:func:`fit_drape` solves it with HiGHS (``scipy.optimize.linprog``):
-
-1. every triangle gets a slack ``s_t >= 0`` that relaxes its samples'
-   bounds; minimise the slacks' sum (area-weighted) to find the triangles
-   the shell cannot hold (it pinches to nothing at the footprint's rim and
-   over holes);
-2. those triangles are dropped and the rest solved with hard bounds,
-   maximising the mean height over the samples (closest under the sheet:
-   more of it shows in side views, less is seen past the rim), until the
-   system is feasible.
-"""
+"""A few-triangle surface under a height field, by linear programming on a grid of quads."""
 
 from __future__ import annotations
 

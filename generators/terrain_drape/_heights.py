@@ -1,11 +1,4 @@
-"""The lowest surface of a mesh as a height field, sampled by vertical rays.
-
-:func:`lowest_surface` casts one ray per grid point straight up from below the
-mesh (``viscore.Scene``, the mesh's one Embree scene) and keeps the height of
-the first hit: the underside a viewer below would see, which for an open
-terrain sheet is the sheet itself and for a level is its ground wherever
-nothing hangs lower. Grid points whose ray misses are off the footprint.
-"""
+"""The lowest surface of a mesh as a height field, sampled by vertical rays."""
 
 from __future__ import annotations
 
@@ -95,7 +88,7 @@ def lowest_surface(mesh: trimesh.Trimesh, up: int, resolution: int) -> HeightGri
     origin = lo[list(axes)] + 0.5 * (extent - (counts - 1) * spacing)
     ii, jj = np.meshgrid(np.arange(counts[0]), np.arange(counts[1]), indexing="ij")
     start = lo[up] - 0.01 * max(float(hi[up] - lo[up]), spacing) - spacing
-    grid = HeightGrid(up, axes, origin, spacing, np.empty(0), np.empty(0, bool))
+    grid = HeightGrid(up, axes, origin, spacing, np.empty(0), np.empty(0, bool))  # type: ignore[arg-type]
     o = grid.points(np.stack([ii.ravel(), jj.ravel()], 1).astype(np.float64),
                     np.full(ii.size, start))
     d = np.zeros(3)
@@ -104,4 +97,4 @@ def lowest_surface(mesh: trimesh.Trimesh, up: int, resolution: int) -> HeightGri
     heights = (start + t).reshape(ii.shape)
     mask = np.isfinite(heights)
     heights[~mask] = np.nan
-    return HeightGrid(up, axes, origin, spacing, heights, mask)
+    return HeightGrid(up, axes, origin, spacing, heights, mask)  # type: ignore[arg-type]

@@ -1,13 +1,4 @@
-"""Monte-Carlo check that every line through an occluder meets the mesh.
-
-An occluder point ``x`` can cover a pixel that the mesh leaves open in some
-orthographic view exactly when a line through ``x`` misses the mesh (the
-view along that line). :func:`escaping_lines` casts, from seeded points on each
-triangle, seeded lines both ways with the mesh's Embree scene and counts, per
-triangle, the lines that meet nothing. Zero on every triangle is the check the
-drape's construction promises (:mod:`._envelope`), up to what the sampling
-cannot see.
-"""
+"""Monte-Carlo check that every line through an occluder meets the mesh."""
 
 from __future__ import annotations
 

@@ -1,46 +1,7 @@
 """Terrain drape: a few triangles just under an open height field (terrain, a floor, a street).
 
-Planar sections (sec. 4 of the planar-sections paper [1]_) slice a closed
-solid; an open terrain sheet has none at any voxel size, and the solid that
-the ground fill adds under it is seen past its rim from low views (the
-built-in terrain at 23 triangles: R 0.449). This method drapes a
-piecewise-linear surface of at most ``budget`` triangles under the sheet:
-
-1. :func:`._heights.lowest_surface`: the mesh's lowest surface along the up
-   axis, sampled by vertical rays on a grid of about ``resolution^2`` points
-   over its bounding box; its neighbourhood minimum (3 x 3 samples) less a margin of
-   :data:`MARGIN` grid spacings is the drape's ceiling, so that the surface
-   between samples is allowed for;
-2. :func:`._fit.fit_drape`: for a few quad grids of at most ``budget``
-   triangles (shaped like the footprint) over rectangles inset from the
-   footprint's rim by :data:`INSETS`, a linear program puts the corners'
-   heights as high as the ceiling allows; triangles over holes or off the
-   footprint are dropped;
-3. the choice, by ``mode``:
-
-   - ``measured`` (default): each candidate is scored on the check views of
-     :mod:`viscore.generators._precision_check` (64 orbit views of the mesh
-     with a seed of their own) and the one of highest recall whose precision's
-     95% lower bound reaches ``min_precision`` is kept. A viewer sees past the
-     rim under the drape's edge from low views, which is what the insets trade
-     against the area covered;
-   - ``hidden``: the drape must also stay above the *hidden floor*
-     (:mod:`._envelope`: the highest lower convex envelope of the sheet along
-     the lines through a point), so that every line through it meets the
-     sheet and no orthographic view sees it uncovered; seeded lines through
-     every kept triangle are cast against the mesh both ways
-     (:func:`._line_check.escaping_lines`) and a triangle with a line that
-     meets nothing is dropped. Guaranteed, but the shell is thin wherever the
-     sheet is convex along some direction (under every valley), so it holds
-     little: the built-in terrain at 23 triangles P 1.0, R 0.09.
-
-The drape lies under the lowest surface, so for a viewer above the surface
-within the footprint it is behind the sheet as well (depth-conservative).
-Closed meshes get little or nothing here (their lowest surface is their
-underside, and a drape under it shows past it from low views: the teapot
-keeps 2 triangles at R 0.03, the bunny none); planar sections and the solid
-methods are for them. A second layer under the ground (a deck, a cave) pulls
-the drape under it. Beyond the source papers; ours.
+For the open sheets that planar sections (sec. 4 of the planar-sections paper
+[1]_) cannot slice; beyond the papers.
 
 References
 ----------

@@ -1,20 +1,7 @@
 """numba kernels of the shadow-frustum culling runtime: one frame's frusta, and the box test.
 
-:class:`viscore.culling.FrustumCuller.cull` runs every frame; its numpy
-version made some two hundred small array calls per frame (a few microseconds
-each) and one (boxes x planes) product. These loops build the planes of the
-selected occluders ([1]_ sec. 2: silhouette edges by eq. 1, side planes
-through the eye, the eq. 2 or front-face caps; the planar frusta of [2]_) in
-one pass, and test each box against each frustum with an early exit at the
-first plane the box is not wholly inside.
-
-They compute what the numpy reference of :mod:`viscore.culling` computes
-(``_SolidSet.planes``, ``_PolygonSet.planes``, ``_inside_any``), term by
-term in the same order; a dot product numpy hands to BLAS may round
-differently in the last bit. Such a difference is some 1e-16 of the frame's
-length scale, far below the culling margin (``MARGIN_RELATIVE`` = 1e-9 of
-it) that every plane carries: a box culled by either computation lies inside
-the exact, unshifted frustum.
+The frusta of Papaioannou et al. 2006 [1]_, sec. 2, and the planar frusta of
+Hudson et al. 1997 [2]_, built and tested in compiled loops.
 
 References
 ----------

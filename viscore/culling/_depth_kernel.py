@@ -1,16 +1,4 @@
-"""numba kernels of the conservative depth buffer (:mod:`viscore.culling.depth_buffer`).
-
-One frame is built level by level, from coarse tiles to pixels; each level is
-three kernels around one Embree call: :func:`tile_corners` lists the tile
-corners not cast yet, :func:`store_hits` labels the rays cast by the facet and
-the convex piece they first hit, and :func:`settle_tiles` fills the pixels of
-every tile whose four corners hit one piece and lists the children of the
-tiles to split. :func:`occluded_boxes` is the occludee test: per box, its
-screen rectangle and nearest distance, then its pixels until one is not
-nearer. The rules and their proofs are in :mod:`viscore.culling.depth_buffer`;
-:meth:`viscore.culling.depth_buffer.ConservativeDepthBuffer.screen_rectangles` is the
-numpy twin of the rectangles (tested equal).
-"""
+"""numba kernels of the conservative depth buffer (:mod:`viscore.culling.depth_buffer`)."""
 
 from __future__ import annotations
 

@@ -1,198 +1,7 @@
 """Conservative reduced-resolution depth buffer of occluders, by ray casting, and its occludee test.
 
-The runtime of the occluder-skins paper [1]_, sec. 5-6, on rays instead of a
-rasterizer: the occluders' depth at a reduced resolution (default a quarter
-of the screen per side, after [1]_ sec. 7), then each occludee's screen
-rectangle at its nearest depth tested against the buffer. Unlike a buffer
-sampled at pixel centres, this one is conservative: a pixel holds a depth only
-where the occluders cover its whole footprint, and that depth is never nearer
-than the occluders anywhere in the pixel; so an object seen through a gap
-narrower than a pixel is never culled (a point-sampled culler's false culls,
-reported against Godot's ray-cast occlusion culler, godot issue 53288).
-
-Convex pieces
--------------
-Occluder triangles are labelled by *convex piece*: the surface of a convex
-solid (the ``solids`` and ``boxes`` parts of an occluder), or a convex planar
-facet (coplanar adjacent triangles whose union is convex), or the triangle
-alone. When the eye is inside (or on) a solid, the solid's triangles fall back
-to their planar facets for that frame. Every piece ``K`` is a convex set that
-does not contain the eye ``e``; each piece has an exact *entry distance*
-along a ray that meets it, computed in float64 from its planes (no ray cast):
-the distance to the facet's plane, or for a solid the largest distance to
-the planes of its faces that face the eye (the slab method for convex
-polyhedra [3]_). Facets are planar within a tolerance: each plane is pushed
-away from the eye by the largest distance of the facet's vertices from it,
-so the distance computed is never less than the facet's along the ray.
-
-The lemma
----------
-Let the rays along directions ``d1..d4`` (the corners of a screen rectangle:
-a pixel, or a tile of pixels) meet the same convex piece ``K`` at entry
-distances ``t1..t4``, and ``T = max ti``. Then every ray through the
-rectangle meets ``K``, at an entry distance at most ``T``. Proof: ``K_T``, the
-part of ``K`` within distance ``T`` of the eye, is convex and holds the four
-entry points; the directions of the rays from ``e`` that meet a convex set
-form a convex cone; it holds ``d1..d4``, hence their conical hull, which is
-every direction through the rectangle (a rectangle on the image plane is the
-convex hull of its corners). So each of those rays meets ``K_T``: it enters
-``K`` within distance ``T``, and its first occluder is no farther.
-
-Coplanar regions
-----------------
-Convex pieces leave a seam open wherever two of them meet: the triangles of
-a wall with a door, the roofs of two rooms side by side, a level's floor
-tiles. So triangles lying in one plane (up to float64 rounding, either
-orientation, from any occluder) also form a *region* ``R``, whose union is
-taken in the plane once (shapely, exact noding) and whose boundary (outer
-rings and holes) is kept. Each frame the boundary segments are clipped to
-the half-space a millionth of the scene's size in front of the eye and
-projected to the buffer; a region whose boundary passes nearer the eye than
-that is not used in the frame. The rule: when the four corner rays of a
-rectangle first hit triangles of ``R`` and no boundary segment of ``R``
-meets the rectangle (widened by :data:`_SEGMENT_SLACK` pixel), every ray
-through the rectangle meets ``R`` no farther than the largest of the
-corners' distances to ``R``'s plane. Proof: the rectangle's rays meet the
-plane in a convex quadrilateral whose corners lie in ``R``; a point of it
-outside ``R`` would put a boundary point of ``R`` on the segment from a
-corner to it, inside the quadrilateral, whose projection lies in the
-rectangle; and the distance to a plane over a convex set of directions is
-largest at a corner. The rule never replaces the convex-piece rule, it is
-tried after it.
-
-Creases of curved sheets
-------------------------
-A terrain, a drape or a vault is neither convex nor planar, so each of its
-seams would be a line of open pixels and the sheet would hide nothing. Its
-triangles form *patches* (:mod:`viscore.culling._creases`: connected triangles whose
-projection along an axis is one-to-one, so that the patch never meets
-itself). Each frame a patch's edges are sorted into creases (the two
-triangles on either side of the edge's image) and boundary edges (its
-border, silhouettes), and projected. The rule, tried last on pixels still
-without depth: when the four corner rays of a pixel first hit one patch and
-no boundary edge's image meets the pixel, every ray through it meets the
-patch no farther than the largest of the corners' distances and of the
-distances at the ends of the creases' parts in the pixel (proof in
-:mod:`viscore.culling._creases`). A crease splits the tiles across it down to
-pixels, so those pixels' corners are already cast.
-
-A region behind
----------------
-The coplanar rule asks all four corners to hit the region. One is enough:
-when a corner ray first hits region ``R``, all four corner rays meet ``R``'s
-plane in front of the eye and no boundary segment of ``R`` meets the pixel,
-the rays meet the plane in a convex quadrilateral with a point of ``R`` at a
-corner, and a point of it outside ``R`` would put a boundary point of ``R``
-inside it, whose image lies in the pixel. So every ray through the pixel
-meets ``R``, no farther than the largest corner distance to its plane. This
-covers the silhouette of a pillar, a crate or a wall's top against the floor
-or the wall behind it (:func:`viscore.culling._depth_kernel.region_creases`, tried
-first on the pixels left without depth; the nearest such bound over the
-corners' regions is kept).
-
-Two regions along their line
-----------------------------
-A wall standing on a floor that goes on behind it shares no edge with the
-floor (a T-junction: no flat pair), and walls modelled apart meet at a corner
-without one; each such foot or corner is a line of open pixels. Planes of
-one large facet are regions too (:data:`_LONE_FACET_SHARE`), and a last rule
-(:func:`viscore.culling._depth_kernel.region_creases`) takes a pixel still without
-depth whose four corner rays hit two regions ``A`` and ``B`` when the image
-of their planes' line ``L`` separates the corners on ``A`` from those on
-``B`` and every boundary segment of ``A`` that meets ``A``'s side of the pixel,
-and of ``B`` that meets ``B``'s side, lies on ``L`` (both ends within
-:data:`_CREASE_TOLERANCE` of both planes): a floor's far edge seen behind the
-wall, on the wall's side, does not matter. Then
-each side of ``L``'s image is a convex part of the pixel with a corner in its
-region and no boundary of that region crossing it, so every ray through it
-meets the region, no farther than the largest distance to the region's plane
-at the part's vertices: its corners and the two points where ``L``'s image
-crosses the pixel's edges. A wall lifted off the floor, whose lower edge is
-not on the floor's plane, keeps its foot open.
-
-How a pixel gets a depth
-------------------------
-Hierarchically, by area subdivision (Warnock [4]_, and the pyramid of
-hierarchical occlusion maps [2]_, built top-down here): rays are cast at the
-corners of coarse tiles of ``16 x 16`` buffer pixels, and a tile is split in
-four, down to single pixels, only where its corners disagree:
-
-- a tile whose four corner rays first hit the same convex piece ``K`` is
-  *covered by K* (the lemma): every pixel in it gets the largest of the entry
-  distances into ``K`` along its own four corners (computed exactly; the
-  pixel corners inside the tile are not cast, their rays lie in the tile and
-  meet ``K``; by the lemma on the pixel, every ray of the pixel meets an
-  occluder no farther). When the four corners hit one planar facet ``F`` (a
-  face of a solid, or a facet), the lemma is applied to ``F`` itself, a
-  convex piece too: ``F``'s plane gives the distances;
-- a tile whose corners hit different pieces of one coplanar region, with no
-  boundary of the region crossing it, is covered by the region;
-- a tile whose corners hit different pieces otherwise, or some hit and some
-  miss, is split; at pixel size it is left without depth (``inf``);
-- a tile whose four corners all miss is split only if a piece's screen
-  rectangle (the projection of its bounding box) overlaps it and is narrower
-  than the tile yet at least one pixel wide and high (a thin pole seen between
-  the corners; a piece narrower than a pixel cannot cover one).
-
-The splitting rule decides only how many pixels get a depth, never whether a
-depth is safe: a depth comes from the lemma alone. Compared with one ray per
-pixel corner, a pixel inside a covered tile may hold a farther depth (the
-tile's piece, not a nearer piece in front of it that touches none of the
-tile's corners), and a thin piece may be missed between tile corners
-(diagonal slivers; corners of pieces poking into a tile): a little less
-culling, for far fewer rays; and a pixel gets a depth where its
-own corner rays first hit different pieces in front of ``K``.
-``_full_corner_depth`` keeps the one-ray-per-corner buffer (a pixel holds a
-depth only when its four corner rays first hit one piece) as the reference of
-the tests.
-
-Which piece a corner ray first hits is Embree's float32 verdict (as in any
-ray-cast buffer); depths are float64 entry distances, Euclidean from the eye,
-widened by :data:`DEPTH_MARGIN_RELATIVE`.
-
-Occludee test ([1]_ sec. 6)
----------------------------
-The box's eight corners are projected; each buffer pixel its screen rectangle
-touches (clipped to the screen) is compared with a lower bound of the distance
-at which a ray through the pixel can meet the box: the larger of the box's
-nearest distance to the eye and its least forward depth ``f . (p - eye)``
-times the secant of the pixel's ray nearest the view axis (far off the axis
-the second is the larger: a box 0.2 behind a wall at forward depth 10 and
-x / z from 0.75 to 0.98 is 12.97 from the eye, while the wall lies up to 14.0
-away through its pixels). The box is culled iff every one of those pixels
-holds a depth nearer than its bound: then every ray from the eye through the
-box meets an occluder before the box. Boxes containing the eye, and boxes
-wholly off the screen are never culled (view-frustum culling is the
-caller's). The rectangle is widened by ``1e-9`` pixel against the rounding of
-the projection.
-
-A box with a corner on or behind the eye's plane (a table beside a camera at
-floor height, a wall the camera walks along), or one reaching past the
-screen's edge (whose nearest part may lie off the screen), is tested by its
-part in the view: the first has no bounded projection, but a
-ray from the eye only meets its part inside the view pyramid (the four side
-planes through the eye and the image edges). That part is a convex polytope
-whose vertices are among the box corners inside the pyramid, the crossings of
-the box's edges with the side planes, and the entry and exit points of the
-pyramid's four edge rays; its rectangle is that of those vertices (a
-perspective projection maps it onto the convex hull of theirs), and its
-least forward depth ``f . (p - eye)`` bounds the Euclidean distance of every
-point of it from below. The box is culled iff that part is not empty, does
-not reach the eye, and every pixel of its rectangle is nearer than its bound
-with that part's least forward depth (the side planes are widened by
-``1e-9``, relative: a superset).
-Frustum culling stays the caller's: a box with no part in the pyramid is not
-culled here.
-
-Cost
-----
-Rays go to the corners of the coarse tiles and along the silhouettes of the
-pieces: on the benchmark city (``viscore.cli.bench.cull_runtimes``, 320 x 180)
-about 3,200 rays per frame instead of the 58,000 pixel corners, with the same
-pixels covered and the same boxes culled. The loops over tiles, pixels and
-occludee boxes are compiled (numba, :mod:`viscore.culling._depth_kernel`; an occludee's
-pixels are read until one is not nearer); Embree is called directly, once per
-tile size, with the rays built in float32.
+The runtime of the occluder-skins paper [1]_, secs. 5-6, on rays instead of a
+rasterizer: a gap narrower than a pixel never hides what lies behind it.
 
 References
 ----------
@@ -381,6 +190,7 @@ def _plane_regions(tri: np.ndarray, unit: np.ndarray, twice: np.ndarray, facet: 
     group = group.reshape(-1)
     order = np.argsort(group, kind="stable")
     bounds = np.flatnonzero(np.r_[True, group[order][1:] != group[order][:-1], True])
+    planes: list[np.ndarray]
     planes, segs, start = [], [], [0]
     large = _LONE_FACET_SHARE * float(twice[ok].sum())
     for a, b in zip(bounds[:-1], bounds[1:], strict=True):  # a loop over planes
@@ -461,6 +271,8 @@ class OccluderScene:
 
         items = occluders if isinstance(occluders, list | tuple) and not _is_pair(occluders) \
             else [occluders]
+        verts: list[np.ndarray]
+        solid: list[np.ndarray]
         verts, faces, facet, solid, bounds = [], [], [], [], []
         count = 0
 
@@ -661,7 +473,7 @@ class OccluderScene:
         """(f,) int64 convex-piece label of each triangle for this eye: the solid's label
         when the eye is strictly outside the solid, the planar facet's label otherwise."""
         outside = self._front_planes(np.asarray(eye, dtype=np.float64)).any(axis=1)
-        return self._piece_of(np.arange(len(self._facet)), outside)[1]
+        return self._piece_of(np.arange(len(self._facet)), outside)[1]  # type: ignore[arg-type]
 
 
 def _is_pair(item) -> bool:
@@ -842,7 +654,7 @@ def _full_corner_depth(occ: OccluderScene, camera: PerspectiveCamera, width: int
     d = f + xs[None, :, None] * r + ys[:, None, None] * u
     d = (d / np.linalg.norm(d, axis=2)[..., None]).reshape(-1, 3)
     t, tri = occ.scene.first_hit(eye[None], d)
-    label = occ._piece_of(tri, occ._front_planes(eye).any(axis=1))[1].reshape(h + 1, w + 1)
+    label = occ._piece_of(tri, occ._front_planes(eye).any(axis=1))[1].reshape(h + 1, w + 1)  # type: ignore[arg-type]
     t = t.reshape(h + 1, w + 1)
     lab = label[:-1, :-1]
     same = ((lab >= 0) & (lab == label[:-1, 1:]) & (lab == label[1:, :-1])
@@ -1034,7 +846,7 @@ class ConservativeDepthBuffer:
         cam = self.camera
         eye = cam.position
         h, w = self.depth.shape
-        bounds, front = _screen_boxes(lo, hi, eye, cam.basis, cam._half, cam._half_vertical,
+        bounds, front = _screen_boxes(lo, hi, eye, cam.basis, cam._half, cam._half_vertical,  # type: ignore[arg-type]
                                       w, h)
         gap = np.maximum(lo - eye, 0) + np.maximum(eye - hi, 0)
         nearest = np.sqrt(np.einsum("ij,ij->i", gap, gap))

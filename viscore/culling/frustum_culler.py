@@ -1,30 +1,7 @@
 """Per-frame shadow-frustum occlusion culling with an active set of the best occluders.
 
-The runtime of Papaioannou et al. 2006 [1]_ on top of the shadow frusta of
-Hudson et al. 1997 [2]_ (built in :mod:`viscore.culling.shadow_frusta`): each frame,
-occluders are ranked by f_solid = Vol / |V|^3 (eq. 4) and f_planar =
--A N.V / |V|^2 (eq. 3), V the vector from the eye to the occluder's centre,
-and only the ``active`` best (default 15, sec. 3) make frusta; an occludee
-whose axis-aligned bounding box lies wholly inside one frustum is culled.
-Option ``rank='faces'`` ranks a solid as its best face by eq. 3; with
-``cap='front-faces'`` the solid runtime then culls, every frame, every box the
-planar runtime culls (see :class:`FrustumCuller`).
-
-Per frame, :meth:`FrustumCuller.cull` runs compiled loops
-(``viscore.culling._culler_kernel``, numba; compiled, or loaded from numba's cache, when
-the culler is made): one pass ranks the occluders and keeps the ``active``
-best, one builds their frusta, and one tests the boxes, each against a
-frustum's planes until the first it is not wholly inside. This is the same
-computation as :meth:`FrustumCuller.frusta` followed by
-:func:`~viscore.culling.boxes_in_frusta` (the numpy reference, which the tests compare it
-with), term by term in the same order. Where numpy hands a dot product to
-BLAS, the last bit may round otherwise: the two differ by rounding of the size
-each already has (some 1e-16 of the frame's length scale for a box near the
-occluders), which the inward shift of every plane by the margin
-(:data:`~viscore.culling.MARGIN_RELATIVE`, 1e-9 of that scale) absorbs: a box culled by either
-lies inside the exact, unshifted frustum. The ranking is computed the same
-way; a rounding difference there could only swap two occluders of equal rank
-in the active set, which changes no frustum's guarantee.
+The runtime of Papaioannou et al. 2006 [1]_ (secs. 2-3: the active occluders
+ranked by eqs. 3-4) on the shadow frusta of Hudson et al. 1997 [2]_.
 
 References
 ----------
@@ -128,8 +105,8 @@ class FrustumCuller:
         Near cap of the solid frusta (see :func:`~viscore.culling.solid_frustum`). 'eq2'
         (default): the paper's single plane. 'front-faces': the exact shadow.
     rank : {'eq4', 'faces'}, optional
-        Ranking of the solids in 'solid' mode. 'eq4' (default): f_solid =
-        Vol / |V|^3 ([1]_ eq. 4), polygons by |eq. 3|. 'faces': a solid ranks
+        Ranking of the solids in 'solid' mode. 'eq4' (default):
+        ``f_solid = Vol / |V|^3`` ([1]_ eq. 4), polygons by eq. 3. 'faces': a solid ranks
         as its best face by eq. 3 (the planar mode's score of that face).
 
     Attributes
@@ -271,6 +248,7 @@ class FrustumCuller:
         """
         import trimesh
 
+        solids: list[tuple[np.ndarray, np.ndarray]]
         solids, polygons = [], []
         unit = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
         for occ in occluders:

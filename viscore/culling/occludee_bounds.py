@@ -1,23 +1,7 @@
 """Occludee bounds tighter than one box: each object's triangles split into clusters.
 
-A culling runtime tests an object through its bounding volume (Papaioannou et
-al. 2006 [1]_, sec. 4: the culled unit is a scene-graph node tested through
-its bounding box). Game levels are often exported as a few large chunks of
-the level: a chunk's box holds the eye or lies partly in front of every
-occluder, and no box test can cull it even where the ray-cast truth sees none
-of its triangles. Testing an object through the boxes of its triangle
-clusters, and culling it only when every cluster box is hidden, is as
-conservative as the single box (every visible triangle lies in a cluster box
-that a conservative test keeps) and culls such chunks when their visible
-parts are hidden: the bounding-volume hierarchy of a mesh, cut at one level,
-as cluster-based culling in engines tests meshlets rather than whole meshes.
-
-:func:`cluster_boxes` splits one mesh's triangles into at most ``clusters``
-groups by median splits along the longest axis of the group's triangle
-centroids, the group of the largest centroid extent first (a k-d tree built
-greedily); :func:`object_cluster_boxes` does it once per distinct mesh of a
-:class:`~viscore.level.SceneObjects` and places the boxes by each
-object's transform.
+A runtime tests an object through its bounding volume (Papaioannou et al. 2006
+[1]_, sec. 4); a big object is tested through the boxes of its clusters instead.
 
 References
 ----------
@@ -101,7 +85,7 @@ def cluster_boxes(vertices: npt.ArrayLike, faces: npt.ArrayLike, clusters: int
         return (-float(span.max()), next(made), group, int(np.argmax(span)))
 
     heap = [entry(np.arange(len(f)))]
-    done = []
+    done: list = []
     while heap and len(heap) + len(done) < clusters:
         neg, _, group, axis = heapq.heappop(heap)
         if neg == 0.0:

@@ -1,31 +1,7 @@
 """Shadow frusta of convex solid and planar occluders, and the boxes they hide.
 
-The geometry of the runtime of Papaioannou et al. 2006 [1]_ on top of the
-shadow frusta of Hudson et al. 1997 [2]_ (the per-frame runtime itself is
-:class:`viscore.culling.frustum_culler.FrustumCuller`). Each occluder seen from the
-eye spans a convex semi-infinite frustum: an occludee whose axis-aligned bounding box lies wholly
-inside one frustum is hidden by that occluder and culled.
-
-- A **convex solid** (sec. 2 of [1]_) gives one frustum: its silhouette edges
-  from the eye are the edges shared by a front- and a back-facing triangle
-  (eq. 1); one side plane passes through the eye and each silhouette edge; the
-  near cap passes through the silhouette point furthest from the eye (along
-  the cap normal), with the averaged direction of eq. 2 as its normal. Option
-  ``cap='front-faces'`` caps it instead with the planes of the triangles the
-  eye sees: the exact shadow, which contains every face's planar frustum.
-- A **convex planar polygon** (the planar occluders of [2]_) gives one
-  frustum: side planes through the eye and each edge, capped by the polygon's
-  own plane.
-- Occluders are ranked by f_solid = Vol / |V|^3 (eq. 4) and
-  f_planar = -A N.V / |V|^2 (eq. 3), V the vector from the eye to the
-  occluder's centre (:func:`rank_solids`, :func:`rank_planar`); the runtime
-  keeps the ``active`` best each frame.
-
-Planes are stored *inward-positive*: a point ``x`` is inside plane
-``(a, b, c, d)`` when ``a x + b y + c z + d >= 0``; normals are unit. A frustum
-is the intersection of its planes: the side planes first, then the near
-cap(s) (one row for 'eq2' and for polygons, one per front triangle for
-'front-faces').
+The frusta of convex solids (Papaioannou et al. 2006 [1]_, sec. 2) and of planar
+occluders (Hudson et al. 1997 [2]_), and the box-in-frustum test.
 
 References
 ----------
@@ -618,7 +594,7 @@ def _inside_any(planes: np.ndarray, owner: np.ndarray, lo: np.ndarray,
     rows = np.concatenate([planes[:, :3], -np.abs(planes[:, :3]), planes[:, 3:]], axis=1)
     worst = boxes @ rows.T
     starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
-    return (np.minimum.reduceat(worst, starts, axis=1) >= 0).any(axis=1)
+    return (np.minimum.reduceat(worst, starts, axis=1) >= 0).any(axis=1)  # type: ignore[return-value]
 
 
 def _fast_boxes(lower, upper) -> tuple[np.ndarray, np.ndarray]:
@@ -693,7 +669,7 @@ def boxes_in_frusta(frusta: list[Frustum], lower: npt.ArrayLike,
 
 # ----------------------------------------------------------------------------- ranking
 def rank_solids(volumes: npt.ArrayLike, centers: npt.ArrayLike, eye: npt.ArrayLike) -> np.ndarray:
-    """Importance of solid occluders, f_solid = Vol / |V|^3 (Papaioannou et al. 2006, eq. 4).
+    """Importance of solid occluders, ``f_solid = Vol / |V|^3`` (Papaioannou et al. 2006, eq. 4).
 
     Parameters
     ----------
@@ -723,7 +699,7 @@ def rank_solids(volumes: npt.ArrayLike, centers: npt.ArrayLike, eye: npt.ArrayLi
 
 def rank_planar(areas: npt.ArrayLike, normals: npt.ArrayLike, centers: npt.ArrayLike,
                 eye: npt.ArrayLike, *, two_sided: bool = False) -> np.ndarray:
-    """Importance of planar occluders, f_planar = -A N.V / |V|^2 (eq. 3, after Coorg and Teller).
+    """Importance of planar occluders, ``-A N.V / |V|^2`` (eq. 3, after Coorg and Teller).
 
     Parameters
     ----------

@@ -1,31 +1,7 @@
 """GLB geometry compressed with ``EXT_meshopt_compression``, decoded to a plain GLB.
 
-gltfpack and gltf-transform write web-ready levels whose buffer views hold
-meshoptimizer's vertex and index codecs (the extension [1]_: each compressed
-view names its source ``buffer``, ``byteOffset``, ``byteLength``,
-``byteStride``, ``count``, ``mode`` ``ATTRIBUTES``, ``TRIANGLES`` or
-``INDICES``, and ``filter`` ``NONE``, ``OCTAHEDRAL``, ``QUATERNION`` or
-``EXPONENTIAL``; the view's own buffer is a *fallback* buffer that holds no
-bytes). trimesh's reader cannot decode them. :func:`decode_meshopt_glb`
-decodes every compressed view with the ``meshoptimizer`` package (already a
-dependency, for the ``godot`` baseline), appends the decoded bytes to the
-GLB's binary chunk, points the views there, drops the fallback buffers and the
-extension, and returns a GLB that any reader takes as it is.
-
-Such files usually quantize their vertices too (``KHR_mesh_quantization``
-[2]_): integer positions scaled back by the node's transform, which trimesh
-reads as it is; a ``normalized`` integer ``POSITION`` accessor, which trimesh
-would read unscaled, is converted here to float32 by the glTF 2.0 rules
-(sec. 3.11: ``c / 127``, ``c / 255``, ``c / 32767``, ``c / 65535``, signed
-values clamped at -1).
-
-Only compressed data in the GLB's own binary chunk is decoded; a compressed
-view whose source is an external buffer is refused with one line. Before any
-output is allocated, each view's stream must start with its mode's header, ask
-for no more bytes than its codec can give from its length, and all views
-together for no more than :data:`MAX_DECODED`; the extension's stride rules
-(ATTRIBUTES: a multiple of 4 up to 256; indices: 2 or 4; filters: their own)
-are checked, so that meshopt's C asserts are never reached.
+Decodes the buffer views of the extension [1]_ and the normalized positions of
+``KHR_mesh_quantization`` [2]_ (glTF 2.0, sec. 3.11), so that trimesh reads the file.
 
 References
 ----------

@@ -1,20 +1,7 @@
 """Godot 4 binary resources (``.occ``/``.res``) in: the ``ArrayOccluder3D`` of a bake.
 
-Godot's occluder bake writes its ``ArrayOccluder3D`` [2]_ as a binary
-resource: the ``RSRC`` format of Godot's ``ResourceFormatSaverBinary`` [3]_.
-:func:`_load_occ` reads the main resource's ``vertices``
-(``PackedVector3Array``) and ``indices`` (``PackedInt32Array``) at the
-precision the file declares (float32 ``real_t``, or float64 when the header
-says so) and skips every other variant, bounds-checked: each count is checked
-against the bytes left before anything is allocated, and nesting is bounded.
-Compressed (``RSCC``) resources are refused.
-
-This module is the lowest of the occluder readers, so it also holds the
-checks they share: :func:`_read_file` (a regular, non-empty file),
-:func:`_checked_geometry` (finite vertices, in-range indices) and
-:func:`_occluder_mesh` (the world-space triangle soup they return), used by
-:mod:`viscore.exchange.godot_text`, :mod:`viscore.exchange.occonly_gltf` and
-:mod:`viscore.exchange.occluder_files`.
+Reads the ``ArrayOccluder3D`` [2]_ of Godot's bake from the ``RSRC`` binary format
+of ``ResourceFormatSaverBinary`` [3]_ (format version 6).
 
 References
 ----------

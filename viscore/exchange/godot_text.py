@@ -1,24 +1,7 @@
 """Godot 4 text resources and scenes (``.tres``/``.tscn``) in and out.
 
-Read: text resources (``.tres``) whose main resource is an
-``ArrayOccluder3D`` [2]_ (``vertices = PackedVector3Array(...)``, ``indices =
-PackedInt32Array(...)``), and text scenes (``.tscn``) whose
-``OccluderInstance3D`` nodes [3]_ hold such occluders as sub-resources (or as
-external ``.occ``/``.tres`` files beside the scene, the binary ones read by
-:mod:`viscore.exchange.godot_binary`), placed by the ``transform`` of the node and of
-its ancestors [4]_. Written: :func:`tres_text` (one ``ArrayOccluder3D``) and
-:func:`tscn_text` (one ``OccluderInstance3D`` per :class:`OccluderInstance`,
-instances of one mesh sharing one sub-resource). :class:`OccluderInstance`
-and the checks of the writers' input live here too; the ``-occonly`` glTF
-writer of :mod:`viscore.exchange.occonly_gltf` shares them.
-
-Godot's text format stores a ``Transform3D`` as its 3x3 basis **row by row**
-followed by the origin: ``Transform3D(xx, xy, xz, yx, yy, yz, zx, zy, zz, ox,
-oy, oz)`` is the affine map ``p -> B @ p + o`` with ``B[0] = (xx, xy, xz)``
-(Godot's ``Basis`` stores rows, ``Basis::xform`` dots each row with the
-point). Godot stores geometry as float32 (``real_t``); values read here are
-those float32 values widened to float64, and values written round-trip to
-the same float32 values.
+Reads and writes ``ArrayOccluder3D`` resources [2]_ and scenes of
+``OccluderInstance3D`` nodes [3]_ in Godot's text format [4]_.
 
 References
 ----------
@@ -134,7 +117,7 @@ def _parse_godot_text(data: bytes, label: str) -> list[_Section]:
     pos, n = 0, len(text)
     counted, line = 0, 1  # line numbers counted on from the last section: linear in the text
     while True:
-        pos = _SPACE.match(text, pos).end()
+        pos = _SPACE.match(text, pos).end()  # type: ignore[union-attr]
         if pos >= n:
             break
         line += text.count("\n", counted, pos)
@@ -297,7 +280,7 @@ def _load_tscn(data: bytes, path: Path, label: str) -> trimesh.Trimesh:
     world: dict[str, np.ndarray] = {}
 
     def world_of(node_path: str, asked_by: str) -> np.ndarray:
-        chain = []  # from the node up to the first ancestor already known or the root
+        chain: list = []  # from the node up to the first ancestor already known or the root
         current: str | None = node_path
         while current is not None and current not in world:
             node = by_path.get(current)

@@ -1,37 +1,4 @@
-"""Mesh files in and out: any file trimesh reads, as a triangle soup, and every format we write.
-
-Input meshes are never assumed watertight, manifold, oriented or connected
-(DESIGN.md, "The core"). What cannot be used at all is refused with one
-:class:`~viscore.InputError` naming the file and saying what it is: a missing
-path, a dangling link, a directory, a FIFO or device (never read: a FIFO
-would block), an unreadable or empty file, a file that is not the format its
-name says, a file with no triangles (a point cloud, lines only), NaN or
-infinite coordinates, zero extent, or a mesh whose scale float32 ray tracing
-cannot hold (see :func:`validate_mesh`). Degenerate faces are dropped with a
-count in ``mesh.metadata`` and a DEBUG log line.
-
-Text formats (OBJ, OFF, ASCII STL) are decoded here, not by trimesh: UTF-8,
-UTF-16/32 with a byte-order mark, BOM-less UTF-16/32 (by the pattern of NUL
-bytes of ASCII text in them, else by ``charset_normalizer``), else Latin-1,
-which keeps every ASCII number and keyword of these formats, so a comment in
-any 8-bit encoding never stops a load. OBJ lines may end in LF, CRLF or a lone
-CR; before trimesh parses an OBJ, its faces are counted in one vectorised pass
-(a face of more than :data:`MAX_OBJ_FACE_VERTICES` vertices is refused, the
-triangles of all faces checked against the memory limit) and its element
-lines scanned once for index 0. OFF is parsed here (trimesh 5.2 fails on
-n-gons); quads and n-gons are triangulated as fans. ZIP archives are inspected
-before extraction: the sizes in the archive directory are checked against the
-memory limit first. glTF/GLB files are checked as the level loader checks them
-(:mod:`viscore.exchange.gltf_scene`: node walker, buffers, accessors). Every
-file, and every file one references (a material library, a texture, a
-buffer), is read by :mod:`viscore.exchange.file_access`: regular files only,
-inside the referring file's folder, sizes checked before reading.
-
-Writing: :func:`save_mesh` (and :func:`mesh_bytes`) write every format the
-command line writes, PLY with float64 vertices, OBJ and OFF with 17
-significant digits, STL and GLB (float32 by their specifications) refused
-for a mesh float32 cannot hold.
-"""
+"""Mesh files in and out: any file trimesh reads, as a triangle soup, and every format we write."""
 
 from __future__ import annotations
 
@@ -153,7 +120,7 @@ def _decode_text(data: bytes) -> str:
         try:
             from charset_normalizer import from_bytes
         except ImportError:  # pragma: no cover - it is a dependency
-            from_bytes = None
+            from_bytes = None  # type: ignore[assignment]
         if from_bytes is not None:
             best = from_bytes(data[:65536]).best()
             if best is not None and best.encoding.startswith("utf_"):
@@ -427,7 +394,7 @@ def _parse_zip(data: bytes, label: str, readable: set[str]) -> trimesh.Trimesh:
     resolver = trimesh.resolvers.ZipResolver(files)
     meshes = [_parse(files[i.filename].getvalue(), _suffix(i.filename),
                      f"{label}:{i.filename}", resolver) for i in members]
-    return meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
+    return meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)  # type: ignore[return-value]
 
 
 def _suffix(name: str) -> str:

@@ -1,29 +1,7 @@
 """Engine occluder files in and out: Godot 4 occluders, ``-occonly`` glTF, any mesh.
 
-An engine culls with its own occluders; to measure them beside ours they must
-be read in world space, and ours must be written so that the engine uses them.
-This module is the face: :func:`load_occluder` picks the reader by the
-file's extension and :func:`write_occluders` the writer. The formats are
-those of the Godot 4 engine [1]_, each read and written in its own module:
-
-- :mod:`viscore.exchange.godot_text`: text resources (``.tres``) whose main resource
-  is an ``ArrayOccluder3D`` [2]_, and text scenes (``.tscn``) whose
-  ``OccluderInstance3D`` nodes [3]_ hold such occluders, placed by the
-  ``transform`` of the node and of its ancestors [4]_; writers
-  :func:`tres_text` and :func:`tscn_text`, and :class:`OccluderInstance`;
-- :mod:`viscore.exchange.godot_binary`: binary resources (``.occ``, the ``RSRC``
-  format of Godot's ``ResourceFormatSaverBinary`` [5]_), which is what
-  Godot's occluder bake writes;
-- :mod:`viscore.exchange.occonly_gltf`: glTF/GLB files whose nodes carry Godot's
-  ``-occ``/``-occonly`` import suffix [6]_ (``-occonly``: the node becomes an
-  occluder and is not drawn); writer :func:`occonly_glb_bytes`;
-- any other mesh file :func:`viscore.load_mesh` reads, as one occluder.
-
-Godot stores geometry as float32 (``real_t``); values read are those float32
-values widened to float64, and values written round-trip to the same
-float32 values. World axes: Godot and glTF are both +Y up, right-handed, so
-a scene written here and its ``-occonly`` glTF place the same triangles at
-the same world coordinates.
+The formats of the Godot 4 engine [1]_ (``ArrayOccluder3D`` [2]_ in
+``OccluderInstance3D`` nodes [3]_, text scenes [4]_), each in a module of its own.
 
 References
 ----------

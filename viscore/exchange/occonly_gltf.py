@@ -1,18 +1,7 @@
 """glTF/GLB occluders in and out: nodes named with Godot's ``-occ``/``-occonly`` suffix.
 
-Godot's 3D scene import turns a node whose name ends in ``-occ`` into an
-occluder that is also drawn, and one ending in ``-occonly`` into an occluder
-that is not drawn [2]_. :func:`_load_gltf` reads the marked nodes of a
-``.glb``/``.gltf`` file (every mesh node when none is marked) in world space,
-with the glTF reader of the level loader (:mod:`viscore.exchange.gltf_scene`:
-the same limits on depth and nodes, the same refusal of cycles and projective
-matrices, URIs resolved inside the file's folder only); :func:`occonly_glb_bytes`
-writes :class:`~viscore.exchange.godot_text.OccluderInstance` placements as a GLB
-whose nodes carry the ``-occonly`` suffix, one glTF mesh per distinct mesh.
-
-World axes: Godot [1]_ and glTF are both +Y up, right-handed, so a scene
-written by :func:`viscore.exchange.godot_text.tscn_text` and its ``-occonly`` glTF
-place the same triangles at the same world coordinates.
+Godot's importer turns nodes named ``-occ``/``-occonly`` into occluders [2]_;
+Godot [1]_ and glTF share their axes, so no conversion is needed.
 
 References
 ----------

@@ -1,22 +1,7 @@
 """The solid under open ground: height fields and open-bottomed buildings closed by a ground plane.
 
-A height field (terrain, a floor, a street) or a building standing on the
-ground with no floor is, at any voxel size, an open surface: the flood fill of
-sec. 4.1 of the planar-sections paper [1]_ reaches under it, its voxel solid is
-a sheet one voxel thick, and every slice of it is a thin strip (the built-in
-``terrain`` at 64 triangles: R 0.009). A viewer above the ground sees nothing
-below the surface, so the space between the surface and the ground is as good
-as inside. :func:`ground_fill` marks it, column by column along the up axis:
-every voxel from the ground plane up to the highest surface voxel of its column
-(the "solid under the surface down to the ground"). :func:`ground_share` is the
-test of when that fill is worth trying: the share of the footprint that the
-surface covers from above.
-
-The fill is beyond the paper, which slices closed solids only. It over-fills
-what the ground-closed surface would not hold: the space under an overhang, a
-bridge or a canopy, and what is seen through a building's doors and windows.
-Callers check the result on views of the mesh (the precision floor of
-:mod:`viscore.generators.planar_sections.floor`) before they keep it.
+The flood fill of the planar-sections paper [1]_, sec. 4.1, reaches under an open
+surface; the space between a ground plane and the surface above it closes it.
 
 References
 ----------
@@ -117,7 +102,7 @@ def ground_fill(surface: np.ndarray, grid: VoxelGrid, *, up: object = "z",
     top = n - 1 - np.argmax(column[..., ::-1], axis=-1)  # highest surface voxel per column
     layers = np.arange(n)
     low = ground_layer(grid, k, height)
-    fill = (layers >= low) & (layers <= top[..., None]) & any_hit[..., None]
+    fill = (layers >= low) & (layers <= top[..., None]) & any_hit[..., None]  # type: ignore[index]
     return np.ascontiguousarray(np.moveaxis(fill, -1, k))
 
 

@@ -1,32 +1,4 @@
-"""Which glTF nodes a game does not draw: visibility flags and engine naming rules.
-
-Level files exported for an engine carry nodes that are not drawn: collision
-proxies, navigation meshes, occluder-only meshes, nodes left out at import,
-nodes hidden by a flag. Read as drawn objects they stand in front of (or in
-the plane of) the real geometry, so they become occluder candidates and
-occludees no camera ever sees, and a ray-cast truth that meets one first
-calls what lies behind it hidden. These rules tell them apart:
-
-- the glTF extension ``KHR_node_visibility``: ``"visible": false`` hides the
-  node and all its descendants (the extension's text);
-- an ``extras`` property ``visible`` set to false (``false``, ``"false"``,
-  ``0``, ``"0"``, ``"no"``, ``"off"``), as Blender writes custom properties
-  and as three.js level kits read them (e.g. Sketchbook's worlds);
-- Godot's import hints (Godot 4 manual, "Node type customization using name
-  suffixes"): a name ending in ``-noimp`` (removed at import), ``-colonly``
-  or ``-convcolonly`` (collision only), ``-navmesh`` (navigation only) or
-  ``-occonly`` (occluder only); Godot accepts ``-``, ``_`` or ``$`` before
-  the hint, in any case. ``-col``, ``-convcol`` and ``-occ`` keep the mesh
-  drawn and are not matched;
-- Unreal Engine's collision prefixes ``UCX_``, ``UBX_``, ``USP_`` and
-  ``UCP_`` (its FBX import pipeline's custom collision naming);
-- a name with a word ``collision`` or ``collider`` (or their plurals; words split at anything
-  but letters and digits and before a capital: ``WallCollider``), the common
-  spelling of a collision proxy in three.js and web levels
-  (``__collision__``, ``collider_GalleryBuilding``).
-
-A node that a rule hides hides its descendants too.
-"""
+"""Which glTF nodes a game does not draw: visibility flags and engine naming rules."""
 
 from __future__ import annotations
 

@@ -1,18 +1,7 @@
 """A game level as objects: glTF nodes, or a single mesh split into parts, and its up axis.
 
-A level is a glTF/GLB scene, every mesh node one object with instancing
-honoured (glTF 2.0 [1]_, sec. 3.5 and 3.7), or a single mesh (OBJ, PLY, OFF,
-STL) such as an exported game map, split here into objects; which objects
-get occluders is chosen by size, never the flat ground alone
-(:mod:`viscore.generators.levels` makes their occluders); a
-glTF of a single object is split as a single mesh is, and a flat object far
-larger than the rest of the level (:data:`LEVEL_SPAN`: an outer ground
-plane around a town) or a sky around it
-(:meth:`viscore.level.scene_graph.SceneObjects.sky`) does not set the scale of the
-size threshold. A sky gets no occluders: nothing of the level lies behind it.
-Nor does a see-through object (a transparent glTF material, alpha blended or
-alpha tested: glass, water, leaves), which Godot's occluder bake skips too.
-:func:`occluder_objects` chooses by name or by an absolute size in world units.
+Every mesh node of a glTF scene [1]_ is an object (instancing honoured, secs. 3.5
+and 3.7), or a single mesh is split into parts; some objects get occluders.
 
 References
 ----------
@@ -267,11 +256,11 @@ def _choose(objects: SceneObjects, up: str, min_size: float | None,
         return sizes, flat, chosen, refused
     sky = objects.sky()
     clear = objects.see_through
-    mask = (sizes >= min_size) & ~sky & ~clear
-    solid = ~flat & ~sky & ~clear
+    mask = (sizes >= min_size) & ~sky & ~clear  # type: ignore[operator]
+    solid = ~flat & ~sky & ~clear  # type: ignore[operator]
     if mask.any() and not (mask & solid).any() and solid.any():
         lo, hi = objects.lower[solid].min(axis=0), objects.upper[solid].max(axis=0)
-        limit = min(min_size * float(np.linalg.norm(hi - lo)),
+        limit = min(min_size * float(np.linalg.norm(hi - lo)),  # type: ignore[operator]
                     FALLBACK_SHARE * float(diag[solid].max()))
         extra = solid & (diag >= limit)
         _log.info("%s: only flat objects (ground, terrain) pass the size threshold; also "
@@ -281,7 +270,7 @@ def _choose(objects: SceneObjects, up: str, min_size: float | None,
     chosen = np.flatnonzero(mask).astype(np.int64)
     refused = {objects.names[i]: (
         "a sky: it surrounds the rest of the level from afar, so nothing lies behind it"
-        if sky[i] else SEE_THROUGH_REFUSAL if clear[i]
+        if sky[i] else SEE_THROUGH_REFUSAL if clear[i]  # type: ignore[index]
         else f"too small: its bounding-box diagonal is {sizes[i]:.2%} of the "
         f"level's, under the threshold of {min_size:.2%}") for i in np.flatnonzero(~mask)}
     return sizes, flat, chosen, refused
@@ -368,12 +357,12 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
             objects = dataclasses.replace(objects, up=axis)
         if len(objects) == 1 and names is None:  # a map exported as one mesh: its parts
             objects, components = _mesh_level(objects.object_mesh(0), objects.source, up,
-                                              see_through=bool(objects.see_through[0]))
+                                              see_through=bool(objects.see_through[0]))  # type: ignore[index]
             kind = "gltf-mesh"
     else:
         label = (str(source.metadata.get("name", "mesh")) if isinstance(source, trimesh.Trimesh)
                  else str(source))
-        mesh = load_mesh(source)
+        mesh = load_mesh(source)  # type: ignore[arg-type]
         if up is None:
             up, reason = guess_up(mesh)
             guessed = True
@@ -438,11 +427,11 @@ def occluder_objects(objects: SceneObjects, *, size_threshold: float | None = No
         threshold = SIZE_FACTOR * float(np.median(size))
     else:
         threshold = as_positive(size_threshold, "size_threshold")
-    chosen = np.flatnonzero((size >= threshold) & ~objects.see_through)
+    chosen = np.flatnonzero((size >= threshold) & ~objects.see_through)  # type: ignore[operator]
     if len(chosen) == 0:
         what = ("size_threshold" if size_threshold is not None else
                 f"the default size threshold ({SIZE_FACTOR} x the median object's diagonal)")
-        solid = ~objects.see_through
+        solid = ~objects.see_through  # type: ignore[operator]
         largest = float(size[solid].max()) if solid.any() else 0.0
         raise InputError(f"{what}: no object of {objects.source} is {threshold:.4g} or larger "
                          f"(the largest is {largest:.4g}, world units"

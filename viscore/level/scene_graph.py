@@ -1,32 +1,7 @@
 """Scenes as objects: every mesh node of a glTF/GLB file is one object and one occludee.
 
-The culling simulation (:mod:`viscore.metrics.culling`) needs a scene as a set
-of objects, each with its own bounding box and triangle count, as a
-scene-graph renderer sees it (Papaioannou et al. 2006 [1]_, sec. 4: the
-culled unit is a scene-graph node tested through its bounding volume).
-:func:`load_scene_objects` reads a glTF/GLB file (or a built-in culling scene,
-or a ``trimesh.Scene``) and returns a :class:`SceneObjects`: one object per
-node that carries a triangle mesh, with its world transform; instancing is
-honoured, so a mesh referenced by many nodes is stored once and each node is
-its own object. Other mesh formats (OBJ, PLY, ...) are read by
-:func:`viscore.load_mesh` as a single object.
-
-World axes: glTF is +Y up by its specification, so objects read from
-glTF/GLB get ``up = (0, 1, 0)``; a single mesh from another format gets
-viscore's +Z.
-
-The built-in culling scenes ``city`` and ``city-dense`` are GLB files made by
-``data/make_city.py``, resolved from the folder of the other built-in scenes.
-
-glTF node hierarchy (glTF 2.0 [2]_, sec. 3.5.1-3.5.3): the world transforms
-are composed here, in one iterative pass over the node list of the file's JSON
-(``nodes[i].children``, ``matrix`` or ``translation``/``rotation``/``scale``,
-``mesh``), linear in the number of nodes; trimesh parses the geometry only.
-The hierarchy must be what the specification requires, a set of disjoint
-strict trees: a cycle, a node with two parents, or a scene root that is some
-node's child is refused with one line naming the nodes, and so is a hierarchy
-deeper than ``_MAX_NODE_DEPTH`` levels. Buffer and image URIs must resolve
-inside the folder of the glTF/GLB file; nothing outside it is read.
+The culled unit is a scene-graph node tested through its bounding volume
+(Papaioannou et al. 2006 [1]_, sec. 4); nodes are composed as glTF 2.0 [2]_, sec. 3, says.
 
 References
 ----------

@@ -1,11 +1,8 @@
 """Cameras as ray bundles: orthographic, perspective and the cube of six frusta.
 
-Each camera yields one ray per pixel centre, ``(R*R, 3) float64`` origins and
-unit directions (``(H*W, 3)`` for a non-square perspective camera), row-major
-with row 0 at the top edge (towards ``up``) and column 0 at the left edge.
-The orthographic camera follows the orbit protocol of Silvennoinen et al.
-2014 [1]_, sec. 6.1; the six 90-degree frusta follow the volume protocol of
-Wu et al. 2022 [2]_, sec. 3.2.
+The orthographic camera of the orbit protocol (Silvennoinen et al. 2014 [1]_,
+sec. 6.1) and the six 90-degree frusta of the volume protocol (Wu et al. 2022 [2]_,
+sec. 3.2).
 
 References
 ----------
@@ -72,7 +69,7 @@ def camera_basis(forward: npt.ArrayLike, up: npt.ArrayLike | None = None
         u = as_vector(up, "up")
     r = np.cross(f, u)
     rn = np.linalg.norm(r)
-    if rn < 1e-9 * max(1.0, np.linalg.norm(u)):
+    if rn < 1e-9 * max(1.0, np.linalg.norm(u)):  # type: ignore[operator]
         raise InputError("up: parallel to the viewing direction")
     r = r / rn
     return f, r, np.cross(r, f)
@@ -175,7 +172,7 @@ class OrthoCamera:
             Distance along ``direction`` from the ray start plane.
         """
         f, r, u = self.basis
-        p = np.asarray(points, dtype=np.float64) - self.center
+        p = np.asarray(points, dtype=np.float64) - self.center  # type: ignore[operator]
         col = (p @ r / self.extent + 0.5) * self.resolution
         row = (0.5 - p @ u / self.extent) * self.resolution
         return np.stack([col, row], axis=1), p @ f + self.start
@@ -290,7 +287,7 @@ class PerspectiveCamera:
         NaN pixel coordinates.
         """
         f, r, u = self.basis
-        p = np.asarray(points, dtype=np.float64) - self.position
+        p = np.asarray(points, dtype=np.float64) - self.position  # type: ignore[operator]
         z = p @ f
         rows, cols = self.shape
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -306,7 +303,7 @@ class PerspectiveCamera:
         -------
         inside : (n,) bool
         """
-        pixel, _ = self.project(self.position + np.asarray(directions, dtype=np.float64))
+        pixel, _ = self.project(self.position + np.asarray(directions, dtype=np.float64))  # type: ignore[operator]
         rows, cols = self.shape
         with np.errstate(invalid="ignore"):
             return ((pixel[:, 0] >= 0) & (pixel[:, 0] <= cols)

@@ -1,32 +1,4 @@
-"""Embree scene of one triangle soup: batched first-hit, any-hit and all-hits queries.
-
-The one place that holds an Embree handle (DESIGN.md, "The core"). The scene
-is built once, in robust mode so that rays through shared edges are not lost,
-from the mesh translated to its bounding-box centre and scaled to unit size
-(by a power of two, so the scaling itself is exact): Embree computes in
-float32, whose error is relative, so a mesh of size 1e-12 or 1e17 is traced
-as accurately as one of size 1. Queries take and return float64 in world
-units: ray origins are mapped into the unit frame, distances mapped back.
-Batches are cut into equal chunks of 16384 to 65536 rays that a pool of
-threads (one per core by default, the calling thread among them) claims in
-order, converting, checking and tracing each chunk in its own reused
-float32 buffers. A chunk costs two or three calls that hold the GIL only
-while they start: one compiled pass (:func:`_unit_frame`) that maps the
-float64 rays to the float32 unit frame and checks them on the way, then,
-where embreex's wheel holds a libembree4 with Embree 4's packet calls, one
-compiled loop (:mod:`viscore.ray._embree4`) that traces the chunk by packets
-of 16 rays (``rtcIntersect16``, ``rtcOccluded16``; Embree's coherent flag
-on packets of nearly parallel rays from nearby origins) and writes the
-float64 distances and int64 triangles itself; otherwise embreex's
-``EmbreeScene.run`` (per ray, releasing the GIL while it traces) and one
-compiled pass (:func:`_store_hits`). Both give the same hits, bit for bit.
-numpy is left for the rare chunk with a bad or non-unit ray. The two
-compiled passes around embreex cost 7-8 ns a ray on one thread (against
-106 ns of tracing a coherent ray and 240 an incoherent one on the
-56k-triangle bunny, per ray); packets trace the bunny's orthographic views
-about 2.5x faster than that and scattered rays about 1.1x.
-``VISCORE_RAY_PACKETS=0`` holds the Scenes built afterwards to embreex.
-"""
+"""Embree scene of one triangle soup: batched first-hit, any-hit and all-hits queries."""
 
 from __future__ import annotations
 
@@ -195,7 +167,7 @@ def _kernel_signatures() -> dict:
 
     def array(dtype, ndim: int = 1, layout: str = "C", readonly: bool = False,
               aligned: bool = True):
-        return types.Array(dtype, ndim, layout, readonly=readonly, aligned=aligned)
+        return types.Array(dtype, ndim, layout, readonly=readonly, aligned=aligned)  # type: ignore[call-overload]
 
     f64, f32 = types.float64, types.float32
     rays = array(f64, readonly=True)  # a writable array converts to it
@@ -587,7 +559,7 @@ class Scene:
                                               flags, first_ray=a)
                         tfar32 = None
                         if tfar is not None:
-                            tfar32 = dists[:m]
+                            tfar32 = dists[:m]  # type: ignore[index]
                             _unit_tfar(tfar[a:b], scale, _EMBREE_MISS_T, tfar32)
                         if packets is not None:
                             if intersect:

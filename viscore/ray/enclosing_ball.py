@@ -1,13 +1,7 @@
 """Smallest enclosing ball of a point set, flat and collinear sets included.
 
-The orbit protocol of Silvennoinen et al. (2014, sec. 6.1) centres its
-orthographic window on the smallest sphere enclosing the original mesh.
-``trimesh.nsphere.minimum_nsphere`` finds it from the Voronoi vertices of the
-convex hull, which do not exist for a flat or collinear point set (planar
-occluders, a single triangle): there the centre comes back NaN. This module
-keeps trimesh's answer for point sets that span 3-D and solves the
-lower-dimensional cases exactly in their own affine hull, with Welzl's
-randomised incremental algorithm on the hull's vertices.
+The orbit protocol (Silvennoinen et al. 2014 [2]_, sec. 6.1) centres its window on
+the smallest sphere enclosing the original; Welzl's algorithm [1]_ finds it.
 
 References
 ----------

@@ -1,14 +1,8 @@
 """Seeded samplers: view directions, view positions and rays between regions.
 
-Every random sampler takes ``seed``, a non-negative integer of any size (the
-one seed rule, :func:`viscore._validate.as_seed`), and calls
-``np.random.default_rng(seed)`` once, so the same seed reproduces the samples
-bit for bit (DESIGN.md, "The core"). Uniform directions serve the orbit
-protocol and the occlusion measure (Silvennoinen et al. 2014 [1]_, secs. 3
-and 6.1); grid positions the volume protocol (Wu et al. 2022 [2]_, sec.
-3.2); random rays the ray-wise conservativeness check. Sample counts are
-checked against the memory limit (:func:`viscore._validate.check_memory`)
-before anything is allocated.
+Uniform directions for the orbit protocol and the occlusion measure (Silvennoinen
+et al. 2014 [1]_, secs. 3 and 6.1), grid positions for the volume protocol (Wu et
+al. 2022 [2]_, sec. 3.2), random rays for the conservativeness check.
 
 References
 ----------

@@ -1,12 +1,7 @@
 """numba kernels of the voxelization: exact triangle/box overlap, first cell per label.
 
-Per triangle, :func:`mark_surface_voxels` loops over the voxels of its
-bounding box, rejects most with the triangle-plane test and runs the nine
-edge-axis tests of the separating-axis theorem of Akenine-Moeller [1]_ on the
-rest. A numpy version needs every (triangle, voxel) candidate in memory,
-which explodes for long thin triangles tilted against the axes (a hairball's
-tubes); the loop does not. :func:`first_index_of_labels` picks one voxel per
-connected component in one pass over the grid.
+The separating-axis triangle/box overlap test of Akenine-Moeller [1]_, in a
+compiled loop over each triangle's bounding box.
 
 References
 ----------

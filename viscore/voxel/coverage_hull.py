@@ -1,28 +1,7 @@
 """Voxels that a mesh hides from every direction: its coverage hull, sampled.
 
-A point lies in the coverage hull of a surface when every line through it
-meets the surface. A polygon made of such points projects, in every
-orthographic view, inside the surface's own projection: it never covers a
-pixel the surface leaves open, which is the precision of the orbit protocol
-(Silvennoinen et al. 2014, sec. 6.1 [1]_) made pointwise. The interior of a
-closed mesh lies in it; of an open surface, the part that its openings do
-not expose: under a height field, away from the edges, where a line can
-leave under the edge without touching the surface; inside an open-bottomed
-building, off the lines straight through its doors and windows.
-
-:func:`covered_voxels` tests voxel centres against the mesh's coverage
-images from ``directions`` (one per line direction: a direction and its
-opposite give the same lines), each image eroded by a margin, so that the
-voxel's neighbourhood, not only its centre, projects inside. A share of the
-directions may be allowed to miss: a slice seen from a grazing direction
-covers almost nothing, so the directions where a point under open ground is
-exposed weigh little in any projected area. Directions between the samples
-are not tested; the callers check their result on views of the mesh (the
-precision floor of planar sections).
-
-This is beyond the planar-sections paper, which slices closed solids; it
-lets :mod:`viscore.level.ground` fill the space under open ground without covering
-what the ground leaves open.
+Its points project inside the surface's own projection in every orthographic view:
+the precision of the orbit protocol (Silvennoinen et al. 2014, sec. 6.1 [1]_), pointwise.
 
 References
 ----------

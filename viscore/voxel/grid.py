@@ -1,24 +1,8 @@
 """Voxelization of triangle soups: surface, outside, inner and inside voxels.
 
-- Surface voxels: every voxel a triangle touches, by the exact separating-axis
-  triangle/box overlap test of Akenine-Moeller [3]_, as in Silvennoinen et al.
-  [1]_, sec. 4.1, and the occluder-skins paper of Leone et al. [2]_, sec. 4.
-- Outside voxels: 6-connected flood fill from the grid border through
-  non-surface voxels ([1]_, sec. 4.1); the rest is solid.
-- Inner voxels: the six-direction rule of [2]_, sec. 4 (a non-surface voxel
-  with a surface voxel somewhere along each of +-X, +-Y, +-Z).
-- Inside voxels: voxels whose whole cube is inside the mesh by the
-  generalized winding number (:func:`inside_voxels_winding`), so that a
-  cavity sealed by the voxelization is never taken for solid; and, for open
-  meshes, ray-parity votes along the three axes (:func:`inside_voxels_parity`).
-- The voxel mesh: two triangles per face between a solid and an empty voxel,
-  oriented towards the empty one; closed and 2-manifold ([1]_, sec. 4.1).
-
-The mesh's bounding box is centred in the grid, whose size is one voxel more
-than the box needs, so the box's faces pass through voxel centres (an
-axis-aligned face touches one layer of voxels, not the two on either side of
-a voxel boundary); two more layers pad every side, so the grid border is
-always outside.
+Surface voxels by exact triangle/box overlap (Akenine-Moeller [3]_) as in
+Silvennoinen et al. [1]_, sec. 4.1, and Leone et al. [2]_, sec. 4; inside voxels by
+the generalized winding number [4]_.
 
 References
 ----------
@@ -185,7 +169,7 @@ def voxel_grid(bounds: np.ndarray, *, resolution: int | None = None,
             f"cells and would need about {gib:.3g} GiB; the limit is {MAX_VOXEL_CELLS:,} cells")
     shape = counts.astype(np.int64)
     origin = 0.5 * (bounds[0] + bounds[1]) - 0.5 * shape * pitch
-    return VoxelGrid(origin=origin, pitch=float(pitch), shape=tuple(int(s) for s in shape))
+    return VoxelGrid(origin=origin, pitch=float(pitch), shape=tuple(int(s) for s in shape))  # type: ignore[arg-type]
 
 
 def _sat_overlap(tri: np.ndarray, center: np.ndarray, half: float) -> np.ndarray:
@@ -395,7 +379,7 @@ def inside_voxels_winding(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGr
     """Non-surface voxels inside the mesh by the generalized winding number at their centres.
 
     A voxel is kept when no triangle touches its closed cube (it is not in
-    ``surface``) and the winding number [4]_ at its centre is at least 1/2 in
+    ``surface``) and the winding number (Jacobson et al. 2013) at its centre is at least 1/2 in
     absolute value. Cavities, sealed by the voxelization or not, have winding
     number 0 and are left out.
 
@@ -454,7 +438,7 @@ def inside_voxels_winding(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGr
     one warning, and every candidate voxel is evaluated. On the open built-in
     buildings at the wall-based voxel size the evaluations drop from
     0.5-1.8 million to 0.5-11% of that (the tower 2.5 thousand of 541
-    thousand; the warehouse, with voxels at |w| near 1/2, 113 thousand of
+    thousand; the warehouse, with voxels at ``|w|`` near 1/2, 113 thousand of
     a million). The last answer is kept by content: solid-frusta asks again
     for the grid and candidates its box source has just asked.
 
@@ -956,7 +940,7 @@ def voxel_boundary_mesh(solid: np.ndarray, grid: VoxelGrid) -> trimesh.Trimesh:
     nodes = np.arange(4 * nq)  # node 4 q + i: corner i of quad q; also edge i of quad q
     n_lattice = int(np.prod(np.array(lattice, dtype=np.int64)))
     key = np.minimum(va, vb) * n_lattice + np.maximum(va, vb)
-    order = np.lexsort((owner[nodes // 4], key))
+    order = np.lexsort((owner[nodes // 4], key))  # type: ignore[index]
     first, second = order[0::2], order[1::2]  # pairs: each edge has 2 or 4 faces
     # join the corners of paired faces that sit on the same grid vertex
     nxt = lambda e: 4 * (e // 4) + (e % 4 + 1) % 4  # noqa: E731  (corner i + 1 of the quad)

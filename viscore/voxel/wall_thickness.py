@@ -1,38 +1,7 @@
 """Wall thickness of a triangle soup by rays along the inward normals, and voxel sizes from it.
 
-Voxel methods (the occluder skins of Leone et al. [1]_, the voxel solid of
-Silvennoinen et al. [2]_) pick their voxel size from the mesh's extent. A
-wall thinner than a couple of voxels then holds no voxel that no triangle
-touches, and gives no occluder. :func:`wall_thickness` measures the walls:
-it samples points on the faces, uniform by area (seeded), and casts one ray
-from each point along the face's inward normal (the opposite of the
-outward normal, the right-hand-rule normal of a consistently oriented closed
-mesh). The ray walks through the surfaces it meets, counting material: +1 on
-entering through a front face (normal against the ray), -1 on leaving
-through a back face (normal along the ray), starting at 1 inside the
-sampled wall. The thickness is the distance at which the count first
-returns to 0: the far side of the wall, through overlapping or duplicated
-panels. A ray that escapes with material still counted found no wall (an
-open, single-sided or inverted sheet): its thickness is ``inf``.
-
-:func:`wall_voxel_size` turns the measured walls into a voxel size for a
-voxel method, within the memory guard.
-
-The factor between wall and voxel (see :func:`wall_voxel_size`): a voxel
-counts as inside only when its closed cube touches no triangle (the
-surface voxels of :func:`viscore.voxel.grid.surface_voxels`, touching counts).
-A wall of thickness ``t`` with unit normal ``n`` is the open slab
-``a < n.x < a + t``; a cube of side ``p`` spans ``p * |n|_1`` along ``n``,
-and along the grid axis ``j`` with the largest ``|n_j|`` the cubes' lower
-ends step by ``p * |n|_inf``, so some cube lies inside the slab wherever
-the grid falls when ``p * (|n|_1 + |n|_inf) < t``: ``p < t / 2`` for a wall
-along the grid axes, ``p < t / sqrt(6)`` (about ``t / 2.45``) at worst. The
-bound is tight: an axis-aligned wall of ``t = 2 p`` whose faces fall on
-voxel boundaries holds no voxel. A block of ``k x k x k`` inside voxels (what
-a solid eroded ``(k - 1) / 2`` times by the 3 x 3 x 3 cube keeps a voxel of)
-is a cube of side ``k p`` whose lower corner steps on the same lattice, so
-the same argument asks for ``p * (k |n|_1 + |n|_inf) < t``: ``p < t / 4``
-along the axes for ``k = 3``.
+Voxel methods (Leone et al. [1]_, Silvennoinen et al. [2]_) size voxels from the
+extent; a wall thinner than two voxels then holds no inner voxel.
 
 References
 ----------

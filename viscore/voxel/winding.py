@@ -1,28 +1,7 @@
 """Inside tests of points in triangle soups by the generalized winding number.
 
-The generalized winding number of Jacobson, Kavan and Sorkine-Hornung [1]_
-is the sum over triangles of the signed solid angle each subtends at the
-point (Van Oosterom and Strackee [2]_), over 4 pi: 1 inside a closed
-outward-oriented surface, 0 outside, -1 inside an inverted one, k where k
-closed parts overlap, and fractional, degrading gracefully, near the holes
-of an open surface. It is the inside test of the building-occluders paper's
-voxelization [3]_. :func:`winding_numbers` evaluates it with libigl's fast
-winding number (Barill et al. [4]_: a Barnes-Hut tree over the triangles,
-within about 3e-3 of the exact sum), or the exact hierarchical sum of [1]_.
-
-:func:`points_inside` first counts signed crossings along six rays from
-each point (one batched Embree query per ray direction): on a closed,
-consistently oriented surface the signed count along any ray *is* the
-winding number, so where the six counts agree they give it exactly; where
-they disagree (holes, coincident faces of touching parts, grazing rays), the
-generalized winding number settles it.
-
-Off the triangles the winding number's gradient depends on the soup's
-boundary alone: a triangle's solid angle has the Biot-Savart integral over
-its edges as gradient (Binysh and Alexander [5]_), and shared edges cancel.
-:func:`_winding_gradient_bounds` bounds it from the boundary edges, which lets
-:func:`viscore.voxel.grid.inside_voxels_winding` carry one evaluation over the
-voxels around it.
+The generalized winding number of Jacobson et al. [1]_ by libigl's fast winding
+number (Barill et al. [4]_); the inside test of the building-occluders paper [3]_.
 
 References
 ----------
@@ -331,7 +310,7 @@ def _winding_gradient_bounds(edges: tuple[np.ndarray, np.ndarray, np.ndarray],
 
 
 def points_inside(scene, points) -> np.ndarray:
-    """Inside test of points: |winding number| >= 1/2.
+    """Inside test of points: ``|winding number| >= 1/2``.
 
     Signed crossings along six rays from each point give the winding number
     of a closed, consistently oriented surface exactly; where the six counts
