@@ -130,7 +130,7 @@ def _import_bounds(ep, dist: tuple[str, str]):
             or not hasattr(signal, "setitimer"):
         yield interrupted
         return
-    warned = []
+    warned = []  # type: ignore[var-annotated]
 
     def on_alarm(signum, frame):
         if not warned:

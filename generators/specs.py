@@ -279,8 +279,8 @@ def checked_by(options: Sequence[GeneratorOption]) -> Callable[[_Generator], _Ge
             mesh = arguments.pop(first)
             return function(mesh, **check_arguments(options, arguments))
 
-        checked.options = options
-        return checked
+        checked.options = options  # type: ignore[attr-defined]
+        return checked  # type: ignore[return-value]
 
     return decorate
 

@@ -423,14 +423,14 @@ def block_bootstrap_ratio(num, den, *, block: int | None = None, confidence: flo
     seed = as_seed(seed)
     num, den = _as_series(num, den)
     n = len(num)
-    if (den > 0).sum() < 2:
+    if (den > 0).sum() < 2:  # type: ignore[operator, union-attr]
         return (float("nan"), float("nan"))
     block = block_length(num, den) if block is None else as_positive_int(block, "block",
                                                                           maximum=n)
     check_memory(_bootstrap_memory(n, resamples),
                  f"block bootstrap of {n} frames x {resamples} resamples")
     s_num, s_den = _resampled_block_sums(np.random.default_rng(seed), n, resamples, block,
-                                         num, den)
+                                         num, den)  # type: ignore[arg-type]
     ok = s_den > 0
     boot = s_num[ok] / s_den[ok]
     if len(boot) == 0:

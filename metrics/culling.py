@@ -498,9 +498,9 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             false = culled[visible[culled]]
             rendered = tris[idx].sum() - tris[culled].sum()
             rec = per[name]
-            rec["culled"][f], rec["false"][f] = len(culled), len(false)
-            rec["tris"][f], rec["ms"][f] = int(rendered), 1e3 * elapsed
-            rec["names"].append(tuple(objects.names[i] for i in false[:10]))
+            rec["culled"][f], rec["false"][f] = len(culled), len(false)  # type: ignore[index]
+            rec["tris"][f], rec["ms"][f] = int(rendered), 1e3 * elapsed  # type: ignore[index]
+            rec["names"].append(tuple(objects.names[i] for i in false[:10]))  # type: ignore[attr-defined]
             if f in record:
                 kept[f].culled[name] = np.sort(culled).astype(np.int64)
             if len(false) and runtimes[name].conservative:

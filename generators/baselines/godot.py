@@ -224,7 +224,7 @@ def _file_normals(path: Path) -> dict[str, np.ndarray]:
         if path.suffix.lower() == ".glb":
             doc = load_glb(fh)
         else:
-            doc = load_gltf(fh, resolver=trimesh.resolvers.FilePathResolver(path))
+            doc = load_gltf(fh, resolver=trimesh.resolvers.FilePathResolver(path))  # type: ignore[arg-type]
     return {name: np.asarray(kwargs["vertex_normals"])
             for name, kwargs in doc.get("geometry", {}).items()
             if isinstance(kwargs, dict) and "vertex_normals" in kwargs}
@@ -277,8 +277,8 @@ def godot_imported_surface(path: str | os.PathLike, node: str
     except Exception as exc:  # noqa: BLE001 - a file trimesh cannot read as glTF
         raise InputError(f"{path}: cannot be read as a glTF scene ({exc})") from None
     try:
-        transform, name = scene.graph[node]
-        geometry = scene.geometry[name]
+        transform, name = scene.graph[node]  # type: ignore[attr-defined]
+        geometry = scene.geometry[name]  # type: ignore[attr-defined]
     except (KeyError, ValueError, TypeError):
         raise InputError(f"{path}: no node {node!r} placing a mesh") from None
     if not isinstance(geometry, trimesh.Trimesh):

@@ -233,8 +233,8 @@ def _stored(out: Path, method: str, mesh: str, key: str) -> MeshOccluder | None:
         else:
             data = read_regular(ply, str(ply), bytes_per_byte=PARSE_BYTES_PER_FILE_BYTE)
             back = trimesh.load(io.BytesIO(data), file_type="ply", process=False)
-            v = np.asarray(back.vertices, dtype=np.float64)
-            f = np.asarray(back.faces, dtype=np.int64).reshape(-1, 3)
+            v = np.asarray(back.vertices, dtype=np.float64)  # type: ignore[attr-defined]
+            f = np.asarray(back.faces, dtype=np.int64).reshape(-1, 3)  # type: ignore[attr-defined]
             if len(f) != record["triangles"]:
                 return None
         return MeshOccluder(mesh, method, v, f, int(record["triangles"]),

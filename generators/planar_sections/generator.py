@@ -91,7 +91,7 @@ def screen_space_voxel_size(pixel_error: float, distance: float, *, fov: float =
     distance = as_positive(distance, "distance")
     fov = _OPTION["fov"].check(fov)
     screen = as_positive_int(screen, "screen")
-    return pixel_error * 2.0 * distance * math.tan(math.radians(fov) / 2.0) / screen
+    return pixel_error * 2.0 * distance * math.tan(math.radians(fov) / 2.0) / screen  # type: ignore[arg-type]
 
 
 def _as_ground(value: object, label: str = "ground") -> str | float | None:
@@ -492,11 +492,11 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
         else:
             fill = None if ground_plane is None or ground_plane["auto"] else {
                 "height": ground_plane["height"], **DEFAULT_GROUND_FILL}
-            out_mesh, polygons, info = _generate_one(mesh, size, ground=fill, **options)
+            out_mesh, polygons, info = _generate_one(mesh, size, ground=fill, **options)  # type: ignore[arg-type]
         parts = {"polygons": polygons}
     else:
         out_mesh, polygons, info, lods = _levels_of_detail(
-            mesh, distances, pixel_error=pixel_error, fov=fov, screen=screen, options=options)
+            mesh, distances, pixel_error=pixel_error, fov=fov, screen=screen, options=options)  # type: ignore[arg-type]
         parts = {"polygons": polygons, "lods": lods}
     info = {"close": options["close"], **info, "up": up, "up_reason": up_reason,
             "triangles_single_sided": 2 * len(out_mesh.faces)}

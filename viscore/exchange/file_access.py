@@ -92,7 +92,7 @@ def refuse_path(path: str | os.PathLike, label: str, exc: OSError) -> InputError
     """One-line :class:`InputError` saying why a path cannot be opened."""
     if isinstance(exc, FileNotFoundError):
         if os.path.islink(path):
-            return InputError(f"{label}: a broken symbolic link (to {os.readlink(path)!r})")
+            return InputError(f"{label}: a broken symbolic link (to {os.readlink(path)!r})")  # type: ignore[type-var]
         return InputError(f"{label}: no such file")
     if isinstance(exc, NotADirectoryError):
         return InputError(f"{label}: a component of the path is a file, not a folder")
@@ -373,7 +373,7 @@ class FolderResolver(trimesh.resolvers.Resolver):
         where = f"{self.label}: {_quoted(text)}"
         try:
             root = self.root.resolve()
-            targets = []
+            targets = []  # type: ignore[var-annotated]
             for candidate in dict.fromkeys((text, unquote(text))):
                 if "\0" in candidate:
                     raise self._refuse(f"{where}: a NUL byte in the name")

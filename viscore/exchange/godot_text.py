@@ -346,7 +346,7 @@ def _load_tscn(data: bytes, path: Path, label: str) -> trimesh.Trimesh:
         placed.append((node_path, key, world_of(node_path, node_path)))
     if not placed:
         raise InputError(f"{label}: no OccluderInstance3D node holds an occluder")
-    return _instances_mesh(cache, placed, label, "godot-tscn")
+    return _instances_mesh(cache, placed, label, "godot-tscn")  # type: ignore[arg-type]
 
 
 # ----------------------------------------------------------------------------- writing

@@ -109,7 +109,7 @@ def _load_gltf(path: Path, label: str) -> trimesh.Trimesh:
         raise InputError(f"{label}: no node carries a triangle mesh")
     items.sort(key=lambda item: item[0])
     marked = [it for it in items if _occluder_hint(it[0])]
-    return _instances_mesh(local, marked or items, label, f"{fmt}-occonly" if marked else fmt)
+    return _instances_mesh(local, marked or items, label, f"{fmt}-occonly" if marked else fmt)  # type: ignore[arg-type]
 
 
 # ----------------------------------------------------------------------------- writing

@@ -147,7 +147,7 @@ def _call_packet(typingctx, fn, valid, scene, rays, args):
     ``void (const int*, RTCScene, void*, void*)`` through a pointer, so no
     ctypes object is baked into the compiled code (which numba could not cache).
     """
-    from llvmlite import ir
+    from llvmlite import ir  # type: ignore[import-untyped]
 
     sig = types.void(types.intp, types.intp, types.intp, types.intp, types.intp)
 
@@ -565,9 +565,9 @@ def _open(path: str) -> Library | None:
         return None
     address = ctypes.cast
     return Library(path=path, cdll=cdll,
-                   intersect1=address(cdll.rtcIntersect1, ctypes.c_void_p).value,
-                   intersect16=address(cdll.rtcIntersect16, ctypes.c_void_p).value,
-                   occluded16=address(cdll.rtcOccluded16, ctypes.c_void_p).value,
+                   intersect1=address(cdll.rtcIntersect1, ctypes.c_void_p).value,  # type: ignore[arg-type]
+                   intersect16=address(cdll.rtcIntersect16, ctypes.c_void_p).value,  # type: ignore[arg-type]
+                   occluded16=address(cdll.rtcOccluded16, ctypes.c_void_p).value,  # type: ignore[arg-type]
                    version=int(version))
 
 
@@ -587,7 +587,7 @@ def library() -> Library | None:
     """
     if not packets_enabled():
         return None
-    from numba.core.config import DISABLE_JIT
+    from numba.core.config import DISABLE_JIT  # type: ignore[attr-defined]
 
     if DISABLE_JIT:  # the packet loops call Embree from compiled code only
         return None

@@ -569,11 +569,11 @@ class Scene:
                                 packets.occluded(o32[:m].reshape(-1), d32[:m].reshape(-1),
                                                  tfar32, hit_out[a:b])
                         elif intersect:
-                            res = scene.run(o32[:m], d32[:m], dists=tfar32, output=1)
+                            res = scene.run(o32[:m], d32[:m], dists=tfar32, output=1)  # type: ignore[union-attr]
                             _store_hits(res["tfar"], res["primID"], scale, t_out[a:b],
                                         tri_out[a:b])
                         else:
-                            hit_out[a:b] = scene.run(o32[:m], d32[:m], dists=tfar32,
+                            hit_out[a:b] = scene.run(o32[:m], d32[:m], dists=tfar32,  # type: ignore[union-attr]
                                                      query="OCCLUDED") >= 0
                     except Exception as exc:  # noqa: BLE001 - re-raised below, in chunk order
                         errors[k] = exc

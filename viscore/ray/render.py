@@ -354,7 +354,7 @@ def overlay(rgb: npt.ArrayLike, image: ObjectImage, color: npt.ArrayLike | None 
         per = np.clip(np.asarray(color, dtype=np.float64).reshape(1, 3), 0.0, 1.0)
         idx = np.zeros(image.shape, dtype=np.int64)
     else:
-        per = _as_colors(colors, int(image.object.max()) + 1 if hit.any() else 0)
+        per = _as_colors(colors, int(image.object.max()) + 1 if hit.any() else 0)  # type: ignore[arg-type]
         idx = np.maximum(image.object, 0)
     per = per.astype(np.float32)
     out = base.astype(np.float32) / np.float32(255.0)
