@@ -690,7 +690,7 @@ def tscn_instances(text: str, resource: str) -> dict:
     ----------
     text : str
         The ``.tscn`` text (``[node ...]`` sections whose ``parent`` paths
-        start from the root, as Godot writes them [4]_).
+        start from the root, as Godot writes them).
     resource : str
         File name of the instanced scene (``room.glb``): nodes with
         ``instance=ExtResource(id)`` of an ``ext_resource`` whose path ends so.
