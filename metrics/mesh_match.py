@@ -180,7 +180,8 @@ def surface_distance(points: npt.ArrayLike, vertices: npt.ArrayLike, faces: npt.
     that estimate are measured exactly (:func:`_pair_distance`) and the
     smallest counts. Coordinates are taken relative to the vertices' mean.
     The largest distance over points sampled on another surface is the
-    directed sampled Hausdorff distance from that surface to this one (as the Metro tool measures it).
+    directed sampled Hausdorff distance from that surface to this one
+    (as the Metro tool measures it).
 
     Parameters
     ----------
