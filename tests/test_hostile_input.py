@@ -1571,7 +1571,7 @@ def test_cull_valid_odd_scenes(workdir):
                                    "--json", "--quiet"])
         assert_contract(rc, stdout, err, output=out, json_out=True)
         if rc == 0:
-            assert sorted(p.name for p in out.iterdir()) == ["cameras.json", "cull.json",
+            assert sorted(p.name for p in out.iterdir()) == ["cameras.json", "cull.json", "report.html",
                                                              "triangles.png"]
 
 
