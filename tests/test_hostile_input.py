@@ -1571,8 +1571,8 @@ def test_cull_valid_odd_scenes(workdir):
                                    "--json", "--quiet"])
         assert_contract(rc, stdout, err, output=out, json_out=True)
         if rc == 0:
-            assert sorted(p.name for p in out.iterdir()) == ["cameras.json", "cull.json", "report.html",
-                                                             "triangles.png"]
+            assert sorted(p.name for p in out.iterdir()) == [
+                "cameras.json", "cull.json", "report.html", "triangles.png"]
 
 
 def test_a_mistyped_builtin_name_gets_a_suggestion(tmp_path):
