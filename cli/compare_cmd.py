@@ -57,6 +57,7 @@ from viscore.generators import (
     get_generator,
     parse_method,
     plugin_versions,
+    report_kinds,
 )
 
 from ._common import dumps, emit, parse_list, write_atomic
@@ -230,14 +231,18 @@ def run_compare(args) -> int:
         check_memory(study_memory(settings, originals, n_jobs),
                      f"--jobs {jobs} --views {views} --quads {quads} --res {res} --rays {rays}")
     # 2. the study, in a folder this process alone writes (the cluster reached first)
+    held: list = []  # the jobs' and the culling column's log records, said once at the end
     with connect_scheduler(args.scheduler) as client, StudyFolder(out) as study:
-        rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
-                         scheduler=client, progress=not (args.quiet or args.json),
-                         originals=originals, files=files)
-        paired = paired_rows(rows, versus) if versus else []
-        culling = (_culling(culling_methods, out, frames=culling_frames, seed=seed,
-                            quiet=args.quiet or args.json)
-                   if args.culling and culling_methods else [])
+        try:
+            rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
+                             scheduler=client, progress=not (args.quiet or args.json),
+                             originals=originals, files=files, on_records=held.extend)
+            paired = paired_rows(rows, versus) if versus else []
+            culling = (_culling(culling_methods, out, frames=culling_frames, seed=seed,
+                                quiet=args.quiet or args.json, held=held)
+                       if args.culling and culling_methods else [])
+        finally:  # each kind of warning once, with its count (all of them with --verbose)
+            report_kinds(held, labels=list(dict.fromkeys([*methods, *culling_methods])))
         # plugin methods: their distribution and version beside the toolkit's
         plugins = plugin_versions(methods)
         doc = {"settings": asdict(settings), "rows": rows, "paired": paired,
@@ -287,12 +292,15 @@ def _plots(rows: list[dict], out: Path, meshes: list[str], seed: int) -> dict[st
 
 
 def _culling(methods: list[str], out: Path, *, frames: int, seed: int,
-             quiet: bool) -> list[dict]:
+             quiet: bool, held: list | None = None) -> list[dict]:
     """The culling column, one row per method, kept in ``out/culling.json``.
 
     Computed once per (methods, frames, seed, viscore version): running the
     study again reuses the file, as the study store reuses finished jobs.
+    Its log records go to ``held`` (said once with the study's, at the end)
+    unless ``--verbose`` says them as they come.
     """
+    from viscore.generators import call_held
     from viscore.generators.levels import culling_column
 
     key = {"methods": methods, "frames": frames, "seed": seed, "bounds": "auto",
@@ -307,7 +315,20 @@ def _culling(methods: list[str], out: Path, *, frames: int, seed: int,
     if not quiet:
         _log.info("culling column: %s on the built-in city, %d frames", ", ".join(methods),
                   frames)
-    column = culling_column(methods, frames=frames, seed=seed)
+    from tqdm import tqdm
+
+    with tqdm(desc="culling column", unit="step", disable=quiet) as bar:
+        def progress(done: int, total: int, what: str) -> None:
+            bar.total = total
+            bar.set_postfix_str(what)
+            bar.update(done - bar.n)
+
+        if held is None or logging.getLogger("viscore").isEnabledFor(logging.DEBUG):
+            column = culling_column(methods, frames=frames, seed=seed, progress=progress)
+        else:
+            column, records = call_held(culling_column, methods, frames=frames, seed=seed,
+                                        progress=progress)
+            held.extend(records)
     rows = [{"method": m, **{k: column[m][k] for k in ("culled_share", "false_culls",
                                                        "conservative", "overhead_ms")}}
             for m in methods]

@@ -7,6 +7,11 @@ pass on the same warning once per call: 29 identical lines for the 57 nodes of
 toolkit's loggers for a block; :func:`release` passes records on as they were,
 and :func:`report_parts` says each distinct message once, with how many parts
 gave it (``hierarchy: 29 of 57 nodes: ...``).
+
+Records held in a worker process reach the parent as plain values
+(:func:`portable`, :func:`restored`); a run of many jobs (``viscore compare``)
+says each kind of warning once at its end, with how many times it came
+(:func:`report_kinds`), and its diagnostics only under ``--verbose``.
 """
 
 from __future__ import annotations
@@ -17,7 +22,8 @@ import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import TypeVar
 
-__all__ = ["held_records", "release", "report_parts", "call_held"]
+__all__ = ["held_records", "release", "report_parts", "call_held", "portable", "restored",
+           "report_kinds"]
 
 T = TypeVar("T")
 
@@ -190,3 +196,102 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
         else:
             logger.log(record.levelno, "%s: %d of %d %s: %s", label, len(which), parts, what,
                        key.replace(_EACH, "each of them"))
+
+
+#: Fields of a record kept by :func:`portable` (its message is formatted first).
+_PORTABLE_FIELDS = ("name", "levelno", "levelname", "pathname", "lineno", "funcName",
+                    "created", "msecs", "thread", "threadName", "process", "processName")
+
+
+def portable(records: Sequence[logging.LogRecord]) -> list[dict]:
+    """Held records as plain dicts that pickle (a worker process hands them to its parent).
+
+    Each record's message is formatted here (``msg``, with ``args`` None):
+    arguments that do not pickle, or that a process alone can format, never
+    travel. :func:`restored` makes records of them again.
+
+    Examples
+    --------
+    >>> log = logging.getLogger("viscore.example"); log.setLevel(logging.INFO)
+    >>> with held_records() as records:
+    ...     log.warning("%d boxes", 3)
+    >>> [r.getMessage() for r in restored(portable(records))]
+    ['3 boxes']
+    """
+    return [{**{k: getattr(r, k, None) for k in _PORTABLE_FIELDS}, "msg": r.getMessage(),
+             "args": None} for r in records]
+
+
+def restored(items: Sequence[Mapping]) -> list[logging.LogRecord]:
+    """Records again from :func:`portable`'s dicts (for :func:`release` or :func:`report_kinds`)."""
+    return [logging.makeLogRecord(dict(item)) for item in items]
+
+
+def report_kinds(records: Sequence[logging.LogRecord], *, labels: Sequence[str] = (),
+                 level: int = logging.WARNING, what: str = "times") -> int:
+    """Say each kind of record at ``level`` or above once, with how many times it came.
+
+    Parameters
+    ----------
+    records : sequence of logging.LogRecord
+        Held records (:func:`held_records`, :func:`restored`), in the order
+        they were made; those under ``level`` are not said.
+    labels : sequence of str, optional
+        Prefixes that do not make a kind of their own: a text that begins
+        with one of them and a colon is grouped by the rest of it, and its
+        line names every label that gave it (the same warning about the
+        city's ground from ``aabb-skins`` and from ``solid-frusta``, whose
+        boxes come from aabb-skins, is one line).
+    level : int, optional
+        The lowest level said (default WARNING).
+    what : str, optional
+        The word after the count (default "times").
+
+    Returns
+    -------
+    int
+        The lines said.
+
+    Notes
+    -----
+    One record per kind, in the order the kinds first came, at the highest
+    level that kind came at, through the logger that made it first: the text
+    as it was when it came once, else ``<labels>: <text> (<n> <what>)``.
+
+    Examples
+    --------
+    >>> log = logging.getLogger("viscore.example"); log.setLevel(logging.INFO)
+    >>> with held_records() as records:
+    ...     log.warning("a: ground too thin")
+    ...     log.warning("b: ground too thin")
+    ...     log.info("a: a detail")
+    ...     log.warning("open mesh")
+    >>> with held_records() as said:
+    ...     _ = report_kinds(records, labels=("a", "b"))
+    >>> [r.getMessage() for r in said]
+    ['a, b: ground too thin (2 times)', 'open mesh']
+    """
+    groups: dict[str, list] = {}
+    for record in records:
+        if record.levelno < level:
+            continue
+        text = record.getMessage()
+        label = None
+        for candidate in labels:
+            if text.startswith(candidate + ": "):
+                label, text = candidate, text[len(candidate) + 2:]
+                break
+        group = groups.setdefault(text, [record, [], 0])
+        if record.levelno > group[0].levelno:
+            group[0] = record
+        if label is not None and label not in group[1]:
+            group[1].append(label)
+        group[2] += 1
+    for text, (record, names, count) in groups.items():
+        logger = logging.getLogger(record.name)
+        if count == 1:
+            logger.log(record.levelno, "%s", record.getMessage())
+        else:
+            prefix = ", ".join(names) + ": " if names else ""
+            logger.log(record.levelno, "%s%s (%d %s)", prefix, text, count, what)
+    return len(groups)

@@ -322,3 +322,20 @@ def test_study_folder_refuses_a_link_made_after_the_check(tmp_path):
     with pytest.raises(InputError, match="symbolic link"), StudyFolder(out):
         pass
     assert list(elsewhere.iterdir()) == []
+
+
+@pytest.mark.parametrize("verbose", [False, True])
+def test_compare_says_each_warning_once_with_its_count(tmp_path, capsys, verbose):
+    """aabb-skins warns that building-house is open in each of its two budgets' jobs (held in
+    the worker): one line with the count; --verbose says every job's lines as they come."""
+    argv = (["--verbose"] if verbose else []) + [
+        "compare", "building-house", "--methods", "aabb-skins", "--budget", "32,64",
+        "--views", "2", "--quads", "100", "--res", "24", "--rays", "500", "--no-culling",
+        "--out", str(tmp_path / "s"), "--json"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if "building-house is not closed" in ln]
+    if verbose:
+        assert len(lines) == 2 and not any("(2 times)" in ln for ln in lines)
+    else:
+        assert len(lines) == 1 and lines[0].endswith("(2 times)")
