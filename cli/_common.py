@@ -272,8 +272,10 @@ def warn_estimate(what: str, seconds: float, basis: str) -> bool:
     """
     if seconds <= ESTIMATE_WARN_SECONDS:
         return False
+    from viscore.generators import UNHELD
+
     _log.warning("%s: estimated %s (%s); Ctrl-C stops it", what, format_duration(seconds),
-                 basis)
+                 basis, extra={UNHELD: True})  # said now, when a command holds its records
     return True
 
 

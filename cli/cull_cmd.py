@@ -74,7 +74,7 @@ from viscore.culling.occludee_bounds import (
     MAX_CLUSTERS,
     occludee_boxes,
 )
-from viscore.generators import REGISTRY, check_method
+from viscore.generators import REGISTRY, call_held, check_method, report_kinds
 from viscore.generators.levels import (
     JOINED_METHODS,
     culling_runtimes,
@@ -529,11 +529,19 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
     with tqdm(total=todo, desc="occluders", unit="mesh", disable=not progress,
               leave=False) as bar:
         tick = RateEstimate(f"cull: occluders of {todo:,} meshes", todo, "meshes", bar.update)
-        runtimes, info = culling_runtimes(objects, indices, methods, active=active,
-                                          reduction=reduction, seed=seed,
-                                          frusta_source=source, cap=args.cap,
-                                          rank=args.rank, progress=tick, files=files,
-                                          joined=() if args.per_object else None, flat=flat)
+        # the generators' warnings held, then each kind said once with its count (the same
+        # one about the city's ground from aabb-skins and from solid-frusta is one line);
+        # their details only with --verbose, which says every record as it comes
+        options = dict(active=active, reduction=reduction, seed=seed, frusta_source=source,
+                       cap=args.cap, rank=args.rank, progress=tick, files=files,
+                       joined=() if args.per_object else None, flat=flat)
+        if logging.getLogger("viscore").isEnabledFor(logging.DEBUG):
+            runtimes, info = culling_runtimes(objects, indices, methods, **options)
+            held = []
+        else:
+            (runtimes, info), held = call_held(culling_runtimes, objects, indices, methods,
+                                               **options)
+    report_kinds(held, labels=list(dict.fromkeys([*methods, source])))
     bounds, bound_kind, split = occludee_boxes(objects, bound_kind, clusters)
     with tqdm(total=len(path), desc="frames", unit="frame", disable=not progress,
               leave=False) as bar:

@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import TypeVar
 
 __all__ = ["held_records", "release", "report_parts", "call_held", "portable", "restored",
-           "report_kinds"]
+           "report_kinds", "UNHELD"]
 
 T = TypeVar("T")
 
@@ -32,6 +32,10 @@ _EACH = "\x00each\x00"
 
 #: The loggers held: this one and every logger below it.
 _PREFIX = "viscore"
+
+#: A record with this attribute true is never held (``extra={UNHELD: True}``): what must
+#: be said when it comes, such as a long run's estimate, passes a hold.
+UNHELD = "viscore_unheld"
 
 
 class _Hold(logging.Filter):
@@ -44,7 +48,7 @@ class _Hold(logging.Filter):
         self._seen: set[int] = set()  # a record reaches several handlers: kept once
 
     def filter(self, record: logging.LogRecord) -> bool:
-        if record.thread != self.thread or not (
+        if record.thread != self.thread or getattr(record, UNHELD, False) or not (
                 record.name == _PREFIX or record.name.startswith(_PREFIX + ".")):
             return True
         if id(record) not in self._seen:
@@ -78,8 +82,8 @@ def held_records() -> Iterator[list[logging.LogRecord]]:
     made); after the block they are the caller's to :func:`release` or
     :func:`report_parts`. Records of other threads, and of loggers outside
     ``viscore``, pass as usual; so do records of a logger made during the
-    block that reach only handlers of its own (none of ours has any). A hold
-    inside another sees the records first.
+    block that reach only handlers of its own (none of ours has any), and
+    records marked :data:`UNHELD`. A hold inside another sees the records first.
 
     Examples
     --------

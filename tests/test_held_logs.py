@@ -151,3 +151,14 @@ def test_portable_records_pickle_and_read_back_formatted():
     back = restored(pickle.loads(pickle.dumps(portable(records))))
     assert [(r.name, r.levelno, r.getMessage()) for r in back] == [
         (_LOG.name, logging.WARNING, "thing at 3")]
+
+
+def test_a_record_marked_unheld_passes_a_hold(caplog):
+    """A long run's estimate is said when it comes, while the generators' records wait."""
+    from viscore.generators._held_logs import UNHELD
+
+    with caplog.at_level(logging.INFO), held_records() as records:
+        _LOG.warning("held")
+        _LOG.warning("estimated 2 h", extra={UNHELD: True})
+    assert [r.getMessage() for r in records] == ["held"]
+    assert [r.getMessage() for r in caplog.records] == ["estimated 2 h"]
