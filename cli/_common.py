@@ -268,8 +268,10 @@ def warn_estimate(what: str, seconds: float, basis: str) -> bool:
     """
     if seconds <= ESTIMATE_WARN_SECONDS:
         return False
+    from viscore.generators import UNHELD
+
     _log.warning("%s: estimated %s (%s); Ctrl-C stops it", what, format_duration(seconds),
-                 basis)
+                 basis, extra={UNHELD: True})  # said now, when a command holds its records
     return True
 
 
@@ -277,9 +279,26 @@ class RateEstimate:
     """A progress callback that times a small first batch and warns of a long run once.
 
     Wraps ``update`` (a progress bar's, or None) for ``total`` steps of
-    ``what``; once :data:`FIRST_SECONDS` have passed or :data:`FIRST_SHARE` of
-    the steps are done, the remaining time is estimated from the measured rate
-    and said with :func:`warn_estimate` when long.
+    ``what``. The first step is not timed: it carries the run's warm-up
+    (imports, numba's compilation, the scenes and pools made on first use),
+    which a short run's rate must not spread over every step to come. From
+    its end, once :data:`FIRST_SECONDS` have passed or :data:`FIRST_SHARE` of
+    the steps are done, the remaining time is estimated from the rate of the
+    steps since, and said with :func:`warn_estimate` when long.
+    ``clock`` (seconds, :func:`time.perf_counter` by default) is for tests.
+
+    Examples
+    --------
+    A first step of 60 s (compiling), then 2 s a step: the 100 steps to go
+    take 200 s (said once the two steps after the first took 4 s).
+
+    >>> now = [0.0]
+    >>> tick = RateEstimate("x", 103, "steps", clock=lambda: now[0])
+    >>> for seconds in (60.0, 2.0, 2.0):
+    ...     now[0] += seconds
+    ...     tick()
+    >>> tick.estimate
+    200.0
     """
 
     #: Seconds of work that make a first batch, at most.
@@ -287,11 +306,15 @@ class RateEstimate:
     #: Share of the steps that make a first batch, at most.
     FIRST_SHARE = 0.05
 
-    def __init__(self, what: str, total: int, unit: str, update=None) -> None:
+    def __init__(self, what: str, total: int, unit: str, update=None, *,
+                 clock=time.perf_counter) -> None:
         self.what, self.total, self.unit, self._update = what, int(total), unit, update
         self.done = 0
-        self._start = time.perf_counter()
+        self._clock = clock
+        self._warm: tuple[float, int] | None = None  # (time, steps) at the first step's end
         self._said = False
+        #: The remaining seconds estimated once (None before).
+        self.estimate: float | None = None
 
     def __call__(self, n: int = 1) -> None:
         self.done += n
@@ -299,11 +322,16 @@ class RateEstimate:
             self._update(n)
         if self._said or self.done <= 0 or self.done >= self.total:
             return
-        elapsed = time.perf_counter() - self._start
+        now = self._clock()
+        if self._warm is None:
+            self._warm = (now, self.done)
+            return
+        elapsed, steps = now - self._warm[0], self.done - self._warm[1]
         if elapsed < self.FIRST_SECONDS and self.done < self.FIRST_SHARE * self.total:
             return
         self._said = True
-        per = elapsed / self.done
-        warn_estimate(self.what, per * (self.total - self.done),
+        per = elapsed / steps
+        self.estimate = per * (self.total - self.done)
+        warn_estimate(self.what, self.estimate,
                       f"{self.total - self.done:,} {self.unit} to go at {per:.3g} s each, "
-                      f"measured on the first {self.done:,}")
+                      f"measured on {steps:,} after the first")

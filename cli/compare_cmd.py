@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 from dataclasses import asdict
 from pathlib import Path
 
@@ -26,6 +27,7 @@ from viscore.generators import (
     get_generator,
     parse_method,
     plugin_versions,
+    report_kinds,
 )
 
 from ._common import dumps, emit, parse_list, write_atomic
@@ -199,14 +201,22 @@ def run_compare(args) -> int:
         check_memory(study_memory(settings, originals, n_jobs),
                      f"--jobs {jobs} --views {views} --quads {quads} --res {res} --rays {rays}")
     # 2. the study, in a folder this process alone writes (the cluster reached first)
+    held: list = []  # the jobs' and the culling column's log records, said once at the end
     with connect_scheduler(args.scheduler) as client, StudyFolder(out) as study:
-        rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
-                         scheduler=client, progress=not (args.quiet or args.json),
-                         originals=originals, files=files)
-        paired = paired_rows(rows, versus) if versus else []
-        culling = (_culling(culling_methods, out, frames=culling_frames, seed=seed,
-                            quiet=args.quiet or args.json)
-                   if args.culling and culling_methods else [])
+        beside = (_CullingBeside(culling_methods, out, frames=culling_frames, seed=seed,
+                                 quiet=args.quiet or args.json)
+                  if args.culling and culling_methods else None)
+        try:
+            rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
+                             scheduler=client, progress=not (args.quiet or args.json),
+                             originals=originals, files=files, on_records=held.extend)
+            paired = paired_rows(rows, versus) if versus else []
+            culling = beside.result() if beside is not None else []
+            held.extend(beside.records if beside is not None else [])
+        finally:  # each kind of warning once, with its count (all of them with --verbose)
+            if beside is not None:
+                beside.stop()
+            report_kinds(held, labels=list(dict.fromkeys([*methods, *culling_methods])))
         # plugin methods: their distribution and version beside the toolkit's
         plugins = plugin_versions(methods)
         doc = {"settings": asdict(settings), "rows": rows, "paired": paired,
@@ -255,33 +265,148 @@ def _plots(rows: list[dict], out: Path, meshes: list[str], seed: int) -> dict[st
     return images
 
 
-def _culling(methods: list[str], out: Path, *, frames: int, seed: int,
-             quiet: bool) -> list[dict]:
+def _culling_key(methods: list[str], frames: int, seed: int) -> dict:
+    """What ``out/culling.json`` is kept for: a column of other settings is computed again."""
+    return {"methods": methods, "frames": frames, "seed": seed, "bounds": "auto",
+            "version": provenance().get("viscore")}
+
+
+def _cached_culling(methods: list[str], out: Path, *, frames: int, seed: int
+                    ) -> list[dict] | None:
+    """The rows kept in ``out/culling.json`` for these settings, else None."""
+    try:
+        cached = json.loads((out / "culling.json").read_text())
+        if cached.get("key") == _culling_key(methods, frames, seed):
+            return cached["rows"]
+    except (OSError, ValueError, AttributeError, KeyError, TypeError):
+        pass
+    return None
+
+
+def _culling_rows(methods: list[str], column: dict) -> list[dict]:
+    return [{"method": m, **{k: column[m][k] for k in ("culled_share", "false_culls",
+                                                       "conservative", "overhead_ms")}}
+            for m in methods]
+
+
+def _culling_child(conn, parent: int, methods: list[str], frames: int, seed: int,
+                   hold: bool) -> None:
+    """In the culling column's own process: the column, its progress and its held records
+    sent up ``conn`` (:class:`_CullingBeside`)."""
+    from viscore._jobs import worker_init
+    from viscore.generators import call_held, portable
+    from viscore.generators.levels import culling_column
+
+    worker_init(parent)
+    try:
+        def progress(done: int, total: int, what: str) -> None:
+            conn.send(("progress", done, total, what))
+
+        if hold:
+            column, records = call_held(culling_column, methods, frames=frames, seed=seed,
+                                        progress=progress)
+        else:
+            column, records = culling_column(methods, frames=frames, seed=seed,
+                                             progress=progress), []
+        conn.send(("done", column, portable(records)))
+    except BaseException as exc:  # handed to the parent, which raises it
+        try:
+            conn.send(("error", exc))
+        except Exception:  # an exception that does not pickle: its text
+            conn.send(("error", RuntimeError(f"{type(exc).__name__}: {exc}")))
+    finally:
+        conn.close()
+
+
+class _CullingBeside:
     """The culling column, one row per method, kept in ``out/culling.json``.
 
     Computed once per (methods, frames, seed, viscore version): running the
     study again reuses the file, as the study store reuses finished jobs.
+    Otherwise it is computed in a process of its own, started here (before the
+    study's pool, so nothing but this thread runs when it forks) and running
+    beside the study's jobs: the column is the same call on the same seed, so
+    the same rows (its ``overhead_ms`` is a time, as the study's seconds are);
+    the two share the cores instead of waiting for each other. Its log
+    records come back held (:func:`viscore.generators.call_held`), to be said
+    once with the study's at the end, unless ``--verbose`` says them as they
+    come; its progress is a bar of its own under the study's.
     """
-    from viscore.generators.levels import culling_column
 
-    key = {"methods": methods, "frames": frames, "seed": seed, "bounds": "auto",
-           "version": provenance().get("viscore")}
-    path = out / "culling.json"
-    try:
-        cached = json.loads(path.read_text())
-        if cached.get("key") == key:
-            return cached["rows"]
-    except (OSError, ValueError, AttributeError, KeyError):
-        pass
-    if not quiet:
-        _log.info("culling column: %s on the built-in city, %d frames", ", ".join(methods),
-                  frames)
-    column = culling_column(methods, frames=frames, seed=seed)
-    rows = [{"method": m, **{k: column[m][k] for k in ("culled_share", "false_culls",
-                                                       "conservative", "overhead_ms")}}
-            for m in methods]
-    write_atomic(path, dumps({"key": key, "rows": rows}).encode())
-    return rows
+    def __init__(self, methods: list[str], out: Path, *, frames: int, seed: int,
+                 quiet: bool) -> None:
+        self.methods, self.out, self.frames, self.seed = methods, out, frames, seed
+        self.rows = _cached_culling(methods, out, frames=frames, seed=seed)
+        self.records: list = []
+        self._process = None
+        if self.rows is not None:
+            return
+        import multiprocessing
+        import threading
+
+        from tqdm import tqdm
+
+        if not quiet:
+            _log.info("culling column: %s on the built-in city, %d frames, beside the "
+                      "study's jobs", ", ".join(methods), frames)
+        hold = not logging.getLogger("viscore").isEnabledFor(logging.DEBUG)
+        ctx = multiprocessing.get_context("fork")
+        receive, send = ctx.Pipe(duplex=False)
+        self._process = ctx.Process(target=_culling_child, name="viscore-culling-column",
+                                    args=(send, os.getpid(), methods, frames, seed, hold),
+                                    daemon=True)
+        self._process.start()
+        send.close()
+        self._bar = tqdm(desc="culling column", unit="step", disable=quiet, position=1,
+                         leave=False)
+        self._answer: tuple = ("error", RuntimeError(
+            "the culling column's process ended without an answer"))
+        self._reader = threading.Thread(target=self._read, args=(receive,), daemon=True)
+        self._reader.start()
+
+    def _read(self, receive) -> None:
+        """In a thread: the child's progress onto the bar, then its answer."""
+        try:
+            while True:
+                message = receive.recv()
+                if message[0] != "progress":
+                    self._answer = message
+                    return
+                _, done, total, what = message
+                self._bar.total = total
+                self._bar.set_postfix_str(what)
+                self._bar.update(done - self._bar.n)
+        except (EOFError, OSError):
+            return
+        finally:
+            receive.close()
+
+    def result(self) -> list[dict]:
+        """The rows (waiting for the process), kept in ``out/culling.json``."""
+        if self.rows is not None:
+            return self.rows
+        self._reader.join()
+        self._process.join()
+        self._bar.close()
+        kind, *payload = self._answer
+        if kind == "error":
+            raise payload[0]
+        from viscore.generators import restored
+
+        column, records = payload
+        self.records = restored(records)
+        self.rows = _culling_rows(self.methods, column)
+        write_atomic(self.out / "culling.json",
+                     dumps({"key": _culling_key(self.methods, self.frames, self.seed),
+                            "rows": self.rows}).encode())
+        return self.rows
+
+    def stop(self) -> None:
+        """End the process now (the study failed or was interrupted); idempotent."""
+        if self._process is not None and self._process.is_alive():
+            self._process.kill()
+            self._process.join(timeout=2)
+            self._bar.close()
 
 
 def _culling_markdown(rows: list[dict]) -> str:

@@ -20,7 +20,7 @@ from viscore import InputError, provenance, stream_seed
 from viscore._atomic import LockedFolder
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
 from viscore.culling import AUTO_MIN_SIZE, DEFAULT_CLUSTERS, MAX_CLUSTERS, occludee_boxes
-from viscore.generators import REGISTRY, check_method
+from viscore.generators import REGISTRY, call_held, check_method, report_kinds
 from viscore.generators.levels import (
     JOINED_METHODS,
     culling_runtimes,
@@ -414,11 +414,19 @@ def _simulate(args, objects, indices, path, folder: LockedFolder, *, progress: b
     with tqdm(total=todo, desc="occluders", unit="mesh", disable=not progress,
               leave=False) as bar:
         tick = RateEstimate(f"cull: occluders of {todo:,} meshes", todo, "meshes", bar.update)
-        runtimes, info = culling_runtimes(objects, indices, methods, active=active,
-                                          reduction=reduction, seed=seed,
-                                          frusta_source=source, cap=args.cap,
-                                          rank=args.rank, progress=tick, files=files,
-                                          joined=() if args.per_object else None, flat=flat)
+        # the generators' warnings held, then each kind said once with its count (the same
+        # one about the city's ground from aabb-skins and from solid-frusta is one line);
+        # their details only with --verbose, which says every record as it comes
+        options = dict(active=active, reduction=reduction, seed=seed, frusta_source=source,
+                       cap=args.cap, rank=args.rank, progress=tick, files=files,
+                       joined=() if args.per_object else None, flat=flat)
+        if logging.getLogger("viscore").isEnabledFor(logging.DEBUG):
+            runtimes, info = culling_runtimes(objects, indices, methods, **options)
+            held = []
+        else:
+            (runtimes, info), held = call_held(culling_runtimes, objects, indices, methods,
+                                               **options)
+    report_kinds(held, labels=list(dict.fromkeys([*methods, source])))
     bounds, bound_kind, split = occludee_boxes(objects, bound_kind, clusters)
     with tqdm(total=len(path), desc="frames", unit="frame", disable=not progress,
               leave=False) as bar:

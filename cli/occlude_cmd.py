@@ -18,8 +18,9 @@ from .report.occlude_page import write_occlude_report
 
 _log = logging.getLogger(__name__)
 
-#: Too-small objects listed one per line on stderr; the rest are counted.
-REFUSED_LINES = 20
+#: Names shown on the line of a kind of refusal (the others are counted; all are in
+#: ``occlude.json``, and each has a line of its own with ``--verbose``).
+REFUSED_NAMES = 3
 
 
 def add_parser(sub, common) -> None:
@@ -142,14 +143,21 @@ def run_occlude(args) -> int:
 
 
 def _refusals(doc: dict) -> None:
-    """One line per refused object on stderr (too-small ones capped at REFUSED_LINES), one
-    per method and reason for the objects a method refused."""
-    small = [(n, r["refused"]) for n, r in doc["objects"].items() if r["refused"]]
-    for name, why in small[:REFUSED_LINES]:
-        _log.warning("refused %s: %s", name, why)
-    if len(small) > REFUSED_LINES:
-        _log.warning("refused %d more objects as too small or not named (listed in "
-                     "occlude.json)", len(small) - REFUSED_LINES)
+    """One line on stderr per kind of refusal, with its count: the objects refused before
+    any method (too small, not named: the kind is the reason's text before its first
+    colon) and, per method, the objects it refused for one reason. Each refused object
+    has a line of its own at DEBUG (``--verbose``)."""
+    kinds: dict[str, list[tuple[str, str]]] = {}
+    for name, row in doc["objects"].items():
+        if row["refused"]:
+            kinds.setdefault(row["refused"].split(":", 1)[0], []).append((name, row["refused"]))
+            _log.debug("refused %s: %s", name, row["refused"])
+    for kind, refused in kinds.items():
+        if len(refused) == 1:
+            _log.warning("refused %s: %s", *refused[0])
+        else:
+            _log.warning("refused %d objects as %s (listed in occlude.json): %s", len(refused),
+                         kind, _shown([name for name, _ in refused]))
     # per method, the objects refused for one reason on one line (E1M1's 58 open meshes
     # that aabb-skins leaves empty were 58 lines)
     groups: dict[tuple[str, str], list[str]] = {}
@@ -161,9 +169,13 @@ def _refusals(doc: dict) -> None:
         if len(names) == 1:
             _log.warning("refused %s for %s: %s", names[0], method, why)
         else:
-            shown = ", ".join(names[:3]) + (", ..." if len(names) > 3 else "")
             _log.warning("refused %d objects for %s (%s; listed in occlude.json): %s",
-                         len(names), method, shown, why)
+                         len(names), method, _shown(names), why)
+
+
+def _shown(names: list[str]) -> str:
+    """The first :data:`REFUSED_NAMES` names, then ``...`` when there are more."""
+    return ", ".join(names[:REFUSED_NAMES]) + (", ..." if len(names) > REFUSED_NAMES else "")
 
 
 def _summary(doc: dict, out, made) -> str:

@@ -12,6 +12,7 @@ methods under the ``viscore.generators`` entry points (plugins, see
 (:mod:`viscore.generators.testing`) checks a method against the contract.
 """
 
+from ._held_logs import UNHELD, call_held, portable, release, report_kinds, restored
 from .aabb_skins import boxes_mesh, generate_aabb_skins
 from .baselines import generate_bbox, generate_godot, generate_original, generate_qem
 from .hybrid import generate_hybrid, metric_guided_simplify
@@ -68,4 +69,5 @@ __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOpt
            "frusta_method", "JOINED_METHODS", "joined_occluder", "occlude_level",
            "culling_column", "default_methods", "occlude_level",
            "culling_column", "default_methods",
-           "PluginError", "PLUGIN_GROUP", "plugin_versions", "check_generator"]
+           "PluginError", "PLUGIN_GROUP", "plugin_versions", "check_generator",
+           "call_held", "portable", "restored", "release", "report_kinds", "UNHELD"]

@@ -8,7 +8,8 @@ import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import TypeVar
 
-__all__ = ["held_records", "release", "report_parts", "call_held"]
+__all__ = ["held_records", "release", "report_parts", "call_held", "portable", "restored",
+           "report_kinds", "UNHELD"]
 
 T = TypeVar("T")
 
@@ -17,6 +18,10 @@ _EACH = "\x00each\x00"
 
 #: The loggers held: this one and every logger below it.
 _PREFIX = "viscore"
+
+#: A record with this attribute true is never held (``extra={UNHELD: True}``): what must
+#: be said when it comes, such as a long run's estimate, passes a hold.
+UNHELD = "viscore_unheld"
 
 
 class _Hold(logging.Filter):
@@ -29,7 +34,7 @@ class _Hold(logging.Filter):
         self._seen: set[int] = set()  # a record reaches several handlers: kept once
 
     def filter(self, record: logging.LogRecord) -> bool:
-        if record.thread != self.thread or not (
+        if record.thread != self.thread or getattr(record, UNHELD, False) or not (
                 record.name == _PREFIX or record.name.startswith(_PREFIX + ".")):
             return True
         if id(record) not in self._seen:
@@ -63,8 +68,8 @@ def held_records() -> Iterator[list[logging.LogRecord]]:
     made); after the block they are the caller's to :func:`release` or
     :func:`report_parts`. Records of other threads, and of loggers outside
     ``viscore``, pass as usual; so do records of a logger made during the
-    block that reach only handlers of its own (none of ours has any). A hold
-    inside another sees the records first.
+    block that reach only handlers of its own (none of ours has any), and
+    records marked :data:`UNHELD`. A hold inside another sees the records first.
 
     Examples
     --------
@@ -181,3 +186,102 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
         else:
             logger.log(record.levelno, "%s: %d of %d %s: %s", label, len(which), parts, what,
                        key.replace(_EACH, "each of them"))
+
+
+#: Fields of a record kept by :func:`portable` (its message is formatted first).
+_PORTABLE_FIELDS = ("name", "levelno", "levelname", "pathname", "lineno", "funcName",
+                    "created", "msecs", "thread", "threadName", "process", "processName")
+
+
+def portable(records: Sequence[logging.LogRecord]) -> list[dict]:
+    """Held records as plain dicts that pickle (a worker process hands them to its parent).
+
+    Each record's message is formatted here (``msg``, with ``args`` None):
+    arguments that do not pickle, or that a process alone can format, never
+    travel. :func:`restored` makes records of them again.
+
+    Examples
+    --------
+    >>> log = logging.getLogger("viscore.example"); log.setLevel(logging.INFO)
+    >>> with held_records() as records:
+    ...     log.warning("%d boxes", 3)
+    >>> [r.getMessage() for r in restored(portable(records))]
+    ['3 boxes']
+    """
+    return [{**{k: getattr(r, k, None) for k in _PORTABLE_FIELDS}, "msg": r.getMessage(),
+             "args": None} for r in records]
+
+
+def restored(items: Sequence[Mapping]) -> list[logging.LogRecord]:
+    """Records again from :func:`portable`'s dicts (for :func:`release` or :func:`report_kinds`)."""
+    return [logging.makeLogRecord(dict(item)) for item in items]
+
+
+def report_kinds(records: Sequence[logging.LogRecord], *, labels: Sequence[str] = (),
+                 level: int = logging.WARNING, what: str = "times") -> int:
+    """Say each kind of record at ``level`` or above once, with how many times it came.
+
+    Parameters
+    ----------
+    records : sequence of logging.LogRecord
+        Held records (:func:`held_records`, :func:`restored`), in the order
+        they were made; those under ``level`` are not said.
+    labels : sequence of str, optional
+        Prefixes that do not make a kind of their own: a text that begins
+        with one of them and a colon is grouped by the rest of it, and its
+        line names every label that gave it (the same warning about the
+        city's ground from ``aabb-skins`` and from ``solid-frusta``, whose
+        boxes come from aabb-skins, is one line).
+    level : int, optional
+        The lowest level said (default WARNING).
+    what : str, optional
+        The word after the count (default "times").
+
+    Returns
+    -------
+    int
+        The lines said.
+
+    Notes
+    -----
+    One record per kind, in the order the kinds first came, at the highest
+    level that kind came at, through the logger that made it first: the text
+    as it was when it came once, else ``<labels>: <text> (<n> <what>)``.
+
+    Examples
+    --------
+    >>> log = logging.getLogger("viscore.example"); log.setLevel(logging.INFO)
+    >>> with held_records() as records:
+    ...     log.warning("a: ground too thin")
+    ...     log.warning("b: ground too thin")
+    ...     log.info("a: a detail")
+    ...     log.warning("open mesh")
+    >>> with held_records() as said:
+    ...     _ = report_kinds(records, labels=("a", "b"))
+    >>> [r.getMessage() for r in said]
+    ['a, b: ground too thin (2 times)', 'open mesh']
+    """
+    groups: dict[str, list] = {}
+    for record in records:
+        if record.levelno < level:
+            continue
+        text = record.getMessage()
+        label = None
+        for candidate in labels:
+            if text.startswith(candidate + ": "):
+                label, text = candidate, text[len(candidate) + 2:]
+                break
+        group = groups.setdefault(text, [record, [], 0])
+        if record.levelno > group[0].levelno:
+            group[0] = record
+        if label is not None and label not in group[1]:
+            group[1].append(label)
+        group[2] += 1
+    for text, (record, names, count) in groups.items():
+        logger = logging.getLogger(record.name)
+        if count == 1:
+            logger.log(record.levelno, "%s", record.getMessage())
+        else:
+            prefix = ", ".join(names) + ": " if names else ""
+            logger.log(record.levelno, "%s%s (%d %s)", prefix, text, count, what)
+    return len(groups)

@@ -322,3 +322,42 @@ def test_study_folder_refuses_a_link_made_after_the_check(tmp_path):
     with pytest.raises(InputError, match="symbolic link"), StudyFolder(out):
         pass
     assert list(elsewhere.iterdir()) == []
+
+
+@pytest.mark.parametrize("verbose", [False, True])
+def test_compare_says_each_warning_once_with_its_count(tmp_path, capsys, verbose):
+    """aabb-skins warns that building-house is open in each of its two budgets' jobs (held in
+    the worker): one line with the count; --verbose says every job's lines as they come."""
+    argv = (["--verbose"] if verbose else []) + [
+        "compare", "building-house", "--methods", "aabb-skins", "--budget", "32,64",
+        "--views", "2", "--quads", "100", "--res", "24", "--rays", "500", "--no-culling",
+        "--out", str(tmp_path / "s"), "--json"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if "building-house is not closed" in ln]
+    if verbose:
+        assert len(lines) == 2 and not any("(2 times)" in ln for ln in lines)
+    else:
+        assert len(lines) == 1 and lines[0].endswith("(2 times)")
+
+
+def test_compare_culling_column_error_in_its_process_is_one_line(tmp_path, capsys,
+                                                                monkeypatch):
+    """The culling column runs in a process of its own beside the jobs: its bad input
+    comes back as the one line and exit 2 it was in this process, and no results."""
+    from viscore import InputError
+    from viscore.generators import levels
+
+    def broken(*args, **kwargs):
+        raise InputError("culling: broken on purpose")
+
+    monkeypatch.setattr(levels, "culling_column", broken)  # the forked process has it too
+    out = tmp_path / "s"
+    argv = ["compare", "building-house", "--methods", "bbox", "--budget", "32", "--views", "2",
+            "--quads", "100", "--res", "16", "--rays", "200", "--culling-frames", "2",
+            "--out", str(out), "--json"]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert "culling: broken on purpose" in captured.err and "Traceback" not in captured.err
+    assert captured.out == "" and not (out / "culling.json").exists()
+    assert not (out / "results.json").exists()

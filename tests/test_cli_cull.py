@@ -425,10 +425,29 @@ def test_cull_long_run_says_how_long(run, street, tmp_path, capsys, monkeypatch)
     monkeypatch.setattr(_common.RateEstimate, "FIRST_SECONDS", 0.0)
     scene, cameras = street
     out = tmp_path / "out"
-    assert run(scene, "--path", cameras, *_SMALL[:-1], "--out", out, "--json") == 0
+    assert run(scene, "--frames", 4, *_SMALL[:-1], "--out", out, "--json") == 0
     captured = capsys.readouterr()
-    assert json.loads(captured.out)["settings"]["frames"] == 2  # stdout: the document alone
-    assert "cull: 2 frames: estimated" in captured.err and "measured on the first 1" in captured.err
+    assert json.loads(captured.out)["settings"]["frames"] == 4  # stdout: the document alone
+    # the first frame (warm-up) is not timed: the rate is that of the second
+    assert "cull: 4 frames: estimated" in captured.err
+    assert "2 frames to go" in captured.err and "measured on 1 after the first" in captured.err
+
+
+def test_rate_estimate_leaves_the_warm_up_out():
+    """A first step of 60 s (numba compiling), then steps of 2 s and 1 s: 100 steps to go
+    at 1.5 s take 150 s, not the 2,100 s that the mean of all three steps would give."""
+    from viscore.cli._common import RateEstimate
+
+    now = [0.0]
+    seen = []
+    tick = RateEstimate("x", 103, "steps", seen.append, clock=lambda: now[0])
+    for seconds in (60.0, 2.0, 1.0):  # said once the steps after the first took 3 s
+        now[0] += seconds
+        tick()
+    assert tick.estimate == 100 * 1.5 and seen == [1, 1, 1]
+    now[0] += 50.0
+    tick()  # said once only
+    assert tick.estimate == 150.0
 
 
 def test_cull_table_conservative_cell():

@@ -460,3 +460,20 @@ def test_job_messages_name_the_mesh():
                    "aabb-skins", None, 0)
     texts = [text for _, _, text in job.logs]
     assert any("wallA is not closed" in t for t in texts), texts
+
+
+@pytest.mark.parametrize("verbose", [False, True])
+def test_occlude_says_each_kind_of_refusal_once_with_its_count(tmp_path, caplog, verbose):
+    """--min-size 0.16 of the map's diagonal (16.6) refuses the two lower blocks (map_part2
+    and map_part4: diagonals 2.45 and 2.06) and the debris as too small, and keeps the tall
+    block (2.87) with the ground: one line with the count and their names; --verbose adds
+    one line per object."""
+    obj = _obj_level(tmp_path / "map.obj")
+    with caplog.at_level("DEBUG" if verbose else "INFO"):
+        assert main([*(["--verbose"] if verbose else []), "occlude", str(obj), "-o",
+                     str(tmp_path / "out"), "--methods", "bbox", "--min-size", "0.16"]) == 0
+    said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("refused")]
+    grouped = [m for m in said if m.startswith("refused 3 objects as too small")]
+    assert len(grouped) == 1
+    assert grouped[0].endswith("map_part2, map_part4, map_part5")
+    assert len([m for m in said if m.startswith("refused map_part")]) == (3 if verbose else 0)

@@ -5,7 +5,14 @@ import threading
 
 import pytest
 
-from viscore.generators._held_logs import held_records, release, report_parts
+from viscore.generators._held_logs import (
+    held_records,
+    portable,
+    release,
+    report_kinds,
+    report_parts,
+    restored,
+)
 
 _LOG = logging.getLogger("viscore.generators.test_held_logs")
 
@@ -105,3 +112,53 @@ def test_report_parts_says_its_label_once():
     assert [r.getMessage() for r in said] == [
         "aabb-skins: 2 of 3 meshes: mesh is not closed",
         "aabb-skins mesh 1: solid-frusta: aabb-skins: tiny"]
+
+
+def test_report_kinds_says_each_warning_once_with_its_count(caplog):
+    """A study's jobs give the same warning per budget, and two methods the same one about
+    the city's ground: one line each, with the count; details under WARNING are not said."""
+    with held_records() as records:
+        for _ in range(2):
+            _LOG.warning("aabb-skins: house is not closed")
+        _LOG.warning("aabb-skins: ground: walls too thin")
+        _LOG.error("solid-frusta: ground: walls too thin")  # the higher level wins
+        _LOG.info("planar-sections: closing adds 139%")
+        _LOG.warning("qem: once only")
+    said = report_kinds(records, labels=("aabb-skins", "solid-frusta", "qem"))
+    assert said == 3
+    assert [(r.levelno, r.getMessage()) for r in caplog.records] == [
+        (logging.WARNING, "aabb-skins: house is not closed (2 times)"),
+        (logging.ERROR, "aabb-skins, solid-frusta: ground: walls too thin (2 times)"),
+        (logging.WARNING, "qem: once only")]
+    caplog.clear()
+    assert report_kinds(records, level=logging.INFO, what="jobs",
+                        labels=("aabb-skins", "solid-frusta")) == 4
+    assert caplog.records[0].getMessage() == "aabb-skins: house is not closed (2 jobs)"
+
+
+def test_portable_records_pickle_and_read_back_formatted():
+    import pickle
+
+    class Unpicklable:
+        def __reduce__(self):
+            raise TypeError("no")
+
+        def __str__(self):
+            return "thing"
+
+    with held_records() as records:
+        _LOG.warning("%s at %d", Unpicklable(), 3)
+    back = restored(pickle.loads(pickle.dumps(portable(records))))
+    assert [(r.name, r.levelno, r.getMessage()) for r in back] == [
+        (_LOG.name, logging.WARNING, "thing at 3")]
+
+
+def test_a_record_marked_unheld_passes_a_hold(caplog):
+    """A long run's estimate is said when it comes, while the generators' records wait."""
+    from viscore.generators._held_logs import UNHELD
+
+    with caplog.at_level(logging.INFO), held_records() as records:
+        _LOG.warning("held")
+        _LOG.warning("estimated 2 h", extra={UNHELD: True})
+    assert [r.getMessage() for r in records] == ["held"]
+    assert [r.getMessage() for r in caplog.records] == ["estimated 2 h"]

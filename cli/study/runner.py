@@ -340,9 +340,21 @@ def views_from_file(path: str):
     return views
 
 
-def _run_job_on_file(job: Job, workers: int | None, path: str) -> tuple[dict, bytes]:
-    """In a worker: :func:`run_job` on the views of ``path``."""
-    return run_job(job, workers, views_from_file(path))
+def _held_job(job: Job, workers: int | None = None, views=None
+              ) -> tuple[dict, bytes, list[dict]]:
+    """In a worker: :func:`run_job` with the log records it made held back, handed to the
+    parent as plain values (:func:`viscore.generators._held_logs.portable`), which says
+    them once for the whole study (:func:`run_study`)."""
+    from viscore.generators import call_held, portable
+
+    (row, ply), records = call_held(run_job, job, workers, views)
+    return row, ply, portable(records)
+
+
+def _run_job_on_file(job: Job, workers: int | None, path: str
+                     ) -> tuple[dict, bytes, list[dict]]:
+    """In a worker: :func:`_held_job` on the views of ``path``."""
+    return _held_job(job, workers, views_from_file(path))
 
 
 def _file_occluder(job: Job):
@@ -492,7 +504,7 @@ def _dask(pending: list[Job], scheduler, commit: Callable) -> None:
         try:
             for (mesh, settings), group in _by_mesh(pending).items():
                 views = client.submit(build_views, mesh, settings, None, pure=False)
-                futures |= {client.submit(run_job, j, None, views, pure=False): j
+                futures |= {client.submit(_held_job, j, None, views, pure=False): j
                             for j in group}
             for fut in dask_completed(list(futures)):
                 commit(futures.pop(fut), fut.result())
@@ -507,8 +519,16 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
               workers: int | None = None, scheduler=None, progress: bool = True,
               on_row: Callable[[dict], None] | None = None,
               originals: dict | None = None,
-              files: list[OccluderFile] = ()) -> list[dict]:
+              files: list[OccluderFile] = (),
+              on_records: Callable[[list], None] | None = None) -> list[dict]:
     """Run (or resume) every job; returns the rows in mesh, method, budget order.
+
+    The log records a job makes are held in its worker and come back with its
+    row. With ``--verbose`` (the ``viscore`` logger at DEBUG) they are said as
+    each job finishes; otherwise the study's progress bar is all that moves
+    until the end, where each kind of warning is said once with its count
+    (:func:`viscore.generators._held_logs.report_kinds`), or handed to
+    ``on_records`` to say with others.
 
     Parameters
     ----------
@@ -534,13 +554,21 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
         Occluder files made by other tools (:func:`resolve_occluder_files`),
         each a row of its own after the mesh's methods; its key holds the
         file's content digest, so a changed file is assessed again on resume.
+    on_records : callable, optional
+        Called once, at the end, with the jobs' held records (``logging.LogRecord``,
+        in the order the jobs finished) instead of saying their warnings here;
+        not called with ``--verbose``, where each job's records were said already.
     """
     if not isinstance(out_dir, StudyFolder):
         with StudyFolder(out_dir) as study:
             return run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
                              scheduler=scheduler, progress=progress, on_row=on_row,
-                             originals=originals, files=files)
+                             originals=originals, files=files, on_records=on_records)
+    import logging
+
     from tqdm import tqdm
+
+    from viscore.generators import release, report_kinds, restored
 
     study = out_dir
     store = study.store
@@ -558,8 +586,15 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
     bar = tqdm(total=len(rows) + len(pending), initial=len(rows), disable=not progress,
                desc="compare", unit="job")
 
+    verbose = logging.getLogger("viscore").isEnabledFor(logging.DEBUG)
+    held: list = []
+
     def commit(job: Job, result: tuple) -> None:
-        row, ply = result
+        row, ply, records = result
+        if verbose:
+            release(restored(records))
+        else:
+            held.extend(restored(records))
         if ply:  # the file first: a stored row always has its occluder
             write_atomic(study.occluders / job.occluder_file, ply)
         store.put(job.key, row)
@@ -578,6 +613,11 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
             _local(pending, jobs, per_job, commit, scratch=study.path, originals=originals)
     finally:
         bar.close()
+        if not verbose:
+            if on_records is not None:
+                on_records(held)
+            else:
+                report_kinds(held, labels=methods)
     return [rows[j.key] for j in todo]
 
 

@@ -337,7 +337,9 @@ def _unsure_names(objects: SceneObjects, indices: Sequence[int]) -> list[str]:
 
 def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int = 24,
                    width: int = 640, height: int = 360, seed: int = 0,
-                   bounds: str = "auto") -> dict[str, dict]:
+                   bounds: str = "auto",
+                   progress: Callable[[int, int, str], None] | None = None
+                   ) -> dict[str, dict]:
     """Culled share and false culls of each method's occluders on a culling scene.
 
     Each method's occluders (for the scene's objects above the default size
@@ -361,6 +363,9 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
         Seed of the path and the generators.
     bounds : {'auto', 'box'}, optional
         How occludees are tested (default ``'auto'``).
+    progress : callable, optional
+        Called as ``progress(done, total, what)`` after each distinct mesh
+        generated (per method) and each frame simulated; ``total`` counts both.
 
     Returns
     -------
@@ -383,11 +388,22 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
         raise InputError(f"bounds: expected 'auto' or 'box', got {bounds!r}")
     objects = load_scene_objects(scene)
     indices = occluder_objects(objects)
-    runtimes, _ = culling_runtimes(objects, indices, list(methods), seed=seed, frusta=False)
+    steps = len(set(objects.mesh_ids[indices].tolist())) * len(set(methods)) + frames
+    done = [0]
+
+    def step(what: str) -> Callable[[int], None]:
+        def tick(n: int = 1) -> None:
+            done[0] += n
+            progress(done[0], steps, what)
+        return tick
+
+    runtimes, _ = culling_runtimes(objects, indices, list(methods), seed=seed, frusta=False,
+                                   progress=None if progress is None else step("occluders"))
     path = camera_path(objects, frames=frames, seed=seed)
     boxes, _, _ = occludee_boxes(objects, bounds, DEFAULT_CLUSTERS if bounds == "auto" else 1)
     result = simulate_culling(objects, runtimes, path, width=width, height=height,
-                              bounds=boxes)
+                              bounds=boxes,
+                              progress=None if progress is None else step("frames"))
     totals = result.totals()
     return {m: {key: totals[f"depth-buffer:{m}"][key]
                 for key in ("culled_share", "false_culls", "conservative", "overhead_ms")}

@@ -200,7 +200,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
             tried += runs(closings)
         result, step = _best(tried, floor)
         closings = [t[1] for t in tried]
-        _log.info("planar-sections: closing adds %.0f%% to the voxel solid at %d voxels; "
+        _log.debug("planar-sections: closing adds %.0f%% to the voxel solid at %d voxels; "
                   "closings %s (ground fills %s) give check recall %s at precision %s: "
                   "close=%d, ground fill %s", 100 * gain, step["voxels"],
                   [t["close"] for t in closings], [t["ground"] for t in closings],  # type: ignore[call-overload]
