@@ -41,6 +41,11 @@ which then replaces ``--out`` in one step
 table's ``conservative`` column reads ``-`` for a runtime that culled nothing
 (no false cull was possible); ``cull.json`` keeps the runtime's guarantee.
 
+``--jobs N`` spreads the frames over N worker processes, ``--scheduler ADDRESS``
+over a dask.distributed cluster's workers (the project's one job runner,
+:func:`viscore._jobs.run_jobs`), in runs of consecutive frames: the same
+document as one process, the overheads aside.
+
 A long run says how long on stderr once a first batch of occluders or frames
 is timed (:class:`viscore.cli._common.RateEstimate`), when the estimate
 exceeds a few minutes; stdout stays the JSON document.
@@ -67,6 +72,7 @@ import numpy as np
 
 from viscore import InputError, provenance
 from viscore._atomic import fsync_path, swap_folder
+from viscore._jobs import check_scheduler, connect_scheduler
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
 from viscore.culling.occludee_bounds import (
     AUTO_MIN_SIZE,
@@ -96,6 +102,8 @@ from viscore.metrics.culling import (
 )
 
 from ._common import RateEstimate, check_output_folder, dumps, emit, file_mode
+from .occlude_cmd import _jobs as check_jobs
+from .study.runner import JOBS_PER_CORE
 from .study.store import lock_exclusive
 
 #: Frames of a generated camera path when ``--frames`` is not given.
@@ -198,6 +206,13 @@ def add_parser(sub, common) -> None:
                         f"{', '.join(JOINED_METHODS)} is made once over the occluder objects "
                         "together, so that a roof or wall continuing across objects is one "
                         "planar region, not one per object with a gap at every seam")
+    run = c.add_mutually_exclusive_group()
+    run.add_argument("--jobs", type=int, default=1,
+                     help=f"processes the frames are spread over, at most {JOBS_PER_CORE} per "
+                          "core (default 1); the same figures as one process")
+    run.add_argument("--scheduler", default=None,
+                     help="dask.distributed scheduler address: spread the frames over that "
+                          "cluster's workers (the same figures as one process)")
     c.add_argument("--out", default="viscore-cull",
                    help="output folder, created if missing; its parent must exist "
                         "(default ./viscore-cull)")
@@ -431,6 +446,9 @@ def run_cull(args) -> int:
     bound_kind, clusters = _bounds(args.bounds)
     files = _occluder_files(args.occluder_files, methods)
     out = _out_dir(args.out)
+    jobs = check_jobs(args.jobs) if args.scheduler is None else 1
+    if args.scheduler is not None:  # an address refused at once, not after the occluders
+        check_scheduler(args.scheduler)
     check_culling_memory(width, height)
     if args.path is None:
         _check_frames_memory(frames or DEFAULT_FRAMES, f"--frames {frames or DEFAULT_FRAMES}")
@@ -459,12 +477,13 @@ def run_cull(args) -> int:
         indices = level.chosen
     # bars only on a terminal: redirected to a file, each redraw is another line of it
     progress = not (args.quiet or args.json) and sys.stderr.isatty()
-    with _OutFolder(out) as folder:  # this process alone, from here to the files
+    with connect_scheduler(args.scheduler) as client, _OutFolder(out) as folder:
+        # this process alone, from here to the files
         doc = _simulate(args, objects, indices, path, folder, progress=progress, seed=seed,
                         frames=frames, methods=methods, source=source, active=active,
                         reduction=reduction, width=width, height=height, files=files,
                         flat=level.flat, clusters=clusters,
-                        bound_kind=bound_kind)
+                        bound_kind=bound_kind, jobs=jobs, scheduler=client)
     emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
          "(replay with --path)")
     return 0
@@ -518,7 +537,7 @@ def _check_frames_memory(frames: int, what: str) -> None:
 def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: bool, seed: int,
               frames, methods, source, active, reduction, width, height,
               files: dict | None = None, flat=None, clusters: int = 1,
-              bound_kind: str = "box") -> dict:
+              bound_kind: str = "box", jobs: int = 1, scheduler=None) -> dict:
     """The work and the files of :func:`run_cull`; returns the JSON document."""
     from tqdm import tqdm
 
@@ -539,7 +558,8 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
               leave=False) as bar:
         tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
-                                  progress=tick, bounds=bounds)
+                                  progress=tick, bounds=bounds, jobs=jobs,
+                                  scheduler=scheduler)
     doc = {"scene": args.scene, "occluder_objects": len(indices),
            "see_through_objects": [objects.names[i] for i in np.flatnonzero(objects.see_through)],
            "frusta_method": source, "methods": methods,

@@ -246,6 +246,13 @@ class SceneObjects:
     def __len__(self) -> int:
         return len(self.names)
 
+    def __getstate__(self) -> dict:
+        """Pickled without :attr:`combined`: the baked level is rebuilt where it is used
+        (a worker of a spread walk), not shipped (7.5M triangles on the city tiled 4 x 4)."""
+        state = dict(self.__dict__)
+        state.pop("combined", None)
+        return state
+
     @property
     def bounds(self) -> np.ndarray:
         """``(2, 3) float64`` lower and upper corner of the whole scene, world units."""
