@@ -551,7 +551,10 @@ def _stacked_triangles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     normals = np.empty((f, 3))
     offsets = np.empty(f)
     good = np.empty(f, dtype=bool)
-    drop = np.empty(f, dtype=np.int64)
+    # the sort keys: each normal's bins (|n / _NORMAL_BIN| <= 100 fits int8) and the
+    # axis its plane drops; int64 keys and their sorted copy took 64 of the some 200
+    # bytes a triangle (1.3 GB at 7.5M triangles)
+    keys = np.empty((f, 4), dtype=np.int8)
     corners = np.empty((f, 4))  # least and most coordinate along each projection axis
     for a in range(0, f, _STACKED_CHUNK):
         b = min(f, a + _STACKED_CHUNK)
@@ -565,13 +568,15 @@ def _stacked_triangles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
         d = np.abs(n).argmax(axis=1)
         rows = np.arange(len(n))
         n *= np.where(n[rows, d] < 0, -1.0, 1.0)[:, None]
-        normals[a:b], good[a:b], drop[a:b] = n, ok, d
+        normals[a:b], good[a:b] = n, ok
+        keys[a:b, :3], keys[a:b, 3] = np.round(n / _NORMAL_BIN), d
         offsets[a:b] = np.einsum("ij,ij->i", n, tris[:, 0])
         for k, axis in enumerate(((d + 1) % 3, (d + 2) % 3)):
             c = tris[rows, :, axis]
             corners[a:b, 2 * k], corners[a:b, 2 * k + 1] = c.min(1), c.max(1)
-    uv = np.stack([(drop + 1) % 3, (drop + 2) % 3], axis=1).astype(np.int64)
-    keys = np.column_stack([np.round(normals / _NORMAL_BIN).astype(np.int64), drop])
+    drop = keys[:, 3].astype(np.int64)
+    uv = np.stack([(drop + 1) % 3, (drop + 2) % 3], axis=1)
+    del drop
     order = np.lexsort((offsets, *keys.T[::-1]))
     order = order[good[order]]
     # groups: same bin and projection, offsets chained within 2 tolerances
@@ -580,12 +585,16 @@ def _stacked_triangles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     new[1:] = (k[1:] != k[:-1]).any(axis=1) | (np.diff(off) > 2 * _STACKED_PLANE)
     del keys, k, off
     group = np.cumsum(new)
-    order = order[np.lexsort((corners[order, 0], group))]
+    order = order[np.lexsort((corners[order, 0], group))].astype(np.int64, copy=False)
+    del group
     starts = np.concatenate([np.flatnonzero(new), [len(order)]]).astype(np.int64)
+    del new
     stacked = np.zeros(f, dtype=np.bool_)
     if len(order):
-        _mark_stacked(v32, faces, normals, offsets, uv, np.ascontiguousarray(corners[order]),
-                      order.astype(np.int64), starts, _STACKED_PLANE, stacked)
+        box = np.ascontiguousarray(corners[order])
+        del corners
+        _mark_stacked(v32, faces, normals, offsets, uv, box, order, starts, _STACKED_PLANE,
+                      stacked)
     return stacked
 
 
