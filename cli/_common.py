@@ -14,7 +14,10 @@ import os
 import time
 from pathlib import Path
 
+from viscore import InputError, cpu_cores
 from viscore._atomic import check_output_path, file_mode, write_atomic
+from viscore._jobs import JOBS_PER_CORE
+from viscore._validate import as_positive_int
 from viscore.exchange import SAVE_FORMATS, mesh_bytes, mesh_format, save_mesh
 from viscore.metrics import jsonable
 
@@ -335,3 +338,15 @@ class RateEstimate:
         warn_estimate(self.what, self.estimate,
                       f"{self.total - self.done:,} {self.unit} to go at {per:.3g} s each, "
                       f"measured on {steps:,} after the first")
+
+
+def check_jobs(value: object, scheduler: object = None) -> int:
+    """``--jobs`` of compare, occlude and cull: a positive integer, at most
+    :data:`viscore._jobs.JOBS_PER_CORE` per core unless a ``--scheduler`` runs the jobs."""
+    jobs = as_positive_int(value, "--jobs")
+    if scheduler is None:
+        cores = cpu_cores()
+        if jobs > JOBS_PER_CORE * cores:
+            raise InputError(f"--jobs {jobs}: at most {JOBS_PER_CORE * cores} "
+                             f"({JOBS_PER_CORE} per core, {cores} cores)")
+    return jobs

@@ -19,7 +19,7 @@ import os
 from dataclasses import asdict
 from pathlib import Path
 
-from viscore import InputError, cpu_cores, load_mesh, provenance
+from viscore import InputError, load_mesh, provenance
 from viscore._validate import as_positive_int, as_seed, check_memory
 from viscore.generators import (
     REGISTRY,
@@ -30,7 +30,7 @@ from viscore.generators import (
     report_kinds,
 )
 
-from ._common import dumps, emit, parse_list, write_atomic
+from ._common import check_jobs, dumps, emit, parse_list, write_atomic
 from .study.report import CULLING_COLUMNS, write_occluder_glbs, write_report
 from .study.runner import (
     JOBS_PER_CORE,
@@ -161,15 +161,6 @@ def _budgets(text: str, methods: list[str]) -> tuple[int, ...]:
     return budgets
 
 
-def _jobs(value: object, scheduler) -> int:
-    jobs = as_positive_int(value, "--jobs")
-    if scheduler is None:
-        cores = cpu_cores()
-        if jobs > JOBS_PER_CORE * cores:
-            raise InputError(f"--jobs {jobs}: at most {JOBS_PER_CORE * cores} "
-                             f"({JOBS_PER_CORE} per core, {cores} cores)")
-    return jobs
-
 
 def run_compare(args) -> int:
     # 1. every argument, before any work and before the study folder is touched
@@ -181,7 +172,7 @@ def run_compare(args) -> int:
     quads = as_positive_int(args.quads, "--quads")
     res = as_positive_int(args.res, "--res", maximum=MAX_RESOLUTION)
     rays = as_positive_int(args.rays, "--rays")
-    jobs = _jobs(args.jobs, args.scheduler)
+    jobs = check_jobs(args.jobs, args.scheduler)
     workers = getattr(args, "workers", None)
     workers = None if workers is None else as_positive_int(workers, "--workers")
     culling_frames = as_positive_int(args.culling_frames, "--culling-frames", maximum=10_000)

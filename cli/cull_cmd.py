@@ -18,6 +18,7 @@ import numpy as np
 
 from viscore import InputError, provenance, stream_seed
 from viscore._atomic import LockedFolder
+from viscore._jobs import JOBS_PER_CORE, check_scheduler, connect_scheduler
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
 from viscore.culling import AUTO_MIN_SIZE, DEFAULT_CLUSTERS, MAX_CLUSTERS, occludee_boxes
 from viscore.generators import REGISTRY, call_held, check_method, report_kinds
@@ -41,7 +42,7 @@ from viscore.metrics import (
     simulate_culling,
 )
 
-from ._common import RateEstimate, check_output_folder, dumps, emit, format_duration
+from ._common import RateEstimate, check_jobs, check_output_folder, dumps, emit, format_duration
 from .report.cull_page import check_report_memory, cull_report_html, report_frames
 
 #: Frames of a generated camera path when ``--frames`` is not given.
@@ -156,6 +157,13 @@ def add_parser(sub, common) -> None:
                    help="frames drawn in report.html: 'all', or frames and ranges such as "
                         "3,10-14 (default: all of a walk of up to 16 frames, else 16 spread "
                         "over it)")
+    run = c.add_mutually_exclusive_group()
+    run.add_argument("--jobs", type=int, default=1,
+                     help=f"processes the frames are spread over, at most {JOBS_PER_CORE} per "
+                          "core (default 1); the same figures as one process")
+    run.add_argument("--scheduler", default=None,
+                     help="dask.distributed scheduler address: spread the frames over that "
+                          "cluster's workers (the same figures as one process)")
     c.add_argument("--out", default="viscore-cull",
                    help="output folder, created if missing; its parent must exist "
                         "(default ./viscore-cull)")
@@ -304,6 +312,9 @@ def run_cull(args) -> int:
     bound_kind, clusters = _bounds(args.bounds)
     files = _occluder_files(args.occluder_files, methods)
     out = _out_dir(args.out)
+    jobs = check_jobs(args.jobs) if args.scheduler is None else 1
+    if args.scheduler is not None:  # an address refused at once, not after the occluders
+        check_scheduler(args.scheduler)
     check_culling_memory(width, height)
     if args.path is None:
         _check_frames_memory(frames or DEFAULT_FRAMES, f"--frames {frames or DEFAULT_FRAMES}")
@@ -342,14 +353,15 @@ def run_cull(args) -> int:
     check_report_memory(width, height)
     # bars only on a terminal: redirected to a file, each redraw is another line of it
     progress = not (args.quiet or args.json) and sys.stderr.isatty()
-    with LockedFolder(out, busy=f"--out {out}: another cull is writing this folder; wait "
-                      "for it to finish or choose another --out", outputs=_OUTPUTS,
-                      tag="cull") as folder:  # this process alone, from here to the files
+    with connect_scheduler(args.scheduler) as client, LockedFolder(
+            out, busy=f"--out {out}: another cull is writing this folder; wait for it to "
+            "finish or choose another --out", outputs=_OUTPUTS, tag="cull") as folder:
+        # this process alone, from here to the files
         doc = _simulate(args, objects, indices, path, folder, progress=progress, seed=seed,
                         frames=frames, methods=methods, source=source, active=active,
                         reduction=reduction, width=width, height=height, files=files,
                         flat=level.flat, clusters=clusters,
-                        bound_kind=bound_kind, shown=shown)
+                        bound_kind=bound_kind, shown=shown, jobs=jobs, scheduler=client)
     emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
          "(replay with --path), report.html (open it in a browser)")
     return 0
@@ -403,7 +415,8 @@ def _check_frames_memory(frames: int, what: str) -> None:
 def _simulate(args, objects, indices, path, folder: LockedFolder, *, progress: bool, seed: int,
               frames, methods, source, active, reduction, width, height,
               files: dict | None = None, flat=None, clusters: int = 1,
-              bound_kind: str = "box", shown: list[int] | None = None) -> dict:
+              bound_kind: str = "box", shown: list[int] | None = None, jobs: int = 1,
+              scheduler=None) -> dict:
     """The work and the files of :func:`run_cull`; returns the JSON document."""
     from tqdm import tqdm
 
@@ -432,7 +445,8 @@ def _simulate(args, objects, indices, path, folder: LockedFolder, *, progress: b
               leave=False) as bar:
         tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
-                                  progress=tick, bounds=bounds, keep_frames=shown or ())
+                                  progress=tick, bounds=bounds, keep_frames=shown or (),
+                                  jobs=jobs, scheduler=scheduler)
     doc = {"scene": args.scene, "occluder_objects": len(indices),
            "see_through_objects": [objects.names[i] for i in np.flatnonzero(objects.see_through)],
            "frusta_method": source, "methods": methods,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 import sys
 
-from viscore import InputError, cpu_cores
+from viscore import InputError
 from viscore._atomic import LockedFolder
 from viscore._jobs import JOBS_PER_CORE, connect_scheduler
 from viscore._validate import as_positive_int
@@ -13,7 +13,7 @@ from viscore.generators import REGISTRY, check_method, parse_method
 from viscore.generators.levels import check_occlude_folder, default_methods, occlude_level
 from viscore.level import MIN_SIZE, UP_AXES, level_objects
 
-from ._common import check_output_folder, emit
+from ._common import check_jobs, check_output_folder, emit
 from .report.occlude_page import write_occlude_report
 
 _log = logging.getLogger(__name__)
@@ -72,14 +72,6 @@ def _check_budget(budget: int | None, methods: list[str]) -> int | None:
     return budget
 
 
-def _jobs(value: int) -> int:
-    jobs = as_positive_int(value, "--jobs")
-    cores = cpu_cores()
-    if jobs > JOBS_PER_CORE * cores:
-        raise InputError(f"--jobs {jobs}: at most {JOBS_PER_CORE * cores} "
-                         f"({JOBS_PER_CORE} per core, {cores} cores)")
-    return jobs
-
 
 class _Bar:
     """``progress(done, total, label)`` as a tqdm bar with an ETA on stderr."""
@@ -106,7 +98,7 @@ def run_occlude(args) -> int:
     # 1. every option, before any work and before DIR is made
     methods = _methods(args.methods)
     budget = _check_budget(args.budget, methods)
-    jobs = _jobs(args.jobs) if args.scheduler is None else 1
+    jobs = check_jobs(args.jobs) if args.scheduler is None else 1
     if args.min_size is not None and not 0.0 < args.min_size <= 1.0:
         raise InputError(f"--min-size: expected a fraction of the level's bounding-box "
                          f"diagonal in (0, 1], got {args.min_size}")

@@ -109,16 +109,19 @@ def plane_regions(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float,
     cos_max = np.cos(NORMAL_ANGLE)
     order = np.argsort(-twice[idx], kind="stable")
     taken = np.zeros(len(idx), dtype=bool)
-    # every face's neighbours in plane space, both signs, in two batched queries
-    near_pos = tree.query_ball_point(points, radius)
-    near_neg = tree.query_ball_point(-points, radius) if both_sides else [[]] * len(points)
+    # a seed's neighbours in plane space, both signs, asked for when it seeds a region:
+    # asked for every face up front, the lists held sum(m^2) indices over planes of m
+    # faces (3.6 GB on the city's joined buildings, 56 GB on the city tiled 2 x 2)
     regions = []
     for s in order:
         if taken[s]:
             continue
         n = normals[s]
         origin = tri[idx[s], 0]
-        cand = np.asarray(near_pos[s] + near_neg[s], dtype=np.int64)
+        near = tree.query_ball_point(points[s], radius)
+        if both_sides:
+            near = near + tree.query_ball_point(-points[s], radius)
+        cand = np.asarray(near, dtype=np.int64)
         cand = cand[~taken[cand]]
         if len(cand) > 1:
             dist = np.abs((tri[idx[cand]] - origin) @ n).max(axis=1)

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from viscore import InputError
+from viscore import InputError, cpu_cores
 from viscore._validate import as_positive_int, check_memory
 from viscore.constants import RAY_STEP_RELATIVE
 
@@ -380,7 +380,8 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
                      height: int = DEFAULT_HEIGHT,
                      progress: Callable[[int], None] | None = None,
                      bounds: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-                     keep_frames: Sequence[int] = ()) -> CullingResult:
+                     keep_frames: Sequence[int] = (), jobs: int = 1,
+                     scheduler=None) -> CullingResult:
     """Run every culling runtime along a camera path against the ray-cast ground truth.
 
     Parameters
@@ -409,6 +410,14 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     keep_frames : sequence of int, optional
         Frames whose objects (in view, visible, culled per runtime) are kept
         in :attr:`CullingResult.kept`, for pictures of them. Default none.
+    jobs : int, optional
+        Worker processes the frames are spread over, in as many runs of
+        consecutive frames (default 1: here, frame by frame).
+    scheduler : str or distributed.Client, optional
+        A dask.distributed scheduler address (or client): the frames are
+        spread over its workers, one run of consecutive frames per worker
+        thread, instead of ``jobs``. Either way the figures are those of one
+        process (only the overheads differ).
 
     Returns
     -------
@@ -447,14 +456,88 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     cameras = tuple(path)
     check_camera_path(objects, cameras)
     width, height = check_culling_memory(width, height)
-    scene, triangle_object = objects.combined
+    jobs = as_positive_int(jobs, "jobs")
     n = len(objects)
-    lower, upper, tris = objects.lower, objects.upper, objects.triangles
-    if bounds is not None:
-        b_lower, b_upper, owner = _check_bounds(bounds, n)
+    checked = None if bounds is None else _check_bounds(bounds, n)
     names = list(runtimes)
     count = len(cameras)
     record = _check_keep_frames(keep_frames, count)
+    parts: list = []
+
+    def commit(part: dict) -> None:
+        parts.append(part)
+        if progress is not None:
+            progress(part["frames"])
+
+    if scheduler is None and (jobs <= 1 or count <= 1):  # here, frame by frame
+        parts.append(_walk_frames(objects, runtimes, cameras, 0, width=width, height=height,
+                                  bounds=checked, record=record, progress=progress))
+    else:
+        from viscore._jobs import connect_scheduler, run_jobs
+
+        with connect_scheduler(scheduler) as client:
+            spread = jobs if client is None else sum(client.nthreads().values())
+            edges = np.linspace(0, count, min(count, max(1, spread)) + 1).astype(int)
+            # closures (a runtime's cull) and Embree scenes (rebuilt there) travel as one
+            # cloudpickle of the walk's inputs, made once
+            blob = _pickle_walk(objects, runtimes, checked, width, height)
+            pending = [(blob, cameras[a:b], int(a), record)
+                       for a, b in zip(edges[:-1], edges[1:], strict=True)]
+            run_jobs(_walk_part, pending, commit, jobs=jobs, scheduler=client,
+                     threads=max(1, cpu_cores() // len(pending)))
+    parts.sort(key=lambda part: part["start"])
+    arrays = {key: np.concatenate([part[key] for part in parts])
+              for key in ("in_view", "in_view_triangles", "visible", "visible_triangles")}
+    results = {}
+    for k in names:
+        rec = {key: np.concatenate([part["runtimes"][k][key] for part in parts])
+               for key in ("culled", "false", "tris", "ms")}
+        results[k] = RuntimeFrames(
+            culled=rec["culled"], false_culls=rec["false"], triangles_rendered=rec["tris"],
+            overhead_ms=rec["ms"], conservative=runtimes[k].conservative,
+            false_cull_names=tuple(x for part in parts for x in part["runtimes"][k]["names"]))
+    return CullingResult(cameras=cameras, width=width, height=height, objects=n,
+                         triangles=objects.total_triangles, in_view=arrays["in_view"],
+                         in_view_triangles=arrays["in_view_triangles"],
+                         visible=arrays["visible"],
+                         visible_triangles=arrays["visible_triangles"], runtimes=results,
+                         kept={f: kept for part in parts for f, kept in part["kept"].items()})
+
+
+def _pickle_walk(objects: SceneObjects, runtimes: Mapping[str, Runtime], bounds,
+                 width: int, height: int) -> bytes:
+    """The inputs of :func:`_walk_frames` but the cameras, as one cloudpickle."""
+    import cloudpickle
+
+    return cloudpickle.dumps((objects, dict(runtimes), bounds, width, height))
+
+
+def _walk_part(blob: bytes, cameras: Sequence[PathCamera], start: int,
+               record: frozenset = frozenset()) -> dict:
+    """One job of a spread walk: :func:`_walk_frames` of ``cameras`` in a worker."""
+    import pickle
+
+    objects, runtimes, bounds, width, height = pickle.loads(blob)
+    return _walk_frames(objects, runtimes, cameras, start, width=width, height=height,
+                        bounds=bounds, record=record)
+
+
+def _walk_frames(objects: SceneObjects, runtimes: Mapping[str, Runtime],
+                 cameras: Sequence[PathCamera], start: int, *, width: int, height: int,
+                 bounds: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+                 record: frozenset = frozenset(),
+                 progress: Callable[[int], None] | None = None) -> dict:
+    """The per-frame figures of :func:`simulate_culling` for ``cameras``, frames ``start``
+    on of the path: each frame depends on its camera alone, so a walk split in parts
+    gives the same figures (the overheads aside; each part's first frame has its
+    untimed warm-up call). The frames of the path in ``record`` keep their objects
+    (``kept``, by frame of the path)."""
+    scene, triangle_object = objects.combined
+    lower, upper, tris = objects.lower, objects.upper, objects.triangles
+    if bounds is not None:
+        b_lower, b_upper, owner = bounds
+    names = list(runtimes)
+    count = len(cameras)
     kept: dict[int, FrameObjects] = {}
     in_view_n = np.zeros(count, np.int64)
     in_view_t = np.zeros(count, np.int64)
@@ -480,15 +563,15 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             lo, hi = b_lower[keep], b_upper[keep]
         in_view_n[f], in_view_t[f] = len(idx), int(tris[idx].sum())
         visible_n[f], visible_t[f] = int(visible.sum()), int(tris[visible].sum())
-        if f in record:
-            kept[f] = FrameObjects(in_view=idx.astype(np.int64),
+        if start + f in record:
+            kept[start + f] = FrameObjects(in_view=idx.astype(np.int64),
                                    visible=np.flatnonzero(visible), culled={})
         for name in names:
             if f == 0:  # warm-up, untimed: compiling the kernels is not a frame's overhead
                 runtimes[name].cull(camera, lo, hi)
-            start = time.perf_counter()
+            begin = time.perf_counter()
             mask = np.asarray(runtimes[name].cull(camera, lo, hi), dtype=bool)
-            elapsed = time.perf_counter() - start
+            elapsed = time.perf_counter() - begin
             if mask.shape != (len(lo),):
                 raise ValueError(f"runtime {name!r}: cull returned shape {mask.shape}, "
                                  f"expected ({len(lo)},)")
@@ -501,21 +584,16 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             rec["culled"][f], rec["false"][f] = len(culled), len(false)  # type: ignore[index]
             rec["tris"][f], rec["ms"][f] = int(rendered), 1e3 * elapsed  # type: ignore[index]
             rec["names"].append(tuple(objects.names[i] for i in false[:10]))  # type: ignore[attr-defined]
-            if f in record:
-                kept[f].culled[name] = np.sort(culled).astype(np.int64)
+            if start + f in record:
+                kept[start + f].culled[name] = np.sort(culled).astype(np.int64)
             if len(false) and runtimes[name].conservative:
-                _log.warning("frame %d: %s culled %d visible object(s), e.g. %s", f, name,
-                             len(false), objects.names[int(false[0])])
+                _log.warning("frame %d: %s culled %d visible object(s), e.g. %s", start + f,
+                             name, len(false), objects.names[int(false[0])])
         if progress is not None:
             progress(1)
-    results = {k: RuntimeFrames(culled=per[k]["culled"], false_culls=per[k]["false"],  # type: ignore[arg-type]
-                                triangles_rendered=per[k]["tris"], overhead_ms=per[k]["ms"],  # type: ignore[arg-type]
-                                conservative=runtimes[k].conservative,
-                                false_cull_names=tuple(per[k]["names"])) for k in names}  # type: ignore[arg-type]
-    return CullingResult(cameras=cameras, width=width, height=height, objects=n,
-                         triangles=objects.total_triangles, in_view=in_view_n,
-                         in_view_triangles=in_view_t, visible=visible_n,
-                         visible_triangles=visible_t, runtimes=results, kept=kept)
+    return {"start": start, "frames": count, "in_view": in_view_n,
+            "in_view_triangles": in_view_t, "visible": visible_n,
+            "visible_triangles": visible_t, "runtimes": per, "kept": kept}
 
 
 def _check_keep_frames(frames: Sequence[int], count: int) -> frozenset:

@@ -524,3 +524,65 @@ def test_cull_single_mesh_of_one_part_says_so(run, tmp_path, capsys):
     assert "stays one object (its 2 connected components join into one part)" in err
     # stderr is not a terminal here: no progress bars redrawn into it
     assert "frames:" not in err and "occluders:" not in err and "\r" not in err
+
+
+def _figures(doc):
+    """The document without what varies from run to run: times and provenance."""
+    if isinstance(doc, dict):
+        return {k: _figures(v) for k, v in doc.items()
+                if k != "provenance" and "overhead" not in k and not k.startswith("seconds")}
+    if isinstance(doc, list):
+        return [_figures(v) for v in doc]
+    return doc
+
+
+def _cull_json(run, scene, out, capsys, *extra):
+    code = run(scene, "--frames", 5, "--occluders", "wall", "--methods", "aabb-skins",
+               "--frusta-method", "aabb-skins", "--width", 64, "--height", 36, "--out", out,
+               "--json", *extra)
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    return json.loads(captured.out)
+
+
+def test_cull_jobs_spread_frames_same_json_as_one_process(run, street, tmp_path, capsys):
+    scene, _ = street
+    one = _cull_json(run, scene, tmp_path / "one", capsys)
+    two = _cull_json(run, scene, tmp_path / "two", capsys, "--jobs", 2)
+    assert len(one["frames"]) == 5
+    assert _figures(two) == _figures(one)
+    assert [f["frame"] for f in two["frames"]] == list(range(5))
+
+
+def test_cull_scheduler_spreads_frames_same_json_as_one_process(run, street, tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    scene, _ = street
+    one = _cull_json(run, scene, tmp_path / "one", capsys)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        dask = _cull_json(run, scene, tmp_path / "dask", capsys, "--scheduler",
+                          cluster.scheduler_address)
+    assert _figures(dask) == _figures(one)
+
+
+def test_cull_jobs_and_scheduler_refused_together(run, street, tmp_path, capsys):
+    scene, _ = street
+    assert run(scene, "--jobs", 2, "--scheduler", "tcp://127.0.0.1:1", "--out",
+               tmp_path / "o") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--scheduler" in err[0] and "--jobs" in err[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_cull_scheduler_refused_before_any_work(run, street, tmp_path, capsys, monkeypatch):
+    import viscore.cli.cull_cmd as cc
+
+    def no_level(*args, **kwargs):
+        raise AssertionError("the level was read before the address was refused")
+
+    monkeypatch.setattr(cc, "level_objects", no_level)
+    scene, _ = street
+    assert run(scene, "--scheduler", "tcp://127.0.0.1:1", "--out", tmp_path / "o") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "connection refused" in err[0]
+    assert not (tmp_path / "o").exists()

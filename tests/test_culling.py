@@ -143,6 +143,21 @@ def test_simulate_culling_invalid_input(wall_scene):
                          width=0)
     with pytest.raises(InputError, match="Runtime"):
         simulate_culling(wall_scene, {"x": lambda *a: None}, [_pose((0, 1, -5), (0, 0, 1))])
+    with pytest.raises(InputError, match="jobs"):
+        simulate_culling(wall_scene, {"none": no_culling()}, [_pose((0, 1, -5), (0, 0, 1))],
+                         jobs=0)
+
+
+def test_scene_objects_pickle_without_the_combined_scene(wall_scene):
+    import pickle
+
+    _ = wall_scene.combined
+    copy = pickle.loads(pickle.dumps(wall_scene))
+    assert "combined" in wall_scene.__dict__ and "combined" not in copy.__dict__
+    assert copy.names == wall_scene.names
+    scene, owner = copy.combined  # rebuilt on use: the same triangles, the same owners
+    assert np.array_equal(owner, wall_scene.combined[1])
+    assert np.array_equal(scene.vertices, wall_scene.combined[0].vertices)
 
 
 def test_transform_occluder_boxes_become_moved_solids():

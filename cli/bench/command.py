@@ -86,6 +86,14 @@ def add_parser(sub, common) -> None:
     k.add_argument("--method", default=None,
                    help="generator of the occluders (default solid-frusta)")
     k.set_defaults(run=run_cull)
+    cs = bsub.add_parser("cull-scale", parents=[common],
+                         help="cull's time and peak memory on the city tiled n x n "
+                              "(n = 1, 2; 4 with --large), as ratios to 1 x 1")
+    cs.add_argument("--large", action="store_true",
+                    help="also the city tiled 4 x 4 (29,184 objects, 7.5M triangles)")
+    cs.add_argument("--frames", type=int, default=4,
+                    help="cameras of each walk (default 4)")
+    cs.set_defaults(run=run_cull_scale)
     gb = bsub.add_parser("godot-bake", parents=[common],
                          help="our godot baseline against Godot's own bake of its occlusion "
                               "demo, triangle for triangle")
@@ -291,6 +299,16 @@ def run_cull(args) -> int:
     r = bench_cull(scene=args.scene, frames=frames, repeats=repeats, seed=args.seed,
                    method=args.method)
     emit({**r, "provenance": provenance()}, args.json, bench_cull_text(r))
+    return 0
+
+
+def run_cull_scale(args) -> int:
+    from .cull_scale import DEFAULT_SIZES, bench_cull_scale, cull_scale_lines
+
+    frames = as_positive_int(args.frames, "--frames", maximum=10_000)
+    sizes = (*DEFAULT_SIZES, 4) if args.large else DEFAULT_SIZES
+    r = bench_cull_scale(sizes=sizes, frames=frames, seed=args.seed)
+    emit({**r, "provenance": provenance()}, args.json, "\n".join(cull_scale_lines(r)))
     return 0
 
 

@@ -274,15 +274,14 @@ class OccluderScene:
         verts: list[np.ndarray]
         solid: list[np.ndarray]
         verts, faces, facet, solid, bounds = [], [], [], [], []
-        count = 0
+        count = offset = 0  # labels and vertices so far (a running sum: thousands of pieces)
 
         def add(v, f, solid_piece: bool) -> None:
-            nonlocal count
+            nonlocal count, offset
             v = np.asarray(v, dtype=np.float64)
             f = np.asarray(f, dtype=np.int64)
             if len(f) == 0:
                 return
-            offset = sum(len(x) for x in verts)
             lab = None
             if solid_piece:
                 try:  # a convex solid: its planar facets are the polytope's (convex) faces
@@ -298,6 +297,7 @@ class OccluderScene:
             bounds.append(np.stack([v[f].reshape(-1, 3).min(axis=0),
                                     v[f].reshape(-1, 3).max(axis=0)]))
             faces.append(f + offset)
+            offset += len(v)
 
         for item in items:
             if _is_pair(item):

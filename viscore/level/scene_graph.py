@@ -200,6 +200,13 @@ class SceneObjects:
     def __len__(self) -> int:
         return len(self.names)
 
+    def __getstate__(self) -> dict:
+        """Pickled without :attr:`combined`: the baked level is rebuilt where it is used
+        (a worker of a spread walk), not shipped (7.5M triangles on the city tiled 4 x 4)."""
+        state = dict(self.__dict__)
+        state.pop("combined", None)
+        return state
+
     @property
     def bounds(self) -> np.ndarray:
         """``(2, 3) float64`` lower and upper corner of the whole scene, world units."""
@@ -323,22 +330,32 @@ class SceneObjects:
         """
         check_memory(float(self.total_triangles) * _BYTES_PER_TRIANGLE,
                      f"{self.source} ({self.total_triangles:,} triangles with instances baked)")
-        vertices, faces, owner, base = [], [], [], 0
-        for mesh_id, mesh in enumerate(self.meshes):
-            idx = self.instances(mesh_id)
-            if len(idx) == 0:
-                continue
+        # one array each, filled mesh by mesh (a list of pieces and its concatenation
+        # held the level's vertices twice more while the Scene copied them)
+        used = [(mesh_id, self.instances(mesh_id)) for mesh_id in range(len(self.meshes))]
+        used = [(mesh_id, idx) for mesh_id, idx in used if len(idx)]
+        total_v = sum(len(idx) * len(self.meshes[m].vertices) for m, idx in used)
+        total_f = sum(len(idx) * len(self.meshes[m].faces) for m, idx in used)
+        vertices = np.empty((total_v, 3))
+        faces = np.empty((total_f, 3), dtype=np.int64)
+        triangle_object = np.empty(total_f, dtype=np.int64)
+        base = row = 0
+        for mesh_id, idx in used:
+            mesh = self.meshes[mesh_id]
             v = np.asarray(mesh.vertices, dtype=np.float64)
             f = np.asarray(mesh.faces, dtype=np.int64)
             mats = self.transforms[idx]
             vk = np.einsum("kij,nj->kni", mats[:, :3, :3], v) + mats[:, None, :3, 3]
-            vertices.append(vk.reshape(-1, 3))
+            vertices[base:base + vk.shape[0] * vk.shape[1]] = vk.reshape(-1, 3)
+            del vk
             offsets = base + len(v) * np.arange(len(idx))
-            faces.append((f[None] + offsets[:, None, None]).reshape(-1, 3))
-            owner.append(np.repeat(idx, len(f)))
+            rows = len(idx) * len(f)
+            faces[row:row + rows] = (f[None] + offsets[:, None, None]).reshape(-1, 3)
+            triangle_object[row:row + rows] = np.repeat(idx, len(f))
             base += len(idx) * len(v)
-        mesh = trimesh.Trimesh(np.concatenate(vertices), np.concatenate(faces), process=False)
-        triangle_object = np.concatenate(owner).astype(np.int64)
+            row += rows
+        mesh = trimesh.Trimesh(vertices, faces, process=False)
+        del vertices, faces
         triangle_object.flags.writeable = False
         return Scene(mesh), triangle_object
 

@@ -333,53 +333,192 @@ def _separated(ax, ay, bx, by, eps):  # pragma: no cover - compiled
     return False
 
 
+#: Triangles of one group (one normal bin, plane and projection) up to which
+#: :func:`_mark_stacked` sweeps along ``u``; larger groups go on grids.
+_SWEEP_GROUP = 64
+
+#: Levels of a group's grids (cells four times wider at each), and most cells
+#: along a side of the finest (its cells are at least the group's extent over
+#: this): cell indices take 21 bits, levels the bits above them.
+_GRID_LEVELS = 11
+_GRID_SIDE_MAX = 1 << 20
+
+#: Percentile of a group's triangle sizes (the larger side of each one's box in
+#: the plane) that the cells of its finest grid are: three in four triangles
+#: then lie in at most four of its cells.
+_GRID_CELL_QUANTILE = 75.0
+
+#: Triangles whose normals, planes and boxes are computed at once by
+#: :func:`_stacked_triangles` (float64 temporaries of some 200 bytes each).
+_STACKED_CHUNK = 1 << 18
+
+
 @njit_cached(nogil=True)
-def _mark_stacked(tris, normals, offsets, uv, box, order, starts, tolerance,
+def _stacked_pair(v, faces, normals, offsets, uv, box, order, r, q, tolerance, ax, ay, bx,
+                  by):  # pragma: no cover - compiled
+    """Whether the triangles at sorted positions ``r`` and ``q`` of one group overlap in
+    their plane (the test of :func:`_mark_stacked`; ``ax`` .. ``by`` are scratch).
+
+    Their boxes overlap in ``u`` (the later one in the sort by least ``u`` starts before
+    the earlier one ends) and strictly in ``v``; their offsets differ by at most two
+    tolerances; each one's corners lie within ``tolerance`` of the other's plane; no
+    edge normal of either separates them in the plane.
+    """
+    if q < r:
+        r, q = q, r
+    if box[q, 0] >= box[r, 1]:
+        return False
+    if min(box[r, 3], box[q, 3]) <= max(box[r, 2], box[q, 2]):
+        return False
+    i, j = order[r], order[q]
+    if abs(offsets[j] - offsets[i]) > 2 * tolerance:
+        return False
+    for c in range(3):  # each one's corners near the other's plane
+        pi, pj = faces[i, c], faces[j, c]
+        di = (np.float64(v[pj, 0]) * normals[i, 0] + np.float64(v[pj, 1]) * normals[i, 1]
+              + np.float64(v[pj, 2]) * normals[i, 2]) - offsets[i]
+        dj = (np.float64(v[pi, 0]) * normals[j, 0] + np.float64(v[pi, 1]) * normals[j, 1]
+              + np.float64(v[pi, 2]) * normals[j, 2]) - offsets[j]
+        if abs(di) > tolerance or abs(dj) > tolerance:
+            return False
+    u, w = uv[i, 0], uv[i, 1]
+    for c in range(3):
+        ax[c], ay[c] = v[faces[i, c], u], v[faces[i, c], w]
+        bx[c], by[c] = v[faces[j, c], u], v[faces[j, c], w]
+    return not _separated(ax, ay, bx, by, tolerance)
+
+
+@njit_cached(nogil=True)
+def _cell(x, origin, side):  # pragma: no cover - compiled
+    """Index of the grid cell of side ``side`` holding coordinate ``x`` (from ``origin``)."""
+    return np.int64((x - origin) / side)
+
+
+@njit_cached(nogil=True)
+def _slot(table, key):  # pragma: no cover - compiled
+    """The slot of ``key`` in an open-addressing table of keys (-1: empty), by linear probing."""
+    mask = table.shape[0] - 1
+    s = (key * np.int64(-7046029254386353131)) >> 20 & mask  # a multiplicative hash
+    while table[s] != -1 and table[s] != key:
+        s = (s + 1) & mask
+    return s
+
+
+@njit_cached(nogil=True)
+def _mark_stacked(v, faces, normals, offsets, uv, box, order, starts, tolerance,
                   stacked):  # pragma: no cover - compiled
     """Mark in ``stacked`` the triangles of each group that overlap another of it.
 
-    ``tris`` ``(f, 3, 3)`` float64 corners, ``normals`` their unit normals,
-    ``offsets`` their planes' offsets, ``uv`` ``(f, 2)`` the two axes their
-    plane projects on and ``box`` ``(f, 4)`` the extents on them of the
-    triangles as ``order`` lists them (least and most ``u``, least and most
-    ``v``: contiguous for the sweep). ``order`` lists the triangles group by
-    group (same normal bin and projection, offsets chained within ``2 *
-    tolerance``), by least ``u`` within a group; ``starts`` is where each
-    group begins (and the end). A sweep along ``u``: only pairs whose ``u``
-    ranges overlap are looked at.
+    ``v`` ``(V, 3+)`` float32 vertices and ``faces`` ``(f, 3)`` their indices;
+    ``normals`` the triangles' unit normals, ``offsets`` their planes' offsets,
+    ``uv`` ``(f, 2)`` the two axes their plane projects on and ``box`` ``(f, 4)``
+    the extents on them of the triangles as ``order`` lists them (least and most
+    ``u``, least and most ``v``). ``order`` lists the triangles group by group
+    (same normal bin and projection, offsets chained within ``2 * tolerance``),
+    by least ``u`` within a group; ``starts`` is where each group begins (and
+    the end).
+
+    A group of up to ``_SWEEP_GROUP`` triangles is swept along ``u`` (only
+    pairs whose ``u`` ranges overlap are looked at). A larger one (a level's
+    ground, a wall of many tiles) goes into a hierarchy of grids: cells of
+    side ``base * 4**l`` at level ``l``, ``base`` the
+    ``_GRID_CELL_QUANTILE`` percentile of its triangles' sizes (the larger
+    side of each one's box), each triangle in the cells of the first level
+    whose cells are as large as it (two by two at most), found by a hash of
+    (level, cell). A triangle is looked at with those of its own level that
+    share a cell, and with those of every coarser level in the cells it
+    covers there; a pair only in the cell (of the coarser level) holding the
+    least corner of their boxes' overlap, so once. Either way every pair
+    whose boxes overlap is looked at, in time that grows with the triangles
+    and those pairs (not with the square of a plane's triangles, nor with a
+    large triangle times all), and the test is the same (:func:`_stacked_pair`).
     """
     ax, ay = np.empty(3), np.empty(3)
     bx, by = np.empty(3), np.empty(3)
     for g in range(starts.shape[0] - 1):
         lo, hi = starts[g], starts[g + 1]
-        u, v = uv[order[lo], 0], uv[order[lo], 1]
+        if hi - lo <= _SWEEP_GROUP:
+            for r in range(lo, hi):
+                u_end = box[r, 1]
+                for q in range(r + 1, hi):
+                    if box[q, 0] >= u_end:  # sorted by least u: no later one overlaps r
+                        break
+                    if _stacked_pair(v, faces, normals, offsets, uv, box, order, r, q,
+                                     tolerance, ax, ay, bx, by):
+                        stacked[order[r]] = True
+                        stacked[order[q]] = True
+            continue
+        n = hi - lo
+        size = np.empty(n)
+        u0, v0 = box[lo, 0], box[lo, 2]
+        u1, v1 = box[lo, 1], box[lo, 3]
         for r in range(lo, hi):
-            i = order[r]
-            u_end, v_start, v_end = box[r, 1], box[r, 2], box[r, 3]
-            for q in range(r + 1, hi):
-                if box[q, 0] >= u_end:  # sorted by least u: no later one overlaps i
-                    break
-                if min(v_end, box[q, 3]) <= max(v_start, box[q, 2]):
+            size[r - lo] = max(box[r, 1] - box[r, 0], box[r, 3] - box[r, 2])
+            u0, u1 = min(u0, box[r, 0]), max(u1, box[r, 1])
+            v0, v1 = min(v0, box[r, 2]), max(v1, box[r, 3])
+        base = max(np.percentile(size, _GRID_CELL_QUANTILE),
+                   max(u1 - u0, v1 - v0) / _GRID_SIDE_MAX)
+        if not base > 0.0:
+            base = 1.0
+        side = np.empty(_GRID_LEVELS)
+        side[0] = base
+        for lv in range(1, _GRID_LEVELS):
+            side[lv] = side[lv - 1] * 4.0
+        level = np.empty(n, np.int64)
+        used = np.zeros(_GRID_LEVELS, np.bool_)
+        entries = 0
+        for r in range(lo, hi):
+            lv = 0
+            while lv < _GRID_LEVELS - 1 and size[r - lo] > side[lv]:
+                lv += 1
+            level[r - lo] = lv
+            used[lv] = True
+            s = side[lv]
+            entries += ((_cell(box[r, 1], u0, s) - _cell(box[r, 0], u0, s) + 1)
+                        * (_cell(box[r, 3], v0, s) - _cell(box[r, 2], v0, s) + 1))
+        capacity = 1
+        while capacity < 2 * entries:
+            capacity *= 2
+        table = np.full(capacity, -1, np.int64)
+        head = np.full(capacity, -1, np.int64)
+        nxt = np.empty(entries, np.int64)
+        who = np.empty(entries, np.int64)
+        e = 0
+        for r in range(lo, hi):
+            lv = level[r - lo]
+            s = side[lv]
+            for a in range(_cell(box[r, 0], u0, s), _cell(box[r, 1], u0, s) + 1):
+                for b in range(_cell(box[r, 2], v0, s), _cell(box[r, 3], v0, s) + 1):
+                    key = (lv << 42) | (a << 21) | b
+                    at = _slot(table, key)
+                    table[at] = key
+                    who[e] = r
+                    nxt[e] = head[at]
+                    head[at] = e
+                    e += 1
+        for r in range(lo, hi):
+            own = level[r - lo]
+            for lv in range(own, _GRID_LEVELS):
+                if not used[lv]:
                     continue
-                j = order[q]
-                if abs(offsets[j] - offsets[i]) > 2 * tolerance:
-                    continue
-                close = True
-                for c in range(3):  # each one's corners near the other's plane
-                    di = (tris[j, c, 0] * normals[i, 0] + tris[j, c, 1] * normals[i, 1]
-                          + tris[j, c, 2] * normals[i, 2]) - offsets[i]
-                    dj = (tris[i, c, 0] * normals[j, 0] + tris[i, c, 1] * normals[j, 1]
-                          + tris[i, c, 2] * normals[j, 2]) - offsets[j]
-                    if abs(di) > tolerance or abs(dj) > tolerance:
-                        close = False
-                if not close:
-                    continue
-                for c in range(3):
-                    ax[c], ay[c] = tris[i, c, u], tris[i, c, v]
-                    bx[c], by[c] = tris[j, c, u], tris[j, c, v]
-                if not _separated(ax, ay, bx, by, tolerance):
-                    stacked[i] = True
-                    stacked[j] = True
+                s = side[lv]
+                for a in range(_cell(box[r, 0], u0, s), _cell(box[r, 1], u0, s) + 1):
+                    for b in range(_cell(box[r, 2], v0, s), _cell(box[r, 3], v0, s) + 1):
+                        at = _slot(table, (lv << 42) | (a << 21) | b)
+                        x = head[at]
+                        while x != -1:
+                            q = who[x]
+                            x = nxt[x]
+                            # pairs of one level once (the later-listed of the two);
+                            # every pair in the cell of the least corner of the overlap
+                            if (lv == own and q <= r) or (
+                                    _cell(max(box[r, 0], box[q, 0]), u0, s) != a
+                                    or _cell(max(box[r, 2], box[q, 2]), v0, s) != b):
+                                continue
+                            if _stacked_pair(v, faces, normals, offsets, uv, box, order, r,
+                                             q, tolerance, ax, ay, bx, by):
+                                stacked[order[r]] = True
+                                stacked[order[q]] = True
 
 
 def _stacked_triangles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -392,44 +531,70 @@ def _stacked_triangles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     in the same order, and Embree's frustum traversal of coherent packets may
     even step past the nearer of two hits a ulp apart. A first hit on a
     marked triangle is traced again alone. ``vertices`` are the float32
-    vertices Embree holds, ``faces`` their indices.
+    vertices Embree holds (``(v, 3)`` or padded ``(v, 4)``), ``faces`` their
+    indices.
 
     Candidates share a bin of their canonical unit normal (``_NORMAL_BIN``)
     and lie within ``_STACKED_PLANE`` of each other's plane; their interiors
     then overlap where no edge normal of either separates them in the plane
     (a separating-axis test). Two normals on either side of a bin's edge are
     not compared: a pair so close to coplanar yet in two bins is left unmarked.
+    The pairs looked at are those whose boxes in the plane overlap
+    (:func:`_mark_stacked`): the time grows with the triangles, not with the
+    square of a plane's. The per-triangle planes are computed in chunks of
+    ``_STACKED_CHUNK``, so a scene of millions of triangles holds no float64
+    copy of its corners.
     """
-    tris = np.asarray(vertices, dtype=np.float64)[:, :3][np.asarray(faces, dtype=np.int64)]
-    normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-    length = np.linalg.norm(normals, axis=1)
-    good = length > 0
-    normals[good] /= length[good, None]
-    # canonical sign: the component of largest magnitude positive; the plane
-    # projects on the other two axes
-    drop = np.abs(normals).argmax(axis=1)
-    rows = np.arange(len(normals))
-    normals *= np.where(normals[rows, drop] < 0, -1.0, 1.0)[:, None]
-    uv = np.stack([(drop + 1) % 3, (drop + 2) % 3], axis=1).astype(np.int64)
-    offsets = np.einsum("ij,ij->i", normals, tris[:, 0])
-    bins = np.round(normals / _NORMAL_BIN).astype(np.int64)
-    keys = np.column_stack([bins, drop])
+    v32 = np.asarray(vertices)
+    faces = np.asarray(faces)
+    f = len(faces)
+    normals = np.empty((f, 3))
+    offsets = np.empty(f)
+    good = np.empty(f, dtype=bool)
+    # the sort keys: each normal's bins (|n / _NORMAL_BIN| <= 100 fits int8) and the
+    # axis its plane drops; int64 keys and their sorted copy took 64 of the some 200
+    # bytes a triangle (1.3 GB at 7.5M triangles)
+    keys = np.empty((f, 4), dtype=np.int8)
+    corners = np.empty((f, 4))  # least and most coordinate along each projection axis
+    for a in range(0, f, _STACKED_CHUNK):
+        b = min(f, a + _STACKED_CHUNK)
+        tris = np.asarray(v32[:, :3][np.asarray(faces[a:b], dtype=np.int64)], dtype=np.float64)
+        n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+        length = np.linalg.norm(n, axis=1)
+        ok = length > 0
+        n[ok] /= length[ok, None]
+        # canonical sign: the component of largest magnitude positive; the plane
+        # projects on the other two axes
+        d = np.abs(n).argmax(axis=1)
+        rows = np.arange(len(n))
+        n *= np.where(n[rows, d] < 0, -1.0, 1.0)[:, None]
+        normals[a:b], good[a:b] = n, ok
+        keys[a:b, :3], keys[a:b, 3] = np.round(n / _NORMAL_BIN), d
+        offsets[a:b] = np.einsum("ij,ij->i", n, tris[:, 0])
+        for k, axis in enumerate(((d + 1) % 3, (d + 2) % 3)):
+            c = tris[rows, :, axis]
+            corners[a:b, 2 * k], corners[a:b, 2 * k + 1] = c.min(1), c.max(1)
+    drop = keys[:, 3].astype(np.int64)
+    uv = np.stack([(drop + 1) % 3, (drop + 2) % 3], axis=1)
+    del drop
     order = np.lexsort((offsets, *keys.T[::-1]))
     order = order[good[order]]
     # groups: same bin and projection, offsets chained within 2 tolerances
     k, off = keys[order], offsets[order]
     new = np.ones(len(order), dtype=bool)
     new[1:] = (k[1:] != k[:-1]).any(axis=1) | (np.diff(off) > 2 * _STACKED_PLANE)
+    del keys, k, off
     group = np.cumsum(new)
-    rows3 = np.arange(len(tris))[:, None], np.arange(3)[None, :]
-    cu, cv = tris[rows3[0], rows3[1], uv[:, :1]], tris[rows3[0], rows3[1], uv[:, 1:]]
-    box = np.column_stack([cu.min(1), cu.max(1), cv.min(1), cv.max(1)])
-    order = order[np.lexsort((box[order, 0], group))]
+    order = order[np.lexsort((corners[order, 0], group))].astype(np.int64, copy=False)
+    del group
     starts = np.concatenate([np.flatnonzero(new), [len(order)]]).astype(np.int64)
-    stacked = np.zeros(len(tris), dtype=np.bool_)
+    del new
+    stacked = np.zeros(f, dtype=np.bool_)
     if len(order):
-        _mark_stacked(tris, normals, offsets, uv, np.ascontiguousarray(box[order]),
-                      order.astype(np.int64), starts, _STACKED_PLANE, stacked)
+        box = np.ascontiguousarray(corners[order])
+        del corners
+        _mark_stacked(v32, faces, normals, offsets, uv, box, order, starts, _STACKED_PLANE,
+                      stacked)
     return stacked
 
 
