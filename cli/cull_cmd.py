@@ -21,12 +21,13 @@ from viscore._atomic import LockedFolder
 from viscore._jobs import JOBS_PER_CORE, check_scheduler, connect_scheduler
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
 from viscore.culling import AUTO_MIN_SIZE, DEFAULT_CLUSTERS, MAX_CLUSTERS, occludee_boxes
-from viscore.generators import REGISTRY, call_held, check_method, report_kinds
+from viscore.generators import call_held, check_method, report_kinds
 from viscore.generators.levels import (
     JOINED_METHODS,
     culling_runtimes,
     file_occluder,
     frusta_method,
+    guaranteed_methods,
     method_indices,
 )
 from viscore.level import UP_AXES, level_objects, occluder_objects
@@ -77,7 +78,7 @@ _OUTPUTS = ("cull.json", "triangles.png", "cameras.json", "report.html")
 
 def _default_methods() -> str:
     """Registered methods that carry the conservativeness guarantee, comma-separated."""
-    return ",".join(m for m, spec in REGISTRY.items() if spec.conservative) or "aabb-skins"
+    return ",".join(guaranteed_methods())
 
 
 def add_parser(sub, common) -> None:

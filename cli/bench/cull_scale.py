@@ -54,7 +54,7 @@ def tiled_city(n: int):
     """
     import trimesh
 
-    from viscore.level.scene_graph import culling_scene_path
+    from viscore.level import culling_scene_path
 
     n = as_positive_int(n, "n")
     city = trimesh.load(culling_scene_path("city"), force="scene")
@@ -77,18 +77,16 @@ def tiled_city(n: int):
 
 def _cull_tiles(n: int, frames: int, seed: int) -> dict:
     """``viscore cull``'s work with its defaults on :func:`tiled_city` ``(n)``: its figures."""
-    from viscore.culling.occludee_bounds import DEFAULT_CLUSTERS, occludee_boxes
-    from viscore.generators.levels import culling_runtimes, frusta_method
+    from viscore.culling import DEFAULT_CLUSTERS, occludee_boxes
+    from viscore.generators.levels import culling_runtimes, frusta_method, guaranteed_methods
     from viscore.level import level_objects
-    from viscore.metrics.culling import camera_path, simulate_culling
-
-    from ..cull_cmd import _default_methods
+    from viscore.metrics import camera_path, simulate_culling
 
     start = time.perf_counter()
     level = level_objects(tiled_city(n))
     objects = level.objects
     path = camera_path(objects, frames=frames, seed=seed)
-    runtimes, _ = culling_runtimes(objects, level.chosen, _default_methods().split(","),
+    runtimes, _ = culling_runtimes(objects, level.chosen, guaranteed_methods(),
                                    seed=seed, frusta_source=frusta_method(), flat=level.flat)
     bounds, _, _ = occludee_boxes(objects, "auto", DEFAULT_CLUSTERS)
     result = simulate_culling(objects, runtimes, path, bounds=bounds)

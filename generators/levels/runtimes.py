@@ -44,12 +44,25 @@ from .occluders import (
     scene_occluders,
 )
 
-__all__ = ["culling_runtimes", "frusta_method", "method_indices", "culling_column"]
+__all__ = ["culling_runtimes", "frusta_method", "method_indices", "culling_column",
+           "guaranteed_methods"]
 
 _log = logging.getLogger(__name__)
 
 #: Distinct hierarchy cuts whose occluder scenes are kept between frames.
 _CUT_CACHE = 8
+
+
+def guaranteed_methods() -> list[str]:
+    """The registered methods that carry the conservativeness guarantee (``viscore cull``'s
+    default runtimes), in the registry's order; ``["aabb-skins"]`` if none does.
+
+    Examples
+    --------
+    >>> "aabb-skins" in guaranteed_methods()
+    True
+    """
+    return [m for m, spec in REGISTRY.items() if spec.conservative] or ["aabb-skins"]
 
 
 def frusta_method() -> str:
