@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Callable
 
-__all__ = ["njit_cached"]
+__all__ = ["njit_cached", "pinned_kernels"]
 
 _log = logging.getLogger(__name__)
 
@@ -36,3 +37,32 @@ def njit_cached(**options) -> Callable:
             return numba.njit(cache=False, **options)(func)
 
     return decorate
+
+
+def pinned_kernels(signatures: Callable[[], dict]) -> Callable[[], None]:
+    """A function that compiles (or loads from numba's cache) kernels once, each for the
+    signatures ``signatures()`` maps it to, and then forbids it other versions.
+
+    Left to compile for the argument types of each call, numba builds a new
+    version for every layout and writeability the arrays come in; pinned, a
+    kernel has the versions named here, to which callers convert their arrays.
+    Thread-safe; kernels run as Python under ``NUMBA_DISABLE_JIT`` are left as
+    they are.
+    """
+    lock = threading.Lock()
+    ready = False
+
+    def ready_kernels() -> None:
+        nonlocal ready
+        if ready:
+            return
+        with lock:
+            if not ready:
+                for kernel, kernel_signatures in signatures().items():
+                    if hasattr(kernel, "disable_compile"):  # not under NUMBA_DISABLE_JIT
+                        for signature in kernel_signatures:
+                            kernel.compile(signature)
+                        kernel.disable_compile()
+                ready = True
+
+    return ready_kernels

@@ -59,7 +59,7 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
-from .._jit import njit_cached
+from .._jit import njit_cached, pinned_kernels
 
 __all__ = ["PacketScene", "library", "packets_enabled", "PACKETS_ENV"]
 
@@ -617,23 +617,8 @@ def _kernel_signatures() -> dict:
     }
 
 
-_kernels_lock = threading.Lock()
-_kernels_ready = False
-
-
-def _ready_kernels() -> None:
-    """Compile (or load from numba's cache) the two packet loops once, for one signature each."""
-    global _kernels_ready
-    if _kernels_ready:
-        return
-    with _kernels_lock:
-        if not _kernels_ready:
-            for kernel, signatures in _kernel_signatures().items():
-                if hasattr(kernel, "disable_compile"):  # not under NUMBA_DISABLE_JIT
-                    for signature in signatures:
-                        kernel.compile(signature)
-                    kernel.disable_compile()
-            _kernels_ready = True
+#: Compile (or load from numba's cache) the two packet loops once, one signature each.
+_ready_kernels = pinned_kernels(_kernel_signatures)
 
 
 def packets_enabled() -> bool:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import itertools
 import logging
 import os
-import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import cached_property
@@ -15,7 +14,7 @@ import numpy.typing as npt
 import trimesh
 
 from .._content_cache import ContentCache
-from .._jit import njit_cached
+from .._jit import njit_cached, pinned_kernels
 from .._validate import InputError, as_points, as_positive_int, as_unit_vectors
 from ..constants import MAX_HITS, MIN_RAYS_PER_TASK, RAY_STEP_RELATIVE
 
@@ -157,10 +156,6 @@ def _store_hits(tfar, prim, scale, t, tri):  # pragma: no cover - compiled
         t[i] = np.inf if p < 0 else np.float64(tfar[i]) * scale
 
 
-_kernels_lock = threading.Lock()
-_kernels_ready = False
-
-
 def _kernel_signatures() -> dict:
     """Kernel -> the only signatures it is compiled for (see :func:`_ready_kernels`)."""
     from numba import types
@@ -189,28 +184,11 @@ def _flat(rows: np.ndarray) -> np.ndarray:
     return rows.reshape(-1)
 
 
-def _ready_kernels() -> None:
-    """Compile (or load from numba's cache) the kernels once, for fixed signatures only.
-
-    Left to compile for the argument types of each call, numba would build a
-    new version for every layout and writeability the arrays come in (a
-    second or so each where it has no cache folder to keep them in); pinned,
-    each kernel has one version, which the arrays are converted to (the rays
-    are handed over flat and C-contiguous, see :func:`_flat`). The first query
-    of a process pays numba's own start-up (some 0.4 s, once, shared with
-    viscore's other compiled kernels).
-    """
-    global _kernels_ready
-    if _kernels_ready:
-        return
-    with _kernels_lock:
-        if not _kernels_ready:
-            for kernel, signatures in _kernel_signatures().items():
-                if hasattr(kernel, "disable_compile"):  # not under NUMBA_DISABLE_JIT
-                    for signature in signatures:
-                        kernel.compile(signature)
-                    kernel.disable_compile()
-            _kernels_ready = True
+#: Compile (or load from numba's cache) the kernels once, for fixed signatures only:
+#: each kernel has one version, which the arrays are converted to (the rays are handed
+#: over flat and C-contiguous, see :func:`_flat`). The first query of a process pays
+#: numba's own start-up (some 0.4 s, once, shared with viscore's other kernels).
+_ready_kernels = pinned_kernels(_kernel_signatures)
 
 
 def _as_max_distance(value: npt.ArrayLike | None, n: int) -> np.ndarray | None:
