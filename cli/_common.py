@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -37,8 +38,19 @@ def dumps(document: dict) -> str:
 
 
 def emit(document: dict, as_json: bool, text: str) -> None:
-    """Print the JSON document or the human-readable text on stdout."""
-    print(dumps(document) if as_json else text)
+    """Print the JSON document or the human-readable text on stdout.
+
+    A text stdout cannot encode (a file name's undecodable bytes, as Python holds
+    them, under a locale whose stdout is strict UTF-8) is printed with those
+    characters as backslash escapes, after the files were written, rather than
+    an internal error.
+    """
+    out = dumps(document) if as_json else text
+    try:
+        print(out)
+    except UnicodeEncodeError:  # raised before anything is written
+        encoding = getattr(sys.stdout, "encoding", None) or "utf-8"
+        print(out.encode(encoding, "backslashreplace").decode(encoding))
 
 
 #: Mesh formats the CLI writes (:data:`viscore.exchange.mesh_io.SAVE_FORMATS`).

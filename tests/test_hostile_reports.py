@@ -1,0 +1,127 @@
+"""Hostile input at the report pages and the options of ``cull``, ``occlude`` and ``compare``
+(issue 46, last item): names that cannot be encoded or shown, huge names, absurd
+``--report-frames``; each refused in one line with exit 2, or shown escaped and readable."""
+
+from __future__ import annotations
+
+import json
+import os
+import struct
+
+import numpy as np
+import pytest
+import trimesh
+
+from viscore.cli import cull_cmd
+from viscore.cli import main as cli_main
+from viscore.cli.report.occlude_page import NAME_CHARS, _object_rows
+from viscore.cli.report.page import printable, render_page
+
+
+@pytest.fixture
+def run(monkeypatch):
+    if cull_cmd not in cli_main._COMMANDS:
+        monkeypatch.setattr(cli_main, "_COMMANDS", [*cli_main._COMMANDS, cull_cmd])
+    return lambda *argv: cli_main.main([*map(str, argv)])
+
+
+def _street_glb() -> bytes:
+    """A wall, a box behind it and a ground, as a GLB."""
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.creation.box(bounds=[[-5, 0, -0.5], [5, 6, 0.5]]),
+                       geom_name="wall", node_name="wall")
+    scene.add_geometry(trimesh.creation.box(bounds=[[-1.5, 0, 4.5], [1.5, 2, 5.5]]),
+                       geom_name="box", node_name="box")
+    scene.add_geometry(trimesh.creation.box(bounds=[[-30, -0.2, -30], [30, 0, 30]]),
+                       geom_name="ground", node_name="ground")
+    return scene.export(file_type="glb")
+
+
+def _glb_with_json(glb: bytes, edit) -> bytes:
+    """The GLB with its JSON chunk replaced by ``edit(json_text)`` (padded to 4 bytes)."""
+    length = struct.unpack_from("<I", glb, 12)[0]
+    text = edit(glb[20:20 + length].decode("utf-8").rstrip())
+    data = text.encode("ascii")
+    data += b" " * (-len(data) % 4)
+    rest = glb[20 + length:]
+    return (b"glTF" + struct.pack("<II", 2, 12 + 8 + len(data) + len(rest))
+            + struct.pack("<I", len(data)) + b"JSON" + data + rest)
+
+
+# ------------------------------------------------------------ text a page cannot hold
+def test_printable_replaces_surrogates_and_control_characters():
+    assert printable("a\udcffb\x00c\x1bd\x85e") == "a\ufffdb\ufffdc\ufffdd\ufffde"
+    assert printable("tab\tline\nreturn\r<&>\"'ü€😀") == "tab\tline\nreturn\r<&>\"'ü€😀"
+
+
+def test_render_page_holds_undecodable_and_control_characters():
+    html = render_page("base.html.j2", heading="bad\udcffname", lead="nul\x00esc\x1b",
+                       settings={"scene": "x\udcfe"})
+    data = html.encode("utf-8")  # a surrogate would raise here
+    assert b"\x00" not in data and b"\x1b" not in data
+    assert "bad\ufffdname" in html and "nul\ufffdesc\ufffd" in html and "x\ufffd" in html
+
+
+def _non_utf8_level(tmp_path) -> str:
+    path = tmp_path / os.fsdecode(b"st\xffreet.glb")  # '\udcff' in Python
+    path.write_bytes(_street_glb())
+    return str(path)
+
+
+def test_occlude_page_of_a_file_named_in_bytes_that_are_not_utf8(run, tmp_path, capsys):
+    level = _non_utf8_level(tmp_path)
+    out = tmp_path / "occ"
+    assert run("occlude", level, "-o", out, "--methods", "bbox", "--quiet") == 0, \
+        capsys.readouterr().err
+    html = (out / "report.html").read_text(encoding="utf-8")
+    assert "<title>viscore occlude: st\ufffdreet</title>" in html
+
+
+def test_cull_page_of_a_file_named_in_bytes_that_are_not_utf8(run, tmp_path, capsys):
+    level = _non_utf8_level(tmp_path)
+    out = tmp_path / "cull"
+    assert run("cull", level, "--frames", 2, "--methods", "bbox", "--frusta-method", "bbox",
+               "--width", 32, "--height", 18, "--out", out, "--quiet") == 0, \
+        capsys.readouterr().err
+    html = (out / "report.html").read_text(encoding="utf-8")
+    assert "<title>viscore cull: st\ufffdreet</title>" in html
+
+
+@pytest.mark.parametrize("command", ["occlude", "cull"])
+def test_gltf_name_with_a_lone_surrogate_is_refused(run, tmp_path, capsys, command):
+    level = tmp_path / "lone.glb"
+    level.write_bytes(_glb_with_json(_street_glb(),
+                                     lambda t: t.replace('"box"', '"bad\\ud800box"')))
+    out = tmp_path / "out"
+    option = "-o" if command == "occlude" else "--out"
+    assert run(command, level, option, out, "--quiet", "--methods", "bbox") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "lone.glb" in err[0] and "surrogate" in err[0]
+    assert ".name" in err[0]
+    assert not out.exists()
+
+
+def test_gltf_surrogate_pair_escape_is_read(tmp_path):
+    from viscore.level import level_objects
+
+    level = tmp_path / "pair.glb"
+    level.write_bytes(_glb_with_json(_street_glb(),
+                                     lambda t: t.replace('"box"', '"\\ud83d\\ude00box"')))
+    assert "\U0001f600box" in level_objects(level).objects.names
+
+
+# -------------------------------------------------------------------- huge names
+def test_occlude_page_cuts_huge_names():
+    name = "N" * 100_000
+    manifest = {"objects": {name: {"chosen": True, "size": 1.0, "mesh": "M" * 5000,
+                                   "refused": None, "occluders": {}},
+                            "short": {"chosen": False, "size": 0.1, "mesh": "m",
+                                      "refused": "too small", "occluders": {}}}}
+    rows, more = _object_rows(manifest, [])
+    assert more == 0
+    assert len(rows[0]["object"]) == NAME_CHARS and rows[0]["object"].endswith("\u2026")
+    assert rows[0]["object"].startswith("N" * (NAME_CHARS - 1))
+    assert len(rows[0]["mesh"]) == NAME_CHARS
+    assert rows[1]["object"] == "short" and rows[1]["mesh"] == "m"
+    assert json.dumps(rows)  # plain data
+    assert np.all([len(r["object"]) <= NAME_CHARS for r in rows])
