@@ -12,8 +12,10 @@ import numpy as np
 import pytest
 import trimesh
 
+from viscore import InputError
 from viscore.cli import cull_cmd
 from viscore.cli import main as cli_main
+from viscore.cli.report.cull_page import MAX_REPORT_FRAMES, report_frames
 from viscore.cli.report.occlude_page import NAME_CHARS, _object_rows
 from viscore.cli.report.page import printable, render_page
 
@@ -125,3 +127,38 @@ def test_occlude_page_cuts_huge_names():
     assert rows[1]["object"] == "short" and rows[1]["mesh"] == "m"
     assert json.dumps(rows)  # plain data
     assert np.all([len(r["object"]) <= NAME_CHARS for r in rows])
+
+
+# ------------------------------------------------------------------ --report-frames
+@pytest.mark.parametrize("text", ["+1", "1_0", "\u0663", " 1 - 2", "0x1"])
+def test_report_frames_takes_ascii_digits_only(text):
+    with pytest.raises(InputError, match="expected 'all' or frames and ranges"):
+        report_frames(50, text)
+
+
+def test_report_frames_says_a_backward_range_runs_backwards():
+    with pytest.raises(InputError, match="range 3-1 runs backwards"):
+        report_frames(50, "3-1")
+
+
+def test_report_frames_refuses_more_frames_than_a_page_draws():
+    count = 10 * MAX_REPORT_FRAMES
+    assert len(report_frames(count, f"0-{MAX_REPORT_FRAMES - 1}")) == MAX_REPORT_FRAMES
+    # overlapping ranges count their frames once
+    assert len(report_frames(count, f"0-{MAX_REPORT_FRAMES - 1},5-9")) == MAX_REPORT_FRAMES
+    for text in ("all", f"0-{MAX_REPORT_FRAMES}", f"0-{count - 1}",
+                 f"0-{MAX_REPORT_FRAMES // 2},{MAX_REPORT_FRAMES}-{2 * MAX_REPORT_FRAMES}"):
+        with pytest.raises(InputError, match=f"more than the {MAX_REPORT_FRAMES:,}"):
+            report_frames(count, text)
+    assert len(report_frames(MAX_REPORT_FRAMES, "all")) == MAX_REPORT_FRAMES
+
+
+def test_cull_report_frames_all_of_a_long_walk_exit_2_before_any_work(run, tmp_path, capsys):
+    level = tmp_path / "street.glb"
+    level.write_bytes(_street_glb())
+    out = tmp_path / "out"
+    assert run("cull", level, "--frames", 2 * MAX_REPORT_FRAMES, "--report-frames", "all",
+               "--methods", "bbox", "--out", out, "--quiet") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--report-frames all" in err[0] and "2,000 frames" in err[0]
+    assert not out.exists()

@@ -28,6 +28,7 @@ References
 from __future__ import annotations
 
 import logging
+import re
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -51,12 +52,21 @@ from .pictures import (
 )
 
 __all__ = ["report_frames", "cull_report_html", "check_report_memory", "REPORT_FRAMES",
-           "RUNTIME_COLUMNS"]
+           "MAX_REPORT_FRAMES", "RUNTIME_COLUMNS"]
 
 _log = logging.getLogger(__name__)
 
 #: Frames drawn by default: all of a walk up to this many, else this many spread over it.
 REPORT_FRAMES = 16
+#: Most frames ``--report-frames`` may draw. Each is ray-cast once per runtime and held
+#: inline in the page until it is written: 1,000 frames of the default five runtimes are
+#: 5,000 pictures, a page of hundreds of MB that a browser opens slowly; ``all`` of a
+#: 100,000-frame walk would be hours of drawing and gigabytes held.
+MAX_REPORT_FRAMES = 1000
+
+#: One item of ``--report-frames``: a frame or a range of frames, ASCII digits only
+#: (Python's int() also takes '+1', '1_0' and other scripts' digits).
+_FRAME_ITEM = re.compile(r"([0-9]+)(?:-([0-9]+))?")
 
 #: Peak bytes per pixel of a picture: the rays (``PerspectiveCamera.rays``' own
 #: estimate, 160), three casts of it held at once (the level, the hidden objects, the
@@ -83,7 +93,9 @@ def report_frames(count: int, text: str | None = None, *, option: str = "--repor
     Raises
     ------
     InputError
-        A frame outside the walk, or text that is neither ``all`` nor frames and ranges.
+        A frame outside the walk, a range that runs backwards, more than
+        :data:`MAX_REPORT_FRAMES` frames, or text that is neither ``all`` nor frames
+        and ranges of ASCII digits.
 
     Examples
     --------
@@ -99,21 +111,36 @@ def report_frames(count: int, text: str | None = None, *, option: str = "--repor
                           .tolist()))
     text = str(text).strip()
     if text == "all":
+        _check_drawn(count, count, option, text)
         return list(range(count))
-    frames: set[int] = set()
+    ranges = []
     for item in text.split(","):
         item = item.strip()
-        lo, dash, hi = item.partition("-")
-        try:
-            first = int(lo)
-            last = int(hi) if dash else first
-        except ValueError:
+        match = _FRAME_ITEM.fullmatch(item)
+        if match is None:
             raise InputError(f"{option}: expected 'all' or frames and ranges such as 3,10-14, "
-                             f"got {text!r}") from None
-        if not 0 <= first <= last < count:
-            raise InputError(f"{option}: frame {item} is not in the walk's 0-{count - 1}")
-        frames.update(range(first, last + 1))
-    return sorted(frames)
+                             f"got {text!r}")
+        first = int(match[1])
+        last = int(match[2]) if match[2] is not None else first
+        if last < first:
+            raise InputError(f"{option}: range {item} runs backwards (write {last}-{first})")
+        if last >= count:
+            raise InputError(f"{option}: frame {last} is not in the walk's 0-{count - 1}")
+        ranges.append((first, last))
+    # counted before the frames are listed (0-99999 is one item), overlaps once
+    drawn, end = 0, -1
+    for first, last in sorted(ranges):
+        drawn += max(0, last - max(first, end + 1) + 1)
+        end = max(end, last)
+    _check_drawn(drawn, count, option, text)
+    return sorted({f for first, last in ranges for f in range(first, last + 1)})
+
+
+def _check_drawn(drawn: int, count: int, option: str, text: str) -> None:
+    if drawn > MAX_REPORT_FRAMES:
+        raise InputError(f"{option} {text}: {drawn:,} frames of the walk's {count:,}, more than "
+                         f"the {MAX_REPORT_FRAMES:,} a page draws (each frame is ray-cast per "
+                         "runtime and held in the page); name fewer frames")
 
 
 def check_report_memory(width: int, height: int) -> None:
