@@ -53,6 +53,27 @@ def emit(document: dict, as_json: bool, text: str) -> None:
         print(out.encode(encoding, "backslashreplace").decode(encoding))
 
 
+def check_utf8_name(text: str, what: str) -> str:
+    """Refuse a name that is not valid UTF-8 (a file name's undecodable bytes, which
+    Python holds as surrogates): where it names rows of a database or a study's files,
+    it cannot be stored.
+
+    Raises
+    ------
+    InputError
+        One line naming ``what``, with the name's bytes escaped.
+    """
+    from viscore import InputError
+
+    try:
+        str(text).encode("utf-8")
+    except UnicodeEncodeError:
+        shown = os.fsencode(text) if isinstance(text, str) else text
+        raise InputError(f"{what} {shown!r}: the name is not UTF-8 (its rows and files are "
+                         "named by it as text); rename the file") from None
+    return text
+
+
 #: Mesh formats the CLI writes (:data:`viscore.exchange.mesh_io.SAVE_FORMATS`).
 MESH_FORMATS = SAVE_FORMATS
 

@@ -162,3 +162,18 @@ def test_cull_report_frames_all_of_a_long_walk_exit_2_before_any_work(run, tmp_p
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--report-frames all" in err[0] and "2,000 frames" in err[0]
     assert not out.exists()
+
+
+# ------------------------------------------------------------------------- compare
+def test_compare_of_a_mesh_file_named_in_bytes_that_are_not_utf8_exit_2(tmp_path, capsys):
+    # the study's SQLite store could not hold the name: exit 3 with the folder half made
+    mesh = tmp_path / os.fsdecode(b"b\xffx.obj")
+    trimesh.creation.box(extents=(1, 2, 3)).export(str(mesh), file_type="obj")
+    out = tmp_path / "study"
+    assert cli_main.main(["compare", str(mesh), "--methods", "bbox", "--no-culling",
+                          "--views", "4", "--quads", "50", "--res", "32", "--out", str(out),
+                          "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "MESH" in err[0] and "b\\xffx.obj" in err[0]
+    assert "not UTF-8" in err[0]
+    assert not out.exists()
