@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import struct
 
 import numpy as np
@@ -15,9 +16,15 @@ import trimesh
 from viscore import InputError
 from viscore.cli import cull_cmd
 from viscore.cli import main as cli_main
-from viscore.cli.report.cull_page import MAX_REPORT_FRAMES, report_frames
+from viscore.cli.report.cull_page import (
+    MAX_REPORT_FRAMES,
+    check_report_memory,
+    frame_size,
+    report_frames,
+)
 from viscore.cli.report.occlude_page import NAME_CHARS, _object_rows
 from viscore.cli.report.page import printable, render_page
+from viscore.cli.report.pictures import FRAME_WIDTH
 
 
 @pytest.fixture
@@ -177,3 +184,26 @@ def test_compare_of_a_mesh_file_named_in_bytes_that_are_not_utf8_exit_2(tmp_path
     assert len(err) == 1 and "MESH" in err[0] and "b\\xffx.obj" in err[0]
     assert "not UTF-8" in err[0]
     assert not out.exists()
+
+
+# ------------------------------------------------------------ pictures of tall views
+def test_frame_pictures_fit_a_square_whatever_the_aspect():
+    assert frame_size(1280, 720) == (FRAME_WIDTH, round(FRAME_WIDTH * 720 / 1280))
+    assert frame_size(720, 1280) == (round(FRAME_WIDTH * 720 / 1280), FRAME_WIDTH)
+    assert frame_size(1, 8192) == (1, FRAME_WIDTH)
+    assert frame_size(8192, 1) == (FRAME_WIDTH, 1)
+    # a 1 x 8192 view was a 480 x 3.9 million picture: 562 GiB, refused
+    check_report_memory(1, 8192)
+
+
+def test_cull_page_of_a_tall_view(run, tmp_path, capsys):
+    level = tmp_path / "street.glb"
+    level.write_bytes(_street_glb())
+    out = tmp_path / "out"
+    assert run("cull", level, "--frames", 1, "--width", 18, "--height", 32, "--buffer-scale",
+               1, "--methods", "bbox", "--frusta-method", "bbox", "--out", out,
+               "--quiet") == 0, capsys.readouterr().err
+    html = (out / "report.html").read_text(encoding="utf-8")
+    sizes = set(re.findall(r'<img src="data:image/png;base64,[^"]*" alt="frame 0, [^"]*" '
+                           r'width="(\d+)" height="(\d+)"', html))
+    assert sizes == {(str(round(FRAME_WIDTH * 18 / 32)), str(FRAME_WIDTH))}

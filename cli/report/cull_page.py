@@ -51,7 +51,8 @@ from .pictures import (
     png_bytes,
 )
 
-__all__ = ["report_frames", "cull_report_html", "check_report_memory", "REPORT_FRAMES",
+__all__ = ["report_frames", "cull_report_html", "check_report_memory", "frame_size",
+           "REPORT_FRAMES",
            "MAX_REPORT_FRAMES", "RUNTIME_COLUMNS"]
 
 _log = logging.getLogger(__name__)
@@ -143,10 +144,26 @@ def _check_drawn(drawn: int, count: int, option: str, text: str) -> None:
                          "runtime and held in the page); name fewer frames")
 
 
+def frame_size(width: int, height: int) -> tuple[int, int]:
+    """Pixels (across, down) of a frame's picture: the truth's ``width`` x ``height``
+    aspect ratio fitted in a square of :data:`~.pictures.FRAME_WIDTH` pixels (a wide view
+    is that many across, as the page lays them out; a tall one that many down, so that
+    ``--width 1 --height 8192`` is a 1 x 480 picture, not 480 x 3.9 million).
+
+    Examples
+    --------
+    >>> frame_size(1280, 720), frame_size(720, 1280), frame_size(1, 8192)
+    ((480, 270), (270, 480), (1, 480))
+    """
+    if width >= height:
+        return FRAME_WIDTH, max(1, round(FRAME_WIDTH * height / width))
+    return max(1, round(FRAME_WIDTH * width / height)), FRAME_WIDTH
+
+
 def check_report_memory(width: int, height: int) -> None:
     """Refuse, before any work, a page whose pictures do not fit in memory: the plan
-    (:data:`~.pictures.PLAN_PIXELS` square) or a frame (:data:`~.pictures.FRAME_WIDTH`
-    across, the truth's aspect ratio), whichever is larger.
+    (:data:`~.pictures.PLAN_PIXELS` square) or a frame (:func:`frame_size`), whichever
+    is larger.
 
     Raises
     ------
@@ -155,8 +172,8 @@ def check_report_memory(width: int, height: int) -> None:
     """
     from viscore._validate import check_memory
 
-    frame = FRAME_WIDTH * max(1, round(FRAME_WIDTH * height / width))
-    pixels = max(PLAN_PIXELS**2, frame)
+    across, down = frame_size(width, height)
+    pixels = max(PLAN_PIXELS**2, across * down)
     check_memory(float(pixels) * _BYTES_PER_PICTURE_PIXEL, "report.html's pictures")
 
 
@@ -257,8 +274,7 @@ def _plan(objects, cameras, frames: Sequence[int], scene: str, highlight) -> tup
 
 def _frame_pictures(result, objects, runtimes: Mapping, frames: Sequence[int], scene: str,
                     progress: Callable[[int], None] | None) -> list[dict]:
-    width = FRAME_WIDTH
-    height = max(1, int(round(FRAME_WIDTH * result.height / result.width)))
+    width, height = frame_size(result.width, result.height)
     out = []
     for f in frames:
         pose = result.cameras[f]
@@ -359,9 +375,10 @@ def cull_report_html(result, objects, runtimes: Mapping, doc: Mapping, *, scene:
         "culled objects the ray-cast object-id image sees, summed over frames. Triangles: "
         "of the objects sent to render, per frame. Overhead: the runtime's own time per "
         "frame. Conservative: the runtime's guarantee ('-' where it culled nothing).")
+    across, down = frame_size(result.width, result.height)
     frames_note = (
-        f"{len(frames)} of the walk's {count:,} frames, ray-cast at {FRAME_WIDTH} pixels "
-        "across; each object is tinted by what happened to it in that frame, the objects "
+        f"{len(frames)} of the walk's {count:,} frames, ray-cast at {across} x {down} "
+        "pixels; each object is tinted by what happened to it in that frame, the objects "
         "hidden behind what the camera sees are drawn through it, translucent, and the "
         "chosen runtime's occluders are drawn over the view (frusta runtimes: all their "
         "solids, of which each frame uses the best ranked). Pick the runtime with the "
