@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -40,8 +41,40 @@ def dumps(document: dict) -> str:
 
 
 def emit(document: dict, as_json: bool, text: str) -> None:
-    """Print the JSON document or the human-readable text on stdout."""
-    print(dumps(document) if as_json else text)
+    """Print the JSON document or the human-readable text on stdout.
+
+    A text stdout cannot encode (a file name's undecodable bytes, as Python holds
+    them, under a locale whose stdout is strict UTF-8) is printed with those
+    characters as backslash escapes, after the files were written, rather than
+    an internal error.
+    """
+    out = dumps(document) if as_json else text
+    try:
+        print(out)
+    except UnicodeEncodeError:  # raised before anything is written
+        encoding = getattr(sys.stdout, "encoding", None) or "utf-8"
+        print(out.encode(encoding, "backslashreplace").decode(encoding))
+
+
+def check_utf8_name(text: str, what: str) -> str:
+    """Refuse a name that is not valid UTF-8 (a file name's undecodable bytes, which
+    Python holds as surrogates): where it names rows of a database or a study's files,
+    it cannot be stored.
+
+    Raises
+    ------
+    InputError
+        One line naming ``what``, with the name's bytes escaped.
+    """
+    from viscore import InputError
+
+    try:
+        str(text).encode("utf-8")
+    except UnicodeEncodeError:
+        shown = os.fsencode(text) if isinstance(text, str) else text
+        raise InputError(f"{what} {shown!r}: the name is not UTF-8 (its rows and files are "
+                         "named by it as text); rename the file") from None
+    return text
 
 
 #: Mesh formats the CLI writes (:data:`viscore.exchange.mesh_io.SAVE_FORMATS`).

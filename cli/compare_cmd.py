@@ -30,7 +30,7 @@ from viscore.generators import (
     report_kinds,
 )
 
-from ._common import check_jobs, dumps, emit, parse_list, write_atomic
+from ._common import check_jobs, check_utf8_name, dumps, emit, parse_list, write_atomic
 from .study.report import CULLING_COLUMNS, write_occluder_glbs, write_report
 from .study.runner import (
     JOBS_PER_CORE,
@@ -184,6 +184,8 @@ def run_compare(args) -> int:
     settings = StudySettings(protocol=args.protocol, views=views, quads=quads, resolution=res,
                              rays=rays, budgets=budgets, seed=seed)
     meshes = list(dict.fromkeys(args.meshes or DEFAULT_SCENES))
+    for m in meshes:  # the study stores its rows by the name (SQLite: UTF-8 text)
+        check_utf8_name(m, "MESH")
     originals = {m: load_mesh(m) for m in meshes}
     # every occluder file found and read now: a missing or bad one leaves no folder behind
     files = resolve_occluder_files(specs, meshes, methods=methods)

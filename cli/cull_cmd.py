@@ -45,6 +45,7 @@ from viscore.metrics import (
 
 from ._common import RateEstimate, check_jobs, check_output_folder, dumps, emit, format_duration
 from .report.cull_page import check_report_memory, cull_report_html, report_frames
+from .report.page import printable
 
 #: Frames of a generated camera path when ``--frames`` is not given.
 DEFAULT_FRAMES = 100
@@ -467,7 +468,7 @@ def _simulate(args, objects, indices, path, folder: LockedFolder, *, progress: b
               leave=False) as bar:
         folder.write_set({
             "triangles.png": lambda p: culling_plot(
-                result, p, title=f"{args.scene}: triangles rendered per frame"),
+                result, p, title=f"{printable(args.scene)}: triangles rendered per frame"),
             "report.html": lambda p: p.write_bytes(cull_report_html(
                 result, objects, runtimes, doc, scene=Path(str(args.scene)).stem,
                 frames=shown or [], triangles_png=p.with_name("triangles.png").read_bytes(),

@@ -25,6 +25,14 @@ SCHEDULER_PROBE_SECONDS = 2.0
 
 #: Port of a scheduler address that names none (dask.distributed's default).
 _DEFAULT_SCHEDULER_PORT = 8786
+#: Highest TCP port.
+_MAX_PORT = 65535
+#: A dask TCP message opens with its length, an unsigned 64-bit little-endian integer
+#: (``distributed.comm.tcp.TCP.read``, struct "Q").
+_FRAME_LENGTH_BYTES = 8
+#: Largest greeting accepted from a scheduler, bytes: its handshake is a msgpack map of
+#: a few entries (compression, Python version, pickle protocol), well under 1 KB.
+_MAX_GREETING_BYTES = 1 << 20
 
 
 def worker_init(parent: int, threads: int | None = None) -> None:
@@ -78,13 +86,20 @@ def process_pool(workers: int, threads: int | None = None):
 def check_scheduler(address: str) -> None:
     """Refuse at once a dask scheduler address that cannot be reached.
 
-    For a ``tcp://`` or ``tls://`` address (a bare ``host:port`` is TCP), a
-    plain socket connects to the host and port first, waiting at most
-    :data:`SCHEDULER_PROBE_SECONDS`: a refused connection, an unknown host or
-    an unreachable network is one line at once, where
-    ``distributed.Client`` would retry until its connect timeout (30 s)
-    runs out. A port that stays silent passes: the client's timeout is kept
-    for that case. Other schemes (``inproc://``, ``ucx://``) are not probed.
+    For a ``tcp://``, ``tls://``, ``ws://`` or ``wss://`` address (a bare
+    ``host:port`` is TCP), a plain socket connects to the host and port first,
+    waiting at most :data:`SCHEDULER_PROBE_SECONDS`: a refused connection, an
+    unknown host, an unreachable network or a port outside 1-65535 is one line
+    at once, where ``distributed.Client`` would retry until its connect
+    timeout (30 s) runs out. A port that does not answer the connection passes:
+    the client's timeout is kept for that case. Over ``tcp://`` the scheduler's
+    greeting is then read: a dask listener writes its handshake as soon as it
+    accepts (``distributed.comm.core.Listener.on_connection``), a frame whose
+    first 8 bytes are its length; a server that sends something else (an SSH
+    banner: the client read it as a frame of exabytes, a MemoryError) or
+    accepts and says nothing (the client waited for ever) is refused, the
+    latter after dask's connect timeout. ``inproc://`` (a scheduler of this
+    same process) and ``ucx://`` are not probed.
 
     Raises
     ------
@@ -96,14 +111,17 @@ def check_scheduler(address: str) -> None:
     where = f"--scheduler {address!r}"
     try:
         scheme, location = parse_address(str(address))
-        if scheme not in ("tcp", "tls"):
+        if scheme not in ("tcp", "tls", "ws", "wss"):
             return
         host, port = parse_host_port(location, _DEFAULT_SCHEDULER_PORT)
     except (ValueError, TypeError) as exc:
         raise InputError(f"{where}: not a scheduler address ({exc})") from None
+    if not 0 < int(port) <= _MAX_PORT:
+        raise InputError(f"{where}: port {port} is not a TCP port (1 to {_MAX_PORT})")
     try:
-        with socket.create_connection((host, port), timeout=SCHEDULER_PROBE_SECONDS):
-            pass
+        with socket.create_connection((host, port), timeout=SCHEDULER_PROBE_SECONDS) as sock:
+            if scheme == "tcp":  # over TLS and websockets the greeting comes later
+                _check_greeting(sock, where, f"{host}:{port}")
     except TimeoutError:  # silence: dask's connect timeout decides
         return
     except ConnectionRefusedError:
@@ -115,6 +133,42 @@ def check_scheduler(address: str) -> None:
     except (OSError, OverflowError) as exc:  # unreachable network, a port beyond 65535
         raise InputError(f"{where}: cannot connect "
                          f"({getattr(exc, 'strerror', None) or exc})") from None
+
+
+def _connect_timeout() -> float:
+    """dask's ``distributed.comm.timeouts.connect``, seconds."""
+    import dask
+    from dask.utils import parse_timedelta
+
+    return float(parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"),
+                                 default="seconds"))
+
+
+def _check_greeting(sock: socket.socket, where: str, peer: str) -> None:
+    """Read the first 8 bytes a dask listener sends (:func:`check_scheduler`)."""
+    wait = _connect_timeout()
+    sock.settimeout(wait)
+    head = b""
+    try:
+        while len(head) < _FRAME_LENGTH_BYTES:
+            chunk = sock.recv(_FRAME_LENGTH_BYTES - len(head))
+            if not chunk:
+                break
+            head += chunk
+    except TimeoutError:
+        raise InputError(f"{where}: {peer} accepted the connection but sent nothing in "
+                         f"{wait:g} s, where a dask scheduler greets at once; is this a "
+                         "scheduler's port?") from None
+    except OSError as exc:
+        raise InputError(f"{where}: {peer} cut the connection ({exc.strerror or exc})"
+                         ) from None
+    if len(head) < _FRAME_LENGTH_BYTES:
+        raise InputError(f"{where}: {peer} closed the connection without a dask scheduler's "
+                         f"greeting (sent {head!r})")
+    length = int.from_bytes(head, "little")
+    if not 0 < length <= _MAX_GREETING_BYTES:
+        raise InputError(f"{where}: {peer} answered {head!r}, not a dask scheduler's greeting "
+                         f"(read as a frame of {length:,} bytes); is this a scheduler's port?")
 
 
 def connect_scheduler(address):
@@ -136,7 +190,10 @@ def connect_scheduler(address):
     try:
         return Client(address)
     except (OSError, ValueError, TypeError) as exc:
-        raise InputError(f"--scheduler {address!r}: cannot connect ({exc})") from None
+        why = ("no scheduler of this process has that inproc:// address; give a "
+               "scheduler's tcp:// address" if str(address).startswith("inproc://")
+               else f"cannot connect ({exc})")
+        raise InputError(f"--scheduler {address!r}: {why}") from None
 
 
 def run_jobs(function: Callable, pending: Sequence[tuple], commit: Callable, *,

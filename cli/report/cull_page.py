@@ -28,6 +28,7 @@ References
 from __future__ import annotations
 
 import logging
+import re
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -50,13 +51,23 @@ from .pictures import (
     png_bytes,
 )
 
-__all__ = ["report_frames", "cull_report_html", "check_report_memory", "REPORT_FRAMES",
-           "RUNTIME_COLUMNS"]
+__all__ = ["report_frames", "cull_report_html", "check_report_memory", "frame_size",
+           "REPORT_FRAMES",
+           "MAX_REPORT_FRAMES", "RUNTIME_COLUMNS"]
 
 _log = logging.getLogger(__name__)
 
 #: Frames drawn by default: all of a walk up to this many, else this many spread over it.
 REPORT_FRAMES = 16
+#: Most frames ``--report-frames`` may draw. Each is ray-cast once per runtime and held
+#: inline in the page until it is written: 1,000 frames of the default five runtimes are
+#: 5,000 pictures, a page of hundreds of MB that a browser opens slowly; ``all`` of a
+#: 100,000-frame walk would be hours of drawing and gigabytes held.
+MAX_REPORT_FRAMES = 1000
+
+#: One item of ``--report-frames``: a frame or a range of frames, ASCII digits only
+#: (Python's int() also takes '+1', '1_0' and other scripts' digits).
+_FRAME_ITEM = re.compile(r"([0-9]+)(?:-([0-9]+))?")
 
 #: Peak bytes per pixel of a picture: the rays (``PerspectiveCamera.rays``' own
 #: estimate, 160), three casts of it held at once (the level, the hidden objects, the
@@ -83,7 +94,9 @@ def report_frames(count: int, text: str | None = None, *, option: str = "--repor
     Raises
     ------
     InputError
-        A frame outside the walk, or text that is neither ``all`` nor frames and ranges.
+        A frame outside the walk, a range that runs backwards, more than
+        :data:`MAX_REPORT_FRAMES` frames, or text that is neither ``all`` nor frames
+        and ranges of ASCII digits.
 
     Examples
     --------
@@ -99,27 +112,58 @@ def report_frames(count: int, text: str | None = None, *, option: str = "--repor
                           .tolist()))
     text = str(text).strip()
     if text == "all":
+        _check_drawn(count, count, option, text)
         return list(range(count))
-    frames: set[int] = set()
+    ranges = []
     for item in text.split(","):
         item = item.strip()
-        lo, dash, hi = item.partition("-")
-        try:
-            first = int(lo)
-            last = int(hi) if dash else first
-        except ValueError:
+        match = _FRAME_ITEM.fullmatch(item)
+        if match is None:
             raise InputError(f"{option}: expected 'all' or frames and ranges such as 3,10-14, "
-                             f"got {text!r}") from None
-        if not 0 <= first <= last < count:
-            raise InputError(f"{option}: frame {item} is not in the walk's 0-{count - 1}")
-        frames.update(range(first, last + 1))
-    return sorted(frames)
+                             f"got {text!r}")
+        first = int(match[1])
+        last = int(match[2]) if match[2] is not None else first
+        if last < first:
+            raise InputError(f"{option}: range {item} runs backwards (write {last}-{first})")
+        if last >= count:
+            raise InputError(f"{option}: frame {last} is not in the walk's 0-{count - 1}")
+        ranges.append((first, last))
+    # counted before the frames are listed (0-99999 is one item), overlaps once
+    drawn, end = 0, -1
+    for first, last in sorted(ranges):
+        drawn += max(0, last - max(first, end + 1) + 1)
+        end = max(end, last)
+    _check_drawn(drawn, count, option, text)
+    return sorted({f for first, last in ranges for f in range(first, last + 1)})
+
+
+def _check_drawn(drawn: int, count: int, option: str, text: str) -> None:
+    if drawn > MAX_REPORT_FRAMES:
+        raise InputError(f"{option} {text}: {drawn:,} frames of the walk's {count:,}, more than "
+                         f"the {MAX_REPORT_FRAMES:,} a page draws (each frame is ray-cast per "
+                         "runtime and held in the page); name fewer frames")
+
+
+def frame_size(width: int, height: int) -> tuple[int, int]:
+    """Pixels (across, down) of a frame's picture: the truth's ``width`` x ``height``
+    aspect ratio fitted in a square of :data:`~.pictures.FRAME_WIDTH` pixels (a wide view
+    is that many across, as the page lays them out; a tall one that many down, so that
+    ``--width 1 --height 8192`` is a 1 x 480 picture, not 480 x 3.9 million).
+
+    Examples
+    --------
+    >>> frame_size(1280, 720), frame_size(720, 1280), frame_size(1, 8192)
+    ((480, 270), (270, 480), (1, 480))
+    """
+    if width >= height:
+        return FRAME_WIDTH, max(1, round(FRAME_WIDTH * height / width))
+    return max(1, round(FRAME_WIDTH * width / height)), FRAME_WIDTH
 
 
 def check_report_memory(width: int, height: int) -> None:
     """Refuse, before any work, a page whose pictures do not fit in memory: the plan
-    (:data:`~.pictures.PLAN_PIXELS` square) or a frame (:data:`~.pictures.FRAME_WIDTH`
-    across, the truth's aspect ratio), whichever is larger.
+    (:data:`~.pictures.PLAN_PIXELS` square) or a frame (:func:`frame_size`), whichever
+    is larger.
 
     Raises
     ------
@@ -128,8 +172,8 @@ def check_report_memory(width: int, height: int) -> None:
     """
     from viscore._validate import check_memory
 
-    frame = FRAME_WIDTH * max(1, round(FRAME_WIDTH * height / width))
-    pixels = max(PLAN_PIXELS**2, frame)
+    across, down = frame_size(width, height)
+    pixels = max(PLAN_PIXELS**2, across * down)
     check_memory(float(pixels) * _BYTES_PER_PICTURE_PIXEL, "report.html's pictures")
 
 
@@ -230,8 +274,7 @@ def _plan(objects, cameras, frames: Sequence[int], scene: str, highlight) -> tup
 
 def _frame_pictures(result, objects, runtimes: Mapping, frames: Sequence[int], scene: str,
                     progress: Callable[[int], None] | None) -> list[dict]:
-    width = FRAME_WIDTH
-    height = max(1, int(round(FRAME_WIDTH * result.height / result.width)))
+    width, height = frame_size(result.width, result.height)
     out = []
     for f in frames:
         pose = result.cameras[f]
@@ -332,9 +375,10 @@ def cull_report_html(result, objects, runtimes: Mapping, doc: Mapping, *, scene:
         "culled objects the ray-cast object-id image sees, summed over frames. Triangles: "
         "of the objects sent to render, per frame. Overhead: the runtime's own time per "
         "frame. Conservative: the runtime's guarantee ('-' where it culled nothing).")
+    across, down = frame_size(result.width, result.height)
     frames_note = (
-        f"{len(frames)} of the walk's {count:,} frames, ray-cast at {FRAME_WIDTH} pixels "
-        "across; each object is tinted by what happened to it in that frame, the objects "
+        f"{len(frames)} of the walk's {count:,} frames, ray-cast at {across} x {down} "
+        "pixels; each object is tinted by what happened to it in that frame, the objects "
         "hidden behind what the camera sees are drawn through it, translucent, and the "
         "chosen runtime's occluders are drawn over the view (frusta runtimes: all their "
         "solids, of which each frame uses the best ranked). Pick the runtime with the "

@@ -27,11 +27,11 @@ import numpy as np
 from viscore import InputError, Scene, load_occluder
 from viscore._atomic import write_atomic
 
-from .page import cite_name, picture, render_page
+from .page import cite_name, picture, printable, render_page
 from .pictures import level_picture, level_views, png_bytes
 
 __all__ = ["write_occlude_report", "OCCLUDE_REPORT_FILES", "OCCLUDER_PREVIEW_RGB",
-           "OBJECT_ROWS"]
+           "OBJECT_ROWS", "NAME_CHARS"]
 
 _log = logging.getLogger(__name__)
 
@@ -43,6 +43,15 @@ _PREVIEW_ALPHA = 0.5
 #: Objects listed one by one in the page's table (the chosen ones first); the rest
 #: are counted.
 OBJECT_ROWS = 2000
+#: Characters of an object's or mesh's name shown in the table (occlude.json holds it
+#: whole): a glTF node's name can be megabytes, one table row as wide.
+NAME_CHARS = 120
+
+
+def _shown_name(name) -> str:
+    """A name cut to :data:`NAME_CHARS` characters (an ellipsis saying so)."""
+    text = str(name)
+    return text if len(text) <= NAME_CHARS else text[:NAME_CHARS - 1] + "\u2026"
 
 
 def _method_scenes(out: Path, manifest: Mapping) -> dict[str, Scene | None]:
@@ -65,7 +74,8 @@ def _object_rows(manifest: Mapping, methods: list[str]) -> tuple[list[dict], int
     ordered = sorted(manifest["objects"].items(),
                      key=lambda kv: (not kv[1]["chosen"], -kv[1]["size"], kv[0]))
     for name, row in ordered[:OBJECT_ROWS]:
-        entry = {"object": name, "mesh": row["mesh"], "size": f"{row['size']:.3f}",
+        entry = {"object": _shown_name(name), "mesh": _shown_name(row["mesh"]),
+                 "size": f"{row['size']:.3f}",
                  "chosen": "yes" if row["chosen"] else "no: " + str(row.get("refused") or ""),
                  "_classes": {}}
         for m in methods:
@@ -120,7 +130,8 @@ def write_occlude_report(out: str | Path, level, manifest: Mapping) -> list[str]
     except InputError as exc:
         raise InputError(f"report: {exc}") from None
     views = level_views(objects)
-    label = Path(str(manifest.get("level", objects.source))).stem
+    # a file name's undecodable bytes cannot go into the plot's title or the UTF-8 page
+    label = printable(Path(str(manifest.get("level", objects.source))).stem)
     grid, pictures = [], []
     for view, camera in views:
         row = []

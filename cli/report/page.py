@@ -8,7 +8,9 @@ tables, key-value tables, pictures with a name to cite). Every page is one
 self-contained file: pictures are inline ``data:image/png`` URIs, nothing is
 loaded from elsewhere and no script runs, so a page opens offline and can be
 mailed or archived as one file. Text is escaped by the template engine
-(autoescape), never by hand.
+(autoescape), never by hand, after :func:`printable` made it valid Unicode
+without control characters (a file name's undecodable bytes, a glTF name's
+NUL or escape character).
 """
 
 from __future__ import annotations
@@ -21,14 +23,48 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from markupsafe import Markup
 
 __all__ = ["render_page", "format_number", "cell_text", "data_uri", "Picture", "cite_name",
-           "format_interval", "format_share"]
+           "format_interval", "format_share", "printable"]
 
 #: The templates' folder, installed with the package.
 TEMPLATES = Path(__file__).resolve().parent / "templates"
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+#: What :func:`printable` replaces: UTF-16 surrogates (a file name's undecodable bytes,
+#: as Python's surrogateescape holds them, or a JSON string's lone ``\\ud800``) and
+#: control characters other than tab, line feed and carriage return (C0, DEL, C1).
+_UNPRINTABLE = re.compile("[\ud800-\udfff\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]")
+#: Shown in place of each: U+FFFD REPLACEMENT CHARACTER.
+_REPLACEMENT = "\ufffd"
+
+
+def printable(text) -> str:
+    """``text`` as valid Unicode without control characters, each other character kept.
+
+    A page is UTF-8 and a plot title goes through a font: neither can hold a
+    surrogate (a non-UTF-8 file name's byte ``0xff`` is ``\\udcff`` in Python),
+    and a NUL or an escape character in HTML is a parse error. Each such
+    character becomes U+FFFD; tab, line feed and carriage return stay.
+
+    Examples
+    --------
+    >>> printable("bad\\udcffname\\x00")
+    'bad\ufffdname\ufffd'
+    >>> printable("<script>")
+    '<script>'
+    """
+    return _UNPRINTABLE.sub(_REPLACEMENT, str(text))
+
+
+def _finalize(value):
+    """Every text a template shows, made :func:`printable` (markup the code built, such as
+    compare's links, is left as it is: its text went through the escape already)."""
+    if isinstance(value, str) and not isinstance(value, Markup):
+        return printable(value)
+    return value
 
 
 def format_number(value, digits: int = 4) -> str:
@@ -149,8 +185,8 @@ def _environment():
     from jinja2 import Environment, FileSystemLoader, StrictUndefined
 
     env = Environment(loader=FileSystemLoader(str(TEMPLATES)), autoescape=True,
-                      undefined=StrictUndefined, trim_blocks=True, lstrip_blocks=True,
-                      keep_trailing_newline=True)
+                      finalize=_finalize, undefined=StrictUndefined, trim_blocks=True,
+                      lstrip_blocks=True, keep_trailing_newline=True)
     env.filters.update(number=format_number, cell_text=cell_text, cell=_cell,
                        share=format_share, interval=format_interval)
     return env

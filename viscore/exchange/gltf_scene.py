@@ -41,6 +41,7 @@ from __future__ import annotations
 import io
 import json
 import logging
+import re
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -166,7 +167,44 @@ def _gltf_json(data: bytes, fmt: str, label: str) -> tuple[dict, tuple[int, int,
     if not isinstance(header, dict):
         raise InputError(f"{label}: not a valid {what} file (its JSON is a "
                          f"{type(header).__name__}, not an object)")
+    if _SURROGATE_ESCAPE.search(text):  # rare: a walk of the strings only then
+        _check_unicode(header, label)
     return header, layout
+
+
+#: A JSON escape of a UTF-16 surrogate, ``\\ud800`` to ``\\udfff``: valid Unicode only as
+#: a pair (high then low), which ``json.loads`` joins into one character.
+_SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F][0-9a-fA-F]{2}")
+
+
+def _check_unicode(header: dict, label: str) -> None:
+    """Refuse a lone surrogate escape in any string of the JSON (key or value).
+
+    glTF's JSON is UTF-8 text, which cannot hold an unpaired surrogate (RFC 8259
+    sec. 8.2: such strings behave unpredictably); one in a node's name would reach the
+    Godot scene, the JSON document and the report page, none of which can encode it.
+    """
+    stack: list[tuple[str, object]] = [("", header)]
+    while stack:
+        where, value = stack.pop()
+        if isinstance(value, dict):
+            items = list(value.items())
+            for key, _ in items:
+                _check_text(key, f"{where}.{_quote(key)}" if where else _quote(key), label)
+            stack.extend((f"{where}.{k}" if where else str(k), v) for k, v in items)
+        elif isinstance(value, list):
+            stack.extend((f"{where}[{i}]", v) for i, v in enumerate(value))
+        elif isinstance(value, str):
+            _check_text(value, where, label)
+
+
+def _check_text(text: str, where: str, label: str) -> None:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise InputError(f"{label}: {where} holds a lone UTF-16 surrogate escape "
+                         f"({ascii(text)[:_NAME_CHARS]}), not Unicode text (RFC 8259 sec. 8.2)"
+                         ) from None
 
 
 #: Required glTF extensions that compress geometry, which trimesh's reader cannot decode.
