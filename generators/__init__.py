@@ -14,7 +14,7 @@ methods under the ``viscore.generators`` entry points (plugins, see
 from .aabb_skins import boxes_mesh, generate_aabb_skins
 from .baselines import generate_bbox, generate_godot, generate_original, generate_qem
 from .hybrid import generate_hybrid, metric_guided_simplify
-from .levels.occluders import (
+from .levels import (
     JOINED_METHODS,
     culling_runtimes,
     file_occluder,
