@@ -83,10 +83,10 @@ from viscore.generators.levels import (
     method_indices,
 )
 from viscore.level import UP_AXES, level_objects, occluder_objects
+from viscore.metrics.camera_paths import camera_stances, camera_walk, guess_eye_height
 from viscore.metrics.culling import (
     DEFAULT_HEIGHT,
     DEFAULT_WIDTH,
-    camera_path,
     camera_path_json,
     check_camera_path,
     check_culling_memory,
@@ -142,6 +142,11 @@ def add_parser(sub, common) -> None:
                    help="up axis of the level (default: guessed and printed for a single "
                         "mesh; +Y for glTF, as its specification says: give z for a file "
                         "written Z-up)")
+    c.add_argument("--eye-height", type=float, default=None, metavar="H",
+                   help="eye height of the walk over the floor, in the level's units "
+                        "(default: guessed from the headroom of the level's floors under "
+                        "their ceilings, 1.7 for a glTF level, whose unit is the metre; "
+                        "printed beside the up axis)")
     c.add_argument("--frames", type=int, default=None,
                    help=f"cameras of the generated path (default {DEFAULT_FRAMES}); with "
                         "--path, the first N of the file (default all)")
@@ -434,6 +439,8 @@ def run_cull(args) -> int:
     check_culling_memory(width, height)
     if args.path is None:
         _check_frames_memory(frames or DEFAULT_FRAMES, f"--frames {frames or DEFAULT_FRAMES}")
+    eye_given = (None if args.eye_height is None
+                 else as_positive(args.eye_height, "--eye-height"))
     level = level_objects(args.scene, up=args.up, names=names if threshold is None else None)
     objects = level.objects
     if level.kind != "gltf":
@@ -446,6 +453,10 @@ def run_cull(args) -> int:
             _log.info("%s: %s split into %d parts (%d connected components), %s up (%s)",
                       args.scene, mesh, len(objects), level.components, level.up,
                       level.up_reason)
+    eye = guess_eye_height(objects, metres=level.kind.startswith("gltf"),
+                           eye_height=eye_given)
+    _log.info("%s: %s up (%s); eye height %.4g (%s)", args.scene, level.up,
+                 level.up_reason, eye.value, eye.reason)
     if args.path is not None:
         # capped before any camera is checked: checking one takes about 0.5 ms
         path = read_camera_path(args.path, up=objects.up, frames=frames, maximum=MAX_FRAMES)
@@ -464,7 +475,7 @@ def run_cull(args) -> int:
                         frames=frames, methods=methods, source=source, active=active,
                         reduction=reduction, width=width, height=height, files=files,
                         flat=level.flat, clusters=clusters,
-                        bound_kind=bound_kind)
+                        bound_kind=bound_kind, eye=eye)
     emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
          "(replay with --path)")
     return 0
@@ -518,12 +529,24 @@ def _check_frames_memory(frames: int, what: str) -> None:
 def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: bool, seed: int,
               frames, methods, source, active, reduction, width, height,
               files: dict | None = None, flat=None, clusters: int = 1,
-              bound_kind: str = "box") -> dict:
+              bound_kind: str = "box", eye=None) -> dict:
     """The work and the files of :func:`run_cull`; returns the JSON document."""
     from tqdm import tqdm
 
     if path is None:
-        path = camera_path(objects, frames=frames or DEFAULT_FRAMES, seed=seed)
+        walk = camera_walk(objects, frames=frames or DEFAULT_FRAMES, seed=seed, eye=eye)
+        path, stances, walk_doc = list(walk.cameras), walk.stances, walk.to_json()
+        if walk.dropped or walk.moved:
+            _log.warning("%s: the walk moved %d camera(s) and dropped %d of %d frames where "
+                         "no place of their stretch stands well", args.scene, walk.moved,
+                         walk.dropped, walk.asked)
+    else:
+        stances = camera_stances(objects, path, eye_height=eye.value, sign=eye.sign)
+        standing = sum(st.standing for st in stances)
+        walk_doc = {"up": [float(x) for x in objects.up], **eye.to_json(),
+                    "frames_asked": len(path), "frames": len(path), "standing": standing,
+                    "standing_share": standing / len(path), "moved": 0, "dropped": 0,
+                    "far": 0, "kinds": {"given": len(path)}, "on": "--path"}
     todo = sum(len(set(objects.mesh_ids[method_indices(m, indices, flat)].tolist()))
                for m in set(methods) | {source})  # meshes each method generates
     with tqdm(total=todo, desc="occluders", unit="mesh", disable=not progress,
@@ -539,7 +562,7 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
               leave=False) as bar:
         tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
-                                  progress=tick, bounds=bounds)
+                                  progress=tick, bounds=bounds, stances=stances)
     doc = {"scene": args.scene, "occluder_objects": len(indices),
            "see_through_objects": [objects.names[i] for i in np.flatnonzero(objects.see_through)],
            "frusta_method": source, "methods": methods,
@@ -549,6 +572,7 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
                       {"kind": bound_kind, "clusters": clusters, "boxes": len(bounds[2]),
                        "split_objects": split,
                        **({"min_size": AUTO_MIN_SIZE} if bound_kind == "auto" else {})}),
+           "walk": walk_doc,
            "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
            **result.to_json(),
            "runtimes": info, "provenance": provenance()}

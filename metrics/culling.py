@@ -167,6 +167,9 @@ class CullingResult:
     runtimes : dict of str -> RuntimeFrames
         Per runtime name (``none``, ``planar-frusta``, ``solid-frusta``,
         ``depth-buffer:<method>``, ...), in the order given.
+    stances : tuple of Stance
+        Where each camera stands (:func:`viscore.metrics.camera_paths.camera_stances`),
+        one per camera, or empty when not given.
     """
 
     cameras: tuple
@@ -179,6 +182,7 @@ class CullingResult:
     visible: np.ndarray
     visible_triangles: np.ndarray
     runtimes: dict = field(default_factory=dict)
+    stances: tuple = ()
 
     def totals(self) -> dict[str, dict]:
         """Per runtime: totals over the path (see :meth:`to_json`)."""
@@ -208,7 +212,8 @@ class CullingResult:
         ``visible_triangles`` (ground truth), and one entry per runtime name
         with ``culled``, ``culled_share`` (of the objects in view),
         ``false_culls``, ``triangles_rendered`` and ``overhead_ms`` (and
-        ``false_cull_objects``, the first names, when there are any).
+        ``false_cull_objects``, the first names, when there are any), and
+        ``stance`` (where the camera stands: :meth:`Stance.to_json`) when known.
         ``totals`` holds one entry per runtime name: ``culled`` (sum over the
         frames), ``culled_share`` (of the objects in view, over all frames),
         ``false_culls`` (sum), ``frames_with_false_culls``,
@@ -222,6 +227,8 @@ class CullingResult:
             entry = {"frame": k, "camera": cam.to_json(), "in_view": int(self.in_view[k]),
                      "visible": int(self.visible[k]),
                      "visible_triangles": int(self.visible_triangles[k])}
+            if self.stances:
+                entry["stance"] = self.stances[k].to_json()
             for name, rf in self.runtimes.items():
                 n = int(self.in_view[k])
                 entry[name] = {"culled": int(rf.culled[k]),
@@ -328,8 +335,8 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
                      path: Sequence[PathCamera], *, width: int = DEFAULT_WIDTH,
                      height: int = DEFAULT_HEIGHT,
                      progress: Callable[[int], None] | None = None,
-                     bounds: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-                     ) -> CullingResult:
+                     bounds: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                     stances: Sequence | None = None) -> CullingResult:
     """Run every culling runtime along a camera path against the ray-cast ground truth.
 
     Parameters
@@ -355,6 +362,9 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
         of its boxes in the view frustum is; view frustum culling keeps an
         object when its box and one of its boxes may intersect the frustum.
         Default: each object's own box.
+    stances : sequence of Stance, optional
+        Where each camera stands (:class:`viscore.metrics.camera_paths.Walk`), one per
+        camera: recorded per frame in the result.
 
     Returns
     -------
@@ -392,6 +402,10 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             raise InputError(f"runtimes[{name!r}]: expected a Runtime, got {type(rt).__name__}")
     cameras = tuple(path)
     check_camera_path(objects, cameras)
+    stances = () if stances is None else tuple(stances)
+    if stances and len(stances) != len(cameras):
+        raise InputError(f"stances: expected one per camera ({len(cameras)}), "
+                         f"got {len(stances)}")
     width, height = check_culling_memory(width, height)
     scene, triangle_object = objects.combined
     n = len(objects)
@@ -454,4 +468,4 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     return CullingResult(cameras=cameras, width=width, height=height, objects=n,
                          triangles=objects.total_triangles, in_view=in_view_n,
                          in_view_triangles=in_view_t, visible=visible_n,
-                         visible_triangles=visible_t, runtimes=results)
+                         visible_triangles=visible_t, runtimes=results, stances=stances)
