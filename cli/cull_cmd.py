@@ -83,6 +83,7 @@ from viscore.generators.levels import (
     method_indices,
 )
 from viscore.level import UP_AXES, level_objects, occluder_objects
+from viscore.level.objects import SPLIT_RULES
 from viscore.metrics.camera_paths import camera_stances, camera_walk, guess_eye_height
 from viscore.metrics.culling import (
     DEFAULT_HEIGHT,
@@ -450,9 +451,9 @@ def run_cull(args) -> int:
                          "part), %s up (%s): there is nothing else to cull behind it",
                          args.scene, mesh, level.components, level.up, level.up_reason)
         else:
-            _log.info("%s: %s split into %d parts (%d connected components), %s up (%s)",
-                      args.scene, mesh, len(objects), level.components, level.up,
-                      level.up_reason)
+            _log.info("%s: %s split into %d objects by %s (%d connected components), %s up "
+                      "(%s)", args.scene, mesh, len(objects), SPLIT_RULES[level.split_rule],
+                      level.components, level.up, level.up_reason)
     eye = guess_eye_height(objects, metres=level.kind.startswith("gltf"),
                            eye_height=eye_given)
     _log.info("%s: %s up (%s); eye height %.4g (%s)", args.scene, level.up,
@@ -475,7 +476,7 @@ def run_cull(args) -> int:
                         frames=frames, methods=methods, source=source, active=active,
                         reduction=reduction, width=width, height=height, files=files,
                         flat=level.flat, clusters=clusters,
-                        bound_kind=bound_kind, eye=eye)
+                        bound_kind=bound_kind, eye=eye, split_rule=level.split_rule)
     emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
          "(replay with --path)")
     return 0
@@ -529,7 +530,7 @@ def _check_frames_memory(frames: int, what: str) -> None:
 def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: bool, seed: int,
               frames, methods, source, active, reduction, width, height,
               files: dict | None = None, flat=None, clusters: int = 1,
-              bound_kind: str = "box", eye=None) -> dict:
+              bound_kind: str = "box", eye=None, split_rule: str = "nodes") -> dict:
     """The work and the files of :func:`run_cull`; returns the JSON document."""
     from tqdm import tqdm
 
@@ -564,6 +565,7 @@ def _simulate(args, objects, indices, path, folder: _OutFolder, *, progress: boo
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
                                   progress=tick, bounds=bounds, stances=stances)
     doc = {"scene": args.scene, "occluder_objects": len(indices),
+           "objects_rule": split_rule, "objects_rule_text": SPLIT_RULES[split_rule],
            "see_through_objects": [objects.names[i] for i in np.flatnonzero(objects.see_through)],
            "frusta_method": source, "methods": methods,
            "occluder_files": {name: occ.params["file"] for name, occ in (files or {}).items()},

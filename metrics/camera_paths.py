@@ -68,8 +68,8 @@ _EYE_PER_HEADROOM = 0.35
 #: columns find a floor under a ceiling (a town with a few awnings keeps the default).
 _ROOFED_COLUMNS = 0.02
 
-#: A headroom counts for the guess only when under this share of the level's height
-#: (the inside of a solid block as tall as the level is no room).
+#: A headroom of the level read turned over counts only when under this share of the
+#: level's height (the inside of a solid block as tall as the level is no room).
 _ROOM_OF_LEVEL = 0.5
 
 #: A guess from a glTF level's rooms replaces the metre default only when it is this
@@ -700,8 +700,8 @@ class EyeHeight:
 def _headroom(objects: SceneObjects, up: np.ndarray, frame) -> tuple[dict, int]:
     """Per sign (+1 as wound, -1 turned over): the headrooms ``(k,)`` of the map's
     floors under a ceiling (an upward-facing surface straight under a downward-facing
-    one, as read with that sign), under :data:`_ROOM_OF_LEVEL` of the level's height;
-    and the number of columns cast."""
+    one, as read with that sign; turned over, under :data:`_ROOM_OF_LEVEL` of the
+    level's height); and the number of columns cast."""
     origins = _column_origins(frame, up)
     scene, _ = objects.combined
     hits = scene.all_hits(origins, np.tile(-up, (len(origins), 1)))
@@ -716,7 +716,8 @@ def _headroom(objects: SceneObjects, up: np.ndarray, frame) -> tuple[dict, int]:
     for sign in (1.0, -1.0):
         pair = (sign * facing >= _WALKABLE) & (sign * above <= -_WALKABLE) & ~first
         r = room[pair]
-        rooms[sign] = r[(r > 0) & (r <= tall)]
+        # turned over, the inside of a solid block as tall as the level reads as a room
+        rooms[sign] = r[(r > 0) & ((r <= tall) | (sign > 0))]
     return rooms, len(origins)
 
 
