@@ -153,8 +153,13 @@ def add_parser(sub, common) -> None:
                         "--path, the first N of the file (default all)")
     c.add_argument("--methods", default=None,
                    help="generators whose occluders feed a depth-buffer runtime each, "
-                        "comma-separated (default: the conservative ones, "
-                        f"{_default_methods()})")
+                        "comma-separated (default: the methods that can be guaranteed, "
+                        f"{_default_methods()}; aabb-skins and solid-frusta (and the "
+                        "planar-frusta and solid-frusta runtimes fed by them) are guaranteed "
+                        "only when every occluder object is a closed mesh, and a runtime "
+                        "with an open one is reported not guaranteed; surface-patches on "
+                        "any input; a runtime that made no occluder culls nothing and is "
+                        "reported so)")
     c.add_argument("--occluders", default=None,
                    help="comma-separated object names that get occluders (default: those "
                         "from 2%% of the level's diagonal, as 'viscore occlude' chooses them)")
@@ -371,16 +376,25 @@ def _table(doc: dict) -> str:
              f"{'runtime':<28} {'culled':>7} {'false':>6} {'triangles/frame':>16} "
              f"{'overhead ms':>12} {'conservative':>12}"]
     for name, t in doc["totals"].items():
+        made = doc.get("runtimes", {}).get(name, {}).get("occluders")
         lines.append(f"{name:<28} {t['culled_share']:>7.1%} {t['false_culls']:>6} "
                      f"{t['triangles_rendered_per_frame']:>16,.0f} {t['overhead_ms']:>12.2f} "
-                     f"{_conservative_cell(t):>12}")
+                     f"{_conservative_cell(t, made):>12}")
     frames = max(1, s["frames"])
-    lines.append(f"{'ray-cast truth (visible)':<28} {gt['hidden_share']:>7.1%} {0:>6} "
+    lines.append(f"{'ray-cast truth (hidden)':<28} {gt['hidden_share']:>7.1%} {0:>6} "
                  f"{gt['triangles_visible'] / frames:>16,.0f} {'-':>12} {'-':>12}")
     lines.append("culled: share of the objects in the view frustum (view frustum culling "
                  "first, the same for all); false: culled objects visible in the ray-cast "
                  "object-id image, summed over frames; overhead: mean per frame; "
-                 "conservative: the runtime's guarantee, '-' where it culled nothing")
+                 "conservative: the runtime's guarantee, '-' where it culled nothing, "
+                 "'no occluder' where it made none; the truth row: the share of the objects "
+                 "in view that no pixel sees")
+    w = doc.get("walk")
+    if w:
+        lines.append(f"walk: {w['standing']} of {w['frames']} frames stand well "
+                     f"(eye height {w['eye_height']:.4g}, {w['eye_height_reason']}); "
+                     f"{w['moved']} moved, {w['dropped']} of {w['frames_asked']} dropped"
+                     + (f", {w['far']} far views" if w.get("far") else ""))
     hint = _bounds_hint(doc)
     if hint:
         lines.append(hint)
@@ -400,8 +414,10 @@ def _bounds_hint(doc: dict) -> str | None:
     if doc["bounds"]["kind"] == "clusters":
         return None
     hidden = doc["ground_truth"]["hidden_share"]
+    made = {name: info.get("occluders") for name, info in doc.get("runtimes", {}).items()}
     best = max((t["culled_share"] for name, t in doc["totals"].items()
-                if name != "none" and t["conservative"]), default=0.0)
+                if name != "none" and t["conservative"] and made.get(name) != 0),
+               default=0.0)
     if hidden <= 0.2 or best >= 0.5 * hidden:
         return None
     return (f"hint: the guaranteed runtimes cull at most {best:.1%} of the objects where the "
@@ -409,8 +425,11 @@ def _bounds_hint(doc: dict) -> str | None:
             "--bounds clusters tests each through the boxes of its triangles' clusters")
 
 
-def _conservative_cell(total: dict) -> str:
-    """``yes``/``no``: the runtime's guarantee; ``-`` where it culled nothing (nothing to guard)."""
+def _conservative_cell(total: dict, occluders: int | None = None) -> str:
+    """``yes``/``no``: the runtime's guarantee; ``no occluder`` where it made none, ``-``
+    where it culled nothing (nothing to guard)."""
+    if occluders == 0:
+        return "no occluder"
     if not total.get("culled", total.get("culled_share", 0)):
         return "-"
     return "yes" if total["conservative"] else "no"

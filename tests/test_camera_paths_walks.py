@@ -168,3 +168,16 @@ def test_level_objects_obj_without_groups_keeps_connected_parts(tmp_path):
     level = level_objects(path, up="y")
     assert level.components == 1
     assert level.split_rule == "parts" and len(level.objects) == 1
+
+
+def test_surface_patches_writes_no_zero_area_triangle():
+    # a room whose walls' edges are split into many collinear points (as a map's brushes
+    # meet): the triangulated patches had triangles of three collinear corners
+    from viscore.generators import generate
+
+    room = trimesh.creation.box(bounds=[[0, 0, 0], [12, 4, 8]]).subdivide().subdivide()
+    occ = generate("surface-patches", room, budget=400, seed=0)
+    corner = np.asarray(occ.mesh.vertices)[np.asarray(occ.mesh.faces)]
+    area = np.linalg.norm(np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0]),
+                          axis=1)
+    assert len(area) and area.min() > 1e-9

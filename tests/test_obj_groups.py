@@ -38,7 +38,8 @@ def test_obj_groups_labels_each_triangle(tmp_path):
     assert label_faces(g, v, f, g.group).tolist() == [3, 2, 2]
 
 
-@pytest.mark.parametrize("text,match", [("v 0 0 x\n", "vertex line"), ("v 0 0 0\nf 1 2 3\n", "line 2"),
+@pytest.mark.parametrize("text,match", [("v 0 0 x\n", "vertex line"),
+                                        ("v 0 0 0\nf 1 2 3\n", "line 2"),
                                         ("v 0 0\n", "line 1")])
 def test_obj_groups_invalid_input(tmp_path, text, match):
     p = tmp_path / "bad.obj"
