@@ -376,7 +376,7 @@ def _table(doc: dict) -> str:
              f"{'runtime':<28} {'culled':>7} {'false':>6} {'triangles/frame':>16} "
              f"{'overhead ms':>12} {'conservative':>12}"]
     for name, t in doc["totals"].items():
-        made = doc.get("runtimes", {}).get(name, {}).get("occluders")
+        made = None if name == "none" else doc.get("runtimes", {}).get(name, {}).get("occluders")
         lines.append(f"{name:<28} {t['culled_share']:>7.1%} {t['false_culls']:>6} "
                      f"{t['triangles_rendered_per_frame']:>16,.0f} {t['overhead_ms']:>12.2f} "
                      f"{_conservative_cell(t, made):>12}")
