@@ -473,10 +473,6 @@ def run_cull(args) -> int:
             _log.info("%s: %s split into %d objects by %s (%d connected components), %s up "
                       "(%s)", args.scene, mesh, len(objects), SPLIT_RULES[level.split_rule],
                       level.components, level.up, level.up_reason)
-    eye = guess_eye_height(objects, metres=level.kind.startswith("gltf"),
-                           eye_height=eye_given)
-    _log.info("%s: %s up (%s); eye height %.4g (%s)", args.scene, level.up,
-                 level.up_reason, eye.value, eye.reason)
     if args.path is not None:
         # capped before any camera is checked: checking one takes about 0.5 ms
         path = read_camera_path(args.path, up=objects.up, frames=frames, maximum=MAX_FRAMES)
@@ -484,6 +480,11 @@ def run_cull(args) -> int:
         check_camera_path(objects, path)
     else:
         path = None
+    # after the path is read and checked: a bad one is one line on stderr, nothing before
+    eye = guess_eye_height(objects, metres=level.kind.startswith("gltf"),
+                           eye_height=eye_given)
+    _log.info("%s: %s up (%s); eye height %.4g (%s)", args.scene, level.up,
+              level.up_reason, eye.value, eye.reason)
     if threshold is not None:
         indices = occluder_objects(objects, size_threshold=threshold, names=names)
     else:
