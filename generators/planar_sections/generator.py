@@ -527,6 +527,7 @@ def generate_planar_sections(mesh: trimesh.Trimesh, *, budget: int | None = 64, 
             sized = wall_voxel_size(mesh, bytes_per_cell=BYTES_PER_CELL,
                                     resolution=DEFAULT_VOXELS, quantile=WALL_QUANTILE,
                                     max_resolution=MAX_VOXELS, what="planar-sections",
+                                    finer="voxel-size",
                                     block=3)
             _log.log(sized.log_level, "%s", sized.reason)
             wall_sizing = sized.info
