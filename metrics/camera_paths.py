@@ -77,6 +77,12 @@ _ROOM_OF_LEVEL = 0.5
 #: by its specification, and the gaps under furniture, cars and kerbs read as low rooms.
 _METRE_DOUBT = 30.0
 
+#: A level without ceilings lower than :data:`EYE_HEIGHT` (no person stands in it: a
+#: blockout or a model in other units than metres) gets an eye at this share of its
+#: height: game levels of several storeys are about 20 eye heights tall (Quake's E1M1
+#: 28 units of 1.44, Doom's E1M1 704 of 41, Sauerbraten's zdm2 324 of 14).
+_LEVEL_EYES = 20.0
+
 #: A level is read with its faces turned over (the file's winding inward) when the
 #: lower quartile of its headroom so read is over this many times the one as wound:
 #: read as wound, the rooms of such a level are the insides of its walls' brushes.
@@ -731,7 +737,8 @@ def guess_eye_height(objects: SceneObjects, *, up: npt.ArrayLike | None = None,
     Hammer map 64 under 144, Quake maps in units / 32 1.4 under 3.5). A level in
     metres (glTF, by its specification) keeps :data:`EYE_HEIGHT` unless its rooms say
     the eye is :data:`_METRE_DOUBT` times higher (centimetres). A level with too few floors
-    under a ceiling (a town, an open terrain) keeps :data:`EYE_HEIGHT`.
+    under a ceiling (a town, an open terrain) keeps :data:`EYE_HEIGHT`, unless it is lower
+    than that (a blockout in other units): then 1/:data:`_LEVEL_EYES` of its height.
 
     Parameters
     ----------
@@ -760,7 +767,9 @@ def guess_eye_height(objects: SceneObjects, *, up: npt.ArrayLike | None = None,
     upward-facing surface to the downward-facing one straight above it. Read
     turned over, a level wound inward (Quake maps exported with their brushes'
     faces reversed) has its rooms there; it is read so when its headrooms as wound
-    are :data:`_FLIP_RATIO` times lower (the thickness of its brushes). A glTF
+    are :data:`_FLIP_RATIO` times lower (the thickness of its brushes), never when
+    too few floors as wound have a ceiling (an open level: its boxes' insides,
+    turned over, would read as thin rooms). A glTF
     level is read as wound (its specification fixes the winding). Deterministic.
     """
     if eye_height is not None:
@@ -774,13 +783,24 @@ def guess_eye_height(objects: SceneObjects, *, up: npt.ArrayLike | None = None,
     q25 = {k: float(np.percentile(r, 25)) if len(r) >= _ROOFED_COLUMNS * columns
            else float("nan") for k, r in rooms.items()}
     sign = 1.0
-    if not metres and np.isfinite(q25[-1.0]) and not (q25[1.0] * _FLIP_RATIO >= q25[-1.0]):
+    # both readings must find rooms: a level whose floors as wound have no ceiling (an
+    # open blockout of boxes, whose insides read turned over as thin rooms) is open, not
+    # wound inward; a level wound inward reads as wound the insides of all its brushes
+    if not metres and np.isfinite(q25[-1.0]) and np.isfinite(q25[1.0]) \
+            and q25[1.0] * _FLIP_RATIO < q25[-1.0]:
         sign = -1.0
     headroom = q25[sign]
     guess = _EYE_PER_HEADROOM * headroom
     if eye_height is not None:
         return EyeHeight(eye_height, "given (--eye-height)", sign, headroom)
     if not np.isfinite(headroom):
+        lo, hi = objects.built_bounds(up)[0]
+        tall = float(np.abs(hi - lo) @ np.abs(up))
+        if tall < EYE_HEIGHT:  # no person stands in it: not metres
+            return EyeHeight(tall / _LEVEL_EYES, f"1/{_LEVEL_EYES:g} of the level's height "
+                             f"({tall:.3g}, under the metre default {EYE_HEIGHT:g}: not "
+                             f"metres); under {_ROOFED_COLUMNS:.0%} of its columns have a "
+                             "floor under a ceiling to guess it from", sign, headroom)
         return EyeHeight(EYE_HEIGHT, f"{EYE_HEIGHT:g}, a metre default: under "
                          f"{_ROOFED_COLUMNS:.0%} of the level's columns have a floor under "
                          "a ceiling to guess it from", sign, headroom)

@@ -89,6 +89,29 @@ def test_camera_walk_level_in_centimetres():
     assert guess_eye_height(_rooms(), metres=True).value == 1.7
 
 
+def test_camera_walk_open_blockout_in_small_units():
+    # the rooms without their roof, a twentieth of the size (a blockout of closed boxes,
+    # 0.16 high): no floor has a ceiling, and turned over the floor slab's inside reads
+    # as a room 0.01 high; the faces stay as wound, the eye is a twentieth of the level's
+    # height (it is lower than a person), and every camera stands that high over the floor
+    scale = 0.05
+    rooms = _rooms(scale=scale)
+    keep = [i for i, n in enumerate(rooms.names) if n != "roof"]
+    boxes = {rooms.names[i]: [rooms.lower[i] / scale, rooms.upper[i] / scale] for i in keep}
+    objects = _objects(boxes, scale)
+    eye = guess_eye_height(objects)
+    assert eye.sign == 1.0
+    assert eye.value == pytest.approx(3.2 * scale / 20, rel=1e-6)
+    walk = camera_walk(objects, frames=20, seed=0, eye=eye)
+    assert walk.floors and len(walk.cameras) == 20
+    eyes = np.array([c.position for c in walk.cameras])
+    down, below, _, _ = _down_up(objects, eyes)
+    street = np.array([s.kind in ("street", "close-up") for s in walk.stances])
+    np.testing.assert_allclose(down[street], eye.value, rtol=1e-5)  # Embree's float32
+    assert (below == objects.names.index("floor")).all()
+    assert all(s.standing for s in walk.stances)
+
+
 def test_camera_walk_elevated_pass_over_terrain():
     # a ridge 12 high across open ground: the elevated cameras rise at most 2 eye heights
     # over the floor under them, never into the ridge, and the ridge is under each eye
