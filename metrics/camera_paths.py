@@ -151,6 +151,10 @@ _MIN_IN_VIEW = 0.05
 #: Rays of the view check, across x down (a 16:9 grid).
 _VIEW_RAYS = (32, 18)
 
+#: How far the elevated cameras (and a camera turned to see a level under its eye) look
+#: down, degrees below the horizon.
+_LOOK_DOWN = 25.0
+
 #: Candidate cameras made along the walk per camera kept: a camera that does not stand
 #: well is replaced by the nearest candidate of its stretch that does, or dropped.
 _CANDIDATES = 4
@@ -832,7 +836,9 @@ class Stance:
     headroom : float
         Distance up to the first surface over the eye, world units (``inf``: open).
     back_faces : float
-        Share of the view's hits that are back faces (``nan`` when nothing is hit).
+        Share of the view's hits that are back faces (``nan`` when nothing is hit),
+        floors seen from underneath not counted (the undersides of single-sided
+        platforms and ramps over the eye).
     in_view : float
         Share of the view's rays that hit something.
     standing : bool
@@ -889,7 +895,10 @@ def _stance_arrays(objects: SceneObjects, cameras: Sequence[PathCamera], up: np.
     t, tri = scene.first_hit(o, d)
     hit = tri >= 0
     back = np.zeros(len(tri), bool)
-    back[hit] = sign * np.einsum("ij,ij->i", _unit_normals(scene, tri[hit]), d[hit]) > 0
+    normals = sign * _unit_normals(scene, tri[hit])
+    # a floor seen from underneath (a single-sided platform or ramp over the eye) is
+    # no wall the camera stands behind
+    back[hit] = (np.einsum("ij,ij->i", normals, d[hit]) > 0) & (normals @ up < _WALKABLE)
     per = w * h
     hits = hit.reshape(n, per).sum(axis=1)
     out["in_view"] = hits / per
@@ -938,7 +947,8 @@ def camera_stances(objects: SceneObjects, cameras: Sequence[PathCamera], *,
     straight up (headroom), and a 32 x 18 grid of rays through its view
     (:data:`_VIEW_RAYS`): the share that hit something, and the share of those hits
     on a back face (a face whose normal, as wound times ``sign``, points away from
-    the eye). Deterministic.
+    the eye) other than a floor seen from underneath (a walkable face: a
+    single-sided platform over the eye hides no wall). Deterministic.
 
     Examples
     --------
@@ -985,7 +995,9 @@ class Walk:
     asked : int
         Frames asked for.
     moved : int
-        Cameras moved to a nearby candidate because the planned place did not stand.
+        Cameras moved to a nearby candidate, or turned (to the middle of the walk,
+        about, or down to a level under the eye), because the planned pose did not
+        stand.
     dropped : int
         Frames dropped: no candidate of their stretch of the walk stands well.
     floors : bool
@@ -1104,7 +1116,10 @@ def camera_walk(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
     geometry or outside the level's shell) and something in view. Each frame has
     :data:`_CANDIDATES` candidate places along its stretch of the walk; the
     planned one is kept when it stands well, else the nearest that does
-    (``Walk.moved``), else the frame is dropped (``Walk.dropped``). A level with
+    (``Walk.moved``), else the frame is dropped (``Walk.dropped``); a place that
+    stands but sees nothing or back faces is first turned towards the middle of
+    the walk, about, or towards the middle and :data:`_LOOK_DOWN` degrees down
+    (moved too). A level with
     no route at all is looked at from outside, cameras of kind ``'far'``.
     """
     frames = as_positive_int(frames, "frames", maximum=100_000)
@@ -1187,11 +1202,33 @@ def camera_walk(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
                 rise = np.clip(np.minimum(rise, at(head, pts) - _STAND_ROOM * eye_height),
                                0.0, None)
                 level = at(floor, pts) + eye_height + rise
-                forward = forward - np.tan(np.radians(25.0)) * up
+                forward = forward - np.tan(np.radians(_LOOK_DOWN)) * up
             positions = world(pts, level)
             cand = [_pose(p, f, up, fov, "camera")
                     for p, f in zip(positions, forward, strict=True)]
             ok = _standing(_stance_arrays(objects, cand, up, eye_height, sign), eye_height)
+            turned = np.zeros(len(cand), dtype=bool)
+            # a place that stands but looks at nothing or at back faces (off the edge of
+            # a level of platforms, into a wall's back): turned towards the middle of the
+            # walk, else about, else towards the middle and down
+            middle = route.mean(axis=0)
+            for towards, down in ((middle[None] - pts, part == "elevated"),
+                                  (-tangent, part == "elevated"),
+                                  (middle[None] - pts, True)):
+                bad = np.flatnonzero(~ok)
+                norm = np.linalg.norm(towards[bad], axis=1)
+                bad = bad[norm > 0]
+                if not len(bad):
+                    break
+                look = horizontal(towards[bad] / np.linalg.norm(towards[bad], axis=1)[:, None])
+                if down:  # from a high platform, the level is under the eye
+                    look = look - np.tan(np.radians(_LOOK_DOWN)) * up
+                alt = [_pose(cand[c].position, f, up, fov, "camera")
+                       for c, f in zip(bad, look, strict=True)]
+                good = _standing(_stance_arrays(objects, alt, up, eye_height, sign),
+                                 eye_height)
+                for i in np.flatnonzero(good):
+                    cand[bad[i]], ok[bad[i]], turned[bad[i]] = alt[i], True, True
             # frame k owns candidates [k m, (k + 1) m); planned: the middle one
             for k in range(count):
                 own = np.arange(k * m, (k + 1) * m)
@@ -1202,10 +1239,11 @@ def camera_walk(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
                     dropped += 1
                     continue
                 pick = int(good[0])
-                moved += pick != planned
+                shifted = bool(pick != planned or turned[pick])
+                moved += shifted
                 cams.append(cand[pick])
                 kinds.append(str(kind[pick]))
-                moved_flags.append(pick != planned)
+                moved_flags.append(shifted)
     if not cams:  # no route, or nowhere to stand: the level from outside, labelled far
         n_far = frames
         dropped = 0

@@ -112,6 +112,42 @@ def test_camera_walk_open_blockout_in_small_units():
     assert all(s.standing for s in walk.stances)
 
 
+def _quad(x0, z0, x1, z1, y):
+    """One upward-facing rectangle at height y (a single-sided platform top)."""
+    v = np.array([[x0, y, z0], [x1, y, z0], [x1, y, z1], [x0, y, z1]], float)
+    return trimesh.Trimesh(v, [[0, 2, 1], [0, 3, 2]], process=False)
+
+
+def test_camera_walk_open_level_of_single_sided_platforms():
+    # a small open level of platform tops only (a navigation demo's level): the undersides
+    # of the platforms over the eye are back faces, yet no wall; a camera on the edge
+    # looks out at nothing. The walk keeps at least 85% of the frames asked, each on a
+    # platform, an eye height over it where it walks
+    parts = {"ground": _quad(0, 0, 10, 8, 0.0), "low": _quad(1, 1, 4, 4, 2.5),
+             "high": _quad(5, 2, 9, 6, 4.0), "step": _quad(2, 5, 4, 7, 1.0)}
+    scene = trimesh.Scene()
+    for name, mesh in parts.items():
+        scene.add_geometry(mesh, geom_name=name, node_name=name)
+    objects = load_scene_objects(scene)
+    walk = camera_walk(objects, frames=20, seed=0, eye_height=1.7)
+    assert len(walk.cameras) >= 17 and walk.dropped == 20 - len(walk.cameras)
+    assert all(s.standing for s in walk.stances)
+    eyes = np.array([c.position for c in walk.cameras])
+    down, below, _, _ = _down_up(objects, eyes)
+    assert (below >= 0).all() and (down <= 3 * 1.7 + 1e-6).all()
+    street = np.array([s.kind in ("street", "close-up") for s in walk.stances])
+    np.testing.assert_allclose(down[street], 1.7, rtol=1e-5)
+    # the check itself: under the high platform, looking at its underside, it stands;
+    # looking at nothing (off the level's edge, level), it does not
+    under = PathCamera(np.array([8.8, 1.7, 4.0]), np.array([-1.0, 0.3, 0.0]),
+                       np.array([0.0, 1.0, 0.0]))
+    out = PathCamera(np.array([9.5, 1.7, 4.0]), np.array([1.0, 0.0, 0.0]),
+                     np.array([0.0, 1.0, 0.0]))
+    st_under, st_out = camera_stances(objects, [under, out], eye_height=1.7)
+    assert st_under.standing and st_under.back_faces < 0.3
+    assert not st_out.standing and st_out.in_view < 0.05
+
+
 def test_camera_walk_elevated_pass_over_terrain():
     # a ridge 12 high across open ground: the elevated cameras rise at most 2 eye heights
     # over the floor under them, never into the ridge, and the ridge is under each eye
