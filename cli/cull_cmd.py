@@ -71,8 +71,8 @@ from viscore._validate import as_positive, as_positive_int, as_seed, check_memor
 from viscore.culling.occludee_bounds import (
     AUTO_MIN_SIZE,
     DEFAULT_CLUSTERS,
-    MAX_CLUSTERS,
     occludee_boxes,
+    parse_bounds,
 )
 from viscore.generators import REGISTRY, check_method
 from viscore.generators.levels import (
@@ -231,19 +231,7 @@ def _methods(text: str | None, option: str = "--methods") -> list[str]:
 
 def _bounds(text: str) -> tuple[str, int]:
     """``--bounds``: its kind (``box``, ``clusters``, ``auto``) and clusters per object."""
-    kind, _, count = str(text).strip().partition(":")
-    if kind == "box" and not count:
-        return kind, 1
-    if kind in ("clusters", "auto"):
-        if not count:
-            return kind, DEFAULT_CLUSTERS
-        try:
-            return kind, as_positive_int(int(count), f"--bounds {kind}:N",
-                                         maximum=MAX_CLUSTERS)
-        except ValueError:
-            pass
-    raise InputError(f"--bounds: expected auto, box, clusters, auto:N or clusters:N (N from "
-                     f"1 to {MAX_CLUSTERS}), got {text!r}")
+    return parse_bounds(text, "--bounds")
 
 
 def _out_dir(text: str) -> Path:

@@ -10,6 +10,8 @@ the generators), and only the command line sits above all three.
 - :mod:`.planar`: ``bench generate planar-sections`` and its ablations.
 - :mod:`.hybrid`: ``bench generate hybrid`` and its ablation (Wu et al. Fig. 11).
 - :mod:`.cull`: ``bench cull``, and the culling column of ``viscore compare``.
+- :mod:`.walks`: ``bench walks LEVEL...``: where each level's walk stands, and (``--cull``)
+  the truth's hidden share beside the best guaranteed culled share.
 - :mod:`.cull_runtimes`: per-frame culling runtimes on a procedural city
   (``python -m viscore.cli.bench.cull_runtimes``).
 - :mod:`.models`: the ``--models`` folder of extra meshes.

@@ -40,8 +40,8 @@ from .._validate import InputError, as_fraction, as_positive_int
 if TYPE_CHECKING:  # pragma: no cover - hints only
     from ..level.scene_graph import SceneObjects
 
-__all__ = ["cluster_boxes", "object_cluster_boxes", "occludee_boxes", "MAX_CLUSTERS",
-           "DEFAULT_CLUSTERS", "AUTO_MIN_SIZE"]
+__all__ = ["cluster_boxes", "object_cluster_boxes", "occludee_boxes", "parse_bounds",
+           "MAX_CLUSTERS", "DEFAULT_CLUSTERS", "AUTO_MIN_SIZE"]
 
 #: Clusters per object of ``--bounds clusters`` and ``auto`` without a count.
 DEFAULT_CLUSTERS = 64
@@ -197,3 +197,35 @@ def occludee_boxes(objects: SceneObjects, kind: str, clusters: int
     if bounds is None or not split:
         return None, "box", 0  # no object was split: every test is the box
     return bounds, kind, split
+
+
+def parse_bounds(text: str, option: str = "--bounds") -> tuple[str, int]:
+    """The kind (``box``, ``clusters``, ``auto``) and clusters per object of a bounds text.
+
+    ``box``, ``clusters``, ``auto``, ``clusters:N`` or ``auto:N`` (N from 1 to
+    :data:`MAX_CLUSTERS`; default :data:`DEFAULT_CLUSTERS`), as ``viscore cull
+    --bounds`` takes it; for :func:`occludee_boxes`.
+
+    Raises
+    ------
+    InputError
+        Any other text, named by ``option``.
+
+    Examples
+    --------
+    >>> parse_bounds("clusters:8"), parse_bounds("box")
+    (('clusters', 8), ('box', 1))
+    """
+    kind, _, count = str(text).strip().partition(":")
+    if kind == "box" and not count:
+        return kind, 1
+    if kind in ("clusters", "auto"):
+        if not count:
+            return kind, DEFAULT_CLUSTERS
+        try:
+            return kind, as_positive_int(int(count), f"{option} {kind}:N",
+                                         maximum=MAX_CLUSTERS)
+        except ValueError:
+            pass
+    raise InputError(f"{option}: expected auto, box, clusters, auto:N or clusters:N (N from "
+                     f"1 to {MAX_CLUSTERS}), got {text!r}")
