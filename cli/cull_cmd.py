@@ -71,6 +71,7 @@ from viscore._validate import as_positive, as_positive_int, as_seed, check_memor
 from viscore.culling.occludee_bounds import (
     AUTO_MIN_SIZE,
     DEFAULT_CLUSTERS,
+    MESHLET_TRIANGLES,
     occludee_boxes,
     parse_bounds,
 )
@@ -196,13 +197,15 @@ def add_parser(sub, common) -> None:
     c.add_argument("--rank", choices=["faces", "eq4"], default="faces",
                    help="ranking of the solids: as their best face by eq. 3 (default) or the "
                         "paper's f_solid of eq. 4")
-    c.add_argument("--bounds", default="auto", metavar="auto|box|clusters[:N]",
+    c.add_argument("--bounds", default="auto", metavar="auto|box|clusters[:N]|meshlets[:T]",
                    help="what a runtime tests of an object: its box (as an engine tests an "
                         "instance, and as the paper does), or the boxes of up to N clusters "
                         f"of its triangles (default N {DEFAULT_CLUSTERS}), the object culled "
                         "when all of them are: a level exported as a few big chunks, whose "
                         "boxes hold the eye, can then be culled where its visible parts are "
-                        "hidden; auto (default): clusters for objects of at least "
+                        "hidden; meshlets: every object in clusters of about T triangles "
+                        f"(default {MESHLET_TRIANGLES}), as engines test meshlets; auto "
+                        "(default): clusters for objects of at least "
                         f"{AUTO_MIN_SIZE:g} of the level's diagonal, the box for the others")
     c.add_argument("--per-object", action="store_true",
                    help="make every method's occluders object by object; by default "

@@ -178,3 +178,50 @@ def test_cull_cli_bounds_option(tmp_path, capsys):
         assert main(["cull", "--bounds", bad, "--out", str(tmp_path / "x"), "--quiet"]) == 2
         assert "--bounds" in capsys.readouterr().err
         assert not (tmp_path / "x").exists()
+
+
+def test_object_cluster_boxes_meshlets_count_by_triangles():
+    # meshlets of 16 triangles: a 12-triangle box is one cluster (its own box), an
+    # icosphere of 320 triangles 20, a two-triangle quad one; every triangle in its box
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]]), geom_name="box",
+                       node_name="box")
+    scene.add_geometry(trimesh.creation.icosphere(subdivisions=2), geom_name="ball",
+                       node_name="ball",
+                       transform=trimesh.transformations.translation_matrix([5, 0, 0]))
+    quad = trimesh.Trimesh([[0, 0, 3], [1, 0, 3], [1, 1, 3], [0, 1, 3]], [[0, 1, 2], [0, 2, 3]])
+    scene.add_geometry(quad, geom_name="quad", node_name="quad")
+    objects = load_scene_objects(scene)
+    lo, hi, owner = object_cluster_boxes(objects, 4096, per_cluster=16)
+    counts = np.bincount(owner, minlength=3)
+    assert counts[objects.names.index("box")] == 1
+    assert counts[objects.names.index("ball")] == 20
+    assert counts[objects.names.index("quad")] == 1
+    for i in range(3):
+        mine = owner == i
+        tri = objects.object_triangles(i)
+        inside = ((tri.min(axis=1)[:, None] >= lo[mine][None] - 1e-9)
+                  & (tri.max(axis=1)[:, None] <= hi[mine][None] + 1e-9)).all(axis=2)
+        assert inside.any(axis=1).all()
+    # at most the cluster cap, whatever the triangles
+    _, _, owner = object_cluster_boxes(objects, 8, per_cluster=1)
+    assert np.bincount(owner).max() == 8
+    with pytest.raises(InputError, match="per_cluster"):
+        object_cluster_boxes(objects, 8, per_cluster=0)
+
+
+def test_parse_bounds_kinds_and_refusals():
+    from viscore.culling.occludee_bounds import (
+        DEFAULT_CLUSTERS,
+        MESHLET_TRIANGLES,
+        parse_bounds,
+    )
+
+    assert parse_bounds("box") == ("box", 1)
+    assert parse_bounds("auto") == ("auto", DEFAULT_CLUSTERS)
+    assert parse_bounds("clusters:8") == ("clusters", 8)
+    assert parse_bounds("meshlets") == ("meshlets", MESHLET_TRIANGLES)
+    assert parse_bounds("meshlets:4") == ("meshlets", 4)
+    for bad in ("boxes", "box:2", "meshlets:0", "meshlets:x", "clusters:99999"):
+        with pytest.raises(InputError, match="--bounds"):
+            parse_bounds(bad)

@@ -41,7 +41,7 @@ if TYPE_CHECKING:  # pragma: no cover - hints only
     from ..level.scene_graph import SceneObjects
 
 __all__ = ["cluster_boxes", "object_cluster_boxes", "occludee_boxes", "parse_bounds",
-           "MAX_CLUSTERS", "DEFAULT_CLUSTERS", "AUTO_MIN_SIZE"]
+           "MAX_CLUSTERS", "DEFAULT_CLUSTERS", "AUTO_MIN_SIZE", "MESHLET_TRIANGLES"]
 
 #: Clusters per object of ``--bounds clusters`` and ``auto`` without a count.
 DEFAULT_CLUSTERS = 64
@@ -52,6 +52,9 @@ AUTO_MIN_SIZE = 0.1
 
 #: Most clusters per object (a box test per cluster and frame).
 MAX_CLUSTERS = 4096
+
+#: Triangles per cluster of ``--bounds meshlets`` without a count.
+MESHLET_TRIANGLES = 16
 
 
 def cluster_boxes(vertices: npt.ArrayLike, faces: npt.ArrayLike, clusters: int
@@ -118,7 +121,7 @@ def cluster_boxes(vertices: npt.ArrayLike, faces: npt.ArrayLike, clusters: int
 
 
 def object_cluster_boxes(objects: SceneObjects, clusters: int, *,
-                         min_size: float | None = None
+                         min_size: float | None = None, per_cluster: int | None = None
                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World boxes of every object's triangle clusters (:func:`cluster_boxes`).
 
@@ -132,6 +135,10 @@ def object_cluster_boxes(objects: SceneObjects, clusters: int, *,
         level's (the box of its built part,
         :meth:`~viscore.level.SceneObjects.built_bounds`) are split; the others keep their own
         box as their one cluster. In (0, 1]; default: every object is split.
+    per_cluster : int, optional
+        Meshlets: each mesh of ``f`` triangles is split into ``ceil(f / per_cluster)``
+        clusters (about ``per_cluster`` triangles each), at most ``clusters``.
+        Default: ``clusters`` for every mesh.
 
     Returns
     -------
@@ -157,8 +164,16 @@ def object_cluster_boxes(objects: SceneObjects, clusters: int, *,
         box = objects.built_bounds()[0]  # without an outer ground plane or a sky
         level = float(np.linalg.norm(box[1] - box[0]))
         split = np.linalg.norm(objects.upper - objects.lower, axis=1) >= min_size * level
+    if per_cluster is not None:
+        per_cluster = as_positive_int(per_cluster, "per_cluster")
     wanted = set(objects.mesh_ids[split].tolist())
-    local = [cluster_boxes(m.vertices, m.faces, clusters if i in wanted else 1)
+
+    def count(mesh) -> int:
+        if per_cluster is None:
+            return clusters
+        return int(min(clusters, max(1, -(-len(mesh.faces) // per_cluster))))
+
+    local = [cluster_boxes(m.vertices, m.faces, count(m) if i in wanted else 1)
              for i, m in enumerate(objects.meshes)]
     corner = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], dtype=bool)
     lowers, uppers, owners = [], [], []
@@ -187,12 +202,16 @@ def occludee_boxes(objects: SceneObjects, kind: str, clusters: int
 
     Returns None (every object tested through its box) or
     :func:`object_cluster_boxes` (``kind='auto'``: only the objects from
-    :data:`AUTO_MIN_SIZE` of the level's diagonal split), for
+    :data:`AUTO_MIN_SIZE` of the level's diagonal split; ``kind='meshlets'``: every
+    object in clusters of about ``clusters`` triangles), for
     ``simulate_culling(..., bounds=)``; with the kind in effect (``'box'``
     when no object was split) and the number of split objects.
     """
-    bounds = None if clusters == 1 else object_cluster_boxes(
-        objects, clusters, min_size=AUTO_MIN_SIZE if kind == "auto" else None)
+    if kind == "meshlets":  # every object, in clusters of about ``clusters`` triangles
+        bounds = object_cluster_boxes(objects, MAX_CLUSTERS, per_cluster=clusters)
+    else:
+        bounds = None if clusters == 1 else object_cluster_boxes(
+            objects, clusters, min_size=AUTO_MIN_SIZE if kind == "auto" else None)
     split = 0 if bounds is None else int(np.count_nonzero(np.bincount(bounds[2]) > 1))
     if bounds is None or not split:
         return None, "box", 0  # no object was split: every test is the box
@@ -219,13 +238,13 @@ def parse_bounds(text: str, option: str = "--bounds") -> tuple[str, int]:
     kind, _, count = str(text).strip().partition(":")
     if kind == "box" and not count:
         return kind, 1
-    if kind in ("clusters", "auto"):
+    if kind in ("clusters", "auto", "meshlets"):
         if not count:
-            return kind, DEFAULT_CLUSTERS
+            return kind, DEFAULT_CLUSTERS if kind != "meshlets" else MESHLET_TRIANGLES
         try:
             return kind, as_positive_int(int(count), f"{option} {kind}:N",
                                          maximum=MAX_CLUSTERS)
         except ValueError:
             pass
-    raise InputError(f"{option}: expected auto, box, clusters, auto:N or clusters:N (N from "
-                     f"1 to {MAX_CLUSTERS}), got {text!r}")
+    raise InputError(f"{option}: expected auto, box, clusters, meshlets, auto:N, clusters:N "
+                     f"or meshlets:N (N from 1 to {MAX_CLUSTERS}), got {text!r}")
