@@ -17,10 +17,13 @@ path (:func:`viscore.metrics.culling.camera_path` or ``--path``) and the
 simulation against the ray-cast ground truth
 (:func:`viscore.metrics.culling.simulate_culling`), with each object tested through its
 box or through the boxes of its triangle clusters
-(:func:`viscore.culling.occludee_bounds.object_cluster_boxes`): ``--bounds auto`` (the default)
-splits the objects whose box diagonal is at least :data:`AUTO_MIN_SIZE` of the level's
-(chunks of a level exported in a few pieces, whose boxes hold the eye), ``clusters[:N]``
-every object, ``box`` none (the paper's test, sec. 6 of Papaioannou et al. 2006).
+(:func:`viscore.culling.occludee_bounds.object_cluster_boxes`): ``--bounds meshlets:1`` (the
+default, :data:`~viscore.culling.occludee_bounds.DEFAULT_BOUNDS`) tests every object through
+its triangles' boxes (at most :data:`~viscore.culling.occludee_bounds.MAX_CLUSTERS` per
+object), ``meshlets[:T]`` through clusters of about T triangles, ``auto`` splits the objects
+whose box diagonal is at least :data:`AUTO_MIN_SIZE` of the level's (chunks of a level
+exported in a few pieces, whose boxes hold the eye), ``clusters[:N]`` every object, ``box``
+none (the paper's test, sec. 6 of Papaioannou et al. 2006).
 Every argument is checked before any work (``--methods`` and ``--frusta-method`` by
 their generators' own rules across options, :func:`viscore.generators.check_method`;
 the scene, the occluder files and the camera path are read, the output folder checked,
@@ -70,7 +73,9 @@ from viscore._atomic import fsync_path, swap_folder
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
 from viscore.culling.occludee_bounds import (
     AUTO_MIN_SIZE,
+    DEFAULT_BOUNDS,
     DEFAULT_CLUSTERS,
+    MAX_CLUSTERS,
     MESHLET_TRIANGLES,
     occludee_boxes,
     parse_bounds,
@@ -197,16 +202,19 @@ def add_parser(sub, common) -> None:
     c.add_argument("--rank", choices=["faces", "eq4"], default="faces",
                    help="ranking of the solids: as their best face by eq. 3 (default) or the "
                         "paper's f_solid of eq. 4")
-    c.add_argument("--bounds", default="auto", metavar="auto|box|clusters[:N]|meshlets[:T]",
-                   help="what a runtime tests of an object: its box (as an engine tests an "
-                        "instance, and as the paper does), or the boxes of up to N clusters "
-                        f"of its triangles (default N {DEFAULT_CLUSTERS}), the object culled "
-                        "when all of them are: a level exported as a few big chunks, whose "
-                        "boxes hold the eye, can then be culled where its visible parts are "
-                        "hidden; meshlets: every object in clusters of about T triangles "
-                        f"(default {MESHLET_TRIANGLES}), as engines test meshlets; auto "
-                        "(default): clusters for objects of at least "
-                        f"{AUTO_MIN_SIZE:g} of the level's diagonal, the box for the others")
+    c.add_argument("--bounds", default=DEFAULT_BOUNDS,
+                   metavar="meshlets[:T]|auto|box|clusters[:N]",
+                   help="what a runtime tests of an object, culled when all of them are "
+                        "hidden: meshlets: the boxes of clusters of about T triangles "
+                        f"(default T {MESHLET_TRIANGLES}), as engines test meshlets; "
+                        f"{DEFAULT_BOUNDS} (the default): its triangles' boxes, at most "
+                        f"{MAX_CLUSTERS} per object, the finest of these (a smaller box is "
+                        "no harder to cull, and an object only its box puts in view is left "
+                        "out of view); box: its box (as an engine tests an instance, "
+                        "and as the paper does); clusters: the boxes of up to N clusters of "
+                        f"its triangles (default N {DEFAULT_CLUSTERS}); auto: clusters for "
+                        f"objects of at least {AUTO_MIN_SIZE:g} of the level's diagonal, the "
+                        "box for the others")
     c.add_argument("--per-object", action="store_true",
                    help="make every method's occluders object by object; by default "
                         f"{', '.join(JOINED_METHODS)} is made once over the occluder objects "
@@ -394,15 +402,15 @@ def _table(doc: dict) -> str:
 
 def _bounds_hint(doc: dict) -> str | None:
     """A line suggesting ``--bounds clusters`` when the boxes (``box``, or ``auto``'s
-    unsplit objects) leave more than half of what the truth hides (over 20%) to every
-    guaranteed runtime, else None.
+    unsplit objects; never after ``clusters`` or ``meshlets``) leave more than half of what
+    the truth hides (over 20%) to every guaranteed runtime, else None.
 
     A level exported as a few big chunks is the usual cause: a chunk's box holds the eye
     or reaches past every occluder. On the dust map (20 frames) the best guaranteed
     runtime culls 6.2% of the objects with boxes and 19.7% with clusters, the truth hiding
     41.0% and 36.5%; even the level's own triangles cull 6.2% with boxes.
     """
-    if doc["bounds"]["kind"] == "clusters":
+    if doc["bounds"]["kind"] in ("clusters", "meshlets"):  # split already
         return None
     hidden = doc["ground_truth"]["hidden_share"]
     made = {name: info.get("occluders") for name, info in doc.get("runtimes", {}).items()}

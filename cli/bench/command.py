@@ -102,9 +102,9 @@ def add_parser(sub, common) -> None:
                    help="eye height of every level, in its units (default: guessed per level)")
     w.add_argument("--cull", action="store_true",
                    help="also run cull's default runtimes along each walk (minutes per level)")
-    w.add_argument("--bounds", default="auto", metavar="auto|box|clusters[:N]",
+    w.add_argument("--bounds", default=None, metavar="meshlets[:T]|auto|box|clusters[:N]",
                    help="with --cull: the occludee bounds, as 'viscore cull --bounds' "
-                        "(default auto)")
+                        "(default as cull's, meshlets:1)")
     w.set_defaults(run=run_walks)
     gb = bsub.add_parser("godot-bake", parents=[common],
                          help="our godot baseline against Godot's own bake of its occlusion "
@@ -307,10 +307,13 @@ def run_walks(args) -> int:
         if not (args.quiet or args.json):
             print(walk_row_text(row), file=sys.stderr, flush=True)
 
-    if args.bounds != "auto" and not args.cull:
+    from viscore.culling.occludee_bounds import DEFAULT_BOUNDS
+
+    if args.bounds is not None and not args.cull:
         raise InputError("--bounds: only with --cull")
     r = bench_walks(args.levels, frames=args.frames, seed=args.seed, up=args.up,
-                    eye_height=args.eye_height, cull=args.cull, bounds=args.bounds,
+                    eye_height=args.eye_height, cull=args.cull,
+                    bounds=DEFAULT_BOUNDS if args.bounds is None else args.bounds,
                     progress=say)
     emit({**r, "provenance": provenance()}, args.json, bench_walks_text(r))
     return 0

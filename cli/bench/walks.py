@@ -89,7 +89,7 @@ def _cull_figures(level, walk, *, seed: int, bounds: str, methods: Sequence[str]
 
 def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
                 up: str | None = None, eye_height: float | None = None, cull: bool = False,
-                bounds: str = "auto", methods: Sequence[str] | None = None,
+                bounds: str | None = None, methods: Sequence[str] | None = None,
                 width: int = WIDTH, height: int = HEIGHT,
                 progress: Callable[[dict], None] | None = None) -> dict:
     """The walk on each level, and with ``cull`` the culling along it.
@@ -110,7 +110,8 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
     cull : bool, optional
         Also run the culling simulation along each walk (default False).
     bounds : str, optional
-        The occludee bounds, as ``cull --bounds`` (default ``'auto'``).
+        The occludee bounds, as ``cull --bounds`` (default
+        :data:`~viscore.culling.occludee_bounds.DEFAULT_BOUNDS`, as ``cull``'s).
     methods : sequence of str, optional
         Occluder methods of the depth-buffer runtimes (default: cull's, those
         that can be guaranteed).
@@ -144,7 +145,9 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
     if eye_height is not None:
         eye_height = as_positive(eye_height, "--eye-height")
     if cull:
-        from viscore.culling.occludee_bounds import parse_bounds
+        from viscore.culling.occludee_bounds import DEFAULT_BOUNDS, parse_bounds
+
+        bounds = DEFAULT_BOUNDS if bounds is None else bounds
         from viscore.metrics.culling import check_culling_memory
 
         parse_bounds(bounds, "--bounds")
