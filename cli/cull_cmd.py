@@ -401,7 +401,7 @@ def _table(doc: dict) -> str:
 
 
 def _bounds_hint(doc: dict) -> str | None:
-    """A line suggesting ``--bounds clusters`` when the boxes (``box``, or ``auto``'s
+    """A line suggesting the default ``--bounds`` when the boxes (``box``, or ``auto``'s
     unsplit objects; never after ``clusters`` or ``meshlets``) leave more than half of what
     the truth hides (over 20%) to every guaranteed runtime, else None.
 
@@ -421,7 +421,8 @@ def _bounds_hint(doc: dict) -> str | None:
         return None
     return (f"hint: the guaranteed runtimes cull at most {best:.1%} of the objects where the "
             f"truth hides {hidden:.1%}; if the level's objects are a few big chunks, "
-            "--bounds clusters tests each through the boxes of its triangles' clusters")
+            f"--bounds {DEFAULT_BOUNDS} (the default) tests each through its triangles' "
+            "boxes")
 
 
 def _conservative_cell(total: dict, occluders: int | None = None) -> str:
