@@ -20,7 +20,15 @@ from viscore import InputError, provenance, stream_seed
 from viscore._atomic import LockedFolder
 from viscore._jobs import JOBS_PER_CORE, check_scheduler, connect_scheduler
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
-from viscore.culling import AUTO_MIN_SIZE, DEFAULT_CLUSTERS, MAX_CLUSTERS, occludee_boxes
+from viscore.culling import (
+    AUTO_MIN_SIZE,
+    DEFAULT_BOUNDS,
+    DEFAULT_CLUSTERS,
+    MAX_CLUSTERS,
+    MESHLET_TRIANGLES,
+    occludee_boxes,
+    parse_bounds,
+)
 from viscore.generators import call_held, check_method, report_kinds
 from viscore.generators.levels import (
     JOINED_METHODS,
@@ -30,15 +38,17 @@ from viscore.generators.levels import (
     guaranteed_methods,
     method_indices,
 )
-from viscore.level import UP_AXES, level_objects, occluder_objects
+from viscore.level import SPLIT_RULES, UP_AXES, level_objects, occluder_objects
 from viscore.metrics import (
     DEFAULT_HEIGHT,
     DEFAULT_WIDTH,
-    camera_path,
     camera_path_json,
+    camera_stances,
+    camera_walk,
     check_camera_path,
     check_culling_memory,
     culling_plot,
+    guess_eye_height,
     read_camera_path,
     simulate_culling,
 )
@@ -99,13 +109,23 @@ def add_parser(sub, common) -> None:
                    help="up axis of the level (default: guessed and printed for a single "
                         "mesh; +Y for glTF, as its specification says: give z for a file "
                         "written Z-up)")
+    c.add_argument("--eye-height", type=float, default=None, metavar="H",
+                   help="eye height of the walk over the floor, in the level's units "
+                        "(default: guessed from the headroom of the level's floors under "
+                        "their ceilings, 1.7 for a glTF level, whose unit is the metre; "
+                        "printed beside the up axis)")
     c.add_argument("--frames", type=int, default=None,
                    help=f"cameras of the generated path (default {DEFAULT_FRAMES}); with "
                         "--path, the first N of the file (default all)")
     c.add_argument("--methods", default=None,
                    help="generators whose occluders feed a depth-buffer runtime each, "
-                        "comma-separated (default: the conservative ones, "
-                        f"{_default_methods()})")
+                        "comma-separated (default: the methods that can be guaranteed, "
+                        f"{_default_methods()}; aabb-skins and solid-frusta (and the "
+                        "planar-frusta and solid-frusta runtimes fed by them) are guaranteed "
+                        "only when every occluder object is a closed mesh, and a runtime "
+                        "with an open one is reported not guaranteed; surface-patches on "
+                        "any input; a runtime that made no occluder culls nothing and is "
+                        "reported so)")
     c.add_argument("--occluders", default=None,
                    help="comma-separated object names that get occluders (default: those "
                         "from 2%% of the level's diagonal, as 'viscore occlude' chooses them)")
@@ -142,14 +162,19 @@ def add_parser(sub, common) -> None:
     c.add_argument("--rank", choices=["faces", "eq4"], default="faces",
                    help="ranking of the solids: as their best face by eq. 3 (default) or the "
                         "paper's f_solid of eq. 4")
-    c.add_argument("--bounds", default="auto", metavar="auto|box|clusters[:N]",
-                   help="what a runtime tests of an object: its box (as an engine tests an "
-                        "instance, and as the paper does), or the boxes of up to N clusters "
-                        f"of its triangles (default N {DEFAULT_CLUSTERS}), the object culled "
-                        "when all of them are: a level exported as a few big chunks, whose "
-                        "boxes hold the eye, can then be culled where its visible parts are "
-                        "hidden; auto (default): clusters for objects of at least "
-                        f"{AUTO_MIN_SIZE:g} of the level's diagonal, the box for the others")
+    c.add_argument("--bounds", default=DEFAULT_BOUNDS,
+                   metavar="meshlets[:T]|auto|box|clusters[:N]",
+                   help="what a runtime tests of an object, culled when all of them are "
+                        "hidden: meshlets: the boxes of clusters of about T triangles "
+                        f"(default T {MESHLET_TRIANGLES}), as engines test meshlets; "
+                        f"{DEFAULT_BOUNDS} (the default): its triangles' boxes, at most "
+                        f"{MAX_CLUSTERS} per object, the finest of these (a smaller box is "
+                        "no harder to cull, and an object only its box puts in view is left "
+                        "out of view); box: its box (as an engine tests an instance, "
+                        "and as the paper does); clusters: the boxes of up to N clusters of "
+                        f"its triangles (default N {DEFAULT_CLUSTERS}); auto: clusters for "
+                        f"objects of at least {AUTO_MIN_SIZE:g} of the level's diagonal, the "
+                        "box for the others")
     c.add_argument("--per-object", action="store_true",
                    help="make every method's occluders object by object; by default "
                         f"{', '.join(JOINED_METHODS)} is made once over the occluder objects "
@@ -188,19 +213,7 @@ def _methods(text: str | None, option: str = "--methods") -> list[str]:
 
 def _bounds(text: str) -> tuple[str, int]:
     """``--bounds``: its kind (``box``, ``clusters``, ``auto``) and clusters per object."""
-    kind, _, count = str(text).strip().partition(":")
-    if kind == "box" and not count:
-        return kind, 1
-    if kind in ("clusters", "auto"):
-        if not count:
-            return kind, DEFAULT_CLUSTERS
-        try:
-            return kind, as_positive_int(int(count), f"--bounds {kind}:N",
-                                         maximum=MAX_CLUSTERS)
-        except ValueError:
-            pass
-    raise InputError(f"--bounds: expected auto, box, clusters, auto:N or clusters:N (N from "
-                     f"1 to {MAX_CLUSTERS}), got {text!r}")
+    return parse_bounds(text, "--bounds")
 
 
 def _out_dir(text: str) -> Path:
@@ -232,19 +245,27 @@ def _table(doc: dict) -> str:
              f"{'runtime':<28} {'culled':>7} {'95% interval':>14} {'false':>6} "
              f"{'triangles/frame':>16} {'overhead ms':>12} {'conservative':>12}"]
     for name, t in doc["totals"].items():
+        made = None if name == "none" else doc.get("runtimes", {}).get(name, {}).get("occluders")
         lines.append(f"{name:<28} {t['culled_share']:>7.1%} "
                      f"{_interval_cell(t.get('culled_share_ci')):>14} {t['false_culls']:>6} "
                      f"{t['triangles_rendered_per_frame']:>16,.0f} {t['overhead_ms']:>12.2f} "
-                     f"{_conservative_cell(t):>12}")
+                     f"{_conservative_cell(t, made):>12}")
     frames = max(1, s["frames"])
-    lines.append(f"{'ray-cast truth (visible)':<28} {gt['hidden_share']:>7.1%} "
+    lines.append(f"{'ray-cast truth (hidden)':<28} {gt['hidden_share']:>7.1%} "
                  f"{_interval_cell(gt.get('hidden_share_ci')):>14} {0:>6} "
                  f"{gt['triangles_visible'] / frames:>16,.0f} {'-':>12} {'-':>12}")
     lines.append("culled: share of the objects in the view frustum (view frustum culling "
                  "first, the same for all); false: culled objects visible in the ray-cast "
                  "object-id image, summed over frames; overhead: mean per frame; "
-                 "conservative: the runtime's guarantee, '-' where it culled nothing; "
-                 + _interval_note(doc))
+                 "conservative: the runtime's guarantee, '-' where it culled nothing, "
+                 "'no occluder' where it made none; the truth row: the share of the objects "
+                 "in view that no pixel sees; " + _interval_note(doc))
+    w = doc.get("walk")
+    if w:
+        lines.append(f"walk: {w['standing']} of {w['frames']} frames stand well "
+                     f"(eye height {w['eye_height']:.4g}, {w['eye_height_reason']}); "
+                     f"{w['moved']} moved, {w['dropped']} of {w['frames_asked']} dropped"
+                     + (f", {w['far']} far views" if w.get("far") else ""))
     hint = _bounds_hint(doc)
     if hint:
         lines.append(hint)
@@ -252,25 +273,28 @@ def _table(doc: dict) -> str:
 
 
 def _bounds_hint(doc: dict) -> str | None:
-    """A line suggesting ``--bounds clusters`` when the boxes (``box``, or ``auto``'s
-    unsplit objects) leave more than half of what the truth hides (over 20%) to every
-    guaranteed runtime, else None.
+    """A line suggesting the default ``--bounds`` when the boxes (``box``, or ``auto``'s
+    unsplit objects; never after ``clusters`` or ``meshlets``) leave more than half of what
+    the truth hides (over 20%) to every guaranteed runtime, else None.
 
     A level exported as a few big chunks is the usual cause: a chunk's box holds the eye
     or reaches past every occluder. On the dust map (20 frames) the best guaranteed
     runtime culls 6.2% of the objects with boxes and 19.7% with clusters, the truth hiding
     41.0% and 36.5%; even the level's own triangles cull 6.2% with boxes.
     """
-    if doc["bounds"]["kind"] == "clusters":
+    if doc["bounds"]["kind"] in ("clusters", "meshlets"):  # split already
         return None
     hidden = doc["ground_truth"]["hidden_share"]
+    made = {name: info.get("occluders") for name, info in doc.get("runtimes", {}).items()}
     best = max((t["culled_share"] for name, t in doc["totals"].items()
-                if name != "none" and t["conservative"]), default=0.0)
+                if name != "none" and t["conservative"] and made.get(name) != 0),
+               default=0.0)
     if hidden <= 0.2 or best >= 0.5 * hidden:
         return None
     return (f"hint: the guaranteed runtimes cull at most {best:.1%} of the objects where the "
             f"truth hides {hidden:.1%}; if the level's objects are a few big chunks, "
-            "--bounds clusters tests each through the boxes of its triangles' clusters")
+            f"--bounds {DEFAULT_BOUNDS} (the default) tests each through its triangles' "
+            "boxes")
 
 
 def _interval_cell(interval) -> str:
@@ -286,8 +310,11 @@ def _interval_note(doc: dict) -> str:
             f"frames, seed {iv.get('seed', '?')})")
 
 
-def _conservative_cell(total: dict) -> str:
-    """``yes``/``no``: the runtime's guarantee; ``-`` where it culled nothing (nothing to guard)."""
+def _conservative_cell(total: dict, occluders: int | None = None) -> str:
+    """``yes``/``no``: the runtime's guarantee; ``no occluder`` where it made none, ``-``
+    where it culled nothing (nothing to guard)."""
+    if occluders == 0:
+        return "no occluder"
     if not total.get("culled", total.get("culled_share", 0)):
         return "-"
     return "yes" if total["conservative"] else "no"
@@ -320,6 +347,8 @@ def run_cull(args) -> int:
     check_culling_memory(width, height)
     if args.path is None:
         _check_frames_memory(frames or DEFAULT_FRAMES, f"--frames {frames or DEFAULT_FRAMES}")
+    eye_given = (None if args.eye_height is None
+                 else as_positive(args.eye_height, "--eye-height"))
     started = time.perf_counter()
     level = level_objects(args.scene, up=args.up, names=names if threshold is None else None)
     objects = level.objects
@@ -336,9 +365,9 @@ def run_cull(args) -> int:
                          "part), %s up (%s): there is nothing else to cull behind it",
                          args.scene, mesh, level.components, level.up, level.up_reason)
         else:
-            _log.info("%s: %s split into %d parts (%d connected components), %s up (%s)",
-                      args.scene, mesh, len(objects), level.components, level.up,
-                      level.up_reason)
+            _log.info("%s: %s split into %d objects by %s (%d connected components), %s up "
+                      "(%s)", args.scene, mesh, len(objects), SPLIT_RULES[level.split_rule],
+                      level.components, level.up, level.up_reason)
     if args.path is not None:
         # capped before any camera is checked: checking one takes about 0.5 ms
         path = read_camera_path(args.path, up=objects.up, frames=frames, maximum=MAX_FRAMES)
@@ -346,6 +375,11 @@ def run_cull(args) -> int:
         check_camera_path(objects, path)
     else:
         path = None
+    # after the path is read and checked: a bad one is one line on stderr, nothing before
+    eye = guess_eye_height(objects, metres=level.kind.startswith("gltf"),
+                           eye_height=eye_given)
+    _log.info("%s: %s up (%s); eye height %.4g (%s)", args.scene, level.up,
+              level.up_reason, eye.value, eye.reason)
     if threshold is not None:
         indices = occluder_objects(objects, size_threshold=threshold, names=names)
     else:
@@ -363,7 +397,8 @@ def run_cull(args) -> int:
                         frames=frames, methods=methods, source=source, active=active,
                         reduction=reduction, width=width, height=height, files=files,
                         flat=level.flat, clusters=clusters,
-                        bound_kind=bound_kind, shown=shown, jobs=jobs, scheduler=client)
+                        bound_kind=bound_kind, shown=shown, jobs=jobs, scheduler=client,
+                        eye=eye, split_rule=level.split_rule)
     emit(doc, args.json, _table(doc) + f"\nwrote {out}/cull.json, triangles.png, cameras.json "
          "(replay with --path), report.html (open it in a browser)")
     return 0
@@ -418,12 +453,24 @@ def _simulate(args, objects, indices, path, folder: LockedFolder, *, progress: b
               frames, methods, source, active, reduction, width, height,
               files: dict | None = None, flat=None, clusters: int = 1,
               bound_kind: str = "box", shown: list[int] | None = None, jobs: int = 1,
-              scheduler=None) -> dict:
+              scheduler=None, eye=None, split_rule: str = "nodes") -> dict:
     """The work and the files of :func:`run_cull`; returns the JSON document."""
     from tqdm import tqdm
 
     if path is None:
-        path = camera_path(objects, frames=frames or DEFAULT_FRAMES, seed=seed)
+        walk = camera_walk(objects, frames=frames or DEFAULT_FRAMES, seed=seed, eye=eye)
+        path, stances, walk_doc = list(walk.cameras), walk.stances, walk.to_json()
+        if walk.dropped or walk.moved:
+            _log.warning("%s: the walk moved %d camera(s) and dropped %d of %d frames where "
+                         "no place of their stretch stands well", args.scene, walk.moved,
+                         walk.dropped, walk.asked)
+    else:
+        stances = camera_stances(objects, path, eye_height=eye.value, sign=eye.sign)
+        standing = sum(st.standing for st in stances)
+        walk_doc = {"up": [float(x) for x in objects.up], **eye.to_json(),
+                    "frames_asked": len(path), "frames": len(path), "standing": standing,
+                    "standing_share": standing / len(path), "moved": 0, "dropped": 0,
+                    "far": 0, "kinds": {"given": len(path)}, "on": "--path"}
     todo = sum(len(set(objects.mesh_ids[method_indices(m, indices, flat)].tolist()))
                for m in set(methods) | {source})  # meshes each method generates
     with tqdm(total=todo, desc="occluders", unit="mesh", disable=not progress,
@@ -448,8 +495,9 @@ def _simulate(args, objects, indices, path, folder: LockedFolder, *, progress: b
         tick = RateEstimate(f"cull: {len(path):,} frames", len(path), "frames", bar.update)
         result = simulate_culling(objects, runtimes, path, width=width, height=height,
                                   progress=tick, bounds=bounds, keep_frames=shown or (),
-                                  jobs=jobs, scheduler=scheduler)
+                                  jobs=jobs, scheduler=scheduler, stances=stances)
     doc = {"scene": args.scene, "occluder_objects": len(indices),
+           "objects_rule": split_rule, "objects_rule_text": SPLIT_RULES[split_rule],
            "see_through_objects": [objects.names[i] for i in np.flatnonzero(objects.see_through)],
            "frusta_method": source, "methods": methods,
            "occluder_files": {name: occ.params["file"] for name, occ in (files or {}).items()},
@@ -458,6 +506,7 @@ def _simulate(args, objects, indices, path, folder: LockedFolder, *, progress: b
                       {"kind": bound_kind, "clusters": clusters, "boxes": len(bounds[2]),
                        "split_objects": split,
                        **({"min_size": AUTO_MIN_SIZE} if bound_kind == "auto" else {})}),
+           "walk": walk_doc,
            "active": active, "buffer_scale": reduction, "cap": args.cap, "rank": args.rank,
            # the intervals' resampling: its own stream of --seed, as every bootstrap's
            **result.to_json(seed=stream_seed(seed, "bootstrap")),

@@ -43,7 +43,15 @@ from .ablation import AblationResult, convergence_ablation
 from .assessment import OccluderAssessment, assess_occluder
 from .bayes import BetaModelSummary, hierarchical_beta_model
 from .bootstrap import bootstrap_ratio
-from .camera_paths import PathCamera, camera_path, camera_path_json, read_camera_path
+from .camera_paths import (
+    PathCamera,
+    camera_path,
+    camera_path_json,
+    camera_stances,
+    camera_walk,
+    guess_eye_height,
+    read_camera_path,
+)
 from .conservativeness import (
     ConservativenessReport,
     assert_conservative,
@@ -114,7 +122,8 @@ __all__ = [
     # culling simulation
     "simulate_culling", "CullingResult", "RuntimeFrames", "Runtime", "no_culling",
     "frusta_runtime", "depth_buffer_runtime", "view_frustum_mask", "camera_path",
-    "read_camera_path", "camera_path_json", "PathCamera", "culling_plot", "check_camera_path",
+    "read_camera_path", "camera_path_json", "PathCamera", "camera_walk", "camera_stances",
+    "guess_eye_height", "culling_plot", "check_camera_path",
     "check_culling_memory", "DEFAULT_WIDTH", "DEFAULT_HEIGHT",
     # two meshes, triangle for triangle
     "match_triangles", "surface_distance",

@@ -12,6 +12,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import stat
@@ -28,7 +29,8 @@ from viscore._validate import as_positive, as_positive_int, as_seed, as_vector
 if TYPE_CHECKING:  # pragma: no cover - hints only
     from viscore.level.scene_graph import SceneObjects
 
-__all__ = ["PathCamera", "camera_path", "read_camera_path", "camera_path_json",
+__all__ = ["PathCamera", "camera_path", "camera_walk", "Walk", "Stance", "EyeHeight",
+           "camera_stances", "guess_eye_height", "read_camera_path", "camera_path_json",
            "check_camera_path", "DEFAULT_FOV", "EYE_HEIGHT", "MIN_FOV", "MAX_FOV"]
 
 #: Horizontal field of view of generated and JSON cameras without ``fov``, degrees.
@@ -46,9 +48,40 @@ MIN_FOV = 0.1
 #: millionth of a centre pixel's solid angle: wider views are all periphery.
 MAX_FOV = 179.0
 
-#: Eye height above the ground of the street-level frames, world units (metres
-#: in the built-in cities).
+#: Eye height above the floor of the street-level frames in a level whose units are
+#: metres (glTF's unit), world units; other levels get theirs from
+#: :func:`guess_eye_height`.
 EYE_HEIGHT = 1.7
+
+#: The eye height guessed from a level's rooms, as a share of the lower quartile of the
+#: headroom of its floors under their ceilings. Players' eyes in games stand at about a
+#: third of the low rooms' height: Doom 41 under 128, Cube 2 maps 14 under 32-48, Hammer
+#: 64 under 144, Quake maps (units / 32) 1.4 under 3.5, a hangar 1.7 under 4.4.
+_EYE_PER_HEADROOM = 0.35
+
+#: A level's rooms set its eye height only when at least this share of the map's
+#: columns find a floor under a ceiling (a town with a few awnings keeps the default).
+_ROOFED_COLUMNS = 0.02
+
+#: A headroom of the level read turned over counts only when under this share of the
+#: level's height (the inside of a solid block as tall as the level is no room).
+_ROOM_OF_LEVEL = 0.5
+
+#: A guess from a glTF level's rooms replaces the metre default only when it is this
+#: many times larger (a level in centimetres, eye about 170): a glTF's unit is the metre
+#: by its specification, and the gaps under furniture, cars and kerbs read as low rooms.
+_METRE_DOUBT = 30.0
+
+#: A level without ceilings lower than :data:`EYE_HEIGHT` (no person stands in it: a
+#: blockout or a model in other units than metres) gets an eye at this share of its
+#: height: game levels of several storeys are about 20 eye heights tall (Quake's E1M1
+#: 28 units of 1.44, Doom's E1M1 704 of 41, Sauerbraten's zdm2 324 of 14).
+_LEVEL_EYES = 20.0
+
+#: A level is read with its faces turned over (the file's winding inward) when the
+#: lower quartile of its headroom so read is over this many times the one as wound:
+#: read as wound, the rooms of such a level are the insides of its walls' brushes.
+_FLIP_RATIO = 4.0
 
 
 #: Free-space map of :func:`camera_path`: cells along the longest horizontal side.
@@ -87,8 +120,39 @@ _STEP = 0.5
 _ON_FLOOR = 0.5
 
 #: The floors are walked only when their largest connected region covers at least this
-#: share of the map's cells that hold anything (not the tops of loose boxes on nothing).
-_FLOOR_SHARE = 0.25
+#: share of the map's cells that hold anything (not the tops of loose boxes on nothing;
+#: a Quake map's largest floor joined within a step is 12% of its cells).
+_FLOOR_SHARE = 0.05
+
+#: Highest an elevated camera stands over its floor, in eye heights (a player on a
+#: crate, a ledge or a jump, looking down): higher, it stands where no player does.
+_ELEVATED_EYES = 2.0
+
+#: A camera stands well when the floor under it (an upward-facing surface, the first
+#: thing straight down) is within this many eye heights.
+_FLOOR_EYES = 3.0
+
+#: ... with at least this much headroom over the eye, in eye heights (the first thing
+#: straight up; its head is under a ceiling, not in it).
+_HEADROOM_EYES = 0.1
+
+#: ... when under this share of what it sees are back faces (a camera behind a wall, in
+#: solid geometry or outside a level's shell sees the backs of its faces).
+_MAX_BACK_FACES = 0.3
+
+#: ... and when at least this share of its view rays hit something.
+_MIN_IN_VIEW = 0.05
+
+#: Rays of the view check, across x down (a 16:9 grid).
+_VIEW_RAYS = (32, 18)
+
+#: How far the elevated cameras (and a camera turned to see a level under its eye) look
+#: down, degrees below the horizon.
+_LOOK_DOWN = 25.0
+
+#: Candidate cameras made along the walk per camera kept: a camera that does not stand
+#: well is replaced by the nearest candidate of its stretch that does, or dropped.
+_CANDIDATES = 4
 
 #: Largest camera path file read, bytes (about a million cameras).
 _MAX_PATH_BYTES = 256 << 20
@@ -372,7 +436,8 @@ def _unit_normals(scene, triangles: np.ndarray) -> np.ndarray:
     return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
 
 
-def _floors(objects: SceneObjects, up: np.ndarray, frame, eye_height: float):
+def _floors(objects: SceneObjects, up: np.ndarray, frame, eye_height: float,
+            sign: float = 1.0):
     """The level's walked floors: the cells that hold one, each cell's floor height and
     headroom (NaN and 0 elsewhere).
 
@@ -402,7 +467,7 @@ def _floors(objects: SceneObjects, up: np.ndarray, frame, eye_height: float):
     z = top - hits.t
     first = np.r_[True, hits.ray[1:] != hits.ray[:-1]]
     room = np.where(first, np.inf, np.r_[np.inf, z[:-1]] - z)
-    stand = (_unit_normals(scene, hits.triangle) @ up >= _WALKABLE) \
+    stand = (sign * (_unit_normals(scene, hits.triangle) @ up) >= _WALKABLE) \
         & (room >= _STAND_ROOM * eye_height)
     ray, z, room = hits.ray[stand], z[stand], room[stand]
     n = len(ray)
@@ -449,12 +514,13 @@ def _floor_free(objects: SceneObjects, up: np.ndarray, frame, held: np.ndarray,
                 floor: np.ndarray, head: np.ndarray, eye_height: float):
     """Free cells on the walked floors (:func:`_floors`), their clearance in cells, and the
     tall cells (the others): a cell with a floor is free unless something stands in it
-    between a step over the floor and the eye (:func:`_edge_marks`)."""
+    between a step over the floor and its ceiling (:func:`_edge_marks`: a fence thinner
+    than a cell, whose edges are at its foot and its top, blocks its cells)."""
     from scipy import ndimage
 
     level = np.where(held, floor + _STEP * eye_height, np.inf)
     blocked = ~held | _edge_marks(objects, up, frame, level,
-                                  np.where(held, floor + np.minimum(head, eye_height), -np.inf))
+                                  np.where(held, floor + head, -np.inf))
     clearance = ndimage.distance_transform_edt(np.pad(~blocked, 1))[1:-1, 1:-1]
     return ~blocked, clearance, blocked
 
@@ -604,40 +670,418 @@ def _resample(polyline: np.ndarray, count: int, start: float = 0.0, stop: float 
     return pts, tangent
 
 
-def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
-                eye_height: float = EYE_HEIGHT, fov: float = DEFAULT_FOV,
-                up: npt.ArrayLike | None = None) -> list[PathCamera]:
-    """A deterministic camera path through a scene's free space.
+# --------------------------------------------------------------------------- eye height
+@dataclass(frozen=True)
+class EyeHeight:
+    """The eye height of a level's walk and how it was set.
 
-    The walk the culling simulation follows: street level at eye height
+    Attributes
+    ----------
+    value : float
+        Eye height over the floor, world units (the level's own).
+    reason : str
+        One line saying how ``value`` was set (given, metres, or from the rooms).
+    sign : float
+        +1 when the level's faces are read as wound, -1 when read turned over (a
+        level wound inward: its rooms read as wound were the insides of its brushes).
+    headroom : float
+        Lower quartile of the headroom of the level's floors under their ceilings,
+        world units (``nan`` when too few floors have a ceiling).
+    """
+
+    value: float
+    reason: str
+    sign: float = 1.0
+    headroom: float = float("nan")
+
+    def to_json(self) -> dict:
+        """``{"eye_height", "eye_height_reason", "faces", "headroom_q25"}``."""
+        return {"eye_height": float(self.value), "eye_height_reason": self.reason,
+                "faces": "as wound" if self.sign > 0 else "turned over",
+                "headroom_q25": None if not np.isfinite(self.headroom) else
+                float(self.headroom)}
+
+
+def _headroom(objects: SceneObjects, up: np.ndarray, frame) -> tuple[dict, int]:
+    """Per sign (+1 as wound, -1 turned over): the headrooms ``(k,)`` of the map's
+    floors under a ceiling (an upward-facing surface straight under a downward-facing
+    one, as read with that sign; turned over, under :data:`_ROOM_OF_LEVEL` of the
+    level's height); and the number of columns cast."""
+    origins = _column_origins(frame, up)
+    scene, _ = objects.combined
+    hits = scene.all_hits(origins, np.tile(-up, (len(origins), 1)))
+    z = frame[6] - hits.t
+    first = np.r_[True, hits.ray[1:] != hits.ray[:-1]] if len(z) else np.zeros(0, bool)
+    room = np.where(first, np.inf, np.r_[np.inf, z[:-1]] - z)
+    facing = _unit_normals(scene, hits.triangle) @ up if len(z) else np.zeros(0)
+    above = np.r_[0.0, facing[:-1]] if len(z) else np.zeros(0)
+    lo, hi = objects.bounds
+    tall = _ROOM_OF_LEVEL * float(np.abs(hi - lo) @ np.abs(up))
+    rooms = {}
+    for sign in (1.0, -1.0):
+        pair = (sign * facing >= _WALKABLE) & (sign * above <= -_WALKABLE) & ~first
+        r = room[pair]
+        # turned over, the inside of a solid block as tall as the level reads as a room
+        rooms[sign] = r[(r > 0) & ((r <= tall) | (sign > 0))]
+    return rooms, len(origins)
+
+
+def guess_eye_height(objects: SceneObjects, *, up: npt.ArrayLike | None = None,
+                     metres: bool = False, eye_height: float | None = None) -> EyeHeight:
+    """The eye height of a player in a level, in the level's own units.
+
+    A game's rooms are built for its player: the eye stands at about a third
+    (:data:`_EYE_PER_HEADROOM`) of the lower quartile of the headroom of its floors
+    under their ceilings (Doom 41 units under 128, Cube 2 maps 14 under 32-48, a
+    Hammer map 64 under 144, Quake maps in units / 32 1.4 under 3.5). A level in
+    metres (glTF, by its specification) keeps :data:`EYE_HEIGHT` unless its rooms say
+    the eye is :data:`_METRE_DOUBT` times higher (centimetres). A level with too few floors
+    under a ceiling (a town, an open terrain) keeps :data:`EYE_HEIGHT`, unless it is lower
+    than that (a blockout in other units): then 1/:data:`_LEVEL_EYES` of its height.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+    up : (3,) float, optional
+        The level's up axis (default ``objects.up``).
+    metres : bool, optional
+        Whether the level's unit is known to be the metre (glTF). Default False.
+    eye_height : float, optional
+        Given by the user: used as it is (the faces' reading is still found).
+
+    Returns
+    -------
+    EyeHeight
+
+    Raises
+    ------
+    InputError
+        A non-positive ``eye_height`` or a zero ``up``.
+
+    Notes
+    -----
+    One vertical ray per cell of the walk's map (:data:`_GRID_CELLS` along the
+    longest side) finds every surface in the cell's column
+    (:meth:`viscore.Scene.all_hits`); a headroom is the distance from an
+    upward-facing surface to the downward-facing one straight above it. Read
+    turned over, a level wound inward (Quake maps exported with their brushes'
+    faces reversed) has its rooms there; it is read so when its headrooms as wound
+    are :data:`_FLIP_RATIO` times lower (the thickness of its brushes), never when
+    too few floors as wound have a ceiling (an open level: its boxes' insides,
+    turned over, would read as thin rooms). A glTF
+    level is read as wound (its specification fixes the winding). Deterministic.
+    """
+    if eye_height is not None:
+        eye_height = as_positive(eye_height, "eye_height")
+    up = np.asarray(objects.up if up is None else as_vector(up, "up"), dtype=np.float64)
+    if np.linalg.norm(up) == 0:
+        raise InputError("up: zero-length vector")
+    up = up / np.linalg.norm(up)
+    frame = _height_map(objects, up)[0]
+    rooms, columns = _headroom(objects, up, frame)
+    q25 = {k: float(np.percentile(r, 25)) if len(r) >= _ROOFED_COLUMNS * columns
+           else float("nan") for k, r in rooms.items()}
+    sign = 1.0
+    # both readings must find rooms: a level whose floors as wound have no ceiling (an
+    # open blockout of boxes, whose insides read turned over as thin rooms) is open, not
+    # wound inward; a level wound inward reads as wound the insides of all its brushes
+    if not metres and np.isfinite(q25[-1.0]) and np.isfinite(q25[1.0]) \
+            and q25[1.0] * _FLIP_RATIO < q25[-1.0]:
+        sign = -1.0
+    headroom = q25[sign]
+    guess = _EYE_PER_HEADROOM * headroom
+    if eye_height is not None:
+        return EyeHeight(eye_height, "given (--eye-height)", sign, headroom)
+    if not np.isfinite(headroom):
+        lo, hi = objects.built_bounds(up)[0]
+        tall = float(np.abs(hi - lo) @ np.abs(up))
+        if tall < EYE_HEIGHT:  # no person stands in it: not metres
+            return EyeHeight(tall / _LEVEL_EYES, f"1/{_LEVEL_EYES:g} of the level's height "
+                             f"({tall:.3g}, under the metre default {EYE_HEIGHT:g}: not "
+                             f"metres); under {_ROOFED_COLUMNS:.0%} of its columns have a "
+                             "floor under a ceiling to guess it from", sign, headroom)
+        return EyeHeight(EYE_HEIGHT, f"{EYE_HEIGHT:g}, a metre default: under "
+                         f"{_ROOFED_COLUMNS:.0%} of the level's columns have a floor under "
+                         "a ceiling to guess it from", sign, headroom)
+    said = (f"{_EYE_PER_HEADROOM:g} x the headroom of the lower quartile of its floors "
+            f"under a ceiling ({headroom:.3g})"
+            + ("; its faces read turned over" if sign < 0 else ""))
+    if metres and guess < _METRE_DOUBT * EYE_HEIGHT:
+        return EyeHeight(EYE_HEIGHT, f"{EYE_HEIGHT:g}: glTF units are metres (its rooms "
+                         f"would say {guess:.3g})", sign, headroom)
+    return EyeHeight(guess, said, sign, headroom)
+
+
+# --------------------------------------------------------------------------- stances
+@dataclass(frozen=True)
+class Stance:
+    """Where one camera stands, checked by ray casts.
+
+    Attributes
+    ----------
+    kind : str
+        ``'street'``, ``'close-up'`` (turned to the nearest wall), ``'elevated'``,
+        ``'far'`` (outside the level, looking at it) or ``'given'`` (a path read from
+        a file).
+    height : float
+        Distance down to the first surface under the eye, world units (``inf``
+        when nothing is under it).
+    floor : bool
+        Whether that surface faces up (a floor, a step, a roof it stands on).
+    headroom : float
+        Distance up to the first surface over the eye, world units (``inf``: open).
+    back_faces : float
+        Share of the view's hits that are back faces (``nan`` when nothing is hit),
+        floors seen from underneath not counted (the undersides of single-sided
+        platforms and ramps over the eye).
+    in_view : float
+        Share of the view's rays that hit something.
+    standing : bool
+        A floor within :data:`_FLOOR_EYES` eye heights under the eye, headroom over
+        :data:`_HEADROOM_EYES`, under :data:`_MAX_BACK_FACES` back faces and at least
+        :data:`_MIN_IN_VIEW` of the view on something.
+    moved : bool
+        Whether the walk moved the camera from the place first planned (which did not
+        stand well) to a nearby one that does.
+    """
+
+    kind: str
+    height: float
+    floor: bool
+    headroom: float
+    back_faces: float
+    in_view: float
+    standing: bool
+    moved: bool = False
+
+    def to_json(self) -> dict:
+        """The fields, ``None`` for an infinite height or headroom or no view."""
+        def num(x: float):
+            return float(x) if np.isfinite(x) else None
+        return {"kind": self.kind, "height_over_floor": num(self.height),
+                "on_floor": bool(self.floor), "headroom": num(self.headroom),
+                "back_faces": num(self.back_faces), "in_view": float(self.in_view),
+                "standing": bool(self.standing), "moved": bool(self.moved)}
+
+
+def _stance_arrays(objects: SceneObjects, cameras: Sequence[PathCamera], up: np.ndarray,
+                   eye_height: float, sign: float) -> dict:
+    """The ray casts of :func:`camera_stances`, as arrays over the cameras."""
+    scene, _ = objects.combined
+    n = len(cameras)
+    eyes = np.array([c.position for c in cameras], dtype=np.float64).reshape(n, 3)
+    out = {"height": np.full(n, np.inf), "floor": np.zeros(n, bool),
+           "headroom": np.full(n, np.inf), "back": np.full(n, np.nan),
+           "in_view": np.zeros(n)}
+    if n == 0:
+        return out
+    t, tri = scene.first_hit(eyes, np.tile(-up, (n, 1)))
+    out["height"] = t
+    hit = tri >= 0
+    out["floor"][hit] = sign * (_unit_normals(scene, tri[hit]) @ up) >= _WALKABLE
+    out["headroom"], _ = scene.first_hit(eyes, np.tile(up, (n, 1)))
+    w, h = _VIEW_RAYS
+    origins, directions = [], []
+    for c in cameras:
+        o, d = c.camera(w, h).rays()
+        origins.append(o)
+        directions.append(d)
+    o, d = np.concatenate(origins), np.concatenate(directions)
+    t, tri = scene.first_hit(o, d)
+    hit = tri >= 0
+    back = np.zeros(len(tri), bool)
+    normals = sign * _unit_normals(scene, tri[hit])
+    # a floor seen from underneath (a single-sided platform or ramp over the eye) is
+    # no wall the camera stands behind
+    back[hit] = (np.einsum("ij,ij->i", normals, d[hit]) > 0) & (normals @ up < _WALKABLE)
+    per = w * h
+    hits = hit.reshape(n, per).sum(axis=1)
+    out["in_view"] = hits / per
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out["back"] = np.where(hits > 0, back.reshape(n, per).sum(axis=1) / hits, np.nan)
+    return out
+
+
+def _standing(a: dict, eye_height: float) -> np.ndarray:
+    with np.errstate(invalid="ignore"):
+        return (a["floor"] & (a["height"] <= _FLOOR_EYES * eye_height)
+                & (a["headroom"] >= _HEADROOM_EYES * eye_height)
+                & (a["back"] < _MAX_BACK_FACES) & (a["in_view"] >= _MIN_IN_VIEW))
+
+
+def camera_stances(objects: SceneObjects, cameras: Sequence[PathCamera], *,
+                   eye_height: float, up: npt.ArrayLike | None = None, sign: float = 1.0,
+                   kinds: Sequence[str] | None = None) -> list[Stance]:
+    """Where each camera stands: the floor under it, its headroom and what it sees.
+
+    Parameters
+    ----------
+    objects : SceneObjects
+    cameras : sequence of PathCamera
+    eye_height : float
+        The level's eye height, world units (:func:`guess_eye_height`).
+    up : (3,) float, optional
+        Default ``objects.up``.
+    sign : float, optional
+        +1 (default) reads the faces as wound, -1 turned over (:class:`EyeHeight`).
+    kinds : sequence of str, optional
+        Each camera's kind (default ``'given'``).
+
+    Returns
+    -------
+    list of Stance
+
+    Raises
+    ------
+    InputError
+        A non-positive ``eye_height``, a zero ``up`` or ``kinds`` of another length.
+
+    Notes
+    -----
+    Per camera: one ray straight down (the floor and the height over it), one
+    straight up (headroom), and a 32 x 18 grid of rays through its view
+    (:data:`_VIEW_RAYS`): the share that hit something, and the share of those hits
+    on a back face (a face whose normal, as wound times ``sign``, points away from
+    the eye) other than a floor seen from underneath (a walkable face: a
+    single-sided platform over the eye hides no wall). Deterministic.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> from viscore.level.scene_graph import load_scene_objects
+    >>> s = trimesh.Scene()
+    >>> _ = s.add_geometry(trimesh.creation.box(bounds=[[-9, -1, -9], [9, 0, 9]]))
+    >>> _ = s.add_geometry(trimesh.creation.box(bounds=[[-2, 0, 4], [2, 3, 5]]))
+    >>> cam = PathCamera(np.array([0, 1.7, 0]), np.array([0, 0, 1.0]), np.array([0, 1.0, 0]))
+    >>> st = camera_stances(load_scene_objects(s), [cam], eye_height=1.7)[0]
+    >>> round(st.height, 6), st.standing
+    (1.7, True)
+    """
+    eye_height = as_positive(eye_height, "eye_height")
+    up = np.asarray(objects.up if up is None else as_vector(up, "up"), dtype=np.float64)
+    if np.linalg.norm(up) == 0:
+        raise InputError("up: zero-length vector")
+    up = up / np.linalg.norm(up)
+    kinds = ["given"] * len(cameras) if kinds is None else list(kinds)
+    if len(kinds) != len(cameras):
+        raise InputError(f"kinds: expected {len(cameras)}, got {len(kinds)}")
+    a = _stance_arrays(objects, cameras, up, eye_height, float(np.sign(sign) or 1.0))
+    ok = _standing(a, eye_height)
+    return [Stance(kind=kinds[k], height=float(a["height"][k]), floor=bool(a["floor"][k]),
+                   headroom=float(a["headroom"][k]), back_faces=float(a["back"][k]),
+                   in_view=float(a["in_view"][k]), standing=bool(ok[k]))
+            for k in range(len(cameras))]
+
+
+# --------------------------------------------------------------------------- the walk
+@dataclass(frozen=True, eq=False)
+class Walk:
+    """A generated camera walk, where each camera stands, and what was moved or dropped.
+
+    Attributes
+    ----------
+    cameras : tuple of PathCamera
+    stances : tuple of Stance
+        One per camera.
+    up : (3,) float64
+        The level's up axis.
+    eye : EyeHeight
+        The eye height used and how it was set.
+    asked : int
+        Frames asked for.
+    moved : int
+        Cameras moved to a nearby candidate, or turned (to the middle of the walk,
+        about, or down to a level under the eye), because the planned pose did not
+        stand.
+    dropped : int
+        Frames dropped: no candidate of their stretch of the walk stands well.
+    floors : bool
+        Whether the walk went on the level's floors (else on the street map).
+    """
+
+    cameras: tuple
+    stances: tuple
+    up: np.ndarray
+    eye: EyeHeight
+    asked: int
+    moved: int
+    dropped: int
+    floors: bool
+
+    def to_json(self) -> dict:
+        """The walk's summary for ``cull.json`` (the per-frame stances go per frame)."""
+        kinds = [s.kind for s in self.stances]
+        standing = [s.standing for s in self.stances]
+        far = kinds.count("far")
+        return {"up": [float(x) for x in self.up], **self.eye.to_json(),
+                "frames_asked": self.asked, "frames": len(self.cameras),
+                "standing": int(sum(standing)),
+                "standing_share": (sum(standing) / len(standing)) if standing else 0.0,
+                "moved": self.moved, "dropped": self.dropped, "far": far,
+                "kinds": {k: kinds.count(k) for k in dict.fromkeys(kinds)},
+                "on": "floors" if self.floors else "street map"}
+
+
+def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
+                eye_height: float | None = None, fov: float = DEFAULT_FOV,
+                up: npt.ArrayLike | None = None, metres: bool = True) -> list[PathCamera]:
+    """The cameras of :func:`camera_walk` (same parameters), as a list.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> from viscore.level.scene_graph import load_scene_objects
+    >>> s = trimesh.Scene()
+    >>> _ = s.add_geometry(trimesh.creation.box(bounds=[[-20, -1, -20], [20, 0, 20]]))
+    >>> _ = s.add_geometry(trimesh.creation.box(bounds=[[-2, 0, 4], [2, 3, 5]]))
+    >>> len(camera_path(load_scene_objects(s), frames=10)) <= 10
+    True
+    """
+    return list(camera_walk(objects, frames=frames, seed=seed, eye_height=eye_height,
+                            fov=fov, up=up, metres=metres).cameras)
+
+
+def camera_walk(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
+                eye_height: float | None = None, fov: float = DEFAULT_FOV,
+                up: npt.ArrayLike | None = None, metres: bool = True,
+                eye: EyeHeight | None = None) -> Walk:
+    """A deterministic camera walk where a player stands, each camera checked by rays.
+
+    The walk the culling simulation follows: on the level's floors at eye height
     (looking ahead, and every fourth frame turned to the nearest wall for a
     close-up, where solid occluders beat planar ones: Papaioannou et al. 2006,
-    Fig. 5, locations A-C), then an elevated pass over the same streets
-    looking down, then views from far outside the scene towards its centre.
+    Fig. 5, locations A-C), then an elevated pass back over the same floors,
+    at most :data:`_ELEVATED_EYES` eye heights higher and under the ceilings,
+    looking ahead and down.
 
     Parameters
     ----------
     objects : SceneObjects
         The scene (:func:`viscore.level.scene_graph.load_scene_objects`).
     frames : int, optional
-        Number of cameras, >= 1 (default 120). About 70% street level (a
-        quarter of them close-ups), 20% elevated, 10% far away.
+        Number of cameras asked for, >= 1 (default 120): 80% on the floors (a
+        quarter of them close-ups), 20% elevated. Frames whose stretch of the walk
+        holds no place that stands well are dropped (``Walk.dropped``).
     seed : int, optional
-        Seed of the waypoint choice (default 0): same scene and seed, same path.
+        Seed of the waypoint choice (default 0): same scene and seed, same walk.
     eye_height : float, optional
-        Street-level eye height above the ground, world units (default 1.7),
-        lowered to half the height of the scene's tallest point above the
-        ground (or to 5% of its width, if that is more) when the scene is
-        lower than that: a model in other units than metres.
+        Eye height over the floor, world units. Default: :func:`guess_eye_height`
+        (the metre default :data:`EYE_HEIGHT` when ``metres``).
     fov : float, optional
         Horizontal field of view of every camera, degrees in [0.1, 179]
         (:data:`MIN_FOV`, :data:`MAX_FOV`; default 90).
     up : (3,) float, optional
         The scene's up axis. Default ``objects.up`` (+Y for glTF).
+    metres : bool, optional
+        Whether the level's unit is the metre (glTF, the built-in scenes; default
+        True): see :func:`guess_eye_height`.
+    eye : EyeHeight, optional
+        An eye height already found (:func:`guess_eye_height`); overrides
+        ``eye_height`` and ``metres``.
 
     Returns
     -------
-    list of PathCamera
+    Walk
 
     Raises
     ------
@@ -646,72 +1090,69 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
 
     Notes
     -----
-    Free space is found by casting one vertical ray down per cell of a
-    256-cell grid over the scene's footprint (its built part, without an
-    outer ground plane, sea or sky that spans over
-    :data:`viscore.level.scene_graph.LEVEL_SPAN` times the rest:
-    :meth:`viscore.level.scene_graph.SceneObjects.built_bounds`): a cell is free
-    when nothing in it rises above 90% of the eye height over the ground (the 5th
-    percentile of the first-hit heights, a miss counting as the scene's
-    lowest point). Things thinner than a cell (poles, fences) can fall
-    between the rays, so every edge of the objects that rise above that
-    level is also sampled every quarter of a cell and the cells of its high
-    samples are blocked: street-level cameras, which stay in free cells, are
-    never inside an object. Waypoints are free cells drawn with probability
-    proportional to their squared clearance (wide streets and squares) in
-    the largest connected free region, visited in a nearest-neighbour tour,
-    joined by least-cost routes that keep to the middle of the free space
-    (:func:`skimage.graph.route_through_array`).
+    The level's floors are found by casting rays down through every cell of a
+    512-cell map over its built part (:func:`_floors`: every upward-facing
+    surface with room to stand over it, joined across cells within a step; the
+    largest such set walked, or the lowest of those half its size: the floors
+    under an indoor level's ceilings, a town's streets rather than its roofs). A
+    cell is free when nothing stands in it between a step over its floor and the
+    eye, every edge of the objects sampled at a quarter of a cell so that thin
+    things block their cells (:func:`_edge_marks`). Waypoints are free cells drawn
+    with probability proportional to their squared clearance in the largest
+    connected free region (so every camera is reachable from every other), visited
+    in a nearest-neighbour tour and joined by least-cost routes that keep to the
+    middle of the free space (:func:`skimage.graph.route_through_array`). A level
+    without such floors is walked on its street map, an eye height over the map's
+    ground (the 5th percentile of the heights seen from above).
 
-    That street map is one layer: seen from above, an indoor level is its roof
-    (or the backs of its ceilings), so its free cells were the roof or the void
-    around the level. The level's floors are therefore found too
-    (:func:`_floors`: every surface in each cell's column, facing up with
-    room to stand over it, joined across cells within a step), and walked
-    instead when the street map's free cells mostly stand on nothing, or when
-    the floors are mostly under a ceiling; then every street camera is an eye
-    height over a floor, the elevated ones under the ceiling, and the eye
-    height is the one asked for. A town's streets (open sky) keep the street
-    map, camera for camera.
+    Every camera is then checked by rays (:func:`camera_stances`): a floor within
+    :data:`_FLOOR_EYES` eye heights under it, headroom, under
+    :data:`_MAX_BACK_FACES` back faces in view (not behind a wall, in solid
+    geometry or outside the level's shell) and something in view. Each frame has
+    :data:`_CANDIDATES` candidate places along its stretch of the walk; the
+    planned one is kept when it stands well, else the nearest that does
+    (``Walk.moved``), else the frame is dropped (``Walk.dropped``); a place that
+    stands but sees nothing or back faces is first turned towards the middle of
+    the walk, about, or towards the middle and :data:`_LOOK_DOWN` degrees down
+    (moved too). A level with
+    no route at all is looked at from outside, cameras of kind ``'far'``.
     """
     frames = as_positive_int(frames, "frames", maximum=100_000)
     seed = as_seed(seed)
-    eye_height = as_positive(eye_height, "eye_height")
     fov = _check_fov(fov, "fov")
     up = np.asarray(objects.up if up is None else as_vector(up, "up"), dtype=np.float64)
     if np.linalg.norm(up) == 0:
         raise InputError("up: zero-length vector")
     up = up / np.linalg.norm(up)
+    if eye is None:
+        eye = guess_eye_height(objects, up=up, metres=metres, eye_height=eye_height)
+    eye_height, sign = float(eye.value), float(eye.sign)
     rng = np.random.default_rng(seed)
     frame, height, ground, facing = _height_map(objects, up)
+    facing = sign * facing
     e1, e2, a0, b0, cell, shape = frame[:6]
     top = float(height.max())
-    # a scene lower than an eye (a model in other units than metres, or smaller
-    # than a person): the eye goes down to half its height above the ground (a
-    # twentieth of its width if that is more: a flat scene), so that the street
-    # frames look at it rather than over it
-    requested = eye_height
-    eye_height = min(eye_height, max(0.5 * (top - ground), 0.05 * cell * max(shape)))
-    free, clearance = _free_space(objects, up, frame, height, ground, eye_height)
-    n_far = frames // 10
     n_high = frames // 5
-    n_street = frames - n_far - n_high
-    # tall: three eye heights up (a building, not a car), at most half the
-    # tallest point (a scene whose eye went down with its size)
-    tall = height > ground + max(min(3 * eye_height, 0.5 * (top - ground)),
-                                 0.15 * (top - ground))
+    n_street = frames - n_high
+    on_floors = False
+    held, on_floor, on_head = _floors(objects, up, frame, eye_height, sign)
     floor, head = np.full(shape, ground), np.full(shape, np.inf)
-    # the level's floors: walked instead when the street map's free cells stand on
-    # nothing (an indoor level's void around it, the pits of a rough terrain), or when
-    # its floors are indoors, under a roof the street map would walk on
-    held, on_floor, on_head = _floors(objects, up, frame, requested)
-    void = not free.any() or np.mean(facing[free] >= _WALKABLE) < _ON_FLOOR
-    indoors = held.any() and np.mean(np.isfinite(on_head[held])) >= _ON_FLOOR
-    if held.any() and (void or indoors):
-        walk = _floor_free(objects, up, frame, held, on_floor, on_head, requested)
-        if walk[0].any():  # with room for the eye asked for: it goes back up
+    extent = float(np.abs(objects.bounds[1] - objects.bounds[0]) @ np.abs(up))
+    if extent < eye_height and not eye.reason.startswith("given"):
+        # a scene lower than the eye (a model smaller than a person, or in other units):
+        # on its street map, the eye down to half its height above the ground (a
+        # twentieth of its width if that is more: a flat scene), so that the cameras look
+        # at it, not over it
+        eye_height = max(0.5 * (top - ground), 0.05 * cell * max(shape))
+    elif held.any():
+        walk = _floor_free(objects, up, frame, held, on_floor, on_head, eye_height)
+        if walk[0].any():
             (free, clearance, tall), floor, head = walk, on_floor, on_head
-            eye_height = requested
+            on_floors = True
+    if not on_floors:  # the street map: an eye over the ground
+        free, clearance = _free_space(objects, up, frame, height, ground, eye_height)
+        tall = height > ground + max(min(3 * eye_height, 0.5 * (top - ground)),
+                                     0.15 * (top - ground))
     route = _route(free, clearance, tall, rng, waypoints=max(3, min(12, frames // 8 + 2)))
 
     def world(cells: np.ndarray, level: np.ndarray | float) -> np.ndarray:
@@ -727,39 +1168,99 @@ def camera_path(objects: SceneObjects, *, frames: int = 120, seed: int = 0,
         return grid[i, j]
 
     cams: list[PathCamera] = []
+    kinds: list[str] = []
+    moved_flags: list[bool] = []
+    moved = dropped = 0
     if len(route) >= 2:
-        pts, tangent = _resample(route, n_street)
-        forward = horizontal(tangent)
-        # close-ups: every fourth street frame faces the nearest tall thing (a wall)
         from scipy import ndimage
 
         _, (ia, ib) = ndimage.distance_transform_edt(~tall, return_indices=True)
-        for k in range(2, n_street, 4):
-            i, j = np.clip(np.round(pts[k]).astype(int), 0, np.array(shape) - 1)
-            to_wall = np.array([ia[i, j] - pts[k, 0], ib[i, j] - pts[k, 1]])
-            if np.linalg.norm(to_wall) > 0:
-                forward[k] = horizontal((to_wall / np.linalg.norm(to_wall))[None])[0]
-        positions = world(pts, at(floor, pts) + eye_height)
-        cams += [_pose(p, f, up, fov, "camera") for p, f in zip(positions, forward, strict=True)]
-        # elevated pass: back along the route, rising, looking ahead and down (under the
-        # ceiling, on a level's floors)
-        pts, tangent = _resample(route, n_high, 1.0, 0.0)
-        rise = np.linspace(0.25, 0.9, max(1, n_high)) * max(top - ground, 4 * eye_height)
-        rise = np.clip(np.minimum(rise, at(head, pts) - _STAND_ROOM * eye_height), 0.0, None)
-        positions = world(pts, at(floor, pts) + eye_height + rise)
-        down = np.tan(np.radians(25.0))
-        forward = horizontal(tangent) - down * up
-        cams += [_pose(p, f, up, fov, "camera") for p, f in zip(positions, forward, strict=True)]
-    else:  # no free route: the street and elevated frames circle the scene instead
-        n_far += n_street + n_high
-    # far away: around the scene, outside its footprint, looking at its centre
-    centre2 = np.array([(shape[0] - 1) / 2, (shape[1] - 1) / 2])
-    radius = 0.75 * np.hypot(*shape)
-    phase = rng.uniform(0, 2 * np.pi)
-    angles = phase + 2 * np.pi * np.arange(n_far) / max(1, n_far)
-    ring = centre2 + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    lift = ground + 0.3 * radius * cell + eye_height
-    positions = world(ring, np.full(n_far, lift))
-    targets = world(np.repeat(centre2[None], n_far, 0), np.full(n_far, ground))
-    cams += [_pose(p, t - p, up, fov, "camera") for p, t in zip(positions, targets, strict=True)]
-    return cams
+        m = _CANDIDATES
+        for part, count, start, stop in (("street", n_street, 0.0, 1.0),
+                                         ("elevated", n_high, 1.0, 0.0)):
+            if count == 0:
+                continue
+            pts, tangent = _resample(route, count * m, start, stop)
+            forward = horizontal(tangent)
+            kind = np.array([part] * len(pts), dtype=object)
+            if part == "street":  # every fourth frame faces the nearest tall thing
+                for k in range(2 * m, len(pts), 4 * m):
+                    for c in range(k - m // 2, min(len(pts), k + m - m // 2)):
+                        i, j = np.clip(np.round(pts[c]).astype(int), 0, np.array(shape) - 1)
+                        to_wall = np.array([ia[i, j] - pts[c, 0], ib[i, j] - pts[c, 1]])
+                        if np.linalg.norm(to_wall) > 0:
+                            forward[c] = horizontal((to_wall / np.linalg.norm(to_wall))[None])[0]
+                            kind[c] = "close-up"
+                level = at(floor, pts) + eye_height
+            else:  # raised over the floor, under the ceiling, looking ahead and down
+                rise = np.linspace(0.5, _ELEVATED_EYES, len(pts)) * eye_height
+                rise = np.clip(np.minimum(rise, at(head, pts) - _STAND_ROOM * eye_height),
+                               0.0, None)
+                level = at(floor, pts) + eye_height + rise
+                forward = forward - np.tan(np.radians(_LOOK_DOWN)) * up
+            positions = world(pts, level)
+            cand = [_pose(p, f, up, fov, "camera")
+                    for p, f in zip(positions, forward, strict=True)]
+            ok = _standing(_stance_arrays(objects, cand, up, eye_height, sign), eye_height)
+            turned = np.zeros(len(cand), dtype=bool)
+            # a place that stands but looks at nothing or at back faces (off the edge of
+            # a level of platforms, into a wall's back): turned towards the middle of the
+            # walk, else about, else towards the middle and down
+            middle = route.mean(axis=0)
+            for towards, down in ((middle[None] - pts, part == "elevated"),
+                                  (-tangent, part == "elevated"),
+                                  (middle[None] - pts, True)):
+                bad = np.flatnonzero(~ok)
+                norm = np.linalg.norm(towards[bad], axis=1)
+                bad = bad[norm > 0]
+                if not len(bad):
+                    break
+                look = horizontal(towards[bad] / np.linalg.norm(towards[bad], axis=1)[:, None])
+                if down:  # from a high platform, the level is under the eye
+                    look = look - np.tan(np.radians(_LOOK_DOWN)) * up
+                alt = [_pose(cand[c].position, f, up, fov, "camera")
+                       for c, f in zip(bad, look, strict=True)]
+                good = _standing(_stance_arrays(objects, alt, up, eye_height, sign),
+                                 eye_height)
+                for i in np.flatnonzero(good):
+                    cand[bad[i]], ok[bad[i]], turned[bad[i]] = alt[i], True, True
+            # frame k owns candidates [k m, (k + 1) m); planned: the middle one
+            for k in range(count):
+                own = np.arange(k * m, (k + 1) * m)
+                planned = k * m + m // 2
+                order = own[np.argsort(np.abs(own - planned), kind="stable")]
+                good = order[ok[order]]
+                if not len(good):
+                    dropped += 1
+                    continue
+                pick = int(good[0])
+                shifted = bool(pick != planned or turned[pick])
+                moved += shifted
+                cams.append(cand[pick])
+                kinds.append(str(kind[pick]))
+                moved_flags.append(shifted)
+    if not cams:  # no route, or nowhere to stand: the level from outside, labelled far
+        n_far = frames
+        dropped = 0
+        centre2 = np.array([(shape[0] - 1) / 2, (shape[1] - 1) / 2])
+        radius = 0.75 * np.hypot(*shape)
+        phase = rng.uniform(0, 2 * np.pi)
+        angles = phase + 2 * np.pi * np.arange(n_far) / max(1, n_far)
+        ring = centre2 + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        lift = ground + 0.3 * radius * cell + eye_height
+        positions = world(ring, np.full(n_far, lift))
+        targets = world(np.repeat(centre2[None], n_far, 0), np.full(n_far, ground))
+        cams = [_pose(p, t - p, up, fov, "camera")
+                for p, t in zip(positions, targets, strict=True)]
+        kinds = ["far"] * n_far
+        moved_flags = [False] * n_far
+    stances = camera_stances(objects, cams, eye_height=eye_height, up=up, sign=sign,
+                             kinds=kinds)
+    stances = [dataclasses.replace(s, moved=f) for s, f in zip(stances, moved_flags,
+                                                                strict=True)]
+    if eye_height != eye.value:
+        eye = dataclasses.replace(eye, value=eye_height,
+                                  reason=eye.reason + f"; lowered to {eye_height:.3g} for a "
+                                  "scene lower than an eye")
+    return Walk(cameras=tuple(cams), stances=tuple(stances), up=up, eye=eye, asked=frames,
+                moved=int(moved), dropped=int(dropped), floors=on_floors)

@@ -175,6 +175,9 @@ class CullingResult:
         ``depth-buffer:<method>``, ...), in the order given.
     kept : dict of int -> FrameObjects
         The objects of the frames named in ``keep_frames`` (default none).
+    stances : tuple of Stance
+        Where each camera stands (:func:`viscore.metrics.camera_paths.camera_stances`),
+        one per camera, or empty when not given.
     """
 
     cameras: tuple
@@ -188,6 +191,7 @@ class CullingResult:
     visible_triangles: np.ndarray
     runtimes: dict = field(default_factory=dict)
     kept: dict = field(default_factory=dict)
+    stances: tuple = ()
 
     def interval_block(self) -> int:
         """Frames per block of the intervals' bootstrap: the longest of
@@ -248,7 +252,8 @@ class CullingResult:
         ``visible_triangles`` (ground truth), and one entry per runtime name
         with ``culled``, ``culled_share`` (of the objects in view),
         ``false_culls``, ``triangles_rendered`` and ``overhead_ms`` (and
-        ``false_cull_objects``, the first names, when there are any).
+        ``false_cull_objects``, the first names, when there are any), and
+        ``stance`` (where the camera stands: :meth:`Stance.to_json`) when known.
         ``totals`` holds one entry per runtime name: ``culled`` (sum over the
         frames), ``culled_share`` (of the objects in view, over all frames),
         ``false_culls`` (sum), ``frames_with_false_culls``,
@@ -267,6 +272,8 @@ class CullingResult:
             entry = {"frame": k, "camera": cam.to_json(), "in_view": int(self.in_view[k]),
                      "visible": int(self.visible[k]),
                      "visible_triangles": int(self.visible_triangles[k])}
+            if self.stances:
+                entry["stance"] = self.stances[k].to_json()
             for name, rf in self.runtimes.items():
                 n = int(self.in_view[k])
                 entry[name] = {"culled": int(rf.culled[k]),
@@ -381,7 +388,7 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
                      progress: Callable[[int], None] | None = None,
                      bounds: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
                      keep_frames: Sequence[int] = (), jobs: int = 1,
-                     scheduler=None) -> CullingResult:
+                     scheduler=None, stances: Sequence | None = None) -> CullingResult:
     """Run every culling runtime along a camera path against the ray-cast ground truth.
 
     Parameters
@@ -418,6 +425,9 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
         spread over its workers, one run of consecutive frames per worker
         thread, instead of ``jobs``. Either way the figures are those of one
         process (only the overheads differ).
+    stances : sequence of Stance, optional
+        Where each camera stands (:class:`viscore.metrics.camera_paths.Walk`), one per
+        camera: recorded per frame in the result.
 
     Returns
     -------
@@ -455,6 +465,10 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             raise InputError(f"runtimes[{name!r}]: expected a Runtime, got {type(rt).__name__}")
     cameras = tuple(path)
     check_camera_path(objects, cameras)
+    stances = () if stances is None else tuple(stances)
+    if stances and len(stances) != len(cameras):
+        raise InputError(f"stances: expected one per camera ({len(cameras)}), "
+                         f"got {len(stances)}")
     width, height = check_culling_memory(width, height)
     jobs = as_positive_int(jobs, "jobs")
     n = len(objects)
@@ -501,6 +515,7 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
                          in_view_triangles=arrays["in_view_triangles"],
                          visible=arrays["visible"],
                          visible_triangles=arrays["visible_triangles"], runtimes=results,
+                         stances=stances,
                          kept={f: kept for part in parts for f, kept in part["kept"].items()})
 
 

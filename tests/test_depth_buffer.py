@@ -139,7 +139,9 @@ def test_depth_buffer_solid_beats_facets_and_eye_inside_falls_back():
     cam = PerspectiveCamera((7, -9, 5), (-7, 9, -5), fov=40, resolution=128, height=128)
     solid = ConservativeDepthBuffer.from_occluders(OccluderScene([(box.vertices, box.faces)]),
                                                    cam, width=64, height=64)
-    facets = ConservativeDepthBuffer.from_occluders(box, cam, width=64, height=64)
+    # the box's six sides apart (open pieces): by planar facets
+    sides = [trimesh.Trimesh(box.vertices, box.faces[2 * i:2 * i + 2]) for i in range(6)]
+    facets = ConservativeDepthBuffer.from_occluders(sides, cam, width=64, height=64)
     assert solid.covered.sum() > facets.covered.sum()  # the edges' pixels
     assert (facets.covered <= solid.covered).all()
     # eye inside the box: everything outside is hidden; inside boxes are not culled
@@ -679,3 +681,34 @@ def test_off_axis_box_behind_a_wall_is_culled_by_its_forward_depth():
     gap = np.maximum(lo, 0)
     assert (np.linalg.norm(gap[:2], axis=1) < 13.0).all()  # nearer than the wall's 14.0
     assert buf.occluded(lo, hi).tolist() == [True, True, False]
+
+
+def test_closed_convex_part_of_a_mesh_is_one_convex_piece(rng):
+    """A closed convex part of an occluder mesh (a sphere of 1,280 triangles, written with
+    split vertices as glTF exports do) is one convex solid: every pixel whose four corner
+    rays meet it is covered (its triangles one by one leave the pixels across their
+    edges open), conservatively; a torus (closed, not convex) stays in planar facets, and
+    a box seen through its hole is never culled."""
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=2.0)
+    split = trimesh.Trimesh(ball.triangles.reshape(-1, 3),
+                            np.arange(3 * len(ball.faces)).reshape(-1, 3), process=False)
+    cam = PerspectiveCamera((0.0, 0, -9), (0, 0, 1), fov=70, resolution=256, height=144)
+    occ = OccluderScene([split])
+    assert occ.pieces == 1
+    buf = ConservativeDepthBuffer.from_occluders(occ, cam)
+    corners = np.isfinite(_full_corner_depth(occ, cam, 64, 36))
+    assert corners.sum() > 100 and (buf.covered >= corners).all()
+    apart = ConservativeDepthBuffer.from_occluders(  # each triangle an open piece
+        [trimesh.Trimesh(t, [[0, 1, 2]]) for t in ball.triangles], cam)
+    assert buf.covered.sum() > 1.3 * apart.covered.sum()  # 300 and 208 pixels
+    _assert_conservative(occ, buf, rng)
+    torus = trimesh.creation.torus(major_radius=2.0, minor_radius=0.5)
+    torus.apply_translation([6.0, 0, 0])
+    both = OccluderScene([trimesh.util.concatenate([split, torus])])
+    assert both.pieces == 1 + OccluderScene([torus]).pieces > 2
+    buf = ConservativeDepthBuffer.from_occluders(both, cam)
+    _assert_conservative(both, buf, rng)
+    # behind the ball's centre: culled; behind the torus's hole: not
+    culled = buf.occluded([[-0.1, -0.1, 3.0], [5.9, -0.1, 3.0]],
+                          [[0.1, 0.1, 3.2], [6.1, 0.1, 3.2]])
+    assert culled.tolist() == [True, False]

@@ -40,6 +40,44 @@ def test_cluster_boxes_hold_every_triangle_and_part_separated_pieces():
     assert len(cluster_boxes([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], 8)[0]) == 1
 
 
+def test_cluster_boxes_as_many_as_triangles_are_the_triangles_boxes():
+    mesh = trimesh.creation.icosphere(subdivisions=1)  # 80 triangles
+    tri = mesh.triangles
+    for k in (80, 4096):
+        lo, hi = cluster_boxes(mesh.vertices, mesh.faces, k)
+        assert np.array_equal(lo, tri.min(axis=1)) and np.array_equal(hi, tri.max(axis=1))
+    assert len(cluster_boxes(mesh.vertices, mesh.faces, 79)[0]) == 79  # the k-d split
+
+
+def test_default_bounds_cull_bars_behind_two_walls_that_their_box_sees_through_a_gap():
+    """Two walls with a gap between them, each hiding half of an object of six thin bars
+    (72 triangles): the object's box spans the gap and is seen through it, the default
+    bounds (a box per triangle) are each behind a wall: culled, and nothing culled is
+    visible."""
+    from viscore.culling.occludee_bounds import DEFAULT_BOUNDS, occludee_boxes, parse_bounds
+
+    scene = trimesh.Scene()
+    walls = [trimesh.creation.box(bounds=[[x0, -2, 2.9], [x1, 2, 3.1]])
+             for x0, x1 in ((-4, -0.3), (0.3, 4))]  # the gap: x in (-0.3, 0.3)
+    for i, wall in enumerate(walls):
+        scene.add_geometry(wall, geom_name=f"wall{i}", node_name=f"wall{i}")
+    bars = [trimesh.creation.box(bounds=[[x, -1, 6], [x + 0.1, 1, 6.1]])
+            for x in (-3.0, -2.0, -1.0, 0.9, 1.9, 2.9)]
+    scene.add_geometry(trimesh.util.concatenate(bars), geom_name="bars", node_name="bars")
+    objects = load_scene_objects(scene)
+    runtimes = {"none": culling.no_culling(), "depth": culling.depth_buffer_runtime(walls)}
+    culled = {}
+    for text in ("box", DEFAULT_BOUNDS):
+        bounds = occludee_boxes(objects, *parse_bounds(text))[0]
+        r = culling.simulate_culling(objects, runtimes, [EYE], width=128, height=72,
+                                     bounds=bounds)
+        assert r.visible.tolist() == [2] and r.in_view.tolist() == [3]  # bars hidden
+        assert r.runtimes["depth"].false_culls.tolist() == [0]
+        culled[text] = r.runtimes["depth"].culled.tolist()
+    assert culled == {"box": [0], DEFAULT_BOUNDS: [1]}
+    assert DEFAULT_BOUNDS == "meshlets:1"
+
+
 def test_object_cluster_boxes_follow_instances():
     box = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
     scene = trimesh.Scene()
@@ -168,13 +206,67 @@ def test_cull_cli_bounds_option(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert doc["bounds"]["kind"] == "clusters" and doc["bounds"]["clusters"] == 8
     assert doc["bounds"]["boxes"] > doc["settings"]["objects"]
-    # the default, auto: the long walls (0.7 of the yard's diagonal) split, the cube not
-    assert main(["cull", str(level), "--frames", "3", "--methods", "aabb-skins", "--width",
-                 "160", "--height", "90", "--out", str(out), "--json", "--quiet"]) == 0
+    # auto: the long walls (0.7 of the yard's diagonal) split, the cube not
+    assert main(["cull", str(level), "--frames", "3", "--methods", "aabb-skins", "--bounds",
+                 "auto", "--width", "160", "--height", "90", "--out", str(out), "--json",
+                 "--quiet"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["bounds"]["kind"] == "auto" and doc["bounds"]["split_objects"] == 4
     assert doc["bounds"]["boxes"] > doc["settings"]["objects"]
+    # the default, meshlets:1: every object through its triangles' boxes, 5 boxes of 12
+    assert main(["cull", str(level), "--frames", "3", "--methods", "aabb-skins", "--width",
+                 "160", "--height", "90", "--out", str(out), "--json", "--quiet"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["bounds"]["kind"] == "meshlets" and doc["bounds"]["clusters"] == 1
+    assert doc["bounds"]["split_objects"] == 5 and doc["bounds"]["boxes"] == 5 * 12
     for bad in ["clusters:0", "clusters:x", "sphere", "box:3", "auto:0"]:
         assert main(["cull", "--bounds", bad, "--out", str(tmp_path / "x"), "--quiet"]) == 2
         assert "--bounds" in capsys.readouterr().err
         assert not (tmp_path / "x").exists()
+
+
+def test_object_cluster_boxes_meshlets_count_by_triangles():
+    # meshlets of 16 triangles: a 12-triangle box is one cluster (its own box), an
+    # icosphere of 320 triangles 20, a two-triangle quad one; every triangle in its box
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]]), geom_name="box",
+                       node_name="box")
+    scene.add_geometry(trimesh.creation.icosphere(subdivisions=2), geom_name="ball",
+                       node_name="ball",
+                       transform=trimesh.transformations.translation_matrix([5, 0, 0]))
+    quad = trimesh.Trimesh([[0, 0, 3], [1, 0, 3], [1, 1, 3], [0, 1, 3]], [[0, 1, 2], [0, 2, 3]])
+    scene.add_geometry(quad, geom_name="quad", node_name="quad")
+    objects = load_scene_objects(scene)
+    lo, hi, owner = object_cluster_boxes(objects, 4096, per_cluster=16)
+    counts = np.bincount(owner, minlength=3)
+    assert counts[objects.names.index("box")] == 1
+    assert counts[objects.names.index("ball")] == 20
+    assert counts[objects.names.index("quad")] == 1
+    for i in range(3):
+        mine = owner == i
+        tri = objects.object_triangles(i)
+        inside = ((tri.min(axis=1)[:, None] >= lo[mine][None] - 1e-9)
+                  & (tri.max(axis=1)[:, None] <= hi[mine][None] + 1e-9)).all(axis=2)
+        assert inside.any(axis=1).all()
+    # at most the cluster cap, whatever the triangles
+    _, _, owner = object_cluster_boxes(objects, 8, per_cluster=1)
+    assert np.bincount(owner).max() == 8
+    with pytest.raises(InputError, match="per_cluster"):
+        object_cluster_boxes(objects, 8, per_cluster=0)
+
+
+def test_parse_bounds_kinds_and_refusals():
+    from viscore.culling.occludee_bounds import (
+        DEFAULT_CLUSTERS,
+        MESHLET_TRIANGLES,
+        parse_bounds,
+    )
+
+    assert parse_bounds("box") == ("box", 1)
+    assert parse_bounds("auto") == ("auto", DEFAULT_CLUSTERS)
+    assert parse_bounds("clusters:8") == ("clusters", 8)
+    assert parse_bounds("meshlets") == ("meshlets", MESHLET_TRIANGLES)
+    assert parse_bounds("meshlets:4") == ("meshlets", 4)
+    for bad in ("boxes", "box:2", "meshlets:0", "meshlets:x", "clusters:99999"):
+        with pytest.raises(InputError, match="--bounds"):
+            parse_bounds(bad)

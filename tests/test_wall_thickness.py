@@ -254,6 +254,13 @@ def test_wall_voxel_size_cell_cap_bounds_the_grid():
     assert _cells(shell.bounds, capped.pitch) <= AUTO_MAX_CELLS
     assert _cells(shell.bounds, 0.99 * capped.pitch) > AUTO_MAX_CELLS  # the finest under it
     assert "cap of 16,000,000 cells" in capped.reason and "big-shell" in capped.reason
+    # the hint names the method's own option, never a flag of one command (cull and
+    # occlude have no --voxel-size; generate has no METHOD:option=value)
+    assert "goes finer" not in capped.reason
+    named = wall_voxel_size(shell, bytes_per_cell=1, samples=2000, what="aabb-skins",
+                            finer="voxel-size")
+    assert "the aabb-skins option voxel-size goes finer" in named.reason
+    assert "--" not in named.reason and ":voxel-size=" not in named.reason
     assert capped.log_level == logging.WARNING
     small = wall_voxel_size(shell, bytes_per_cell=1, samples=2000, max_cells=10**6)
     assert _cells(shell.bounds, small.pitch) <= 10**6 < _cells(shell.bounds, capped.pitch)

@@ -1,4 +1,4 @@
-"""``viscore bench rays|voxels|evaluate|generate|cull|godot-bake``: figures, never assertions.
+"""``viscore bench rays|voxels|evaluate|generate|cull|walks|godot-bake``: figures, never assertions.
 
 The parser and the formatting of the bench command; each benchmark lives in
 its own module of :mod:`viscore.cli.bench`.
@@ -94,6 +94,26 @@ def add_parser(sub, common) -> None:
     cs.add_argument("--frames", type=int, default=4,
                     help="cameras of each walk (default 4)")
     cs.set_defaults(run=run_cull_scale)
+    w = bsub.add_parser("walks", parents=[common],
+                        help="per level: where the walk stands (eye height, frames standing), "
+                             "and with --cull the truth's hidden share and the best "
+                             "guaranteed culled share")
+    w.add_argument("levels", nargs="+", metavar="LEVEL",
+                   help="level files (glTF/GLB, or a single mesh split into objects) or "
+                        "built-in culling scenes, as 'viscore cull' takes them")
+    w.add_argument("--frames", type=int, default=20,
+                   help="frames asked of each walk (default 20)")
+    w.add_argument("--up", choices=["x", "y", "z"], default=None,
+                   help="up axis of every level (default: guessed for a single mesh, +Y for "
+                        "glTF)")
+    w.add_argument("--eye-height", type=float, default=None, metavar="H",
+                   help="eye height of every level, in its units (default: guessed per level)")
+    w.add_argument("--cull", action="store_true",
+                   help="also run cull's default runtimes along each walk (minutes per level)")
+    w.add_argument("--bounds", default=None, metavar="meshlets[:T]|auto|box|clusters[:N]",
+                   help="with --cull: the occludee bounds, as 'viscore cull --bounds' "
+                        "(default as cull's, meshlets:1)")
+    w.set_defaults(run=run_walks)
     gb = bsub.add_parser("godot-bake", parents=[common],
                          help="our godot baseline against Godot's own bake of its occlusion "
                               "demo, triangle for triangle")
@@ -309,6 +329,25 @@ def run_cull_scale(args) -> int:
     sizes = (*DEFAULT_SIZES, 4) if args.large else DEFAULT_SIZES
     r = bench_cull_scale(sizes=sizes, frames=frames, seed=args.seed)
     emit({**r, "provenance": provenance()}, args.json, "\n".join(cull_scale_lines(r)))
+    return 0
+
+
+def run_walks(args) -> int:
+    from .walks import bench_walks, bench_walks_text, walk_row_text
+
+    def say(row: dict) -> None:  # each level as it is done: a run of many takes long
+        if not (args.quiet or args.json):
+            print(walk_row_text(row), file=sys.stderr, flush=True)
+
+    from viscore.culling import DEFAULT_BOUNDS
+
+    if args.bounds is not None and not args.cull:
+        raise InputError("--bounds: only with --cull")
+    r = bench_walks(args.levels, frames=args.frames, seed=args.seed, up=args.up,
+                    eye_height=args.eye_height, cull=args.cull,
+                    bounds=DEFAULT_BOUNDS if args.bounds is None else args.bounds,
+                    progress=say)
+    emit({**r, "provenance": provenance()}, args.json, bench_walks_text(r))
     return 0
 
 

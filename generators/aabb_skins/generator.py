@@ -261,7 +261,8 @@ def generate_aabb_skins(mesh: trimesh.Trimesh, *, voxels: int | None = None,
         sizing = "auto"
         chosen = wall_voxel_size(mesh, bytes_per_cell=BYTES_PER_CELL[seed_voxel],
                                  resolution=DEFAULT_VOXELS, quantile=WALL_QUANTILE,
-                                 max_resolution=MAX_VOXELS, what="aabb-skins")
+                                 max_resolution=MAX_VOXELS, what="aabb-skins",
+                                 finer="voxel-size")
         _log.log(chosen.log_level, "%s", chosen.reason)
         wall_sizing = chosen.info
         size, what = {"pitch": chosen.pitch}, f"voxel_size={chosen.pitch:g} (auto)"

@@ -564,7 +564,7 @@ def _voxel_size(mesh: trimesh.Trimesh, *, voxels, voxel_size, pixel_error, dista
         sized = wall_voxel_size(mesh, bytes_per_cell=BYTES_PER_CELL,
                                 resolution=DEFAULT_VOXELS, quantile=WALL_QUANTILE,
                                 max_resolution=MAX_VOXELS, what="planar-sections",
-                                block=3)
+                                finer="voxel-size", block=3)
         _log.log(sized.log_level, "%s", sized.reason)
         return _resolution(mesh, None, sized.pitch,
                            f"voxel_size={sized.pitch:g} (auto)"), sized.info

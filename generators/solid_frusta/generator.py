@@ -459,7 +459,8 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
         # both grids (the boxes' and the hulls') live at once: twice the bytes per cell
         sized = wall_voxel_size(mesh, bytes_per_cell=source["bytes_per_cell"] * 2,
                                 resolution=DEFAULT_VOXELS, quantile=WALL_QUANTILE,
-                                max_resolution=source["max_voxels"], what="solid-frusta")
+                                max_resolution=source["max_voxels"], what="solid-frusta",
+                                finer="voxels")
         _log.log(sized.log_level, "%s", sized.reason)
         wall_sizing = sized.info
         size, box_size = {"pitch": sized.pitch}, {"voxel_size": sized.pitch}

@@ -95,6 +95,11 @@ MIN_FACES = 2
 #: Default smallest region or piece kept, fraction of the input's total face area.
 MIN_AREA = 1e-4
 
+#: A triangle of the output whose doubled area is under this times its longest edge
+#: squared is dropped: its corners are collinear to float64 rounding (the sine of its
+#: largest angle under 1e-12), so it covers no pixel and engines refuse it.
+_COLLINEAR = 1e-12
+
 #: Choices of ``boxes``: aabb-skins boxes in the closed parts where they fit, or none.
 BOXES = ("auto", "off")
 
@@ -747,7 +752,15 @@ def _kept_output(vertices: np.ndarray, faces: np.ndarray, regions: list, cands: 
         offset += len(used_v)
         polygons.extend(vertices[faces[sheet_faces]])
     if out_f:
-        occ_mesh = trimesh.Trimesh(np.concatenate(out_v), np.concatenate(out_f), process=False)
+        all_v, all_f = np.concatenate(out_v), np.concatenate(out_f)
+        # no zero-area triangle (three collinear corners, which a polygon's triangulation
+        # leaves along a straight edge): it covers nothing, and engines reject them
+        corner = all_v[all_f]
+        cross = np.linalg.norm(np.cross(corner[:, 1] - corner[:, 0],
+                                        corner[:, 2] - corner[:, 0]), axis=1)
+        longest = np.max(np.linalg.norm(corner - np.roll(corner, 1, axis=1), axis=2), axis=1)
+        all_f = all_f[cross > _COLLINEAR * longest**2]
+        occ_mesh = trimesh.Trimesh(all_v, all_f, process=False)
     else:
         occ_mesh = trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64),
                                    process=False)

@@ -240,9 +240,13 @@ class OccluderScene:
         An :class:`viscore.generators.Occluder` contributes its ``parts``:
         each of ``parts["solids"]`` is one convex piece (checked convex; a
         solid that is not falls back to its planar facets), else each of
-        ``parts["boxes"]``; with neither, its ``mesh`` by planar facets. A
-        ``trimesh.Trimesh`` contributes its triangles by planar facets. A
-        ``(vertices, faces)`` pair is taken as a convex solid.
+        ``parts["boxes"]``; with neither, its ``mesh`` as a ``trimesh.Trimesh``
+        is taken: each connected part that is a closed, outward-facing convex
+        solid (vertices merged at equal positions; checked as the shadow frusta
+        check their solids) is one convex piece, the other triangles go by planar
+        facets (a level's own crates and pillars as occluders cover the pixels
+        across their edges). A ``(vertices, faces)`` pair is taken as a convex
+        solid.
     workers : int, optional
         Ray-casting threads (default :func:`viscore.get_workers`).
 
@@ -262,8 +266,10 @@ class OccluderScene:
     --------
     >>> box = trimesh.creation.box()
     >>> occ = OccluderScene([box, (box.vertices + 3, box.faces)])
-    >>> occ.scene.faces.shape, occ.pieces    # 6 quads of the mesh, 1 solid
-    ((24, 3), 7)
+    >>> occ.scene.faces.shape, occ.pieces    # the closed convex mesh a solid too
+    ((24, 3), 2)
+    >>> OccluderScene([box.subdivide_to_size(0.5)]).pieces  # one solid still
+    1
     """
 
     def __init__(self, occluders, *, workers: int | None = None) -> None:
@@ -299,11 +305,21 @@ class OccluderScene:
             faces.append(f + offset)
             offset += len(v)
 
+        def add_mesh(v, f) -> None:
+            """A mesh's closed convex parts as convex solids, the rest by planar facets."""
+            v = np.asarray(v, dtype=np.float64)
+            f = np.asarray(f, dtype=np.int64)
+            rest = np.ones(len(f), dtype=bool)
+            for cv, cf, members in _convex_parts(v, f, _solid_arrays):
+                add(cv, cf, True)
+                rest[members] = False
+            add(v, f[rest], False)
+
         for item in items:
             if _is_pair(item):
                 add(item[0], item[1], True)
             elif isinstance(item, trimesh.Trimesh):
-                add(item.vertices, item.faces, False)
+                add_mesh(item.vertices, item.faces)
             elif hasattr(item, "parts") and hasattr(item, "mesh"):
                 parts = item.parts
                 if len(parts.get("solids", [])):
@@ -314,7 +330,7 @@ class OccluderScene:
                         add(lo + np.asarray(_UNIT_BOX.vertices) * (hi - lo),
                             np.asarray(_UNIT_BOX.faces), True)
                 else:
-                    add(item.mesh.vertices, item.mesh.faces, False)
+                    add_mesh(item.mesh.vertices, item.mesh.faces)
             else:
                 raise InputError(f"occluders: expected Occluder, trimesh.Trimesh or "
                                  f"(vertices, faces), got {type(item).__name__}")
@@ -474,6 +490,51 @@ class OccluderScene:
         when the eye is strictly outside the solid, the planar facet's label otherwise."""
         outside = self._front_planes(np.asarray(eye, dtype=np.float64)).any(axis=1)
         return self._piece_of(np.arange(len(self._facet)), outside)[1]  # type: ignore[arg-type]
+
+
+#: A mesh's connected part is tried as a convex solid only with at least this many
+#: triangles (a tetrahedron) and at most this many (a convex part of a level: a crate, a
+#: bevelled box, a pillar; a larger closed part is seldom convex, and its check costs).
+_CONVEX_PART_TRIANGLES = (4, 4096)
+
+
+def _convex_parts(v: np.ndarray, f: np.ndarray, solid_arrays):
+    """The connected parts of a mesh that are closed, outward-facing convex solids.
+
+    Yields ``(vertices, faces, members)``: the part on its own vertices (merged at equal
+    positions, so that a part exported with split vertices is closed), and the indices
+    of its triangles in ``f``. ``solid_arrays`` is the solid check of the shadow frusta
+    (closed, every edge with one twin, positive volume, every vertex within tolerance on
+    the inner side of every face plane); a part that fails it is not yielded.
+    """
+    lo_n, hi_n = _CONVEX_PART_TRIANGLES
+    if len(f) < lo_n:
+        return
+    merged = _merged(v, f)
+    mesh = trimesh.Trimesh(np.zeros((int(merged.max()) + 1, 3)), merged, process=False)
+    label = trimesh.graph.connected_component_labels(mesh.face_adjacency,
+                                                     node_count=len(f))
+    order = np.argsort(label, kind="stable")
+    cuts = np.flatnonzero(np.r_[True, label[order][1:] != label[order][:-1], True])
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):  # a loop over parts, not rays
+        members = order[a:b]
+        if not lo_n <= len(members) <= hi_n:
+            continue
+        ids, faces = np.unique(merged[members], return_inverse=True)
+        faces = faces.reshape(-1, 3)
+        # closed: every undirected edge in exactly two of the part's triangles
+        edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        if np.unique(edges, axis=0, return_counts=True)[1].max() != 2 \
+                or 2 * len(np.unique(edges, axis=0)) != len(edges):
+            continue
+        first = np.zeros(int(merged.max()) + 1, dtype=np.int64)
+        first[merged.reshape(-1)] = f.reshape(-1)  # one source vertex per merged id
+        verts = v[first[ids]]
+        try:
+            solid_arrays(verts, faces, 0)
+        except InputError:
+            continue
+        yield verts, faces, members
 
 
 def _is_pair(item) -> bool:

@@ -33,6 +33,7 @@ from .scene_graph import (
 )
 
 __all__ = ["LevelObjects", "level_objects", "occluder_objects", "guess_up", "MIN_SIZE",
+           "FEW_PARTS", "SPLIT_RULES",
            "SIZE_FACTOR", "PART_FRACTION", "FLAT_RATIO", "FALLBACK_SHARE", "LEVEL_SPAN",
            "UP_AXES", "SEE_THROUGH_REFUSAL"]
 
@@ -60,6 +61,13 @@ _TO_GODOT = {
 _GLTF = (".glb", ".gltf")
 #: Box pairs compared at once when joining small components (memory ~ 50 B each).
 _PAIR_CHUNK = 2_000_000
+#: A single OBJ mesh whose connected parts join into fewer pieces than this (a map
+#: welded into one mesh) is split by its ``o``/``g`` groups, else by its ``usemtl``
+#: groups, when it has more of them.
+FEW_PARTS = 8
+#: How a level's objects were made, by :attr:`LevelObjects.split_rule`.
+SPLIT_RULES = {"nodes": "its glTF mesh nodes", "parts": "its connected parts",
+               "groups": "its OBJ o/g groups", "materials": "its OBJ usemtl groups"}
 
 
 # --------------------------------------------------------------------------- the level
@@ -98,6 +106,10 @@ class LevelObjects:
         The size threshold used (None when objects were named).
     names : tuple of str or None
         The objects named, when given.
+    split_rule : str
+        How the objects were made: ``'nodes'`` (glTF mesh nodes), ``'parts'``
+        (connected parts joined), ``'groups'`` (OBJ ``o``/``g`` groups) or
+        ``'materials'`` (OBJ ``usemtl`` groups); :data:`SPLIT_RULES` says each in words.
     """
 
     objects: SceneObjects
@@ -113,6 +125,7 @@ class LevelObjects:
     refused: dict = field(default_factory=dict)
     min_size: float | None = MIN_SIZE
     names: tuple | None = None
+    split_rule: str = "nodes"
 
     @property
     def source(self) -> str:
@@ -191,14 +204,47 @@ def _split_parts(mesh: trimesh.Trimesh) -> tuple[np.ndarray, int]:
     return rank[part_of_face], n
 
 
-def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool = False
-                ) -> tuple[SceneObjects, int]:
+def _group_parts(mesh: trimesh.Trimesh, path: str) -> tuple[np.ndarray, list, str] | None:
+    """The faces of a mesh loaded from an OBJ file labelled by its ``o``/``g`` groups or,
+    with fewer than two of those, its ``usemtl`` groups (:mod:`viscore.exchange.obj_groups`):
+    part label per face (numbered by first face), each part's group name, and the rule
+    (``'groups'`` or ``'materials'``); None when the file has neither."""
+    from ..exchange.obj_groups import label_faces, obj_groups
+
+    found = obj_groups(path)
+    for rule, labels, names in (("groups", found.group, found.group_names),
+                                ("materials", found.material, found.material_names)):
+        if found.groups_used < 2 and rule == "groups":
+            continue
+        if rule == "materials" and found.materials_used < 2:
+            return None
+        per_face = label_faces(found, mesh.vertices, mesh.faces, labels)
+        _, first, inverse = np.unique(per_face, return_index=True, return_inverse=True)
+        rank = np.empty(len(first), np.int64)
+        rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+        order = np.unique(per_face)[np.argsort(first, kind="stable")]
+        return rank[inverse.reshape(-1)], [names[k] or "ungrouped" for k in order], rule
+    return None
+
+
+def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool = False,
+                obj_path: str | None = None) -> tuple[SceneObjects, int, str]:
     """A single mesh split into parts (:func:`_split_parts`) as a :class:`SceneObjects`;
-    every part is see-through when the mesh is."""
+    every part is see-through when the mesh is. An OBJ file (``obj_path``) whose parts
+    join into fewer than :data:`FEW_PARTS` pieces is split by its groups instead
+    (:func:`_group_parts`), when it has more groups than parts. Returns the objects,
+    the connected component count and the rule (:data:`SPLIT_RULES`)."""
     parts, components = _split_parts(mesh)
     count = int(parts.max()) + 1
     stem = Path(label).stem or "level"
+    rule, group_names = "parts", None
+    if obj_path is not None and count < FEW_PARTS:
+        grouped = _group_parts(mesh, obj_path)
+        if grouped is not None and len(grouped[1]) > count:
+            parts, group_names, rule = grouped
+            count = len(group_names)
     width = len(str(count))
+    used_names: set = set()
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     meshes, names = [], []
@@ -208,7 +254,14 @@ def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool
         f = faces[order[bounds[k]:bounds[k + 1]]]
         used, inverse = np.unique(f, return_inverse=True)
         part = trimesh.Trimesh(vertices[used], inverse.reshape(-1, 3), process=False)
-        names.append(f"{stem}_part{k + 1:0{width}d}")
+        if group_names is None:
+            names.append(f"{stem}_part{k + 1:0{width}d}")
+        else:  # the group's own name, made unique
+            name = " ".join(str(group_names[k]).split()) or "ungrouped"
+            if name in used_names:
+                name = f"{name}_{k + 1:0{width}d}"
+            used_names.add(name)
+            names.append(name)
         # named as a glTF level's meshes are ('file:node'), for the generators' messages
         part.metadata["name"] = f"{label}:{names[-1]}"
         meshes.append(part)
@@ -224,7 +277,7 @@ def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool
         arr.flags.writeable = False
     objects = SceneObjects(names=tuple(names), meshes=tuple(meshes), mesh_names=tuple(names),
                            source=label, see_through=np.full(count, see_through), **arrays)
-    return objects, components
+    return objects, components, rule
 
 
 #: Why an object with a transparent material gets no occluder.
@@ -347,7 +400,7 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
                 and os.fspath(source) in culling_scene_names())))
     if gltf:
         objects = load_scene_objects(source)
-        kind, guessed, components = "gltf", False, 0
+        kind, guessed, components, rule = "gltf", False, 0, "nodes"
         if up in (None, "y"):
             up, reason = "y", "glTF is +Y up"
         else:  # a file written +Z up (three.js and Blender scenes that skip the rotation)
@@ -356,8 +409,8 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
             axis.flags.writeable = False
             objects = dataclasses.replace(objects, up=axis)
         if len(objects) == 1 and names is None:  # a map exported as one mesh: its parts
-            objects, components = _mesh_level(objects.object_mesh(0), objects.source, up,
-                                              see_through=bool(objects.see_through[0]))  # type: ignore[index]
+            objects, components, rule = _mesh_level(objects.object_mesh(0), objects.source,  # type: ignore[index]
+                                                    up, see_through=bool(objects.see_through[0]))  # type: ignore[index]
             kind = "gltf-mesh"
     else:
         label = (str(source.metadata.get("name", "mesh")) if isinstance(source, trimesh.Trimesh)
@@ -368,7 +421,9 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
             guessed = True
         else:
             guessed, reason = False, f"given as {up}"
-        objects, components = _mesh_level(mesh, label, up)
+        obj = (None if isinstance(source, trimesh.Trimesh)
+               or Path(os.fspath(source)).suffix.lower() != ".obj" else os.fspath(source))
+        objects, components, rule = _mesh_level(mesh, label, up, obj_path=obj)
         kind = "mesh"
     sizes, flat, chosen, refused = _choose(objects, up, min_size, names)
     # Godot reads a glTF in its own frame whatever its up: its occluders stay in that frame
@@ -378,7 +433,7 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
                         to_godot=to_godot, kind=kind, components=components, sizes=sizes,
                         flat=flat, chosen=chosen, refused=refused,
                         min_size=None if names is not None else min_size,
-                        names=None if names is None else tuple(names))
+                        names=None if names is None else tuple(names), split_rule=rule)
 
 
 #: Default size threshold of the occluder objects: this many times the median

@@ -455,7 +455,8 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
                     samples: int = SAMPLES, seed: int = 0, what: str = "voxels",
                     walls: WallThickness | None = None,
                     max_cells: float | None = AUTO_MAX_CELLS, block: int = 1,
-                    min_wall_share: float = MIN_WALL_SHARE) -> WallVoxelSize:
+                    min_wall_share: float = MIN_WALL_SHARE,
+                    finer: str | None = None) -> WallVoxelSize:
     """Voxel size from the thinnest wall that matters, capped by the memory guard.
 
     The size is the extent-based one (longest side / ``resolution``), or
@@ -499,6 +500,14 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
         The walls must hold a ``block`` x ``block`` x ``block`` cube of inside
         voxels (default 1; 3 for a solid eroded once by the 3 x 3 x 3 cube):
         the bound ``t / (block |n|_1 + |n|_inf)``.
+    finer : str, optional
+        The option of ``what`` that sets a finer voxel (``'voxel-size'``,
+        ``'voxels'``), named in ``reason`` when the cap of automatic sizing held
+        the voxel back. Default: none named. The reason names an option of the
+        method, never a command line flag: the method's options are spelled one
+        way by ``viscore generate METHOD --help`` and another in ``--methods
+        METHOD:option=value`` of ``cull`` and ``occlude``, and the library does not
+        know which command prints it.
 
     Returns
     -------
@@ -558,9 +567,9 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
         reason = (f"{lead}: no wall found (the inward rays of all the area escape: open or "
                   f"single-sided geometry), so the extent-based voxel {extent_pitch:.4g}")
     elif limited:
-        bound = (f"automatic sizing's cap of {max_cells:,.0f} cells (a voxel size goes "
-                 "finer: --voxel-size, or the method option as in "
-                 "'aabb-skins:voxel-size=...')" if capped else "memory guard")
+        hint = "" if finer is None else f"; the {what} option {finer} goes finer"
+        bound = (f"automatic sizing's cap of {max_cells:,.0f} cells{hint}" if capped
+                 else "memory guard")
         reason = (f"{lead}: its walls of {wall_q:.4g} (the {quantile:.0%} area quantile) "
                   f"need voxels under {wall_pitch:.4g}, but the finest grid within the "
                   f"{bound} has voxels of {pitch:.4g}: {1 - resolved:.0%} of the wall "
