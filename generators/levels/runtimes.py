@@ -407,7 +407,7 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
     def step(what: str) -> Callable[[int], None]:
         def tick(n: int = 1) -> None:
             done[0] += n
-            progress(done[0], steps, what)
+            progress(done[0], steps, what)  # type: ignore[misc]
         return tick
 
     runtimes, _ = culling_runtimes(objects, indices, list(methods), seed=seed, frusta=False,

@@ -409,7 +409,7 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
             axis.flags.writeable = False
             objects = dataclasses.replace(objects, up=axis)
         if len(objects) == 1 and names is None:  # a map exported as one mesh: its parts
-            objects, components, rule = _mesh_level(objects.object_mesh(0), objects.source,  # type: ignore[index]
+            objects, components, rule = _mesh_level(objects.object_mesh(0), objects.source,
                                                     up, see_through=bool(objects.see_through[0]))  # type: ignore[index]
             kind = "gltf-mesh"
     else:
@@ -422,7 +422,7 @@ def level_objects(source: str | os.PathLike | trimesh.Scene | trimesh.Trimesh, *
         else:
             guessed, reason = False, f"given as {up}"
         obj = (None if isinstance(source, trimesh.Trimesh)
-               or Path(os.fspath(source)).suffix.lower() != ".obj" else os.fspath(source))
+               or Path(os.fspath(source)).suffix.lower() != ".obj" else os.fspath(source))  # type: ignore[arg-type]
         objects, components, rule = _mesh_level(mesh, label, up, obj_path=obj)
         kind = "mesh"
     sizes, flat, chosen, refused = _choose(objects, up, min_size, names)
