@@ -267,6 +267,7 @@ def test_parse_bounds_kinds_and_refusals():
     assert parse_bounds("clusters:8") == ("clusters", 8)
     assert parse_bounds("meshlets") == ("meshlets", MESHLET_TRIANGLES)
     assert parse_bounds("meshlets:4") == ("meshlets", 4)
-    for bad in ("boxes", "box:2", "meshlets:0", "meshlets:x", "clusters:99999"):
+    for bad in ("boxes", "box:2", "meshlets:0", "meshlets:x", "clusters:99999",
+                "clusters:+3", "clusters:1_0", "clusters:\u0663", "meshlets: 4"):
         with pytest.raises(InputError, match="--bounds"):
             parse_bounds(bad)

@@ -242,10 +242,8 @@ def parse_bounds(text: str, option: str = "--bounds") -> tuple[str, int]:
     if kind in ("clusters", "auto", "meshlets"):
         if not count:
             return kind, DEFAULT_CLUSTERS if kind != "meshlets" else MESHLET_TRIANGLES
-        try:
+        if count.isascii() and count.isdigit():  # not '+3', '1_000' nor other scripts' digits
             return kind, as_positive_int(int(count), f"{option} {kind}:N",
                                          maximum=MAX_CLUSTERS)
-        except ValueError:
-            pass
     raise InputError(f"{option}: expected auto, box, clusters, meshlets, auto:N, clusters:N "
                      f"or meshlets:N (N from 1 to {MAX_CLUSTERS}), got {text!r}")
