@@ -90,7 +90,7 @@ def test_occlude_final_files_all_or_none(tmp_path, monkeypatch):
     assert rc == 0, err
     before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
     assert set(before) == {"bbox.tscn", "bbox.glb", "original.tscn", "original.glb",
-                           "occlude.json"}
+                           "occlude.json", "preview.png", "report.html"}
     real = FileSet.write
 
     def full(self, name, data):

@@ -78,6 +78,8 @@ def _code_default(code: str):
 
 
 def _same(doc, code) -> bool:
+    if doc is None or code is None:  # a default decided at run time
+        return doc is code
     if isinstance(doc, (bool, str, tuple)) or isinstance(code, (bool, str, tuple)):
         return type(doc) is type(code) and doc == code
     return math.isclose(doc, code, rel_tol=1e-12, abs_tol=0.0)

@@ -145,10 +145,10 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
     if eye_height is not None:
         eye_height = as_positive(eye_height, "--eye-height")
     if cull:
-        from viscore.culling.occludee_bounds import DEFAULT_BOUNDS, parse_bounds
+        from viscore.culling import DEFAULT_BOUNDS, parse_bounds
 
         bounds = DEFAULT_BOUNDS if bounds is None else bounds
-        from viscore.metrics.culling import check_culling_memory
+        from viscore.metrics import check_culling_memory
 
         parse_bounds(bounds, "--bounds")
         check_culling_memory(width, height)
