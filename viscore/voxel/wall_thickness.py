@@ -567,13 +567,12 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
         reason = (f"{lead}: no wall found (the inward rays of all the area escape: open or "
                   f"single-sided geometry), so the extent-based voxel {extent_pitch:.4g}")
     elif limited:
-        hint = "" if finer is None else f"; the {what} option {finer} goes finer"
-        bound = (f"automatic sizing's cap of {max_cells:,.0f} cells{hint}" if capped
-                 else "memory guard")
+        hint = "" if finer is None or not capped else f"; the {what} option {finer} goes finer"
+        bound = f"automatic sizing's cap of {max_cells:,.0f} cells" if capped else "memory guard"
         reason = (f"{lead}: its walls of {wall_q:.4g} (the {quantile:.0%} area quantile) "
                   f"need voxels under {wall_pitch:.4g}, but the finest grid within the "
                   f"{bound} has voxels of {pitch:.4g}: {1 - resolved:.0%} of the wall "
-                  "area is too thin to hold an inside voxel and gets no occluder")
+                  f"area is too thin to hold an inside voxel and gets no occluder{hint}")
     elif wall_pitch < extent_pitch:
         reason = (f"{lead}: voxel {pitch:.4g} (extent-based {extent_pitch:.4g}) for its walls "
                   f"of {wall_q:.4g} (the {quantile:.0%} area quantile); {resolved:.0%} of "
