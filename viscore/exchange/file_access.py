@@ -307,8 +307,9 @@ class UriOutsideFolder(Exception):
         self.uri = uri
 
 
-def _quoted(name: str, limit: int = 120) -> str:
-    text = repr(name)
+def _quoted(value: object, limit: int = 120) -> str:
+    """``repr`` of a name, URI or value from a file, cut to about ``limit`` characters."""
+    text = repr(value)
     return text if len(text) <= limit else text[:limit] + "..."
 
 

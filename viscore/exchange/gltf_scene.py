@@ -54,6 +54,7 @@ from .file_access import (
     PARSE_BYTES_PER_FILE_BYTE,
     FolderResolver,
     UriOutsideFolder,
+    _quoted,
     read_regular,
     trimesh_loading,
 )
@@ -115,9 +116,9 @@ _TRIANGLES, _STRIP, _FAN = 4, 5, 6
 
 
 def _quote(value, limit: int = _NAME_CHARS) -> str:
-    """``repr`` of a name, URI or value from the file, cut to about ``limit`` characters."""
-    text = repr(value)
-    return text if len(text) <= limit else text[:limit] + "..."
+    """``repr`` of a name, URI or value from the file, cut to about ``limit`` characters
+    (the file readers' :func:`~viscore.exchange.file_access._quoted` at glTF's length)."""
+    return _quoted(value, limit)
 
 
 def _gltf_json(data: bytes, fmt: str, label: str) -> tuple[dict, tuple[int, int, int]]:
