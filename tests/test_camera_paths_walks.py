@@ -240,3 +240,38 @@ def test_surface_patches_writes_no_zero_area_triangle():
     area = np.linalg.norm(np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0]),
                           axis=1)
     assert len(area) and area.min() > 1e-9
+
+
+def _sheet_obj(path, nx: int, nz: int, size: float) -> None:
+    """A wavy sheet of ``nx`` x ``nz`` quads over [0, nx*size] x [0, nz*size], y up, one
+    connected mesh with no ``o``, ``g`` or ``usemtl`` statement."""
+    lines = [f"v {i * size} {np.sin(i) + np.cos(k)} {k * size}"
+             for i in range(nx + 1) for k in range(nz + 1)]
+    for i in range(nx):
+        for k in range(nz):
+            a = i * (nz + 1) + k + 1
+            lines.append(f"f {a} {a + 1} {a + nz + 2} {a + nz + 1}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("nx,nz,tiles", [(20, 20, 16), (40, 10, 4)])
+def test_level_objects_one_welded_sheet_is_cut_into_ground_tiles(tmp_path, nx, nz, tiles):
+    # one connected part and no groups: a grid of TILE_GRID cells along the longer side
+    from viscore.level.objects import TILE_GRID
+
+    path = tmp_path / "sheet.obj"
+    _sheet_obj(path, nx, nz, 2.0)
+    level = level_objects(path, up="y")
+    objects = level.objects
+    assert level.components == 1 and level.split_rule == "tiles"
+    assert len(objects) == tiles and objects.triangles.sum() == 2 * nx * nz
+    side = 2.0 * max(nx, nz) / TILE_GRID  # 10 (square) or 20 (strip)
+    cells = set()
+    for lo, hi in zip(objects.lower, objects.upper, strict=True):
+        # a tile holds the faces whose centroids lie in its cell: its box pokes out of
+        # the cell by less than one quad (2 units) on each side
+        cell = np.floor((lo[[0, 2]] + hi[[0, 2]]) / 2 / side).astype(int)
+        assert (lo[[0, 2]] >= cell * side - 2.0 - 1e-9).all()
+        assert (hi[[0, 2]] <= (cell + 1) * side + 2.0 + 1e-9).all()
+        cells.add(tuple(cell))
+    assert len(cells) == tiles

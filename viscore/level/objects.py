@@ -33,7 +33,7 @@ from .scene_graph import (
 )
 
 __all__ = ["LevelObjects", "level_objects", "occluder_objects", "guess_up", "MIN_SIZE",
-           "FEW_PARTS", "SPLIT_RULES",
+           "FEW_PARTS", "SPLIT_RULES", "TILE_GRID", "TILE_MIN_FACES",
            "SIZE_FACTOR", "PART_FRACTION", "FLAT_RATIO", "FALLBACK_SHARE", "LEVEL_SPAN",
            "UP_AXES", "SEE_THROUGH_REFUSAL"]
 
@@ -65,9 +65,18 @@ _PAIR_CHUNK = 2_000_000
 #: welded into one mesh) is split by its ``o``/``g`` groups, else by its ``usemtl``
 #: groups, when it has more of them.
 FEW_PARTS = 8
+#: A single mesh left as one object (one connected part, no groups) of at least this
+#: many triangles is cut into tiles of a square grid across its ground plane, as engines
+#: chunk a welded map or terrain: one object has nothing to cull behind it.
+TILE_MIN_FACES = 64
+#: Tiles along the longer side of the ground plane (the shorter side gets as many of the
+#: same width as it needs, at least one).
+TILE_GRID = 4
 #: How a level's objects were made, by :attr:`LevelObjects.split_rule`.
 SPLIT_RULES = {"nodes": "its glTF mesh nodes", "parts": "its connected parts",
-               "groups": "its OBJ o/g groups", "materials": "its OBJ usemtl groups"}
+               "groups": "its OBJ o/g groups", "materials": "its OBJ usemtl groups",
+               "tiles": f"tiles of a grid across its ground plane ({TILE_GRID} along its "
+                        "longer side; it is one connected part with no groups)"}
 
 
 # --------------------------------------------------------------------------- the level
@@ -109,7 +118,8 @@ class LevelObjects:
     split_rule : str
         How the objects were made: ``'nodes'`` (glTF mesh nodes), ``'parts'``
         (connected parts joined), ``'groups'`` (OBJ ``o``/``g`` groups) or
-        ``'materials'`` (OBJ ``usemtl`` groups); :data:`SPLIT_RULES` says each in words.
+        ``'materials'`` (OBJ ``usemtl`` groups) or ``'tiles'`` (one connected part cut
+        by a ground-plane grid); :data:`SPLIT_RULES` says each in words.
     """
 
     objects: SceneObjects
@@ -227,13 +237,34 @@ def _group_parts(mesh: trimesh.Trimesh, path: str) -> tuple[np.ndarray, list, st
     return None
 
 
+def _tile_parts(mesh: trimesh.Trimesh, up: str) -> np.ndarray:
+    """Tile label of each face (tiles numbered by first face): the square cell of a grid
+    across the plane normal to ``up`` that holds the face's centroid, :data:`TILE_GRID`
+    cells along the longer side of the mesh's box in that plane; empty cells get none."""
+    across = [k for k in range(3) if k != UP_AXES.index(up)]
+    centre = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)].mean(axis=1)
+    flat = centre[:, across]
+    lo, hi = flat.min(axis=0), flat.max(axis=0)
+    side = float((hi - lo).max()) / TILE_GRID
+    if not side > 0.0:
+        return np.zeros(len(centre), dtype=np.int64)
+    cells = np.maximum(1, np.ceil((hi - lo) / side - 1e-9)).astype(np.int64)
+    cell = np.minimum(((flat - lo) / side).astype(np.int64), cells - 1)
+    key = cell[:, 0] * cells[1] + cell[:, 1]
+    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+    return rank[inverse.reshape(-1)]
+
+
 def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool = False,
                 obj_path: str | None = None) -> tuple[SceneObjects, int, str]:
     """A single mesh split into parts (:func:`_split_parts`) as a :class:`SceneObjects`;
     every part is see-through when the mesh is. An OBJ file (``obj_path``) whose parts
     join into fewer than :data:`FEW_PARTS` pieces is split by its groups instead
-    (:func:`_group_parts`), when it has more groups than parts. Returns the objects,
-    the connected component count and the rule (:data:`SPLIT_RULES`)."""
+    (:func:`_group_parts`), when it has more groups than parts; a mesh still one object,
+    of at least :data:`TILE_MIN_FACES` triangles, is cut into tiles (:func:`_tile_parts`).
+    Returns the objects, the connected component count and the rule (:data:`SPLIT_RULES`)."""
     parts, components = _split_parts(mesh)
     count = int(parts.max()) + 1
     stem = Path(label).stem or "level"
@@ -243,6 +274,10 @@ def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool
         if grouped is not None and len(grouped[1]) > count:
             parts, group_names, rule = grouped
             count = len(group_names)
+    if count == 1 and len(mesh.faces) >= TILE_MIN_FACES:
+        tiles = _tile_parts(mesh, up)
+        if tiles.max() > 0:
+            parts, rule, count = tiles, "tiles", int(tiles.max()) + 1
     width = len(str(count))
     used_names: set = set()
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
@@ -255,7 +290,7 @@ def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool
         used, inverse = np.unique(f, return_inverse=True)
         part = trimesh.Trimesh(vertices[used], inverse.reshape(-1, 3), process=False)
         if group_names is None:
-            names.append(f"{stem}_part{k + 1:0{width}d}")
+            names.append(f"{stem}_{'tile' if rule == 'tiles' else 'part'}{k + 1:0{width}d}")
         else:  # the group's own name, made unique
             name = " ".join(str(group_names[k]).split()) or "ungrouped"
             if name in used_names:
