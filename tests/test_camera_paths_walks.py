@@ -275,3 +275,11 @@ def test_level_objects_one_welded_sheet_is_cut_into_ground_tiles(tmp_path, nx, n
         assert (hi[[0, 2]] <= (cell + 1) * side + 2.0 + 1e-9).all()
         cells.add(tuple(cell))
     assert len(cells) == tiles
+
+
+def test_level_objects_one_tall_part_is_not_tiled(tmp_path):
+    # a scan or a building (taller than half its width) stays one object
+    path = tmp_path / "tower.obj"
+    trimesh.creation.box(bounds=[[0, 0, 0], [10, 6, 10]]).subdivide().subdivide().export(path)
+    level = level_objects(path, up="y")
+    assert level.split_rule == "parts" and len(level.objects) == 1

@@ -34,6 +34,7 @@ from .scene_graph import (
 
 __all__ = ["LevelObjects", "level_objects", "occluder_objects", "guess_up", "MIN_SIZE",
            "FEW_PARTS", "SPLIT_RULES", "TILE_GRID", "TILE_MIN_FACES",
+           "TILE_MIN_WIDTH",
            "SIZE_FACTOR", "PART_FRACTION", "FLAT_RATIO", "FALLBACK_SHARE", "LEVEL_SPAN",
            "UP_AXES", "SEE_THROUGH_REFUSAL"]
 
@@ -69,6 +70,9 @@ FEW_PARTS = 8
 #: many triangles is cut into tiles of a square grid across its ground plane, as engines
 #: chunk a welded map or terrain: one object has nothing to cull behind it.
 TILE_MIN_FACES = 64
+#: ... and whose box is at least this many times as wide (its longer side across the
+#: ground plane) as it is tall: a level, not one object (a scan or a building).
+TILE_MIN_WIDTH = 2.0
 #: Tiles along the longer side of the ground plane (the shorter side gets as many of the
 #: same width as it needs, at least one).
 TILE_GRID = 4
@@ -237,6 +241,13 @@ def _group_parts(mesh: trimesh.Trimesh, path: str) -> tuple[np.ndarray, list, st
     return None
 
 
+def _level_like(mesh: trimesh.Trimesh, up: str) -> bool:
+    """Whether the mesh's box is :data:`TILE_MIN_WIDTH` times as wide as it is tall."""
+    extent = np.ptp(np.asarray(mesh.vertices, dtype=np.float64), axis=0)
+    k = UP_AXES.index(up)
+    return bool(np.delete(extent, k).max() >= TILE_MIN_WIDTH * extent[k])
+
+
 def _tile_parts(mesh: trimesh.Trimesh, up: str) -> np.ndarray:
     """Tile label of each face (tiles numbered by first face): the square cell of a grid
     across the plane normal to ``up`` that holds the face's centroid, :data:`TILE_GRID`
@@ -263,7 +274,8 @@ def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool
     every part is see-through when the mesh is. An OBJ file (``obj_path``) whose parts
     join into fewer than :data:`FEW_PARTS` pieces is split by its groups instead
     (:func:`_group_parts`), when it has more groups than parts; a mesh still one object,
-    of at least :data:`TILE_MIN_FACES` triangles, is cut into tiles (:func:`_tile_parts`).
+    of at least :data:`TILE_MIN_FACES` triangles and wider than tall
+    (:data:`TILE_MIN_WIDTH`), is cut into tiles (:func:`_tile_parts`).
     Returns the objects, the connected component count and the rule (:data:`SPLIT_RULES`)."""
     parts, components = _split_parts(mesh)
     count = int(parts.max()) + 1
@@ -274,7 +286,7 @@ def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool
         if grouped is not None and len(grouped[1]) > count:
             parts, group_names, rule = grouped
             count = len(group_names)
-    if count == 1 and len(mesh.faces) >= TILE_MIN_FACES:
+    if count == 1 and len(mesh.faces) >= TILE_MIN_FACES and _level_like(mesh, up):
         tiles = _tile_parts(mesh, up)
         if tiles.max() > 0:
             parts, rule, count = tiles, "tiles", int(tiles.max()) + 1
