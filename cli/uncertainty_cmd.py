@@ -18,7 +18,7 @@ import tempfile
 from dataclasses import asdict
 from pathlib import Path
 
-from viscore import InputError, load_mesh, provenance, stream_seed
+from viscore import InputError, load_mesh, load_occluder, provenance, stream_seed
 from viscore._validate import as_fraction, as_positive_int, as_seed
 from viscore.metrics import (
     ablation_plot,
@@ -92,7 +92,7 @@ def run_uncertainty(args) -> int:
         if args.versus is not None:
             raise InputError("--versus: not used by 'uncertainty ablation'")
         options = _ablation_options(args)
-        mesh, occ = load_mesh(items[0]), load_mesh(items[1])
+        mesh, occ = load_mesh(items[0]), load_occluder(items[1])
         return _ablation(args, mesh, occ, items, out, seed, options)
     def given(value, default):
         return default if value is None else value
@@ -105,8 +105,8 @@ def run_uncertainty(args) -> int:
                "directions": as_positive_int(given(args.directions, 64), "--directions"),
                "threshold": as_fraction(given(args.threshold, 0.9), "--threshold"),
                "steps": as_positive_int(given(args.steps, 4000), "--steps")}
-    mesh, occ = load_mesh(items[0]), load_mesh(items[1])
-    versus = load_mesh(args.versus) if args.versus is not None else None
+    mesh, occ = load_mesh(items[0]), load_occluder(items[1])
+    versus = load_occluder(args.versus) if args.versus is not None else None
     report, result, models = uncertainty_report(mesh, occ, seed=seed, **options)
     paired = None
     if versus is not None:

@@ -329,3 +329,18 @@ def test_evaluate_and_validate_read_godot_occluders(tmp_path, capsys, torus_box)
     # the bounding box hits rays before the torus: not conservative, exit 1 (a check)
     assert main(["validate", "fat-torus", str(tscn), "--rays", "1000", "--json"]) == 1
     assert json.loads(capsys.readouterr().out)["violations"] > 0
+
+
+def test_uncertainty_reads_an_occluder_file_as_evaluate_does(tmp_path, capsys, torus_box):
+    # the same box as a .tres and as a .ply: the same views, the same figures
+    ply = tmp_path / "box.ply"
+    trimesh.creation.box(bounds=load_mesh("fat-torus").bounds).export(ply)
+    figures = []
+    for occ in (torus_box, ply):
+        assert main(["uncertainty", "fat-torus", str(occ), "--views", "4", "--quads", "300",
+                     "--res", "32", "--directions", "4", "--steps", "200",
+                     "--out", str(tmp_path / occ.suffix[1:]), "--json"]) == 0
+        doc = json.loads(capsys.readouterr().out)
+        figures.append([doc[k] for k in ("precision", "recall", "precision_ci", "recall_ci")])
+    assert figures[0] == figures[1]
+    assert figures[0][1] == 1.0 and figures[0][0] < 1.0  # a box over a torus covers more
