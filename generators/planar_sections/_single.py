@@ -74,10 +74,23 @@ def _resolution(mesh: trimesh.Trimesh, voxels, voxel_size, what: str) -> dict:
     return size
 
 
+def _section(mesh: trimesh.Trimesh, size: dict, *, conservative: bool = False,
+             dilate: int = 0, close: int = 0, ground: dict | None = None, up: str = "z",
+             base=None) -> _slices.SectionSolid:
+    """:func:`._slices.section_solid` of one run: ``ground`` None, or ``{"height",
+    "misses", "grazing"}`` for its ``ground``, ``ground_misses`` and ``ground_grazing``;
+    ``base`` the mesh's :func:`._slices.voxel_base` at ``size`` when the caller has it."""
+    g = {} if ground is None else {"ground": ground["height"], "ground_misses": ground["misses"],
+                                   "ground_grazing": ground.get("grazing", 0.0)}
+    return section_solid(mesh, conservative=conservative, dilate=dilate, close=close, up=up,
+                         base=base, **g, **size)
+
+
 def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, depth_bins,
                   alpha, measure, reduce, rdp_tolerance, chain, conservative, dilate,
                   close, ground: dict | None = None, up: str = "z",
-                  warn_interior: bool = True, orbit: tuple | None = None):
+                  warn_interior: bool = True, orbit: tuple | None = None, base=None,
+                  sec: _slices.SectionSolid | None = None):
     """One level of detail: (mesh, polygons, info).
 
     ``ground``: None, or ``{"height", "misses", "grazing"}`` for
@@ -88,13 +101,14 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
     ``orbit`` is the mesh's :func:`~viscore.metrics.orbit_frame` when the caller
     already has it (the precision floor generates up to seven times per mesh; the
     frame is a minimum enclosing ball over every vertex, seconds on a scan).
+    ``base`` is the mesh's :func:`._slices.voxel_base` at ``size`` and ``sec`` the
+    solid itself (:func:`_section` with these options), when the caller has them.
     """
     timing = {}
     t0 = time.perf_counter()
-    g = {} if ground is None else {"ground": ground["height"], "ground_misses": ground["misses"],
-                                   "ground_grazing": ground.get("grazing", 0.0)}
-    sec = section_solid(mesh, conservative=conservative, dilate=dilate, close=close, up=up,
-                        **g, **size)
+    if sec is None:
+        sec = _section(mesh, size, conservative=conservative, dilate=dilate, close=close,
+                       ground=ground, up=up, base=base)
     pitch = sec.grid.pitch
     extent = float(np.max(mesh.extents))
     info = {"voxel_size": pitch, "voxels": int(math.ceil(extent / pitch - 1e-9)),
