@@ -215,14 +215,40 @@ def test_solids_from_one_voxelization_equal_solids_made_alone():
 
 
 def test_solid_along_is_kept_per_normal_and_equals_the_fill_rule():
+    from viscore.voxel.coverage_hull import exposed_count
+
     box = _open_bottom_box()
     sec = section_solid(box, resolution=24, ground=-1.0, up="z", ground_misses=0.05,
                         ground_grazing=0.2)
     assert len(sec.fill.cells) > 0
     for normal in (np.array([0.0, 0.0, 1.0]), np.array([0.6, 0.0, 0.8])):
+        # the rule cell by cell: at most floor(misses x seen) of the seen directions expose it
+        seen = np.abs(sec.fill.directions @ normal) >= 0.2
+        allowed = exposed_count(sec.fill.exposure, seen) <= np.floor(0.05 * seen.sum())
+        assert allowed.sum() > 0
+        assert np.array_equal(sec.fill.allowed(normal), allowed)
         expected = sec.solid.copy()
-        dropped = sec.fill.cells[~sec.fill.allowed(normal)]
+        dropped = sec.fill.cells[~allowed]
         expected[tuple(dropped.T)] = False
         first = sec.solid_along(normal)
         assert np.array_equal(first, expected)
         assert sec.solid_along(normal.copy()) is first  # kept, not made again
+
+
+def test_ground_fill_allowed_counts_each_cell_as_its_own_row():
+    from viscore.generators.planar_sections._slices import GroundFill
+    from viscore.voxel.coverage_hull import exposed_count
+
+    rng = np.random.default_rng(5)
+    directions = rng.normal(size=(20, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    # 3,000 cells sharing 40 exposure patterns, so that rows repeat, in no order
+    patterns = rng.random((40, 20)) < 0.15
+    bits = np.packbits(patterns[rng.integers(0, 40, 3000)], axis=1)
+    fill = GroundFill(cells=np.zeros((3000, 3), np.int64), exposure=bits,
+                      directions=directions, misses=0.1, grazing=0.3)
+    for normal in directions[:5]:
+        seen = np.abs(directions @ normal) >= 0.3
+        expected = exposed_count(bits, seen) <= np.floor(0.1 * seen.sum())
+        assert 0 < expected.sum() < len(expected)
+        assert np.array_equal(fill.allowed(normal), expected)

@@ -148,9 +148,25 @@ class GroundFill:
 
     def allowed(self, normal: np.ndarray) -> np.ndarray:
         """``(m,) bool``: the cells that at most ``misses`` of the directions that see a
-        plane of unit ``normal`` expose."""
+        plane of unit ``normal`` expose (counted once per distinct exposure row)."""
         seen = np.abs(self.directions @ np.asarray(normal, np.float64)) >= self.grazing
-        return exposed_count(self.exposure, seen) <= np.floor(self.misses * int(seen.sum()))
+        rows, which = self._distinct_rows
+        return (exposed_count(rows, seen) <= np.floor(self.misses * int(seen.sum())))[which]
+
+    @cached_property
+    def _distinct_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """The distinct rows of :attr:`exposure` and each cell's row: neighbouring cells
+        of a fill are mostly hidden from the same directions (the built-in house at 64^3:
+        8,268 distinct rows among 95,860 cells)."""
+        bits = np.asarray(self.exposure)
+        if len(bits) == 0:
+            return bits, np.zeros(0, np.int64)
+        order = np.lexsort(bits.T[::-1])  # rows sorted by their bytes (numpy.unique's
+        ordered = bits[order]             # axis=0 sort is ten times slower)
+        starts = np.concatenate([[True], np.any(ordered[1:] != ordered[:-1], axis=1)])
+        which = np.empty(len(bits), np.int64)
+        which[order] = np.cumsum(starts) - 1
+        return ordered[starts], which
 
 
 @dataclass(frozen=True)
