@@ -16,6 +16,7 @@ from viscore._validate import (
 from viscore.metrics.orbit import orbit_frame
 
 from .._polygon_chain import refine_chain, simplification_chain
+from .._soup_measure import measure_bases
 from . import _slices
 from ._loops import slice_polygons
 from ._select import (
@@ -150,8 +151,10 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
     t0 = time.perf_counter()
     center, frame = orbit if orbit is not None else orbit_frame(mesh)
     dirs = measure_directions(MEASURE_DIRECTIONS)
+    bases = measure_bases(dirs)  # the image axes of every projection below, found once
     rings = [s.to_world(p.ring) for s, p in cands]
-    bitmaps = project_candidates(rings, dirs, center, frame, MEASURE_RESOLUTION)
+    bitmaps = project_candidates(rings, dirs, center, frame, MEASURE_RESOLUTION,
+                                 bases=bases)
     mpixel = frame / MEASURE_RESOLUTION
     timing["projections"] = time.perf_counter() - t0
     t0 = time.perf_counter()
@@ -175,7 +178,7 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
             sl, _ = cands[chosen[i]]
             ring = sl.to_world(chains[chosen[i]].stage_ring(s))
             cache[(i, s)] = project_candidates([ring], dirs, center, frame,
-                                               MEASURE_RESOLUTION)[0]
+                                               MEASURE_RESOLUTION, bases=bases)[0]
         return cache[(i, s)]
 
     stages, _ = reduce_to_budget([chains[i] for i in chosen], budget, reduce=reduce,
