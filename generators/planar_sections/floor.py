@@ -116,7 +116,9 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     """
     views = check_views(mesh, seed, FLOOR_VIEWS)
     extent = float(np.max(mesh.extents))
-    orbit = orbit_frame(mesh)  # every step's selection frame, computed once
+    # every step's selection frame, computed once: the check views' own orbit frame (the
+    # same function of the same mesh; a smallest enclosing ball over every vertex)
+    orbit = (views.center, views.extent) if hasattr(views, "center") else orbit_frame(mesh)
     bases = _VoxelBases(mesh)  # each voxel size's voxelization, made once
     by_solid: dict = {}  # the runs made, by their solid: the same solid gives the same run
     by_solid_lock = threading.Lock()
