@@ -24,8 +24,8 @@ from viscore._jit import njit_cached
 from viscore._validate import check_memory
 from viscore.metrics.erosion import lower_envelope_min
 
-__all__ = ["measure_directions", "project_candidates", "soup_measures", "soup_totals",
-           "in_threads", "MEASURE_DIRECTIONS", "MEASURE_RESOLUTION"]
+__all__ = ["measure_directions", "measure_bases", "project_candidates", "soup_measures",
+           "soup_totals", "in_threads", "MEASURE_DIRECTIONS", "MEASURE_RESOLUTION"]
 
 #: Directions of the measure (upper hemisphere; M(d) = M(-d)).
 MEASURE_DIRECTIONS = 24
@@ -39,8 +39,19 @@ def measure_directions(n: int = MEASURE_DIRECTIONS) -> np.ndarray:
     return directions_fibonacci(2 * n)[:n]
 
 
+def measure_bases(directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(N, 3)`` right and ``(N, 3)`` up image axes of each direction, as
+    :func:`viscore.camera_basis` gives them (for :func:`project_candidates`' ``bases``:
+    callers that project many times over the same directions find them once)."""
+    frames = [camera_basis(d) for d in np.asarray(directions, dtype=np.float64)]
+    rights = np.array([f[1] for f in frames], dtype=np.float64).reshape(-1, 3)
+    ups = np.array([f[2] for f in frames], dtype=np.float64).reshape(-1, 3)
+    return rights, ups
+
+
 def project_candidates(rings: list[np.ndarray], directions: np.ndarray, center: np.ndarray,
-                       extent: float, resolution: int = MEASURE_RESOLUTION) -> np.ndarray:
+                       extent: float, resolution: int = MEASURE_RESOLUTION, *,
+                       bases: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Bitmaps of planar polygons seen along each direction.
 
     Parameters
@@ -51,6 +62,8 @@ def project_candidates(rings: list[np.ndarray], directions: np.ndarray, center: 
     center, extent
         Orthographic window (the orbit frame), world units.
     resolution : int
+    bases : ((N, 3), (N, 3)) float, optional
+        :func:`measure_bases` of ``directions``, when the caller has it.
 
     Returns
     -------
@@ -66,8 +79,9 @@ def project_candidates(rings: list[np.ndarray], directions: np.ndarray, center: 
         return out
     points = np.concatenate(rings) - np.asarray(center, dtype=np.float64)
     starts = np.concatenate([[0], np.cumsum([len(g) for g in rings])]).astype(np.int64)
-    for k, d in enumerate(directions):  # as OrthoCamera(d, center, extent, r).project
-        _, right, up = camera_basis(d)
+    rights, ups = measure_bases(directions) if bases is None else bases
+    for k in range(nd):  # as OrthoCamera(d, center, extent, r).project
+        right, up = rights[k], ups[k]
         cols = (points @ right / extent + 0.5) * r
         rows = (0.5 - points @ up / extent) * r
         _fill_polygons(cols, rows, starts, out, k)
@@ -105,23 +119,24 @@ def _fill_polygons(xs, ys, starts, out, k):  # pragma: no cover
 
 
 @njit_cached(nogil=True)
-def _envelope(f, out):  # pragma: no cover
+def _envelope(f, out, v, z):  # pragma: no cover
     """Lower envelope of parabolas (q - p)^2 + f[p] at each q (Felzenszwalb, Huttenlocher).
 
     inf everywhere if every ``f[p]`` is inf; see
-    :func:`viscore.metrics.erosion.lower_envelope_min`.
+    :func:`viscore.metrics.erosion.lower_envelope_min`. ``v`` (>= n,) int64 and
+    ``z`` (>= n + 1,) float64 are its scratch buffers (written before they are read).
     """
-    n = len(f)
     out[:] = np.inf
-    lower_envelope_min(f, np.empty(n, np.int64), np.empty(n + 1), out)
+    lower_envelope_min(f, v, z, out)
 
 
 @njit_cached(nogil=True)
-def _image_measure(img, buf_a, buf_b, col, tmp):  # pragma: no cover
+def _image_measure(img, buf_a, buf_b, col, tmp, v, z):  # pragma: no cover
     """Sum over covered pixels of the distance (pixels) to the nearest mid-point crossing.
 
     ``img`` (H, W) bool is taken with a background border around it. Buffers
-    (H, W) float64 ``buf_a``, ``buf_b``; ``col``, ``tmp`` of length max(H, W).
+    (H, W) float64 ``buf_a``, ``buf_b``; ``col``, ``tmp`` of length max(H, W); the
+    envelope's scratch ``v`` (max(H, W),) int64 and ``z`` (max(H, W) + 1,) float64.
     """
     h, w = img.shape
     # 1) crossings on rows (between horizontal neighbours), nearest along the row
@@ -143,7 +158,7 @@ def _image_measure(img, buf_a, buf_b, col, tmp):  # pragma: no cover
     for j in range(w):  # envelope down each column
         for i in range(h):
             col[i] = buf_a[i, j]
-        _envelope(col[:h], tmp[:h])
+        _envelope(col[:h], tmp[:h], v, z)
         for i in range(h):
             buf_a[i, j] = tmp[i]
     # 2) crossings on columns (between vertical neighbours), nearest along the column
@@ -166,7 +181,7 @@ def _image_measure(img, buf_a, buf_b, col, tmp):  # pragma: no cover
     for i in range(h):  # envelope along each row, then the minimum of both families
         for j in range(w):
             col[j] = buf_b[i, j]
-        _envelope(col[:w], tmp[:w])
+        _envelope(col[:w], tmp[:w], v, z)
         for j in range(w):
             if img[i, j]:
                 d = tmp[j]
@@ -190,6 +205,8 @@ def _soup_totals(ids, union, bitmaps, base, use_area, out):  # pragma: no cover
     m = max(h, w)
     col = np.empty(m)
     tmp = np.empty(m)
+    env_v = np.empty(m, np.int64)
+    env_z = np.empty(m + 1)
     for t in range(len(ids)):
         i = ids[t]
         total = 0.0
@@ -212,7 +229,8 @@ def _soup_totals(ids, union, bitmaps, base, use_area, out):  # pragma: no cover
             elif use_area:
                 total += base[k] + adds
             else:  # the covered pixels' bounding box: outside it is background anyway
-                total += _image_measure(img[a0:a1 + 1, b0:b1 + 1], buf_a, buf_b, col, tmp)
+                total += _image_measure(img[a0:a1 + 1, b0:b1 + 1], buf_a, buf_b, col, tmp,
+                                        env_v, env_z)
         out[t] = total
     return out
 
@@ -226,8 +244,10 @@ def _images_measures(images, out):  # pragma: no cover
     buf_b = np.empty((h, w))
     col = np.empty(m)
     tmp = np.empty(m)
+    env_v = np.empty(m, np.int64)
+    env_z = np.empty(m + 1)
     for k in range(len(images)):
-        out[k] = _image_measure(images[k], buf_a, buf_b, col, tmp)
+        out[k] = _image_measure(images[k], buf_a, buf_b, col, tmp, env_v, env_z)
 
 
 #: Fewest items (candidates of a greedy step, images of a measure) per thread: below

@@ -157,3 +157,98 @@ def test_the_floor_on_two_threads_makes_what_one_makes(case, caplog, monkeypatch
         assert [m for m, _ in fills] == [0.9, 0.05] and fills[0][1] < 0.95
     else:
         assert [s["voxels"] for s in one.info["precision_floor"]["steps"]] == [64, 45, 32]
+
+
+def _flat_sheet(n: int = 6) -> trimesh.Trimesh:
+    """A flat 4 x 4 square of ``2 n^2`` triangles in z = 0, turned by 20 degrees about z:
+    an open sheet that no closing nor ground fill can give an interior."""
+    xs = np.linspace(-2.0, 2.0, n + 1)
+    x, y = np.meshgrid(xs, xs, indexing="ij")
+    vertices = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    idx = np.arange(x.size).reshape(n + 1, n + 1)
+    a, b = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel()
+    c, d = idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    faces = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    mesh.apply_transform(trimesh.transformations.rotation_matrix(np.radians(20), [0, 0, 1]))
+    return mesh
+
+
+def test_the_floor_generates_once_per_distinct_solid_on_a_flat_sheet(monkeypatch):
+    from viscore.generators.planar_sections import floor
+
+    calls = []
+    real = floor._generate_one
+
+    def counted(*args, **kwargs):
+        calls.append(kwargs["sec"].solid_voxels)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(floor, "_generate_one", counted)
+    occ = generate_planar_sections(_flat_sheet(), budget=8, **FAST)
+    record = occ.info["precision_floor"]
+    closings = record["closings"]
+    # every closing (2, 3, 4) and every ground fill tried leaves the sheet's solid as it is
+    assert [t["close"] for t in closings][:4] == [0, 2, 3, 4]
+    assert len(closings) >= 4
+    for t in closings[1:]:
+        assert (t["precision"], t["recall"], t["triangles"]) == (
+            closings[0]["precision"], closings[0]["recall"], closings[0]["triangles"])
+    # so the sheet is generated once at the first size, and once per other size tried
+    sizes = {t["voxels"] for t in record["steps"]} | {closings[0]["voxels"]}
+    assert len(calls) == len(sizes)
+    assert occ.info["close"] == 0 and occ.info["ground"] is None
+
+
+def test_solids_from_one_voxelization_equal_solids_made_alone():
+    from viscore.generators.planar_sections._slices import voxel_base
+
+    box = _open_bottom_box()
+    base = voxel_base(box, resolution=24)
+    for kwargs in ({}, {"close": 2}, {"ground": -1.0, "up": "z", "ground_misses": 0.1,
+                                      "ground_grazing": 0.2}):
+        alone = section_solid(box, resolution=24, **kwargs)
+        shared = section_solid(box, resolution=24, base=base, **kwargs)
+        assert np.array_equal(alone.solid, shared.solid)
+        assert alone.solid_voxels == shared.solid_voxels
+        assert alone.interior_voxels == shared.interior_voxels
+
+
+def test_solid_along_is_kept_per_normal_and_equals_the_fill_rule():
+    from viscore.voxel.coverage_hull import exposed_count
+
+    box = _open_bottom_box()
+    sec = section_solid(box, resolution=24, ground=-1.0, up="z", ground_misses=0.05,
+                        ground_grazing=0.2)
+    assert len(sec.fill.cells) > 0
+    for normal in (np.array([0.0, 0.0, 1.0]), np.array([0.6, 0.0, 0.8])):
+        # the rule cell by cell: at most floor(misses x seen) of the seen directions expose it
+        seen = np.abs(sec.fill.directions @ normal) >= 0.2
+        allowed = exposed_count(sec.fill.exposure, seen) <= np.floor(0.05 * seen.sum())
+        assert allowed.sum() > 0
+        assert np.array_equal(sec.fill.allowed(normal), allowed)
+        expected = sec.solid.copy()
+        dropped = sec.fill.cells[~allowed]
+        expected[tuple(dropped.T)] = False
+        first = sec.solid_along(normal)
+        assert np.array_equal(first, expected)
+        assert sec.solid_along(normal.copy()) is first  # kept, not made again
+
+
+def test_ground_fill_allowed_counts_each_cell_as_its_own_row():
+    from viscore.generators.planar_sections._slices import GroundFill
+    from viscore.voxel.coverage_hull import exposed_count
+
+    rng = np.random.default_rng(5)
+    directions = rng.normal(size=(20, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    # 3,000 cells sharing 40 exposure patterns, so that rows repeat, in no order
+    patterns = rng.random((40, 20)) < 0.15
+    bits = np.packbits(patterns[rng.integers(0, 40, 3000)], axis=1)
+    fill = GroundFill(cells=np.zeros((3000, 3), np.int64), exposure=bits,
+                      directions=directions, misses=0.1, grazing=0.3)
+    for normal in directions[:5]:
+        seen = np.abs(directions @ normal) >= 0.3
+        expected = exposed_count(bits, seen) <= np.floor(0.1 * seen.sum())
+        assert 0 < expected.sum() < len(expected)
+        assert np.array_equal(fill.allowed(normal), expected)

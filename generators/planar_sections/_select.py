@@ -194,11 +194,17 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
 
     by_area_vals = np.array([area_loss(i) for i in range(k)], dtype=np.float64)
     counts_img = cover = base = None
+    # 'om': each chain's per-direction values of its next step, kept until a step changes
+    # the images of some directions (stale: recomputed there only, so the values, and
+    # their sums in the same order, are those a whole recomputation gives)
+    kept_vals: list = [None] * k
+    stale = np.ones((k, 1), dtype=bool)
     while tri > budget:
         by_area = reduce == "area" or tri > measure_from * budget
         if not by_area and counts_img is None:
             counts_img = sum(bitmaps_of(i, int(stage[i])).astype(np.int32) for i in range(k)
                              if stage[i] < chains[i].stages)
+            stale = np.ones((k, len(counts_img)), dtype=bool)  # type: ignore[arg-type]
         best, best_val, best_next = -1, -np.inf, -1
         if by_area:  # the first chain of largest value, as the loop below takes it
             if (stage < ends).any():
@@ -219,15 +225,21 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
                         lost &= ~bitmaps_of(i, nxt)
                     val = -float(np.count_nonzero(lost))
                 else:  # directions whose image the step leaves as it is keep their value
-                    img = counts_img - bitmaps_of(i, s)
-                    if nxt < ch.stages:
-                        img = img + bitmaps_of(i, nxt)
-                    after = img > 0
-                    changed = (after != cover).reshape(len(after), -1).any(axis=1)
-                    vals = base.copy()  # type: ignore[union-attr]
-                    if changed.any():
-                        vals[changed] = soup_measures(after[changed], pixel)
-                    val = float(vals.sum())
+                    todo = stale[i]
+                    if todo.any():
+                        img = counts_img[todo] - bitmaps_of(i, s)[todo]  # type: ignore[index]
+                        if nxt < ch.stages:
+                            img = img + bitmaps_of(i, nxt)[todo]
+                        after = img > 0
+                        changed = (after != cover[todo]).reshape(len(after), -1).any(axis=1)  # type: ignore[index]
+                        vals = base.copy() if kept_vals[i] is None else kept_vals[i].copy()  # type: ignore[union-attr]
+                        part = base[todo].copy()  # type: ignore[index]
+                        if changed.any():
+                            part[changed] = soup_measures(after[changed], pixel)
+                        vals[todo] = part
+                        kept_vals[i] = vals
+                        stale[i] = False
+                    val = float(kept_vals[i].sum())
                 if val > best_val:
                     best, best_val, best_next = i, val, nxt
         if best < 0:
@@ -237,12 +249,17 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
         after = int(ch.counts[best_next]) if best_next < ch.stages else 0
         tri -= int(ch.counts[s]) - after
         if counts_img is not None:
-            counts_img = counts_img - bitmaps_of(best, s)
+            step_img = bitmaps_of(best, s).astype(np.int32)
             if best_next < ch.stages:
-                counts_img = counts_img + bitmaps_of(best, best_next)
+                step_img = step_img - bitmaps_of(best, best_next)
+            counts_img = counts_img - step_img
             if cover is not None:
                 cover = counts_img > 0
                 base = soup_measures(cover, pixel)
+            # the directions whose counts this step changed, for every chain; the chain
+            # stepped, all of its own
+            stale |= step_img.reshape(len(step_img), -1).any(axis=1)
+            stale[best] = True
         stage[best] = best_next
         by_area_vals[best] = area_loss(best)
     stage[stage >= np.array([c.stages for c in chains], dtype=np.int64)] = -1

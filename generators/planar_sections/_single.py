@@ -16,6 +16,7 @@ from viscore._validate import (
 from viscore.metrics.orbit import orbit_frame
 
 from .._polygon_chain import refine_chain, simplification_chain
+from .._soup_measure import measure_bases
 from . import _slices
 from ._loops import slice_polygons
 from ._select import (
@@ -74,10 +75,23 @@ def _resolution(mesh: trimesh.Trimesh, voxels, voxel_size, what: str) -> dict:
     return size
 
 
+def _section(mesh: trimesh.Trimesh, size: dict, *, conservative: bool = False,
+             dilate: int = 0, close: int = 0, ground: dict | None = None, up: str = "z",
+             base=None) -> _slices.SectionSolid:
+    """:func:`._slices.section_solid` of one run: ``ground`` None, or ``{"height",
+    "misses", "grazing"}`` for its ``ground``, ``ground_misses`` and ``ground_grazing``;
+    ``base`` the mesh's :func:`._slices.voxel_base` at ``size`` when the caller has it."""
+    g = {} if ground is None else {"ground": ground["height"], "ground_misses": ground["misses"],
+                                   "ground_grazing": ground.get("grazing", 0.0)}
+    return section_solid(mesh, conservative=conservative, dilate=dilate, close=close, up=up,
+                         base=base, **g, **size)
+
+
 def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, depth_bins,
                   alpha, measure, reduce, rdp_tolerance, chain, conservative, dilate,
                   close, ground: dict | None = None, up: str = "z",
-                  warn_interior: bool = True, orbit: tuple | None = None):
+                  warn_interior: bool = True, orbit: tuple | None = None, base=None,
+                  sec: _slices.SectionSolid | None = None):
     """One level of detail: (mesh, polygons, info).
 
     ``ground``: None, or ``{"height", "misses", "grazing"}`` for
@@ -88,13 +102,14 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
     ``orbit`` is the mesh's :func:`~viscore.metrics.orbit_frame` when the caller
     already has it (the precision floor generates up to seven times per mesh; the
     frame is a minimum enclosing ball over every vertex, seconds on a scan).
+    ``base`` is the mesh's :func:`._slices.voxel_base` at ``size`` and ``sec`` the
+    solid itself (:func:`_section` with these options), when the caller has them.
     """
     timing = {}
     t0 = time.perf_counter()
-    g = {} if ground is None else {"ground": ground["height"], "ground_misses": ground["misses"],
-                                   "ground_grazing": ground.get("grazing", 0.0)}
-    sec = section_solid(mesh, conservative=conservative, dilate=dilate, close=close, up=up,
-                        **g, **size)
+    if sec is None:
+        sec = _section(mesh, size, conservative=conservative, dilate=dilate, close=close,
+                       ground=ground, up=up, base=base)
     pitch = sec.grid.pitch
     extent = float(np.max(mesh.extents))
     info = {"voxel_size": pitch, "voxels": int(math.ceil(extent / pitch - 1e-9)),
@@ -136,8 +151,10 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
     t0 = time.perf_counter()
     center, frame = orbit if orbit is not None else orbit_frame(mesh)
     dirs = measure_directions(MEASURE_DIRECTIONS)
+    bases = measure_bases(dirs)  # the image axes of every projection below, found once
     rings = [s.to_world(p.ring) for s, p in cands]
-    bitmaps = project_candidates(rings, dirs, center, frame, MEASURE_RESOLUTION)
+    bitmaps = project_candidates(rings, dirs, center, frame, MEASURE_RESOLUTION,
+                                 bases=bases)
     mpixel = frame / MEASURE_RESOLUTION
     timing["projections"] = time.perf_counter() - t0
     t0 = time.perf_counter()
@@ -161,7 +178,7 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
             sl, _ = cands[chosen[i]]
             ring = sl.to_world(chains[chosen[i]].stage_ring(s))
             cache[(i, s)] = project_candidates([ring], dirs, center, frame,
-                                               MEASURE_RESOLUTION)[0]
+                                               MEASURE_RESOLUTION, bases=bases)[0]
         return cache[(i, s)]
 
     stages, _ = reduce_to_budget([chains[i] for i in chosen], budget, reduce=reduce,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import math
+import threading
 import time
 
 import numpy as np
@@ -20,8 +21,8 @@ from .._precision_check import (
     check_views,
     passes,
 )
-from ._single import _generate_one, _no_interior, _resolution
-from ._slices import section_solid
+from ._single import _generate_one, _no_interior, _resolution, _section
+from ._slices import SectionSolid, VoxelBase, section_solid, voxel_base
 
 _log = logging.getLogger(__name__)
 
@@ -115,15 +116,33 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     """
     views = check_views(mesh, seed, FLOOR_VIEWS)
     extent = float(np.max(mesh.extents))
-    orbit = orbit_frame(mesh)  # every step's selection frame, computed once
+    # every step's selection frame, computed once: the check views' own orbit frame (the
+    # same function of the same mesh; a smallest enclosing ball over every vertex)
+    orbit = (views.center, views.extent) if hasattr(views, "center") else orbit_frame(mesh)
+    bases = _VoxelBases(mesh)  # each voxel size's voxelization, made once
+    by_solid: dict = {}  # the runs made, by their solid: the same solid gives the same run
+    by_solid_lock = threading.Lock()
 
     def run(size: dict, close: int, kind: dict | None = None):
         t0 = time.perf_counter()
         fill = None if kind is None else {"height": ground["height"], **kind}  # type: ignore[index]
-        result = _generate_one(mesh, size, **{**options, "close": close}, ground=fill,
-                               warn_interior=not auto_close and ground is None, orbit=orbit)
+        opts = {**options, "close": close}
+        sec = _section(mesh, size, conservative=opts["conservative"], dilate=opts["dilate"],
+                       close=close, ground=fill, up=opts["up"], base=bases.get(size))
+        key = _solid_key(sec)
+        with by_solid_lock:
+            earlier = by_solid.get(key)
+        if earlier is not None:  # a closing or fill that adds nothing: the run made already
+            (out_mesh, polygons, info), score = earlier
+            result = out_mesh, polygons, {**info, "ground": None if fill is None else dict(fill)}
+        else:
+            result = _generate_one(mesh, size, **opts, ground=fill, sec=sec,
+                                   warn_interior=not auto_close and ground is None, orbit=orbit)
+            score = check_score(views, result[0])
+            with by_solid_lock:
+                by_solid[key] = result, score
         step = {"voxels": result[2]["voxels"], "close": close, "ground": kind,
-                "triangles": len(result[0].faces), **check_score(views, result[0]),
+                "triangles": len(result[0].faces), **score,
                 "seconds": time.perf_counter() - t0}
         return result, step
 
@@ -190,7 +209,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     if auto_close:
         solid = result[2]["solid_voxels"]
         closed = section_solid(mesh, dilate=options["dilate"], close=max(AUTO_CLOSINGS),
-                               **size).solid_voxels
+                               base=bases.get(size), **size).solid_voxels
         gain = closed / solid - 1.0 if solid else math.inf
     if gain is not None and (gain >= AUTO_CLOSE_GAIN or _no_interior(result[2])):
         closings = [(size, k, None) for k in AUTO_CLOSINGS]
@@ -278,6 +297,51 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
         record["closings"] = closings
     info = {**info, "close": close, "precision_floor": record}
     return out_mesh, polygons, info
+
+
+class _VoxelBases:
+    """A mesh's :func:`._slices.voxel_base` per voxel size, each made once (from several
+    threads too); whether the mesh is closed and oriented is found once."""
+
+    def __init__(self, mesh: trimesh.Trimesh) -> None:
+        self.mesh = mesh
+        self._kept: dict = {}
+        self._lock = threading.Lock()
+        self._closed: bool | None = None
+
+    def get(self, size: dict) -> VoxelBase:
+        key = tuple(sorted(size.items()))
+        with self._lock:
+            kept = self._kept.get(key)
+            if kept is None:
+                kept = self._kept[key] = {"event": threading.Event(), "base": None}
+                mine = True
+            else:
+                mine = False
+        if mine:
+            try:
+                kept["base"] = voxel_base(self.mesh, closed=self._closed, **size)
+                self._closed = kept["base"].closed
+            finally:
+                kept["event"].set()
+        else:
+            kept["event"].wait()
+        if kept["base"] is None:  # its maker failed: make it here (and raise what it raised)
+            return voxel_base(self.mesh, closed=self._closed, **size)
+        return kept["base"]
+
+
+def _solid_key(sec: SectionSolid) -> tuple:
+    """What a run's occluder depends on besides the options every run shares: the solid
+    on its grid and the ground fill's cells, exposures and thresholds (none when the fill
+    adds no voxel)."""
+    from viscore._content_cache import content_key
+
+    fill = sec.fill
+    parts: list = [sec.solid, np.asarray(sec.grid.origin, np.float64), float(sec.grid.pitch)]
+    if fill is not None and len(fill.cells):
+        parts += [fill.cells, fill.exposure, fill.directions, fill.misses, fill.grazing]
+    return content_key(*parts)
 
 
 def _best(tried: list, floor: float) -> tuple:
