@@ -51,6 +51,11 @@ DEPTH_MARGIN_RELATIVE = 1e-5
 #: of facets (relative area).
 _FACET_TOLERANCE = 1e-9
 
+#: Whether pixels still without a depth get one from the contour rule
+#: (:mod:`viscore.culling._contour`): the centre ray meets an occluder and no contour edge
+#: of the occluders crosses the pixel.
+CONTOUR_RULE = False
+
 #: Side of the coarsest tiles, in buffer pixels (a power of two).
 _TILE = 16
 
@@ -403,6 +408,9 @@ class OccluderScene:
         #: regions along their line (:func:`viscore.culling._depth_kernel.region_creases`; off
         #: only to measure those rules)
         self._region_creases = True
+        #: the contour rule's edges and triangles (:func:`_contour_depths`), on first use
+        self._edges: tuple[np.ndarray, np.ndarray] | None = None
+        self._triangles: np.ndarray | None = None
 
     def _grid(self, w: int, h: int, hx: float, hy: float, cols: int, rows: int,
               tile: int) -> tuple:
@@ -726,6 +734,38 @@ def _full_corner_depth(occ: OccluderScene, camera: PerspectiveCamera, width: int
     return np.where(same, far + margin, np.inf)
 
 
+def _contour_depths(occ: OccluderScene, eye: np.ndarray, basis, hx: float, hy: float,
+                    depth: np.ndarray, margin: float) -> int:
+    """The contour rule (:mod:`viscore.culling._contour`) on the pixels of ``depth`` (H, W)
+    still without a depth, in place: where the centre ray meets an occluder and no contour
+    edge of the occluders (taken as one mesh) crosses the pixel, the farthest distance of
+    the triangles whose projections may touch the pixel, widened by ``margin``. Returns
+    the number of pixels it covered."""
+    from ._contour import contour_pixels, edge_topology, farthest_touching
+
+    h, w = depth.shape
+    if occ._edges is None:  # built on first use: the rule is off for most callers' scenes
+        occ._edges = edge_topology(occ._vertices, occ._faces)
+        occ._triangles = occ._vertices[occ._faces]
+    f, r, u = basis
+    edges, opposite = occ._edges
+    crossed = np.zeros((h, w), dtype=bool)
+    contour_pixels(occ._vertices, edges, opposite, eye, r, u, f, hx, hy, crossed)
+    ii, jj = np.nonzero(~np.isfinite(depth) & ~crossed)
+    if not len(ii):
+        return 0
+    x = ((jj + 0.5) / w - 0.5) * 2.0 * hx
+    y = (0.5 - (ii + 0.5) / h) * 2.0 * hy
+    d = x[:, None] * r + y[:, None] * u + f
+    t, tri = occ.scene.first_hit(eye[None], d / np.linalg.norm(d, axis=1)[:, None])
+    far = np.full((h, w), -np.inf)
+    farthest_touching(occ._triangles, eye, r, u, f, hx, hy, far)
+    bound = far[ii, jj] + margin
+    ok = (tri >= 0) & np.isfinite(bound) & (bound >= t)
+    depth[ii[ok], jj[ok]] = bound[ok]
+    return int(ok.sum())
+
+
 @dataclass(frozen=True, eq=False)
 class ConservativeDepthBuffer:
     """A conservative occluder depth buffer for one frame, and its occludee test.
@@ -869,6 +909,8 @@ class ConservativeDepthBuffer:
             region_creases(depth, facet, region, stride, occ._region_plane, region_ok,
                            segments, occ._segment_start, occ._segments, xs, ys, hx, hy, eye,
                            r, u, f, tol, _CREASE_TOLERANCE * size, margin, _SEGMENT_SLACK)
+        if CONTOUR_RULE and not np.isfinite(depth).all():
+            _contour_depths(occ, eye, basis, hx, hy, depth, margin)
         return cls(depth=depth, camera=camera, hits=hits, rays=rays)
 
     def screen_rectangles(self, lower: npt.ArrayLike, upper: npt.ArrayLike
