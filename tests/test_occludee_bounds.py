@@ -219,6 +219,13 @@ def test_cull_cli_bounds_option(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert doc["bounds"]["kind"] == "meshlets" and doc["bounds"]["clusters"] == 1
     assert doc["bounds"]["split_objects"] == 5 and doc["bounds"]["boxes"] == 5 * 12
+    # triangles: every object through its own 12 triangles, said so in the table
+    assert main(["cull", str(level), "--frames", "3", "--methods", "aabb-skins", "--bounds",
+                 "triangles", "--width", "160", "--height", "90", "--out", str(out),
+                 "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "5 objects tested by their triangles, 60 in all" in text
+    assert json.loads((out / "cull.json").read_text())["bounds"]["kind"] == "triangles"
     for bad in ["clusters:0", "clusters:x", "sphere", "box:3", "auto:0"]:
         assert main(["cull", "--bounds", bad, "--out", str(tmp_path / "x"), "--quiet"]) == 2
         assert "--bounds" in capsys.readouterr().err
