@@ -163,16 +163,17 @@ def add_parser(sub, common) -> None:
                    help="ranking of the solids: as their best face by eq. 3 (default) or the "
                         "paper's f_solid of eq. 4")
     c.add_argument("--bounds", default=DEFAULT_BOUNDS,
-                   metavar="meshlets[:T]|triangles|auto|box|clusters[:N]",
+                   metavar="triangles|meshlets[:T]|auto|box|clusters[:N]",
                    help="what a runtime tests of an object, culled when all of them are "
-                        "hidden: meshlets: the boxes of clusters of about T triangles "
+                        f"hidden: {DEFAULT_BOUNDS} (the default): its own triangles, pixel by "
+                        "pixel in the depth buffer (tighter than their boxes, as "
+                        "conservative; the other runtimes get the triangles' boxes); "
+                        "meshlets: the boxes of clusters of about T triangles "
                         f"(default T {MESHLET_TRIANGLES}), as engines test meshlets; "
-                        f"{DEFAULT_BOUNDS} (the default): its triangles' boxes, at most "
+                        "meshlets:1: its triangles' boxes, at most "
                         f"{MAX_CLUSTERS} per object, the finest of these (a smaller box is "
                         "no harder to cull, and an object only its box puts in view is left "
-                        "out of view); triangles: its own triangles, pixel by pixel in the "
-                        "depth buffer (tighter than their boxes, as conservative; the other "
-                        "runtimes get their boxes); box: its box (as an engine tests an instance, "
+                        "out of view); box: its box (as an engine tests an instance, "
                         "and as the paper does); clusters: the boxes of up to N clusters of "
                         f"its triangles (default N {DEFAULT_CLUSTERS}); auto: clusters for "
                         f"objects of at least {AUTO_MIN_SIZE:g} of the level's diagonal, the "
@@ -298,8 +299,8 @@ def _bounds_hint(doc: dict) -> str | None:
         return None
     return (f"hint: the guaranteed runtimes cull at most {best:.1%} of the objects where the "
             f"truth hides {hidden:.1%}; if the level's objects are a few big chunks, "
-            f"--bounds {DEFAULT_BOUNDS} (the default) tests each through its triangles' "
-            "boxes")
+            f"--bounds {DEFAULT_BOUNDS} (the default) tests each through its own "
+            "triangles")
 
 
 def _interval_cell(interval) -> str:
