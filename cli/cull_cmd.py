@@ -163,11 +163,14 @@ def add_parser(sub, common) -> None:
                    help="ranking of the solids: as their best face by eq. 3 (default) or the "
                         "paper's f_solid of eq. 4")
     c.add_argument("--bounds", default=DEFAULT_BOUNDS,
-                   metavar="meshlets[:T]|auto|box|clusters[:N]",
+                   metavar="triangles|meshlets[:T]|auto|box|clusters[:N]",
                    help="what a runtime tests of an object, culled when all of them are "
-                        "hidden: meshlets: the boxes of clusters of about T triangles "
+                        f"hidden: {DEFAULT_BOUNDS} (the default): its own triangles, pixel by "
+                        "pixel in the depth buffer (tighter than their boxes, as "
+                        "conservative; the other runtimes get the triangles' boxes); "
+                        "meshlets: the boxes of clusters of about T triangles "
                         f"(default T {MESHLET_TRIANGLES}), as engines test meshlets; "
-                        f"{DEFAULT_BOUNDS} (the default): its triangles' boxes, at most "
+                        "meshlets:1: its triangles' boxes, at most "
                         f"{MAX_CLUSTERS} per object, the finest of these (a smaller box is "
                         "no harder to cull, and an object only its box puts in view is left "
                         "out of view); box: its box (as an engine tests an instance, "
@@ -212,7 +215,8 @@ def _methods(text: str | None, option: str = "--methods") -> list[str]:
 
 
 def _bounds(text: str) -> tuple[str, int]:
-    """``--bounds``: its kind (``box``, ``clusters``, ``auto``) and clusters per object."""
+    """``--bounds``: its kind (``box``, ``clusters``, ``auto``, ``meshlets``, ``triangles``)
+    and its count."""
     return parse_bounds(text, "--bounds")
 
 
@@ -240,7 +244,9 @@ def _table(doc: dict) -> str:
              + f"{s['frames']} frames at "
              f"{s['width']} x {s['height']} (frusta from {doc['frusta_method']}"
              + ("" if doc["bounds"]["kind"] == "box" else
-                f"; {doc['bounds']['split_objects']:,} objects tested by their clusters, "
+                f"; {doc['bounds']['split_objects']:,} objects tested by their triangles, "
+                f"{doc['bounds']['boxes']:,} in all" if doc["bounds"]["kind"] == "triangles"
+                else f"; {doc['bounds']['split_objects']:,} objects tested by their clusters, "
                 f"{doc['bounds']['boxes']:,} boxes in all") + ")",
              f"{'runtime':<28} {'culled':>7} {'95% interval':>14} {'false':>6} "
              f"{'triangles/frame':>16} {'overhead ms':>12} {'conservative':>12}"]
@@ -274,15 +280,15 @@ def _table(doc: dict) -> str:
 
 def _bounds_hint(doc: dict) -> str | None:
     """A line suggesting the default ``--bounds`` when the boxes (``box``, or ``auto``'s
-    unsplit objects; never after ``clusters`` or ``meshlets``) leave more than half of what
-    the truth hides (over 20%) to every guaranteed runtime, else None.
+    unsplit objects; never after ``clusters``, ``meshlets`` or ``triangles``) leave more
+    than half of what the truth hides (over 20%) to every guaranteed runtime, else None.
 
     A level exported as a few big chunks is the usual cause: a chunk's box holds the eye
     or reaches past every occluder. On the dust map (20 frames) the best guaranteed
     runtime culls 6.2% of the objects with boxes and 19.7% with clusters, the truth hiding
     41.0% and 36.5%; even the level's own triangles cull 6.2% with boxes.
     """
-    if doc["bounds"]["kind"] in ("clusters", "meshlets"):  # split already
+    if doc["bounds"]["kind"] in ("clusters", "meshlets", "triangles"):  # split already
         return None
     hidden = doc["ground_truth"]["hidden_share"]
     made = {name: info.get("occluders") for name, info in doc.get("runtimes", {}).items()}
@@ -293,8 +299,8 @@ def _bounds_hint(doc: dict) -> str | None:
         return None
     return (f"hint: the guaranteed runtimes cull at most {best:.1%} of the objects where the "
             f"truth hides {hidden:.1%}; if the level's objects are a few big chunks, "
-            f"--bounds {DEFAULT_BOUNDS} (the default) tests each through its triangles' "
-            "boxes")
+            f"--bounds {DEFAULT_BOUNDS} (the default) tests each through its own "
+            "triangles")
 
 
 def _interval_cell(interval) -> str:

@@ -306,12 +306,15 @@ class CullingResult:
         }
 
 
-def _check_bounds(bounds, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _check_bounds(bounds, n: int) -> tuple:
     """``bounds`` of :func:`simulate_culling` as arrays, checked: one line on a mismatch."""
     try:
-        lower, upper, owner = bounds
+        lower, upper, owner, *rest = bounds
     except (TypeError, ValueError):
         raise InputError("bounds: expected (lower, upper, owner)") from None
+    if len(rest) > 1:
+        raise InputError("bounds: expected (lower, upper, owner) or (lower, upper, owner, "
+                         "triangles)")
     lower = np.asarray(lower, dtype=np.float64)
     upper = np.asarray(upper, dtype=np.float64)
     owner = np.asarray(owner)
@@ -324,6 +327,12 @@ def _check_bounds(bounds, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         raise InputError("bounds: boxes must be finite with lower <= upper")
     if c == 0 or owner[0] < 0 or owner[-1] >= n or (np.diff(owner) < 0).any():
         raise InputError(f"bounds: owner must be non-decreasing object indices in [0, {n})")
+    if rest:
+        tri = np.asarray(rest[0], dtype=np.float64)
+        if tri.shape != (c, 3, 3) or not np.isfinite(tri).all():
+            raise InputError(f"bounds: expected finite ({c}, 3, 3) triangles, got "
+                             f"{tri.shape}")
+        return lower, upper, owner.astype(np.int64), tri
     return lower, upper, owner.astype(np.int64)
 
 
@@ -413,6 +422,9 @@ def simulate_culling(objects: SceneObjects, runtimes: Mapping[str, Runtime],
         Runtimes then get these boxes, and an object is culled when every one
         of its boxes in the view frustum is; view frustum culling keeps an
         object when its box and one of its boxes may intersect the frustum.
+        ``(lower, upper, owner, triangles)`` with the ``(c, 3, 3)`` world triangle
+        of each box (:func:`viscore.culling.occludee_bounds.object_triangles`): a
+        runtime with ``cull_triangles`` tests those triangles instead of their boxes.
         Default: each object's own box.
     keep_frames : sequence of int, optional
         Frames whose objects (in view, visible, culled per runtime) are kept
@@ -549,8 +561,10 @@ def _walk_frames(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     (``kept``, by frame of the path)."""
     scene, triangle_object = objects.combined
     lower, upper, tris = objects.lower, objects.upper, objects.triangles
+    b_tri = None
     if bounds is not None:
-        b_lower, b_upper, owner = bounds
+        b_lower, b_upper, owner = bounds[:3]
+        b_tri = bounds[3] if len(bounds) > 3 else None
     names = list(runtimes)
     count = len(cameras)
     kept: dict[int, FrameObjects] = {}
@@ -576,21 +590,28 @@ def _walk_frames(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             keep = keep[view_frustum_mask(camera, b_lower[keep], b_upper[keep])]
             idx, starts = np.unique(owner[keep], return_index=True)
             lo, hi = b_lower[keep], b_upper[keep]
+            if b_tri is not None:
+                tri_in, groups = b_tri[keep], np.append(starts, len(keep))
         in_view_n[f], in_view_t[f] = len(idx), int(tris[idx].sum())
         visible_n[f], visible_t[f] = int(visible.sum()), int(tris[visible].sum())
         if start + f in record:
             kept[start + f] = FrameObjects(in_view=idx.astype(np.int64),
                                    visible=np.flatnonzero(visible), culled={})
         for name in names:
+            by_tri = b_tri is not None and runtimes[name].cull_triangles is not None
+            # by triangles: one figure per object, its own triangles pixel by pixel
+            call, args = ((runtimes[name].cull_triangles, (camera, tri_in, groups)) if by_tri
+                          else (runtimes[name].cull, (camera, lo, hi)))
             if f == 0:  # warm-up, untimed: compiling the kernels is not a frame's overhead
-                runtimes[name].cull(camera, lo, hi)
+                call(*args)
             begin = time.perf_counter()
-            mask = np.asarray(runtimes[name].cull(camera, lo, hi), dtype=bool)
+            mask = np.asarray(call(*args), dtype=bool)
             elapsed = time.perf_counter() - begin
-            if mask.shape != (len(lo),):
+            want = len(idx) if by_tri else len(lo)
+            if mask.shape != (want,):
                 raise ValueError(f"runtime {name!r}: cull returned shape {mask.shape}, "
-                                 f"expected ({len(lo)},)")
-            if starts is not None:  # an object is culled when all its boxes are
+                                 f"expected ({want},)")
+            if starts is not None and not by_tri:  # culled when all its boxes are
                 mask = np.logical_and.reduceat(mask, starts) if len(mask) else mask
             culled = idx[mask]
             false = culled[visible[culled]]

@@ -57,12 +57,20 @@ class Runtime:
         frame; every solid of the frusta runtimes, which use the best ranked
         of them), for pictures of the frame; None (the default) for a runtime
         without occluders.
+    cull_triangles : callable, optional
+        ``cull_triangles(camera, triangles, start) -> (g,) bool``: the occludees hidden
+        this frame tested through their own ``(m, 3, 3)`` world triangles, occludee
+        ``k`` being ``triangles[start[k]:start[k + 1]]`` (``--bounds triangles``); None
+        (the default) for a runtime that tests boxes only (it then gets each
+        triangle's box).
     """
 
     cull: Callable[[PerspectiveCamera, np.ndarray, np.ndarray], np.ndarray]
     conservative: bool = True
     occluders: int = 0
     occluder_scene: Callable[[PerspectiveCamera], object] | None = None
+    cull_triangles: Callable[[PerspectiveCamera, np.ndarray, np.ndarray], np.ndarray] | None \
+        = None
 
 
 def _nothing(camera, lower, upper) -> np.ndarray:
@@ -200,18 +208,23 @@ def depth_buffer_runtime(occluders, *, reduction: int = 4, conservative: bool = 
             return prepared
         n = len(items) if count is None else int(count)
 
-    def cull(camera: PerspectiveCamera, lower, upper) -> np.ndarray:
+    def buffer(camera: PerspectiveCamera) -> ConservativeDepthBuffer:
         rows, cols = camera.shape
-        buffer = ConservativeDepthBuffer.from_occluders(
+        return ConservativeDepthBuffer.from_occluders(
             per_frame(camera), camera, width=max(1, cols // reduction),
             height=max(1, rows // reduction))
-        return buffer.occluded(lower, upper)
+
+    def cull(camera: PerspectiveCamera, lower, upper) -> np.ndarray:
+        return buffer(camera).occluded(lower, upper)
+
+    def cull_triangles(camera: PerspectiveCamera, triangles, start) -> np.ndarray:
+        return buffer(camera).occluded_triangles(triangles, start)
 
     def scene(camera: PerspectiveCamera):
         return per_frame(camera).scene
 
     return Runtime(cull=cull, conservative=bool(conservative), occluders=n,
-                   occluder_scene=scene)
+                   occluder_scene=scene, cull_triangles=cull_triangles)
 
 
 # --------------------------------------------------------------------------- view frustum

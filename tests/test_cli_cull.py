@@ -504,14 +504,15 @@ def test_cull_table_suggests_split_bounds_only_when_the_box_leaves_most_hidden_o
                 "totals": {"none": {"culled_share": 0.0, "conservative": True},
                            "depth-buffer:x": {"culled_share": best,
                                               "conservative": conservative}}}
-    assert "--bounds meshlets:1 (the default)" in cull_cmd._bounds_hint(doc("box", 0.41, 0.062))
-    assert "--bounds meshlets:1" in cull_cmd._bounds_hint(doc("auto", 0.41, 0.062))
+    assert "--bounds triangles (the default)" in cull_cmd._bounds_hint(doc("box", 0.41, 0.062))
+    assert "--bounds triangles" in cull_cmd._bounds_hint(doc("auto", 0.41, 0.062))
     assert cull_cmd._bounds_hint(doc("box", 0.41, 0.21)) is None  # half of it culled
     assert cull_cmd._bounds_hint(doc("box", 0.15, 0.0)) is None  # the truth hides little
     assert cull_cmd._bounds_hint(doc("clusters", 0.41, 0.062)) is None
     assert cull_cmd._bounds_hint(doc("meshlets", 0.41, 0.062)) is None
+    assert cull_cmd._bounds_hint(doc("triangles", 0.41, 0.062)) is None
     # a runtime without the guarantee does not count
-    assert "--bounds meshlets:1" in cull_cmd._bounds_hint(doc("box", 0.41, 0.3, False))
+    assert "--bounds triangles" in cull_cmd._bounds_hint(doc("box", 0.41, 0.3, False))
 
 
 def test_cull_single_mesh_of_one_part_says_so(run, tmp_path, capsys):

@@ -67,15 +67,15 @@ def test_default_bounds_cull_bars_behind_two_walls_that_their_box_sees_through_a
     objects = load_scene_objects(scene)
     runtimes = {"none": culling.no_culling(), "depth": culling.depth_buffer_runtime(walls)}
     culled = {}
-    for text in ("box", DEFAULT_BOUNDS):
+    for text in ("box", "meshlets:1", DEFAULT_BOUNDS):
         bounds = occludee_boxes(objects, *parse_bounds(text))[0]
         r = culling.simulate_culling(objects, runtimes, [EYE], width=128, height=72,
                                      bounds=bounds)
         assert r.visible.tolist() == [2] and r.in_view.tolist() == [3]  # bars hidden
         assert r.runtimes["depth"].false_culls.tolist() == [0]
         culled[text] = r.runtimes["depth"].culled.tolist()
-    assert culled == {"box": [0], DEFAULT_BOUNDS: [1]}
-    assert DEFAULT_BOUNDS == "meshlets:1"
+    assert culled == {"box": [0], "meshlets:1": [1], DEFAULT_BOUNDS: [1]}
+    assert DEFAULT_BOUNDS == "triangles"
 
 
 def test_object_cluster_boxes_follow_instances():
@@ -213,12 +213,19 @@ def test_cull_cli_bounds_option(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert doc["bounds"]["kind"] == "auto" and doc["bounds"]["split_objects"] == 4
     assert doc["bounds"]["boxes"] > doc["settings"]["objects"]
-    # the default, meshlets:1: every object through its triangles' boxes, 5 boxes of 12
-    assert main(["cull", str(level), "--frames", "3", "--methods", "aabb-skins", "--width",
-                 "160", "--height", "90", "--out", str(out), "--json", "--quiet"]) == 0
+    # meshlets:1: every object through its triangles' boxes, 5 boxes of 12
+    assert main(["cull", str(level), "--frames", "3", "--methods", "aabb-skins", "--bounds",
+                 "meshlets:1", "--width", "160", "--height", "90", "--out", str(out), "--json",
+                 "--quiet"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["bounds"]["kind"] == "meshlets" and doc["bounds"]["clusters"] == 1
     assert doc["bounds"]["split_objects"] == 5 and doc["bounds"]["boxes"] == 5 * 12
+    # the default, triangles: every object through its own 12 triangles, said in the table
+    assert main(["cull", str(level), "--frames", "3", "--methods", "aabb-skins", "--width",
+                 "160", "--height", "90", "--out", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "5 objects tested by their triangles, 60 in all" in text
+    assert json.loads((out / "cull.json").read_text())["bounds"]["kind"] == "triangles"
     for bad in ["clusters:0", "clusters:x", "sphere", "box:3", "auto:0"]:
         assert main(["cull", "--bounds", bad, "--out", str(tmp_path / "x"), "--quiet"]) == 2
         assert "--bounds" in capsys.readouterr().err

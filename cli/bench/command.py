@@ -110,9 +110,10 @@ def add_parser(sub, common) -> None:
                    help="eye height of every level, in its units (default: guessed per level)")
     w.add_argument("--cull", action="store_true",
                    help="also run cull's default runtimes along each walk (minutes per level)")
-    w.add_argument("--bounds", default=None, metavar="meshlets[:T]|auto|box|clusters[:N]",
+    w.add_argument("--bounds", default=None,
+                   metavar="triangles|meshlets[:T]|auto|box|clusters[:N]",
                    help="with --cull: the occludee bounds, as 'viscore cull --bounds' "
-                        "(default as cull's, meshlets:1)")
+                        "(default as cull's, triangles)")
     w.set_defaults(run=run_walks)
     gb = bsub.add_parser("godot-bake", parents=[common],
                          help="our godot baseline against Godot's own bake of its occlusion "

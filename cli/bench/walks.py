@@ -69,7 +69,8 @@ def _cull_figures(level, walk, *, seed: int, bounds: str, methods: Sequence[str]
            "hidden_share_ci": _interval(hidden, in_view, seed),
            "runtimes": {k: {"culled_share": t["culled_share"], "false_culls": t["false_culls"],
                             "conservative": t["conservative"],
-                            "occluders": info[k].get("occluders", 0)}
+                            "occluders": info[k].get("occluders", 0),
+                            "overhead_ms": t["overhead_ms"]}
                         for k, t in totals.items()},
            "best_guaranteed": best, "false_culls_guaranteed":
            int(sum(t["false_culls"] for t in guaranteed.values()))}

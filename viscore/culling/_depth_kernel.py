@@ -706,3 +706,173 @@ def region_creases(depth, facet, region, stride, region_plane, region_ok, segmen
                 depth[i, j] = t + margin
                 filled += 1
     return filled
+
+
+#: Widening of a pixel square, in buffer pixels, when testing whether a triangle's
+#: projection touches it (:func:`_triangle_hidden`): the projection is computed in
+#: float64, so a triangle grazing a pixel is counted as touching it.
+TOUCH_SLACK = 1e-6
+
+#: Relative shrink of a triangle's per-pixel depth bound against the float rounding of
+#: its plane's inverse depth (kept only where the plane's offset is well conditioned,
+#: :data:`PLANE_CONDITION`).
+DEPTH_SHRINK = 1.0 - 1e-9
+
+#: A triangle's plane bounds its depth over a pixel only when its offset from the eye is
+#: at least this fraction of (normal length x distance of a vertex): a plane nearly
+#: through the eye (seen edge-on) falls back on the triangle's least forward depth.
+PLANE_CONDITION = 1e-6
+
+
+@njit_cached()
+def _side(k, ax, ay, x, y, z):  # pragma: no cover
+    """Value of widened view-pyramid side plane ``k`` (0: right, 1: left, 2: top,
+    3: bottom) at camera point (x, y, z): >= 0 inside."""
+    if k == 0:
+        return ax * z - x
+    if k == 1:
+        return ax * z + x
+    if k == 2:
+        return ay * z - y
+    return ay * z + y
+
+
+@njit_cached()
+def _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, px, py, pz, qx, qy, qz, sc,
+                     sr):  # pragma: no cover
+    """Whether no ray of the buffer's screen meets triangle ``k`` of ``tri`` (m, 3, 3)
+    nearer than the buffer's depth: its part in the view pyramid (clipped to the four
+    side planes widened by :data:`PYRAMID_SLACK`) is empty, or every buffer pixel that
+    part's projection may touch holds a depth nearer than a lower bound of the triangle's
+    distance along any ray through the pixel. ``px`` ... ``sr`` are scratch arrays of at
+    least 8 entries."""
+    h, w = depth.shape
+    for m in range(3):
+        dx = tri[k, m, 0] - eye[0]
+        dy = tri[k, m, 1] - eye[1]
+        dz = tri[k, m, 2] - eye[2]
+        px[m] = dx * r[0] + dy * r[1] + dz * r[2]
+        py[m] = dx * u[0] + dy * u[1] + dz * u[2]
+        pz[m] = dx * f[0] + dy * f[1] + dz * f[2]
+    # the plane in camera coordinates, before clipping: n . p = c
+    e1x, e1y, e1z = px[1] - px[0], py[1] - py[0], pz[1] - pz[0]
+    e2x, e2y, e2z = px[2] - px[0], py[2] - py[0], pz[2] - pz[0]
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    c = nx * px[0] + ny * py[0] + nz * pz[0]
+    scale = math.sqrt(nx * nx + ny * ny + nz * nz) \
+        * math.sqrt(px[0] * px[0] + py[0] * py[0] + pz[0] * pz[0])
+    use_plane = abs(c) > PLANE_CONDITION * scale
+    ax = hx * (1.0 + PYRAMID_SLACK)
+    ay = hy * (1.0 + PYRAMID_SLACK)
+    n = 3
+    for side in range(4):  # Sutherland-Hodgman against the four side planes
+        out = 0
+        for m in range(n):
+            e = m + 1 if m + 1 < n else 0
+            g0 = _side(side, ax, ay, px[m], py[m], pz[m])
+            g1 = _side(side, ax, ay, px[e], py[e], pz[e])
+            if g0 >= 0.0:
+                qx[out] = px[m]
+                qy[out] = py[m]
+                qz[out] = pz[m]
+                out += 1
+            if (g0 >= 0.0) != (g1 >= 0.0):
+                t = g0 / (g0 - g1)
+                qx[out] = px[m] + t * (px[e] - px[m])
+                qy[out] = py[m] + t * (py[e] - py[m])
+                qz[out] = pz[m] + t * (pz[e] - pz[m])
+                out += 1
+        n = out
+        if n == 0:
+            return True  # wholly outside the view pyramid: no ray of the screen meets it
+        for m in range(n):
+            px[m] = qx[m]
+            py[m] = qy[m]
+            pz[m] = qz[m]
+    zmin = np.inf
+    for m in range(n):
+        zmin = min(zmin, pz[m])
+    if not zmin > 0.0:
+        return False  # reaches the eye
+    cmin = np.inf
+    cmax = -np.inf
+    rmin = np.inf
+    rmax = -np.inf
+    for m in range(n):
+        sc[m] = (px[m] / pz[m] * (0.5 / hx) + 0.5) * w
+        sr[m] = (0.5 - py[m] / pz[m] * (0.5 / hy)) * h
+        cmin = min(cmin, sc[m])
+        cmax = max(cmax, sc[m])
+        rmin = min(rmin, sr[m])
+        rmax = max(rmax, sr[m])
+    c0 = max(math.floor(cmin - TOUCH_SLACK), 0)
+    c1 = min(math.floor(cmax + TOUCH_SLACK), w - 1)
+    r0 = max(math.floor(rmin - TOUCH_SLACK), 0)
+    r1 = min(math.floor(rmax + TOUCH_SLACK), h - 1)
+    area = 0.0
+    for m in range(n):
+        e = m + 1 if m + 1 < n else 0
+        area += sc[m] * sr[e] - sc[e] * sr[m]
+    orient = 1.0 if area > 0.0 else -1.0
+    edges = abs(area) > TOUCH_SLACK  # a sliver seen edge-on touches its whole rectangle
+    zlow = zmin * DEPTH_SHRINK
+    for i in range(r0, r1 + 1):
+        yb = _nearest_to_centre(i, h, hy)
+        for j in range(c0, c1 + 1):
+            if edges:  # separating axis: an edge of the polygon with the square outside
+                apart = False
+                for m in range(n):
+                    e = m + 1 if m + 1 < n else 0
+                    ex = sc[e] - sc[m]
+                    ey = sr[e] - sr[m]
+                    reach = TOUCH_SLACK * math.sqrt(ex * ex + ey * ey)
+                    apart = True
+                    for a in range(2):
+                        for b in range(2):
+                            cross = ex * (i + a - sr[m]) - ey * (j + b - sc[m])
+                            if orient * cross >= -reach:
+                                apart = False
+                    if apart:
+                        break
+                if apart:
+                    continue
+            zb = zlow
+            if use_plane:  # 1/z is affine on the screen: its largest over the square
+                inv = -np.inf
+                for a in range(2):
+                    y = (0.5 - (i + a) / h) * 2.0 * hy
+                    for b in range(2):
+                        x = ((j + b) / w - 0.5) * 2.0 * hx
+                        inv = max(inv, (nx * x + ny * y + nz) / c)
+                if inv > 0.0:
+                    zb = max(zb, DEPTH_SHRINK / inv)
+            xb = _nearest_to_centre(j, w, hx)
+            bound = zb * math.sqrt(1.0 + xb * xb + yb * yb) * SEC_SHRINK
+            if not depth[i, j] < bound:
+                return False
+    return True
+
+
+@njit_cached()
+def occluded_triangles(tri, start, eye, r, u, f, hx, hy, depth, out):
+    """Set ``out[g]`` for the groups of triangles (``tri[start[g]:start[g + 1]]``) of which
+    every triangle is hidden in the buffer (:func:`_triangle_hidden`); a group stops at its
+    first triangle that is not."""
+    px = np.empty(8)
+    py = np.empty(8)
+    pz = np.empty(8)
+    qx = np.empty(8)
+    qy = np.empty(8)
+    qz = np.empty(8)
+    sc = np.empty(8)
+    sr = np.empty(8)
+    for g in range(start.shape[0] - 1):
+        hidden = True
+        for k in range(start[g], start[g + 1]):
+            if not _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, px, py, pz,
+                                    qx, qy, qz, sc, sr):
+                hidden = False
+                break
+        out[g] = hidden

@@ -51,6 +51,11 @@ DEPTH_MARGIN_RELATIVE = 1e-5
 #: of facets (relative area).
 _FACET_TOLERANCE = 1e-9
 
+#: Whether pixels still without a depth get one from the contour rule
+#: (:mod:`viscore.culling._contour`): the centre ray meets an occluder and no contour edge
+#: of the occluders crosses the pixel.
+CONTOUR_RULE = False
+
 #: Side of the coarsest tiles, in buffer pixels (a power of two).
 _TILE = 16
 
@@ -403,6 +408,9 @@ class OccluderScene:
         #: regions along their line (:func:`viscore.culling._depth_kernel.region_creases`; off
         #: only to measure those rules)
         self._region_creases = True
+        #: the contour rule's edges and triangles (:func:`_contour_depths`), on first use
+        self._edges: tuple[np.ndarray, np.ndarray] | None = None
+        self._triangles: np.ndarray | None = None
 
     def _grid(self, w: int, h: int, hx: float, hy: float, cols: int, rows: int,
               tile: int) -> tuple:
@@ -726,6 +734,38 @@ def _full_corner_depth(occ: OccluderScene, camera: PerspectiveCamera, width: int
     return np.where(same, far + margin, np.inf)
 
 
+def _contour_depths(occ: OccluderScene, eye: np.ndarray, basis, hx: float, hy: float,
+                    depth: np.ndarray, margin: float) -> int:
+    """The contour rule (:mod:`viscore.culling._contour`) on the pixels of ``depth`` (H, W)
+    still without a depth, in place: where the centre ray meets an occluder and no contour
+    edge of the occluders (taken as one mesh) crosses the pixel, the farthest distance of
+    the triangles whose projections may touch the pixel, widened by ``margin``. Returns
+    the number of pixels it covered."""
+    from ._contour import contour_pixels, edge_topology, farthest_touching
+
+    h, w = depth.shape
+    if occ._edges is None:  # built on first use: the rule is off for most callers' scenes
+        occ._edges = edge_topology(occ._vertices, occ._faces)
+        occ._triangles = occ._vertices[occ._faces]
+    f, r, u = basis
+    edges, opposite = occ._edges
+    crossed = np.zeros((h, w), dtype=bool)
+    contour_pixels(occ._vertices, edges, opposite, eye, r, u, f, hx, hy, crossed)
+    ii, jj = np.nonzero(~np.isfinite(depth) & ~crossed)
+    if not len(ii):
+        return 0
+    x = ((jj + 0.5) / w - 0.5) * 2.0 * hx
+    y = (0.5 - (ii + 0.5) / h) * 2.0 * hy
+    d = x[:, None] * r + y[:, None] * u + f
+    t, tri = occ.scene.first_hit(eye[None], d / np.linalg.norm(d, axis=1)[:, None])
+    far = np.full((h, w), -np.inf)
+    farthest_touching(occ._triangles, eye, r, u, f, hx, hy, far)
+    bound = far[ii, jj] + margin
+    ok = (tri >= 0) & np.isfinite(bound) & (bound >= t)
+    depth[ii[ok], jj[ok]] = bound[ok]
+    return int(ok.sum())
+
+
 @dataclass(frozen=True, eq=False)
 class ConservativeDepthBuffer:
     """A conservative occluder depth buffer for one frame, and its occludee test.
@@ -869,6 +909,8 @@ class ConservativeDepthBuffer:
             region_creases(depth, facet, region, stride, occ._region_plane, region_ok,
                            segments, occ._segment_start, occ._segments, xs, ys, hx, hy, eye,
                            r, u, f, tol, _CREASE_TOLERANCE * size, margin, _SEGMENT_SLACK)
+        if CONTOUR_RULE and not np.isfinite(depth).all():
+            _contour_depths(occ, eye, basis, hx, hy, depth, margin)
         return cls(depth=depth, camera=camera, hits=hits, rays=rays)
 
     def screen_rectangles(self, lower: npt.ArrayLike, upper: npt.ArrayLike
@@ -973,4 +1015,65 @@ class ConservativeDepthBuffer:
         out = np.zeros(len(lo), dtype=bool)
         occluded_boxes(lo, hi, np.asarray(cam.position, dtype=np.float64), r, u, f, cam._half,
                        cam._half_vertical, _RECT_SLACK, self.depth, out)
+        return out
+
+    def occluded_triangles(self, triangles: npt.ArrayLike, start: npt.ArrayLike
+                           ) -> np.ndarray:
+        """Which groups of triangles are hidden: each triangle, pixel by pixel, behind the buffer.
+
+        The occludee test of :meth:`occluded` on an object's own triangles instead of
+        boxes around them: each triangle is clipped to the view pyramid, its projection
+        conservatively rasterised into the buffer's pixels (every pixel it may touch),
+        and each such pixel compared with a lower bound of the triangle's distance over
+        the pixel (its plane's nearest depth over the pixel's square, never farther than
+        the triangle really is there, times the secant of the pixel's ray nearest the
+        view axis). A group is hidden when every triangle is: outside the view pyramid,
+        or behind a nearer depth in every pixel it may touch (sec. 6 of [1]_ with the
+        triangle in place of the bounding box).
+
+        Parameters
+        ----------
+        triangles : (m, 3, 3) float
+            Triangles, world units.
+        start : (g + 1,) int
+            Group ``k`` is ``triangles[start[k]:start[k + 1]]``; non-decreasing, from 0
+            to ``m``.
+
+        Returns
+        -------
+        culled : (g,) bool
+            False for a group with a triangle that reaches the eye, or that a pixel
+            without a nearer depth may show.
+
+        Raises
+        ------
+        InputError
+            On shapes other than (m, 3, 3), non-finite values or bad group starts.
+
+        Examples
+        --------
+        >>> wall = trimesh.creation.box(extents=(10, 1, 10))
+        >>> cam = PerspectiveCamera((0, -5, 0), (0, 1, 0), fov=60, resolution=64, height=36)
+        >>> buf = ConservativeDepthBuffer.from_occluders(wall, cam)
+        >>> tri = [[[-1, 3, -1], [1, 3, -1], [0, 3, 1]], [[-1, -3, -1], [1, -3, -1], [0, -3, 1]]]
+        >>> buf.occluded_triangles(tri, [0, 1, 2]).tolist()
+        [True, False]
+        """
+        from ._depth_kernel import occluded_triangles
+
+        tri = np.asarray(triangles, dtype=np.float64)
+        if tri.ndim != 3 or tri.shape[1:] != (3, 3) or not np.isfinite(tri).all():
+            raise InputError(f"triangles: expected finite (m, 3, 3) values, got shape "
+                             f"{tri.shape}")
+        start = np.asarray(start)
+        if (start.ndim != 1 or len(start) < 1 or not np.issubdtype(start.dtype, np.integer)
+                or start[0] != 0 or start[-1] != len(tri) or (np.diff(start) < 0).any()):
+            raise InputError(f"start: expected non-decreasing group starts from 0 to "
+                             f"{len(tri)}, got {start[:5]!r}")
+        cam = self.camera
+        f, r, u = cam.basis
+        out = np.zeros(len(start) - 1, dtype=bool)
+        occluded_triangles(tri, start.astype(np.int64), np.asarray(cam.position,
+                           dtype=np.float64), r, u, f, cam._half, cam._half_vertical,
+                           self.depth, out)
         return out
