@@ -676,10 +676,10 @@ def _relax_winding_bounds(flat, sides, shape, bound, half_pitch, dist, label, kn
     return False
 
 
-#: The last answers of the closed mesh's inside voxels (:func:`_inside_closed`) by content,
-#: bit-packed: aabb-skins, solid-frusta and its box source ask them for the same mesh and
-#: grid in a row (the 6-connected labelling of a 16-million-cell grid: 1-3 s).
-_INSIDE_CLOSED = ContentCache(2)
+#: The last answer of the closed mesh's inside voxels (:func:`_inside_closed`) by content,
+#: bit-packed: solid-frusta asks it for the mesh and grid its box source (aabb-skins) has
+#: just asked (the 6-connected labelling of a 16-million-cell grid: 1-3 s).
+_INSIDE_CLOSED = ContentCache(1)
 
 
 def _inside_closed(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGrid,
@@ -871,12 +871,10 @@ def voxelize(mesh: trimesh.Trimesh, *, resolution: int | None = None,
     return Voxelization(grid=grid, surface=surface, outside=outside, inner=inner)
 
 
-#: The last answers of :func:`voxelize` by content (mesh arrays and grid), bit-packed (three
-#: eighths of a byte a cell): one mesh at one voxel size is asked for by several
-#: generators in a row (solid-frusta voxelizes the grid its box source, aabb-skins, has
-#: just voxelized; a level's culling column runs aabb-skins, solid-frusta and
-#: surface-patches' inner boxes on each distinct mesh), up to 16 million cells each.
-_VOXELIZED = ContentCache(2)
+#: The last answer of :func:`voxelize` by content (mesh arrays and grid), bit-packed (three
+#: eighths of a byte a cell, 96 MB at the largest grid): solid-frusta voxelizes the grid
+#: its box source, aabb-skins, has just voxelized (16 million cells on a level's ground).
+_VOXELIZED = ContentCache(1)
 
 
 def _voxelize_packed(vertices: np.ndarray, faces: np.ndarray, grid: VoxelGrid) -> tuple:
