@@ -279,3 +279,54 @@ def test_metric_guided_simplify_precision_floor_removes_spread_false_occlusion(b
     assert met["removed_floor"] == 0
     with pytest.raises(InputError, match="min_precision"):
         metric_guided_simplify(_box(), occ, reference=box_views, min_precision=1.5)
+
+
+def _near_args(tri):
+    """The per-triangle arrays :func:`_any_ray_near` takes, as ``_State`` builds them."""
+    tri = np.asarray(tri, dtype=np.float64).reshape(-1, 3, 3)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    edges = np.roll(tri, -1, axis=1) - tri
+    planes = np.cross(n[:, None, :], edges)
+    planes /= np.linalg.norm(planes, axis=2, keepdims=True)
+    centre = tri.mean(axis=1)
+    return (centre, np.linalg.norm(tri - centre[:, None], axis=2).max(axis=1), n, planes,
+            np.einsum("mkd,mkd->mk", planes, tri))
+
+
+def test_any_ray_near_analytic_margins():
+    from viscore.generators.hybrid._face_tallies import _any_ray_near
+
+    args = _near_args([[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    m = 1e-3
+
+    def near(origin, direction):
+        return _any_ray_near(*args, np.array([origin], float), np.array([direction], float), m)
+
+    down = (0, 0, -1)
+    assert near((0.2, 0.2, 5), down)  # through the interior
+    assert near((0.5, -0.5 * m, 5), down)  # outside the edge y = 0 by half the margin
+    assert not near((0.5, -3 * m, 5), down)  # by three margins
+    assert not near((0.2, 0.2, -5), down)  # the triangle is behind the origin
+    assert near((-1, 0.2, 0.5 * m), (1, 0, 0))  # grazing, in the plane's margin
+    assert not near((-1, 0.2, 2 * m), (1, 0, 0))  # parallel, two margins above
+    assert not near((2, 2, 5), down)  # off the bounding sphere
+
+
+def test_any_ray_near_false_means_embree_misses(rng):
+    # the test is conservative: where it says no ray comes near, Embree finds no hit
+    from viscore import Scene
+    from viscore.generators.hybrid._face_tallies import _any_ray_near
+
+    misses = 0
+    for _ in range(300):
+        tri = rng.normal(size=(3, 3))
+        origin = rng.normal(size=3) * 3
+        target = tri[rng.integers(3)] + rng.normal(size=3) * 0.05  # near a corner
+        direction = target - origin
+        scene = Scene(trimesh.Trimesh(tri, [[0, 1, 2]], process=False))
+        margin = 1e-5 * scene.diagonal
+        if not _any_ray_near(*_near_args(tri), origin[None], direction[None], margin):
+            misses += 1
+            assert scene.first_hit(origin[None], direction[None])[1][0] == -1
+    assert misses > 50  # the draw tests both answers

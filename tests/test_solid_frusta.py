@@ -203,3 +203,23 @@ def test_flat_hull_is_no_piece_and_warns_nothing():
         assert _hull(flat) is None
         assert _hull(np.c_[flat[:, :2], rng.random(40)]) is not None  # a solid is kept
     assert [str(w.message) for w in caught] == []
+
+
+def test_solid_frusta_one_box_over_every_inner_voxel_skips_the_hulls(monkeypatch):
+    # a thin slab (a level's ground): one aabb-skins box covers every inner voxel, so no
+    # hull can gain more; the hulls are not built and the answer is that box alone
+    import viscore.generators.solid_frusta.generator as sf
+
+    slab = trimesh.creation.box(extents=(40, 40, 2))
+    built = []
+    real = sf._voxel_hulls
+    monkeypatch.setattr(sf, "_voxel_hulls", lambda *a, **k: built.append(1) or real(*a, **k))
+    occ = generate_solid_frusta(slab, voxels=64)
+    assert not built and occ.info["candidates"] == {"boxes": 1, "hulls": 0}
+    assert occ.info["kinds"] == ["box"] and occ.info["volume_share"] == [
+        pytest.approx(occ.info["aabb_skins_volume_share"][0])]
+    lo, hi = occ.parts["boxes"][0]
+    assert (lo > [-20, -20, -1]).all() and (hi < [20, 20, 1]).all()  # inside the slab
+    # a torus: many boxes, the hulls are still built (and win: see the volume-share test)
+    generate_solid_frusta(load_mesh("fat-torus"), voxels=24, solids=3)
+    assert built

@@ -398,3 +398,36 @@ def test_numba_kernels_from_a_read_only_install(tmp_path):
             path.chmod(path.stat().st_mode | stat.S_IWUSR)
     assert run.returncode == 0, run.stderr[-3000:]
     assert int(run.stdout.split()[-1]) == 5**3 - 3**3
+
+
+def test_voxelize_kept_by_content_answers_fresh_arrays():
+    # a 2 x 2 x 2 box at pitch 0.5: the box's faces pass through voxel centres, so the
+    # inner voxels are the 3 x 3 x 3 block strictly inside and the solid the 5 x 5 x 5 one
+    box = _box((0, 0, 0), (2, 2, 2))
+    first = voxelize(box, pitch=0.5)
+    assert int(first.inner.sum()) == 27 and int(first.solid.sum()) == 125
+    first.surface[:] = False  # a caller's change never reaches the kept answer
+    first.inner[:] = True
+    again = voxelize(box.copy(), pitch=0.5)  # equal content, another object
+    assert int(again.inner.sum()) == 27 and int(again.surface.sum()) == 125 - 27
+    moved = box.copy()
+    moved.vertices[:, 0] *= 1.5  # other content: voxelized anew (3 x 2 x 2 box)
+    wider = voxelize(moved, pitch=0.5)
+    assert int(wider.inner.sum()) == 5 * 3 * 3
+
+
+def test_inside_voxels_winding_closed_kept_by_content_answers_fresh_arrays():
+    from viscore.voxel.grid import inside_voxels_winding
+
+    box = _box((0, 0, 0), (2, 2, 2))
+    vox = voxelize(box, pitch=0.5)
+    inside = inside_voxels_winding(box.vertices, box.faces, vox.grid, vox.surface, closed=True)
+    assert int(inside.sum()) == 27
+    inside[:] = False
+    some = np.zeros(vox.grid.shape, dtype=bool)
+    some[4, 4, 4] = True  # the centre voxel only
+    only = inside_voxels_winding(box.vertices, box.faces, vox.grid, vox.surface,
+                                 candidates=some, closed=True)
+    assert int(only.sum()) == 1 and only[4, 4, 4]
+    assert int(inside_voxels_winding(box.vertices, box.faces, vox.grid, vox.surface,
+                                     closed=True).sum()) == 27

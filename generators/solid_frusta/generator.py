@@ -492,7 +492,12 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
     # candidates: boxes first (as 12-triangle solids), then hulls
     box_meshes = [boxes_mesh(b[None]) for b in boxes]
     candidates = [(m, "box", 1.0) for m in box_meshes]
-    if pieces == "voxel-hulls" and len(index) >= 4:
+    # one box over every inner voxel (a slab of ground, a block): its gain, all the
+    # centres, is the most any hull could have, and ties go to the boxes, so the greedy
+    # below takes that box and stops; the hulls (k-means over millions of voxels on a
+    # level's ground) would change nothing
+    one_box = closed and len(boxes) == 1 and skins.info["covered_voxels"] == len(index)
+    if pieces == "voxel-hulls" and len(index) >= 4 and not one_box:
         depth = _inner_depth(inner, index)
         test = _Containment(mesh, pitch)
         rng = np.random.default_rng(seed)

@@ -572,7 +572,8 @@ def wall_voxel_size(mesh: trimesh.Trimesh, *, bytes_per_cell: float, resolution:
         reason = (f"{lead}: its walls of {wall_q:.4g} (the {quantile:.0%} area quantile) "
                   f"need voxels under {wall_pitch:.4g}, but the finest grid within the "
                   f"{bound} has voxels of {pitch:.4g}: {1 - resolved:.0%} of the wall "
-                  f"area is too thin to hold an inside voxel and gets no occluder{hint}")
+                  f"area is too thin to surely hold an inside voxel (where the grid falls "
+                  f"decides) and may get no occluder{hint}")
     elif wall_pitch < extent_pitch:
         reason = (f"{lead}: voxel {pitch:.4g} (extent-based {extent_pitch:.4g}) for its walls "
                   f"of {wall_q:.4g} (the {quantile:.0%} area quantile); {resolved:.0%} of "
