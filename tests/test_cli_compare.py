@@ -361,3 +361,24 @@ def test_compare_culling_column_error_in_its_process_is_one_line(tmp_path, capsy
     assert "culling: broken on purpose" in captured.err and "Traceback" not in captured.err
     assert captured.out == "" and not (out / "culling.json").exists()
     assert not (out / "results.json").exists()
+
+
+def test_default_jobs_one_per_core_fewer_when_memory_does_not_fit(monkeypatch):
+    from viscore import InputError
+    from viscore.cli import compare_cmd
+
+    monkeypatch.setattr(compare_cmd, "cpu_cores", lambda: 8)
+    # the estimate grows with the jobs: 3 fit under the limit, 4 do not
+    monkeypatch.setattr(compare_cmd, "study_memory", lambda settings, originals, jobs: jobs)
+
+    def check(nbytes, what):
+        if nbytes > 3:
+            raise InputError("too much")
+
+    monkeypatch.setattr(compare_cmd, "check_memory", check)
+    assert compare_cmd._default_jobs(None, {}, 45) == 3
+    assert compare_cmd._default_jobs(None, {}, 2) == 2  # never more than the jobs to run
+    monkeypatch.setattr(compare_cmd, "cpu_cores", lambda: 2)
+    assert compare_cmd._default_jobs(None, {}, 45) == 2
+    monkeypatch.setattr(compare_cmd, "check_memory", lambda nbytes, what: check(9, what))
+    assert compare_cmd._default_jobs(None, {}, 45) == 1  # the refusal is left to --jobs 1
