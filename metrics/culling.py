@@ -575,6 +575,8 @@ def _walk_frames(objects: SceneObjects, runtimes: Mapping[str, Runtime],
     per = {k: {"culled": np.zeros(count, np.int64), "false": np.zeros(count, np.int64),
                "tris": np.zeros(count, np.int64), "ms": np.zeros(count), "names": []}
            for k in names}
+    tri_in: np.ndarray | None = None  # the in-view objects' triangles, with --bounds triangles
+    groups: np.ndarray | None = None
     for f, pose in enumerate(cameras):
         camera = pose.camera(width, height)
         origins, directions = camera.rays()
@@ -602,6 +604,7 @@ def _walk_frames(objects: SceneObjects, runtimes: Mapping[str, Runtime],
             # by triangles: one figure per object, its own triangles pixel by pixel
             call, args = ((runtimes[name].cull_triangles, (camera, tri_in, groups)) if by_tri
                           else (runtimes[name].cull, (camera, lo, hi)))
+            assert call is not None  # by_tri only when the runtime has cull_triangles
             if f == 0:  # warm-up, untimed: compiling the kernels is not a frame's overhead
                 call(*args)
             begin = time.perf_counter()

@@ -204,7 +204,7 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
         if not by_area and counts_img is None:
             counts_img = sum(bitmaps_of(i, int(stage[i])).astype(np.int32) for i in range(k)
                              if stage[i] < chains[i].stages)
-            stale = np.ones((k, len(counts_img)), dtype=bool)  # type: ignore[arg-type]
+            stale = np.ones((k, len(counts_img)), dtype=bool)
         best, best_val, best_next = -1, -np.inf, -1
         if by_area:  # the first chain of largest value, as the loop below takes it
             if (stage < ends).any():
