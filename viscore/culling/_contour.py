@@ -30,7 +30,7 @@ import math
 import numpy as np
 
 from .._jit import njit_cached
-from ._depth_kernel import PYRAMID_SLACK, TOUCH_SLACK, _side
+from ._depth_kernel import PYRAMID_SLACK, TOUCH_SLACK, _clip_to_pyramid, _side
 
 #: A fold is told from a smooth edge when both opposite vertices lie off the plane through
 #: the eye and the edge by more than this fraction of (edge plane normal length x their
@@ -194,31 +194,7 @@ def farthest_touching(tri, eye, r, u, f, hx, hy, far):
             px[m] = dx * r[0] + dy * r[1] + dz * r[2]
             py[m] = dx * u[0] + dy * u[1] + dz * u[2]
             pz[m] = dx * f[0] + dy * f[1] + dz * f[2]
-        n = 3
-        for side in range(4):
-            out = 0
-            for m in range(n):
-                e = m + 1 if m + 1 < n else 0
-                g0 = _side(side, ax, ay, px[m], py[m], pz[m])
-                g1 = _side(side, ax, ay, px[e], py[e], pz[e])
-                if g0 >= 0.0:
-                    qx[out] = px[m]
-                    qy[out] = py[m]
-                    qz[out] = pz[m]
-                    out += 1
-                if (g0 >= 0.0) != (g1 >= 0.0):
-                    t = g0 / (g0 - g1)
-                    qx[out] = px[m] + t * (px[e] - px[m])
-                    qy[out] = py[m] + t * (py[e] - py[m])
-                    qz[out] = pz[m] + t * (pz[e] - pz[m])
-                    out += 1
-            n = out
-            if n == 0:
-                break
-            for m in range(n):
-                px[m] = qx[m]
-                py[m] = qy[m]
-                pz[m] = qz[m]
+        n = _clip_to_pyramid(ax, ay, px, py, pz, qx, qy, qz, 3)
         if n == 0:
             continue
         dist = 0.0

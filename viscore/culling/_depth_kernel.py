@@ -738,6 +738,39 @@ def _side(k, ax, ay, x, y, z):  # pragma: no cover
 
 
 @njit_cached()
+def _clip_to_pyramid(ax, ay, px, py, pz, qx, qy, qz, n):  # pragma: no cover
+    """Clip the convex polygon ``(px, py, pz)[:n]`` (camera coordinates) to the four side
+    planes of the view pyramid widened to half-extents ``ax``, ``ay`` (Sutherland-Hodgman,
+    ``qx, qy, qz`` scratch); the clipped polygon is left in ``px, py, pz``. Returns its
+    vertex count, 0 when nothing of it lies inside."""
+    for side in range(4):
+        out = 0
+        for m in range(n):
+            e = m + 1 if m + 1 < n else 0
+            g0 = _side(side, ax, ay, px[m], py[m], pz[m])
+            g1 = _side(side, ax, ay, px[e], py[e], pz[e])
+            if g0 >= 0.0:
+                qx[out] = px[m]
+                qy[out] = py[m]
+                qz[out] = pz[m]
+                out += 1
+            if (g0 >= 0.0) != (g1 >= 0.0):
+                t = g0 / (g0 - g1)
+                qx[out] = px[m] + t * (px[e] - px[m])
+                qy[out] = py[m] + t * (py[e] - py[m])
+                qz[out] = pz[m] + t * (pz[e] - pz[m])
+                out += 1
+        n = out
+        if n == 0:
+            return 0
+        for m in range(n):
+            px[m] = qx[m]
+            py[m] = qy[m]
+            pz[m] = qz[m]
+    return n
+
+
+@njit_cached()
 def _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, px, py, pz, qx, qy, qz, sc,
                      sr):  # pragma: no cover
     """Whether no ray of the buffer's screen meets triangle ``k`` of ``tri`` (m, 3, 3)
@@ -766,31 +799,9 @@ def _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, px, py, pz, qx, qy, qz
     use_plane = abs(c) > PLANE_CONDITION * scale
     ax = hx * (1.0 + PYRAMID_SLACK)
     ay = hy * (1.0 + PYRAMID_SLACK)
-    n = 3
-    for side in range(4):  # Sutherland-Hodgman against the four side planes
-        out = 0
-        for m in range(n):
-            e = m + 1 if m + 1 < n else 0
-            g0 = _side(side, ax, ay, px[m], py[m], pz[m])
-            g1 = _side(side, ax, ay, px[e], py[e], pz[e])
-            if g0 >= 0.0:
-                qx[out] = px[m]
-                qy[out] = py[m]
-                qz[out] = pz[m]
-                out += 1
-            if (g0 >= 0.0) != (g1 >= 0.0):
-                t = g0 / (g0 - g1)
-                qx[out] = px[m] + t * (px[e] - px[m])
-                qy[out] = py[m] + t * (py[e] - py[m])
-                qz[out] = pz[m] + t * (pz[e] - pz[m])
-                out += 1
-        n = out
-        if n == 0:
-            return True  # wholly outside the view pyramid: no ray of the screen meets it
-        for m in range(n):
-            px[m] = qx[m]
-            py[m] = qy[m]
-            pz[m] = qz[m]
+    n = _clip_to_pyramid(ax, ay, px, py, pz, qx, qy, qz, 3)
+    if n == 0:
+        return True  # wholly outside the view pyramid: no ray of the screen meets it
     zmin = np.inf
     for m in range(n):
         zmin = min(zmin, pz[m])
