@@ -12,6 +12,7 @@ import struct
 import numpy as np
 import pytest
 import trimesh
+from test_report_pages import _street_scene  # the report pages' small street
 
 from viscore import InputError
 from viscore.cli import cull_cmd
@@ -35,15 +36,8 @@ def run(monkeypatch):
 
 
 def _street_glb() -> bytes:
-    """A wall, a box behind it and a ground, as a GLB."""
-    scene = trimesh.Scene()
-    scene.add_geometry(trimesh.creation.box(bounds=[[-5, 0, -0.5], [5, 6, 0.5]]),
-                       geom_name="wall", node_name="wall")
-    scene.add_geometry(trimesh.creation.box(bounds=[[-1.5, 0, 4.5], [1.5, 2, 5.5]]),
-                       geom_name="box", node_name="box")
-    scene.add_geometry(trimesh.creation.box(bounds=[[-30, -0.2, -30], [30, 0, 30]]),
-                       geom_name="ground", node_name="ground")
-    return scene.export(file_type="glb")
+    """A wall, a box behind it and a ground, as a GLB (the report pages' small street)."""
+    return _street_scene().export(file_type="glb")
 
 
 def _glb_with_json(glb: bytes, edit) -> bytes:
