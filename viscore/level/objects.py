@@ -218,6 +218,16 @@ def _split_parts(mesh: trimesh.Trimesh) -> tuple[np.ndarray, int]:
     return rank[part_of_face], n
 
 
+def _by_first_face(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Labels renumbered 0, 1, ... in the order of their first face, and the old label of
+    each new number."""
+    values, first, inverse = np.unique(labels, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")
+    rank = np.empty(len(first), np.int64)
+    rank[order] = np.arange(len(first))
+    return rank[inverse.reshape(-1)], values[order]
+
+
 def _group_parts(mesh: trimesh.Trimesh, path: str) -> tuple[np.ndarray, list, str] | None:
     """The faces of a mesh loaded from an OBJ file labelled by its ``o``/``g`` groups or,
     with fewer than two of those, its ``usemtl`` groups (:mod:`viscore.exchange.obj_groups`):
@@ -233,11 +243,8 @@ def _group_parts(mesh: trimesh.Trimesh, path: str) -> tuple[np.ndarray, list, st
         if rule == "materials" and found.materials_used < 2:
             return None
         per_face = label_faces(found, mesh.vertices, mesh.faces, labels)
-        _, first, inverse = np.unique(per_face, return_index=True, return_inverse=True)
-        rank = np.empty(len(first), np.int64)
-        rank[np.argsort(first, kind="stable")] = np.arange(len(first))
-        order = np.unique(per_face)[np.argsort(first, kind="stable")]
-        return rank[inverse.reshape(-1)], [names[k] or "ungrouped" for k in order], rule
+        ranked, order = _by_first_face(per_face)
+        return ranked, [names[k] or "ungrouped" for k in order], rule
     return None
 
 
@@ -261,11 +268,7 @@ def _tile_parts(mesh: trimesh.Trimesh, up: str) -> np.ndarray:
         return np.zeros(len(centre), dtype=np.int64)
     cells = np.maximum(1, np.ceil((hi - lo) / side - 1e-9)).astype(np.int64)
     cell = np.minimum(((flat - lo) / side).astype(np.int64), cells - 1)
-    key = cell[:, 0] * cells[1] + cell[:, 1]
-    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
-    rank = np.empty(len(first), np.int64)
-    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
-    return rank[inverse.reshape(-1)]
+    return _by_first_face(cell[:, 0] * cells[1] + cell[:, 1])[0]
 
 
 def _mesh_level(mesh: trimesh.Trimesh, label: str, up: str, *, see_through: bool = False,
