@@ -74,20 +74,29 @@ def _check_budget(budget: int | None, methods: list[str]) -> int | None:
 
 
 class _Bar:
-    """``progress(done, total, label)`` as a tqdm bar with an ETA on stderr."""
+    """``progress(done, total, label, work=...)`` as a tqdm bar on stderr.
+
+    The bar fills with the jobs' work (triangles plus a fixed part each, from
+    :func:`viscore.generators.levels.occlude_level`), not their count: the
+    biggest meshes run first, so counting jobs put the end 10-150 times too
+    far at the start. The time left is elapsed x work left / work done.
+    """
 
     def __init__(self, enabled: bool) -> None:
         self.enabled, self.bar = enabled, None
 
-    def __call__(self, done: int, total: int, label: str) -> None:
+    def __call__(self, done: int, total: int, label: str, *,
+                 work: tuple[float, float] = (0.0, 0.0)) -> None:
         if self.bar is None:
             from tqdm import tqdm
 
-            self.bar = tqdm(total=total, initial=done, desc="occlude", unit="job",
-                            disable=not self.enabled)
-            return
-        self.bar.set_postfix_str(label[:60])
-        self.bar.update(done - self.bar.n)
+            self.bar = tqdm(total=max(work[1], 1.0), desc="occlude", smoothing=0.0,
+                            disable=not self.enabled,
+                            bar_format="{desc}: {percentage:3.0f}%|{bar}| "
+                                       "[{elapsed}<{remaining}{postfix}]")
+        self.bar.set_postfix_str(f"{done}/{total} jobs {label[:60]}".rstrip(),
+                                 refresh=False)
+        self.bar.update(work[0] - self.bar.n)
 
     def close(self) -> None:
         if self.bar is not None:

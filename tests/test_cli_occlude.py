@@ -149,6 +149,27 @@ def test_occlude_identical_meshes_share_a_job(tmp_path):
     assert (tmp_path / "bbox.tscn").read_text().count("[sub_resource") == 1
 
 
+def test_occlude_progress_counts_work_in_triangles_biggest_first(tmp_path):
+    """The bar fills with triangles plus a fixed part per job, not with jobs: a 1,280-
+    triangle sphere and two 12-triangle boxes are 1,380 / 1,604 of the work, not 1/3."""
+    from viscore.generators.levels.occlude import JOB_WORK_TRIANGLES
+
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.creation.icosphere(subdivisions=3), geom_name="ball",
+                       node_name="ball")
+    for k, size in enumerate((1.0, 1.5)):
+        scene.add_geometry(trimesh.creation.box(extents=(size, 1, 1)), geom_name=f"box{k}",
+                           node_name=f"box{k}", transform=T.translation_matrix((4 + 3 * k, 0, 0)))
+    calls = []
+    occlude_level(level_objects(scene), tmp_path, methods=["bbox"],
+                  progress=lambda done, total, label, work: calls.append((done, label, work)))
+    per_job = JOB_WORK_TRIANGLES
+    assert [c[0] for c in calls] == [0, 1, 2, 3]
+    assert calls[0][2] == (0.0, 1280 + 12 + 12 + 3 * per_job)
+    assert calls[1][1] == "bbox ball" and calls[1][2][0] == 1280 + per_job
+    assert calls[-1][2][0] == calls[-1][2][1]
+
+
 # ----------------------------------------------------------------------------- single meshes
 def test_level_objects_obj_split_and_up_guessed(tmp_path, caplog):
     obj = _obj_level(tmp_path / "map.obj")
