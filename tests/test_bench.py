@@ -63,6 +63,11 @@ def test_bench_rays_json_tiny(capsys):
         if "scene_embreex_all" in mr:
             assert r["scene_all_vs_scene_embreex_all"] == pytest.approx(
                 mr["scene_all"] / mr["scene_embreex_all"])
+        paired = {"scene_all_vs_scene_1"} | ({"scene_1_vs_open3d_1", "scene_all_vs_open3d_all"}
+                                              if "open3d_all" in mr else set())
+        assert set(s["paired"]) == paired
+        for p in s["paired"].values():
+            assert 0 < p["min"] <= p["median"] <= p["max"]
         # bare embreex on the same float32 unit-frame rays: the same hits, bit for bit
         assert s["agreement"]["bare"] == {"max_abs_t": 0.0, "hit_miss": 0, "triangle": 0}
     coherent = doc["sets"]["coherent"]
@@ -70,6 +75,17 @@ def test_bench_rays_json_tiny(capsys):
     assert doc["ratio_vs_bare"] == pytest.approx(doc["scene_mrays_1"] / doc["bare_mrays_1"])
     assert doc["scaling"] == pytest.approx(doc["scene_mrays_all"] / doc["scene_mrays_1"])
     assert "embree" in doc["provenance"]
+
+
+def test_paired_ratios_follow_the_repeats_not_the_medians():
+    from viscore.cli.bench.core import _paired
+
+    # a twice as fast in every repeat, the machine slower in the later repeats
+    assert _paired([1.0, 2.0, 3.0], [2.0, 4.0, 6.0]) == {"median": 2.0, "min": 2.0, "max": 2.0}
+    # the medians (10 and 5) pair a's slow repeat with b's fast one: 0.5; repeat by
+    # repeat a is faster twice in three
+    p = _paired([1.0, 10.0, 10.0], [2.0, 20.0, 5.0])
+    assert p == {"median": 2.0, "min": 0.5, "max": 2.0}
 
 
 def test_bench_rays_times_scene_on_embreex_beside_its_packets(capsys, monkeypatch):

@@ -72,6 +72,45 @@ def test_scene_threads_agree_with_one_worker(unit_sphere, rng):
     np.testing.assert_array_equal(t1, t2)
 
 
+@pytest.mark.parametrize("n, workers", [(1_000_000, 2), (4_194_304, 2), (300_000, 3),
+                                        (1_000_000, 1), (100_000, 2), (20_000, 2)])
+def test_chunk_bounds_cover_the_batch_and_shrink_at_the_end(n, workers):
+    from viscore.constants import MIN_RAYS_PER_TASK
+    from viscore.ray.embree_scene import _MAX_RAYS_PER_CHUNK, _TAIL_RAYS
+
+    bounds = Scene._chunk_bounds(n, workers)
+    sizes = np.diff(bounds)
+    assert bounds[0] == 0 and bounds[-1] == n and (sizes > 0).all()
+    assert sizes.max() <= _MAX_RAYS_PER_CHUNK
+    count = Scene._chunk_count(n, workers)
+    if workers == 1 or count < 4 * workers:  # one thread or a small batch: equal chunks
+        assert len(sizes) == count and sizes.max() - sizes.min() <= 1
+    else:
+        # guided: never growing but for the last, none under _TAIL_RAYS, the last
+        # under two of them and smaller than the first
+        assert (np.diff(sizes) <= 0).sum() >= len(sizes) - 2
+        assert sizes[:-1].min() >= _TAIL_RAYS and sizes[-1] < 2 * _TAIL_RAYS
+        assert sizes[-1] < sizes[0]
+    assert sizes.min() >= MIN_RAYS_PER_TASK // 2 or len(sizes) == 1
+
+
+def test_guided_chunks_trace_as_one_worker_and_name_the_first_bad_ray(unit_sphere, rng):
+    # 300k rays on 2 threads: equal chunks, then shrinking ones (_chunk_bounds)
+    n = 300_000
+    assert len(Scene._chunk_bounds(n, 2)) - 1 > len(Scene._chunk_bounds(n, 1)) - 1
+    o = rng.uniform(-2, 2, (n, 3))
+    d = rng.normal(size=(n, 3))
+    t1, i1 = Scene(unit_sphere, workers=1).first_hit(o, d)
+    t2, i2 = Scene(unit_sphere, workers=2).first_hit(o, d)
+    np.testing.assert_array_equal(i1, i2)
+    np.testing.assert_array_equal(t1, t2)
+    np.testing.assert_array_equal(Scene(unit_sphere, workers=2).any_hit(o, d), i1 >= 0)
+    o[296_000, 1] = np.nan  # in one of the last, small chunks
+    o[299_999, 0] = np.inf
+    with pytest.raises(InputError, match=r"\(first at ray 296000\)"):
+        Scene(unit_sphere, workers=2).first_hit(o, d)
+
+
 def test_scene_far_from_origin_keeps_precision():
     box = trimesh.creation.box(extents=(2.0, 2.0, 2.0))
     box.apply_translation([1e5, 1e5, 1e5])

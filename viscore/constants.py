@@ -29,6 +29,8 @@ DEGENERATE_AREA_RELATIVE = 1e-14
 #: at least this many rays (at most ``scene._MAX_RAYS_PER_CHUNK``), so that one
 #: chunk's float32 copies stay in cache and the fixed cost of each numpy call
 #: and Embree call is spread; a batch no larger than this runs on the calling thread.
+#: The last chunks of a large batch on several threads shrink to half of it
+#: (``Scene._chunk_bounds``), so that the threads finish together.
 MIN_RAYS_PER_TASK = 16384
 
 #: Voxel grids above this many cells are refused outright (about 6 GiB of

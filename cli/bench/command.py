@@ -147,6 +147,13 @@ def _agreement_text(name: str, a: dict) -> str:
             f"{a['triangle']:,} triangle differences")
 
 
+def _paired_text(p: dict | None) -> str:
+    """`` [paired x1.02, x0.95-1.10]``: a ratio repeat by repeat (median, min-max), or ''."""
+    if not p:
+        return ""
+    return f" [paired x{p['median']:.2f}, x{p['min']:.2f}-{p['max']:.2f}]"
+
+
 def rays_text(r: dict) -> str:
     """The human-readable report of :func:`viscore.cli.bench.core.bench_rays`."""
     from .core import BARE_CHUNK_RAYS, RAY_SETS
@@ -154,7 +161,8 @@ def rays_text(r: dict) -> str:
     w = r["workers"]
     lines = [f"{r['mesh']}: {r['faces']:,} triangles, {w} workers; first-hit Mrays/s, median of "
              f"{r['repeats']} interleaved repeats (fastest in brackets), on the same rays; "
-             f"{_TRACERS[r['scene_tracer']]}"]
+             f"{_TRACERS[r['scene_tracer']]}; ratios of the medians, and [paired: the "
+             f"median and range of the ratios repeat by repeat]"]
     what = {"coherent": f"{r['views']} orthographic views of {r['resolution']} x "
                         f"{r['resolution']} px, orbit framing",
             "incoherent": "uniform points in the bounding box, uniform directions"}
@@ -173,11 +181,16 @@ def rays_text(r: dict) -> str:
             notes["scene_all"] += f", x{ratio['scene_all_vs_scene_embreex_all']:.2f} of embreex's"
             notes["scene_embreex_all"] = (f"x{ratio['scene_embreex_all_vs_scene_embreex_1']:.2f}"
                                           f" of 1 worker")
+        paired = s.get("paired", {})
+        if "scene_all_vs_scene_1" in paired:
+            notes["scene_all"] += _paired_text(paired["scene_all_vs_scene_1"])
         if "open3d_all" in mr:
-            notes["open3d_1"] = f"Scene x{ratio['scene_1_vs_open3d_1']:.2f} of it"
+            notes["open3d_1"] = (f"Scene x{ratio['scene_1_vs_open3d_1']:.2f} of it"
+                                 + _paired_text(paired.get("scene_1_vs_open3d_1")))
             notes["open3d_all"] = (f"x{ratio['open3d_all_vs_open3d_1']:.2f} of 1 thread; Scene "
                                    f"x{ratio['scene_all_vs_open3d_all']:.2f} of it (target "
-                                   f">= 1.00 on 2 cores)")
+                                   f">= 1.00 on 2 cores)"
+                                   + _paired_text(paired.get("scene_all_vs_open3d_all")))
         lines.append(f"{name}: {s['rays']:,} rays ({what[name]}, seed {r['seed']}), "
                      f"{s['hit_share']:.1%} hit")
         for key, value in mr.items():

@@ -89,6 +89,23 @@ _RAY_RATIOS = (("scene_1", "bare_1"), ("scene_1", "bare_chunked_1"), ("scene_all
                ("scene_1", "open3d_1"), ("scene_all", "open3d_all"))
 
 
+#: Ratios of ``bench rays`` also given paired, repeat by repeat (see :func:`_paired`).
+_PAIRED_RATIOS = (("scene_all", "scene_1"), ("scene_1", "open3d_1"),
+                  ("scene_all", "open3d_all"))
+
+
+def _paired(seconds_a: list[float], seconds_b: list[float]) -> dict:
+    """Speed of ``a`` over ``b`` repeat by repeat: ``b``'s time over ``a``'s in each repeat.
+
+    The calls of one repeat run one after the other, so each pair shares the
+    machine's state of the moment (another process's load, the clock), which
+    the ratio of the two medians does not pair. Returns ``median``, ``min``
+    and ``max`` of the per-repeat ratios.
+    """
+    r = np.asarray(seconds_b, dtype=np.float64) / np.asarray(seconds_a, dtype=np.float64)
+    return {"median": float(np.median(r)), "min": float(r.min()), "max": float(r.max())}
+
+
 def bench_ray_sets(mesh, *, views: int = 4, resolution: int = 1024, rays: int = 1_000_000,
                    seed: int = 0) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """The coherent and the incoherent rays of ``bench rays``, float64 world units.
@@ -237,6 +254,16 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, views: int = 4,
     scaled as :class:`Scene` does, so they do the same work; the hits are
     compared to say so. The calls are interleaved, ``repeats`` times each.
 
+    What each timed call does: :class:`Scene` gets the float64 world rays and
+    converts them to float32 in its unit frame, checks them, traces them and
+    returns float64 distances and int64 triangles (16 bytes a ray). Open3D's
+    ``cast_rays`` gets the same rays already as one float32 ``(n, 6)`` unit-frame
+    tensor (made beforehand, untimed), traces them with Embree in its own TBB
+    arena of ``nthreads`` threads (both busy at 2: each thread's CPU time
+    says so) and returns five arrays (float32 ``t_hit``, ``geometry_ids``,
+    ``primitive_ids``, ``primitive_uvs``, ``primitive_normals``: 32 bytes a
+    ray). Scene pays the conversion, Open3D the larger outputs.
+
     Parameters
     ----------
     mesh : str, optional
@@ -272,7 +299,10 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, views: int = 4,
         (target >= 1.7 on 2 cores), ``scene_1_vs_scene_embreex_1``,
         ``scene_all_vs_scene_embreex_all``, ``scene_embreex_all_vs_scene_embreex_1``,
         ``open3d_all_vs_open3d_1``, ``scene_1_vs_open3d_1``,
-        ``scene_all_vs_open3d_all`` (target >= 1 on 2 cores)) and
+        ``scene_all_vs_open3d_all`` (target >= 1 on 2 cores)), ``paired``
+        (``scene_all_vs_scene_1``, ``scene_1_vs_open3d_1`` and
+        ``scene_all_vs_open3d_all`` repeat by repeat, see :func:`_paired`:
+        ``median``, ``min``, ``max``) and
         ``agreement`` (``bare`` and ``open3d`` against
         Scene's hits: ``max_abs_t``, ``hit_miss``, ``triangle``; see
         :func:`_agreement`). The coherent set's figures are repeated at the
@@ -337,6 +367,8 @@ def bench_rays(mesh: str = "bunny", *, rays: int = 1_000_000, views: int = 4,
             "mrays": mrays,
             "best_mrays": {key: n / min(ts) / 1e6 for key, ts in seconds[name].items()},
             "ratios": ratios,
+            "paired": {f"{a}_vs_{b}": _paired(seconds[name][a], seconds[name][b])
+                       for a, b in _PAIRED_RATIOS if a in mrays and b in mrays},
             "agreement": {other: _agreement(t, tri, *hits[name][other])
                           for other in ("bare", "open3d") if other in hits[name]},
         }
