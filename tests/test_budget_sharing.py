@@ -1,6 +1,7 @@
 """Work the budgets of one mesh share, made once per process: the greedy search taken
-further, planar sections' candidates, the check views. A kept result must be the one made
-anew (a hit and a miss give the same occluder), and another mesh must not find it."""
+further, planar sections' candidates, hybrid's candidates and volume views, the check
+views. A kept result must be the one made anew (a hit and a miss give the same occluder),
+and another mesh must not find it."""
 
 import numpy as np
 import pytest
@@ -9,6 +10,7 @@ import trimesh
 from viscore import load_mesh
 from viscore.cli.study.runner import Job, StudySettings, _tasks
 from viscore.generators._precision_check import _CHECK_VIEWS, check_views
+from viscore.generators.hybrid import generator as hybrid
 from viscore.generators.planar_sections import _single, generate_planar_sections
 from viscore.generators.planar_sections._select import GreedySearch, select_greedy
 
@@ -91,6 +93,22 @@ def test_check_views_kept_per_mesh_and_seed():
     changed = check_views(other, 0, 4)
     assert changed is not first and changed.extent != first.extent
     _CHECK_VIEWS.clear()
+
+
+def test_hybrid_kept_candidates_give_the_occluder_made_anew():
+    box = trimesh.creation.box()
+    box = trimesh.util.concatenate([box, trimesh.creation.box().apply_translation([2, 0, 0])])
+    opts = {"mgos": False, "voxels": 16}
+    hybrid._CANDIDATES.clear()
+    made = hybrid.generate_hybrid(box, budget=40, **opts)
+    kept = hybrid.generate_hybrid(box, budget=40, **opts)
+    assert len(hybrid._CANDIDATES._items) == 1
+    assert _same(made, kept) and made.info["faces"] == kept.info["faces"]
+    moved = box.copy()
+    moved.vertices[0] += 0.3
+    hybrid.generate_hybrid(moved, budget=40, **opts)
+    assert len(hybrid._CANDIDATES._items) == 2
+    hybrid._CANDIDATES.clear()
 
 
 def test_study_tasks_hold_a_methods_budgets_together():
