@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
+from viscore._content_cache import ContentCache
+
 __all__ = ["CHECK_VIEWS", "CHECK_SEED_OFFSET", "CHECK_Z", "DEFAULT_MIN_PRECISION", "ratio_se",
            "check_views", "check_score", "passes"]
 
@@ -19,6 +21,9 @@ CHECK_SEED_OFFSET = 7919
 #: One-sided 95% normal quantile of the check's lower bound.
 CHECK_Z = 1.645
 
+#: The check views of the last meshes checked in this process.
+_CHECK_VIEWS = ContentCache(2)
+
 
 def ratio_se(num: np.ndarray, den: np.ndarray) -> float:
     """Standard error of sum(num) / sum(den) with the views as units (the ratio estimator's
@@ -31,10 +36,15 @@ def ratio_se(num: np.ndarray, den: np.ndarray) -> float:
 
 
 def check_views(mesh: trimesh.Trimesh, seed: int, views: int = CHECK_VIEWS):
-    """The original's check views (:class:`viscore.metrics.ReferenceViews`, orbit), cast once."""
+    """The original's check views (:class:`viscore.metrics.ReferenceViews`, orbit), cast once
+    per mesh (by its vertices and faces), seed and view count in a process: the budgets of
+    one mesh check their occluders on the same views (scoring leaves them as they are)."""
     from viscore.metrics.reference_views import ReferenceViews
 
-    return ReferenceViews(mesh, protocol="orbit", views=views, seed=seed + CHECK_SEED_OFFSET)
+    return _CHECK_VIEWS.get(
+        (np.asarray(mesh.vertices), np.asarray(mesh.faces), int(seed), int(views)),
+        lambda: ReferenceViews(mesh, protocol="orbit", views=views,
+                               seed=seed + CHECK_SEED_OFFSET))
 
 
 def check_score(views, occluder: trimesh.Trimesh) -> dict:

@@ -8,6 +8,7 @@ import numpy as np
 import trimesh
 
 from viscore import InputError, Scene, validate_mesh
+from viscore._jit import njit_cached
 
 
 def scene_of(mesh: trimesh.Trimesh | Scene | None, name: str) -> Scene | None:
@@ -54,15 +55,32 @@ def ortho_box_rays(camera, box: tuple) -> tuple[np.ndarray, np.ndarray]:
     """The rays of ``camera.rays()`` for the pixels of ``box`` only, row-major.
 
     ``box`` is (row0, col0, row1, col1), exclusive ends. Computed with the
-    same arithmetic as :meth:`viscore.OrthoCamera.rays`, so the origins are
-    bit for bit those of the whole image's rays (a test checks it).
+    same arithmetic as :meth:`viscore.OrthoCamera.rays` (the same operations
+    on the same float64 values in the same order, one pixel at a time instead
+    of one array temporary per operation), so the origins are bit for bit
+    those of the whole image's rays (a test checks it).
     """
-    f, r, u = camera.basis
+    f, r, u = (np.ascontiguousarray(a, dtype=np.float64) for a in camera.basis)
     res = camera.resolution
     c = (np.arange(res) + 0.5) / res - 0.5
-    r0, c0, r1, c1 = box
-    x = np.tile(c[c0:c1], r1 - r0)
-    y = np.repeat(-c[r0:r1], c1 - c0)
-    plane = camera.center + camera.extent * (x[:, None] * r + y[:, None] * u)
-    origins = plane - camera.start * f
+    r0, c0, r1, c1 = (int(v) for v in box)
+    origins = np.empty(((r1 - r0) * (c1 - c0), 3))
+    _ortho_origins(c, r0, c0, r1, c1, np.asarray(camera.center, dtype=np.float64),
+                   float(camera.extent), r, u, camera.start * f, origins)
     return origins, np.broadcast_to(f, origins.shape)
+
+
+@njit_cached(nogil=True)
+def _ortho_origins(c, r0, c0, r1, c1, center, extent, right, up, start_f, out
+                   ):  # pragma: no cover
+    """``out[k]`` = center + extent * (x * right + y * up) - start_f for the pixels of the
+    box row-major (x = c[col], y = -c[row]), each operation as numpy evaluates
+    :meth:`viscore.OrthoCamera.rays`' array expression."""
+    k = 0
+    for i in range(r0, r1):
+        y = -c[i]
+        for j in range(c0, c1):
+            x = c[j]
+            for a in range(3):
+                out[k, a] = (center[a] + extent * (x * right[a] + y * up[a])) - start_f[a]
+            k += 1

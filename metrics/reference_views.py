@@ -277,7 +277,7 @@ class ReferenceViews:
         whole = box is None or box == (0, 0, res, res)
         if self.protocol == "orbit":
             camera = OrthoCamera(self.directions[cam], self.center, self.extent, res)
-            return camera.rays() if whole else ortho_box_rays(camera, box)  # type: ignore[arg-type]
+            return ortho_box_rays(camera, (0, 0, res, res) if whole else box)  # type: ignore[arg-type]
         d = self._bundle[cam]
         if not whole:
             r0, c0, r1, c1 = box  # type: ignore[misc]

@@ -108,6 +108,24 @@ def test_ortho_box_rays_bit_identical_to_the_whole_image():
     np.testing.assert_array_equal(db, d.reshape(16, 16, 3)[3:11, 5:14].reshape(-1, 3))
 
 
+def test_ortho_box_rays_bit_identical_on_random_cameras_and_boxes():
+    """The compiled rays are those of the camera's numpy expression, bit for bit, over
+    scales, resolutions, boxes and the whole image (the one the protocols cast)."""
+    rng = np.random.default_rng(7)
+    for _ in range(60):
+        res = int(rng.integers(2, 80))
+        cam = OrthoCamera(rng.normal(size=3), rng.normal(size=3) * rng.uniform(0.01, 100),
+                          float(rng.uniform(1e-3, 1e3)), res)
+        o, d = cam.rays()
+        r0, r1 = sorted(rng.integers(0, res + 1, 2))
+        c0, c1 = sorted(rng.integers(0, res + 1, 2))
+        for box in ((r0, c0, r1, c1), (0, 0, res, res)):
+            ob, db = ortho_box_rays(cam, box)
+            part = (slice(box[0], box[2]), slice(box[1], box[3]))
+            np.testing.assert_array_equal(ob, o.reshape(res, res, 3)[part].reshape(-1, 3))
+            np.testing.assert_array_equal(db, d.reshape(res, res, 3)[part].reshape(-1, 3))
+
+
 # ---------------------------------------------------------------- inspection
 def test_depth_images_float32_and_quads_inside_images(torus):
     views = ReferenceViews(torus, **ORBIT)

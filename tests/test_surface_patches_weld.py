@@ -135,6 +135,15 @@ def test_crease_lines_match_vertices_by_position_and_skip_parallel_planes():
                         np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0]]), reach=1e-3)
     assert np.allclose(moved[0], [0, 0, 2.0], atol=1e-15)
     assert np.array_equal(moved[1], [1e-4, 0, 5.0])
+    # the lines a caller keeps for one occluder's welds: found once, the same points moved
+    lines: dict = {}
+    for _ in range(2):
+        kept = weld_points(np.array([[1e-4, 0, 2.0], [1e-4, 0, 5.0]]), 1, creases,
+                           np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0]]), reach=1e-3, lines=lines)
+        assert np.array_equal(kept, moved) and list(lines) == [(1, 0)]
+    lines[1, 0] = (np.array([0.0, 0, 0]), np.array([0.0, 1, 0]))  # a kept line is the one used
+    assert not np.array_equal(weld_points(np.array([[1e-4, 0, 2.0]]), 1, creases, np.array(
+        [[1.0, 0, 0, 0], [0, 1.0, 0, 0]]), reach=1e-3, lines=lines), moved[:1])
 
 
 @pytest.mark.parametrize("weld", ["on", "", None])

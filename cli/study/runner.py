@@ -351,10 +351,17 @@ def _held_job(job: Job, workers: int | None = None, views=None
     return row, ply, portable(records)
 
 
-def _run_job_on_file(job: Job, workers: int | None, path: str
-                     ) -> tuple[dict, bytes, list[dict]]:
-    """In a worker: :func:`_held_job` on the views of ``path``."""
-    return _held_job(job, workers, views_from_file(path))
+def _run_jobs_on_file(jobs: list[Job], workers: int | None, path: str
+                      ) -> list[tuple[dict, bytes, list[dict]]]:
+    """In a worker: :func:`_held_job` of each job in turn on the views of ``path``.
+
+    ``jobs`` are the budgets of one mesh and method (:func:`_tasks`): run in one
+    process, one after the other, they share what does not depend on the
+    budget (the check views, planar sections' candidates and greedy search),
+    each made once; every row is the one its job gives alone.
+    """
+    views = views_from_file(path)
+    return [_held_job(job, workers, views) for job in jobs]
 
 
 def _file_occluder(job: Job):
@@ -431,6 +438,15 @@ def _by_mesh(pending: list[Job]) -> dict:
     return groups
 
 
+def _tasks(group: list[Job]) -> list[list[Job]]:
+    """One mesh's jobs as worker tasks: a method's budgets together, in order (they share
+    work in one process: :func:`_run_jobs_on_file`); each occluder file alone."""
+    tasks: dict = {}
+    for job in group:
+        tasks.setdefault((job.method, job.source), []).append(job)
+    return list(tasks.values())
+
+
 def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings,
                files: list[OccluderFile] = ()) -> list[Job]:
     """One job per mesh, method and budget (one budget-less job for unbudgeted methods).
@@ -455,8 +471,9 @@ def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
 
     A worker builds a mesh's views (from ``originals[mesh]`` when given, else
     loading it) and pickles them to a file in a temporary folder made in
-    ``scratch``; each job of that mesh carries the file's path and each worker
-    reads a file once (:func:`views_from_file`). ``commit(job, result)`` is
+    ``scratch``; each task of that mesh (a method's budgets, :func:`_tasks`)
+    carries the file's path and each worker reads a file once
+    (:func:`views_from_file`). ``commit(job, result)`` is
     called in this process as each job finishes. On any exception (Ctrl-C
     included) the jobs that finished are committed, the others cancelled and
     the workers killed, then the exception goes on; the temporary folder is
@@ -477,16 +494,18 @@ def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
                 for fut in done:
                     if fut in building:
                         path = fut.result()
-                        for job in groups[building.pop(fut)]:
-                            running[pool.submit(_run_job_on_file, job, per_job, path)] = job
+                        for task in _tasks(groups[building.pop(fut)]):
+                            running[pool.submit(_run_jobs_on_file, task, per_job,
+                                                path)] = task
                     else:
-                        commit(running[fut], fut.result())
-                        del running[fut]
+                        for job, result in zip(running.pop(fut), fut.result(), strict=True):
+                            commit(job, result)
         except BaseException:
             try:
-                for fut, job in list(running.items()):  # keep what finished meanwhile
+                for fut, task in list(running.items()):  # keep what finished meanwhile
                     if fut.done() and not fut.cancelled() and fut.exception() is None:
-                        commit(job, fut.result())
+                        for job, result in zip(task, fut.result(), strict=True):
+                            commit(job, result)
             finally:
                 stop_pool(pool)
             raise

@@ -28,6 +28,7 @@ import numpy as np
 import trimesh
 
 from viscore import InputError, Scene, validate_mesh
+from viscore._content_cache import ContentCache
 from viscore._validate import as_fraction, as_positive_int, as_seed, check_memory
 from viscore.constants import DEGENERATE_AREA_RELATIVE
 from viscore.voxel.winding import is_closed_oriented
@@ -41,6 +42,11 @@ from ._voxel import BYTES_PER_SAMPLE, grid_shape, simplify_isosurface, winding_i
 __all__ = ["generate_hybrid", "GROUPINGS", "CANDIDATES"]
 
 _log = logging.getLogger(__name__)
+
+#: The candidate sets (patch and voxel faces) and the metric-guided step's volume views of
+#: the last meshes in this process: a study runs a mesh's budgets one after the other.
+_CANDIDATES = ContentCache(2)
+_REFERENCES = ContentCache(2)
 
 #: Patch groupings: dihedral angles (the paper) or xatlas charts.
 GROUPINGS = ("dihedral", "xatlas")
@@ -272,56 +278,66 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
     origin, pitch, shape = grid_shape(unit.bounds, voxels)
     if use_voxel:
         check_memory(float(np.prod(shape)) * BYTES_PER_SAMPLE, f"voxels={voxels}")
-    info: dict = {}
-    scene = Scene(unit)
 
-    patch_mesh = _empty()
-    t0 = time.perf_counter()
-    if use_patch:
-        pc = patch_candidates(unit, scene, eps_a=eps_a, grouping=grouping,
-                              patch_faces=patch_faces, fill_holes=fill_holes,
-                              coplanar=coplanar, bands=bands,
-                              segment_length=SEGMENT_LENGTH * 1.0, seed=seed)
-        patch_mesh = pc.mesh
-        info["patch"] = pc.info
-    info["seconds_patch"] = time.perf_counter() - t0
+    def made() -> tuple:  # the candidate set, which does not depend on the budget
+        info: dict = {}
+        scene = Scene(unit)
 
-    voxel_mesh = _empty()
-    t0 = time.perf_counter()
-    info["seconds_enforce"] = 0.0
-    if use_voxel:
-        iso, vinfo = winding_isosurface(unit, voxels=voxels)
-        if len(iso.faces):
-            voxel_mesh = simplify_isosurface(iso, faces=voxel_faces)
-            vinfo["isosurface_faces"] = len(iso.faces)
-            vinfo["faces"] = len(voxel_mesh.faces)
-            info["seconds_voxel"] = time.perf_counter() - t0
-            if enforce:
-                t1 = time.perf_counter()
-                voxel_mesh, info["enforce"] = enforce_conservative(
-                    voxel_mesh, iso, origin=origin, pitch=pitch, shape=shape)
-                for key in ("max_sdf_before", "max_sdf_after"):
-                    info["enforce"][key] *= diagonal  # world units
-                info["seconds_enforce"] = time.perf_counter() - t1
-        vinfo["pitch"] *= diagonal  # world units
-        info["voxel"] = vinfo
-    info.setdefault("seconds_voxel", time.perf_counter() - t0 - info["seconds_enforce"])
+        patch_mesh = _empty()
+        t0 = time.perf_counter()
+        if use_patch:
+            pc = patch_candidates(unit, scene, eps_a=eps_a, grouping=grouping,
+                                  patch_faces=patch_faces, fill_holes=fill_holes,
+                                  coplanar=coplanar, bands=bands,
+                                  segment_length=SEGMENT_LENGTH * 1.0, seed=seed)
+            patch_mesh = pc.mesh
+            info["patch"] = pc.info
+        info["seconds_patch"] = time.perf_counter() - t0
 
-    # the candidate set: patch faces first, then voxel faces; faces that validation would
-    # drop go now, so that the metric-guided step's face indices follow ``source``
-    pv = np.asarray(patch_mesh.vertices, dtype=np.float64)
-    vertices = np.concatenate([pv, np.asarray(voxel_mesh.vertices, dtype=np.float64)])
-    vertices = vertices * diagonal + centre
-    faces = np.concatenate([np.asarray(patch_mesh.faces, dtype=np.int64),
-                            np.asarray(voxel_mesh.faces, dtype=np.int64) + len(pv)])
-    source = np.repeat([0, 1], [len(patch_mesh.faces), len(voxel_mesh.faces)])
-    keep = _kept_by_validation(vertices, faces)
-    faces, source = faces[keep], source[keep]
-    info["candidates_patch"] = int((source == 0).sum())
-    info["candidates_voxel"] = int((source == 1).sum())
-    combined = trimesh.Trimesh(vertices, faces, process=False)
-    combined.remove_unreferenced_vertices()
+        voxel_mesh = _empty()
+        t0 = time.perf_counter()
+        info["seconds_enforce"] = 0.0
+        if use_voxel:
+            iso, vinfo = winding_isosurface(unit, voxels=voxels)
+            if len(iso.faces):
+                voxel_mesh = simplify_isosurface(iso, faces=voxel_faces)
+                vinfo["isosurface_faces"] = len(iso.faces)
+                vinfo["faces"] = len(voxel_mesh.faces)
+                info["seconds_voxel"] = time.perf_counter() - t0
+                if enforce:
+                    t1 = time.perf_counter()
+                    voxel_mesh, info["enforce"] = enforce_conservative(
+                        voxel_mesh, iso, origin=origin, pitch=pitch, shape=shape)
+                    for key in ("max_sdf_before", "max_sdf_after"):
+                        info["enforce"][key] *= diagonal  # world units
+                    info["seconds_enforce"] = time.perf_counter() - t1
+            vinfo["pitch"] *= diagonal  # world units
+            info["voxel"] = vinfo
+        info.setdefault("seconds_voxel", time.perf_counter() - t0 - info["seconds_enforce"])
 
+        # the candidate set: patch faces first, then voxel faces; faces that validation would
+        # drop go now, so that the metric-guided step's face indices follow ``source``
+        pv = np.asarray(patch_mesh.vertices, dtype=np.float64)
+        vertices = np.concatenate([pv, np.asarray(voxel_mesh.vertices, dtype=np.float64)])
+        vertices = vertices * diagonal + centre
+        faces = np.concatenate([np.asarray(patch_mesh.faces, dtype=np.int64),
+                                np.asarray(voxel_mesh.faces, dtype=np.int64) + len(pv)])
+        source = np.repeat([0, 1], [len(patch_mesh.faces), len(voxel_mesh.faces)])
+        keep = _kept_by_validation(vertices, faces)
+        faces, source = faces[keep], source[keep]
+        info["candidates_patch"] = int((source == 0).sum())
+        info["candidates_voxel"] = int((source == 1).sum())
+        combined = trimesh.Trimesh(vertices, faces, process=False)
+        combined.remove_unreferenced_vertices()
+
+        return combined, source, info
+
+    # the budgets of one mesh share it (made once in a process, by the mesh's content and
+    # the options it depends on; the selection below never changes it)
+    key = (np.asarray(mesh.vertices), np.asarray(mesh.faces), voxels, eps_a, grouping,
+           candidates, enforce, fill_holes, coplanar, bands, patch_faces, voxel_faces, seed)
+    combined, source, kept_info = _CANDIDATES.get(key, made)
+    combined, info = combined.copy(), dict(kept_info)
     t0 = time.perf_counter()
     if mgos and len(combined.faces):
         result, source, info["mgos"] = _select(
@@ -360,10 +376,14 @@ def _select(original: trimesh.Trimesh, combined: trimesh.Trimesh, source: np.nda
     spacing, resolution, quads = views
     diagonal = float(np.linalg.norm(np.ptp(np.asarray(original.vertices), axis=0)))
     spacing = (MGOS_SPACING_FRACTION if spacing is None else spacing) * diagonal
-    reference = ReferenceViews(original, protocol="volume", spacing=spacing,
-                               quads=MGOS_QUADS if quads is None else quads,
-                               resolution=MGOS_RESOLUTION if resolution is None else resolution,
-                               seed=seed)
+    quads = MGOS_QUADS if quads is None else quads
+    resolution = MGOS_RESOLUTION if resolution is None else resolution
+    # built once per mesh and settings in a process (scoring leaves the views as they are)
+    reference = _REFERENCES.get(
+        (np.asarray(original.vertices), np.asarray(original.faces), spacing, quads,
+         resolution, seed),
+        lambda: ReferenceViews(original, protocol="volume", spacing=spacing, quads=quads,
+                               resolution=resolution, seed=seed))
     current, info = metric_guided_simplify(original, combined, reference=reference,
                                            eps_p=eps_p, eps_r=eps_r, seed=seed,
                                            max_faces=budget, min_precision=min_precision)

@@ -15,6 +15,7 @@ References
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,7 +31,8 @@ from .._soup_measure import (
 )
 
 __all__ = ["Selection", "measure_directions", "project_candidates", "soup_measures",
-           "select_greedy", "reduce_to_budget", "MEASURE_DIRECTIONS", "MEASURE_RESOLUTION"]
+           "select_greedy", "GreedySearch", "reduce_to_budget", "MEASURE_DIRECTIONS",
+           "MEASURE_RESOLUTION"]
 
 
 @dataclass(frozen=True)
@@ -92,41 +94,78 @@ def select_greedy(bitmaps: np.ndarray, pixel: float, *, alpha: float, measure: s
     totals : (k,) float64
         Mean over directions of the soup's measure after each addition.
     """
-    bitmaps = np.ascontiguousarray(bitmaps, dtype=bool)
-    n, nd = bitmaps.shape[:2]
-    union = np.zeros(bitmaps.shape[1:], dtype=bool)
-    base = np.zeros(nd)
-    done = np.zeros(n, dtype=bool)
-    bound = np.full(n, np.inf)  # gain at the last evaluation (pixel units)
-    chosen: list[int]
-    chosen, totals = [], []
-    scale = pixel**2 if measure == "area" else pixel**3
-    current = 0.0
-    while not done.all() and (max_polygons is None or len(chosen) < max_polygons):
-        order = np.flatnonzero(~done)
-        order = order[np.argsort(-bound[order], kind="stable")]
-        best, best_gain = -1, -np.inf
-        chunk = max(1, len(order) // 8) if lazy else len(order)
-        for first in range(0, len(order), chunk):
-            if lazy and best >= 0 and best_gain >= bound[order[first]]:
+    return GreedySearch(bitmaps, pixel, alpha=alpha, measure=measure, lazy=lazy).result(
+        max_polygons)
+
+
+class GreedySearch:
+    """The greedy search of :func:`select_greedy`, kept to be taken further.
+
+    The search's state after k additions does not depend on how many it was
+    allowed: the selection with at most m polygons is the first m of the
+    selection with at most M >= m (the count only ends the loop). A search
+    asked for M after m goes on from where it stopped, so the budgets of one
+    mesh share one search (the same choices and totals, bit for bit, as a
+    search made anew for each).
+    """
+
+    def __init__(self, bitmaps: np.ndarray, pixel: float, *, alpha: float,
+                 measure: str = "om", lazy: bool = True) -> None:
+        self.bitmaps = np.ascontiguousarray(bitmaps, dtype=bool)
+        n, nd = self.bitmaps.shape[:2]
+        self.alpha, self.measure, self.lazy = alpha, measure, lazy
+        self.union = np.zeros(self.bitmaps.shape[1:], dtype=bool)
+        self.base = np.zeros(nd)
+        self.done = np.zeros(n, dtype=bool)
+        self.bound = np.full(n, np.inf)  # gain at the last evaluation (pixel units)
+        self.chosen: list[int] = []
+        self.totals: list[float] = []
+        self.scale = pixel**2 if measure == "area" else pixel**3
+        self.current = 0.0
+        self.ended = False  # stopped by the search itself, not by a count
+        self._lock = threading.Lock()
+
+    def result(self, max_polygons: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(chosen, totals)`` of the search with at most ``max_polygons`` (None: no
+        limit), going on from the last call where that asks for more (thread-safe)."""
+        with self._lock:
+            self._extend(max_polygons)
+        k = len(self.chosen) if max_polygons is None else min(len(self.chosen), max_polygons)
+        return (np.asarray(self.chosen[:k], dtype=np.int64),
+                np.asarray(self.totals[:k], dtype=np.float64))
+
+    def _extend(self, max_polygons: int | None) -> None:
+        bitmaps, bound, done, nd = self.bitmaps, self.bound, self.done, len(self.base)
+        measure, lazy = self.measure, self.lazy
+        while not self.ended and (max_polygons is None or len(self.chosen) < max_polygons):
+            if done.all():
+                self.ended = True
                 break
-            ids = order[first:first + chunk]
-            t = soup_totals(ids, union, bitmaps, base, measure=measure)
-            bound[ids] = t - current
-            k = ids[int(np.argmax(bound[ids]))]
-            if bound[k] > best_gain:
-                best, best_gain = int(k), float(bound[k])
-        if best < 0 or best_gain <= 0:
-            break
-        if chosen and best_gain <= alpha / 100.0 * current:
-            break
-        chosen.append(best)
-        done[best] = True
-        union |= bitmaps[best]
-        base = soup_measures(union, 1.0, measure=measure)
-        current = float(base.sum())
-        totals.append(current * scale / nd)
-    return np.asarray(chosen, dtype=np.int64), np.asarray(totals, dtype=np.float64)
+            order = np.flatnonzero(~done)
+            order = order[np.argsort(-bound[order], kind="stable")]
+            best, best_gain = -1, -np.inf
+            chunk = max(1, len(order) // 8) if lazy else len(order)
+            for first in range(0, len(order), chunk):
+                if lazy and best >= 0 and best_gain >= bound[order[first]]:
+                    break
+                ids = order[first:first + chunk]
+                t = soup_totals(ids, self.union, bitmaps, self.base, measure=measure)
+                bound[ids] = t - self.current
+                k = ids[int(np.argmax(bound[ids]))]
+                if bound[k] > best_gain:
+                    best, best_gain = int(k), float(bound[k])
+            if best < 0 or best_gain <= 0:
+                self.ended = True
+                break
+            if self.chosen and best_gain <= self.alpha / 100.0 * self.current:
+                self.ended = True
+                break
+            self.chosen.append(best)
+            done[best] = True
+            self.union |= bitmaps[best]
+            self.base = soup_measures(self.union, 1.0, measure=measure)
+            self.current = float(self.base.sum())
+            self.totals.append(self.current * self.scale / nd)
 
 
 #: The measured budget-cut rules start at this multiple of the budget (area before).

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import logging
 import math
+import threading
 import time
+from dataclasses import dataclass, field
 
 import numpy as np
 import trimesh
 
 from viscore import InputError, voxel_grid
+from viscore._content_cache import ContentCache
 from viscore._validate import (
     check_memory,
 )
@@ -22,12 +25,12 @@ from ._loops import slice_polygons
 from ._select import (
     MEASURE_DIRECTIONS,
     MEASURE_RESOLUTION,
+    GreedySearch,
     measure_directions,
     project_candidates,
     reduce_to_budget,
-    select_greedy,
 )
-from ._slices import best_slices, section_solid, slice_image
+from ._slices import best_slices, section_solid, slice_image, solid_key
 
 _log = logging.getLogger(__name__)
 
@@ -37,6 +40,10 @@ MAX_VOXELS = 1024
 #: Candidate polygons kept for the greedy search, largest first (its cost grows
 #: with their number; a tangle such as the hairball gives thousands of small ones).
 MAX_CANDIDATES = 160
+
+#: Solids whose candidates (:class:`_Candidates`: at most 160 x 24 x 64 x 64 bits of
+#: bitmaps, 16 MB, each) a process keeps: a mesh's precision floor slices up to about ten.
+CANDIDATES_KEPT = 12
 
 #: Bytes per voxel cell of the whole generation: the voxelization's working
 #: memory (:data:`viscore.voxel.grid.VOXELIZE_BYTES_PER_CELL`, 24) and the solid,
@@ -87,6 +94,79 @@ def _section(mesh: trimesh.Trimesh, size: dict, *, conservative: bool = False,
                          base=base, **g, **size)
 
 
+@dataclass(frozen=True, eq=False)
+class _Candidates:
+    """What one solid's occluder is made from at every budget (sec. 4.2-4.4): the slices'
+    candidate polygons, their simplification chains and their measure bitmaps; with the
+    greedy search over them (:class:`._select.GreedySearch`) and the chains refined for
+    the chosen ones, each made once and taken further as larger budgets ask."""
+
+    slices: int
+    cands: list
+    chains: tuple
+    bitmaps: np.ndarray
+    dirs: np.ndarray
+    bases: tuple
+    mpixel: float
+    timing: dict
+    _searches: dict = field(default_factory=dict, repr=False)
+    _refined: dict = field(default_factory=dict, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+
+    @classmethod
+    def make(cls, sec: _slices.SectionSolid, direction_bins: int, depth_bins: int,
+             tolerance: float | None, conservative: bool, center: np.ndarray,
+             frame: float) -> _Candidates:
+        timing = {}
+        t0 = time.perf_counter()
+        slices = best_slices(sec, direction_bins, depth_bins)
+        timing["slices"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        cands, chains = [], []
+        for s in slices:
+            for poly in slice_polygons(slice_image(sec, s), tolerance=tolerance):
+                cands.append((s, poly))
+                chains.append(simplification_chain(poly.ring, loose=not conservative))
+        if len(cands) > MAX_CANDIDATES:  # the largest polygons; crumbs of tangles cost time
+            keep = np.argsort([-ch.areas[0] for ch in chains], kind="stable")[:MAX_CANDIDATES]
+            cands = [cands[i] for i in keep]
+            chains = [chains[i] for i in keep]
+        timing["polygons"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        dirs = measure_directions(MEASURE_DIRECTIONS)
+        bases = measure_bases(dirs)  # the image axes of every projection below, found once
+        rings = [s.to_world(p.ring) for s, p in cands]
+        bitmaps = project_candidates(rings, dirs, center, frame, MEASURE_RESOLUTION,
+                                     bases=bases)
+        timing["projections"] = time.perf_counter() - t0
+        return cls(len(slices), cands, tuple(chains), bitmaps, dirs, bases,
+                   frame / MEASURE_RESOLUTION, timing)
+
+    def greedy(self, alpha: float, measure: str) -> GreedySearch:
+        """The one greedy search of these candidates with these settings."""
+        with self._lock:
+            key = (float(alpha), measure)
+            if key not in self._searches:
+                self._searches[key] = GreedySearch(self.bitmaps, self.mpixel, alpha=alpha,
+                                                   measure=measure)
+            return self._searches[key]
+
+    def refined(self, i: int, search: bool):
+        """:func:`refine_chain` of candidate ``i``'s chain, made once."""
+        with self._lock:
+            kept = self._refined.get((i, search))
+        if kept is None:
+            kept = refine_chain(self.chains[i], self.cands[i][1].polygon, search=search)
+            with self._lock:
+                kept = self._refined.setdefault((i, search), kept)
+        return kept
+
+
+#: The candidates of the last solids generated in this process (the budgets of one mesh,
+#: and the precision floor's runs at each budget, slice the same solids).
+_CANDIDATES = ContentCache(CANDIDATES_KEPT)
+
+
 def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, depth_bins,
                   alpha, measure, reduce, rdp_tolerance, chain, conservative, dilate,
                   close, ground: dict | None = None, up: str = "z",
@@ -131,40 +211,23 @@ def _generate_one(mesh: trimesh.Trimesh, size: dict, *, budget, direction_bins, 
                      "voxels)", info["voxels"])
     timing["voxels"] = time.perf_counter() - t0
 
-    t0 = time.perf_counter()
-    slices = best_slices(sec, direction_bins, depth_bins)
-    timing["slices"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    tolerance = None if conservative else rdp_tolerance * _slices.PIXELS_PER_VOXEL
-    cands, chains = [], []
-    for s in slices:
-        for poly in slice_polygons(slice_image(sec, s), tolerance=tolerance):
-            cands.append((s, poly))
-            chains.append(simplification_chain(poly.ring, loose=not conservative))
-    if len(cands) > MAX_CANDIDATES:  # the largest polygons; crumbs of tangles cost time only
-        keep = np.argsort([-ch.areas[0] for ch in chains], kind="stable")[:MAX_CANDIDATES]
-        cands = [cands[i] for i in keep]
-        chains = [chains[i] for i in keep]
-    timing["polygons"] = time.perf_counter() - t0
-    info.update(slices=len(slices), candidates=len(cands))
-
-    t0 = time.perf_counter()
     center, frame = orbit if orbit is not None else orbit_frame(mesh)
-    dirs = measure_directions(MEASURE_DIRECTIONS)
-    bases = measure_bases(dirs)  # the image axes of every projection below, found once
-    rings = [s.to_world(p.ring) for s, p in cands]
-    bitmaps = project_candidates(rings, dirs, center, frame, MEASURE_RESOLUTION,
-                                 bases=bases)
-    mpixel = frame / MEASURE_RESOLUTION
-    timing["projections"] = time.perf_counter() - t0
+    tolerance = None if conservative else rdp_tolerance * _slices.PIXELS_PER_VOXEL
+    key = (solid_key(sec), np.asarray(center, np.float64), float(frame), direction_bins,
+           depth_bins, tolerance, bool(conservative))
+    found = _CANDIDATES.get(key, lambda: _Candidates.make(
+        sec, direction_bins, depth_bins, tolerance, conservative, center, frame))
+    timing.update(found.timing)  # the steps' times when they were made
+    cands, chains, bitmaps = found.cands, list(found.chains), found.bitmaps
+    dirs, bases, mpixel = found.dirs, found.bases, found.mpixel
+    info.update(slices=found.slices, candidates=len(cands))
     t0 = time.perf_counter()
-    chosen, totals = select_greedy(bitmaps, mpixel, alpha=alpha, measure=measure,
-                                   max_polygons=budget)
+    chosen, totals = found.greedy(alpha, measure).result(budget)
     timing["greedy"] = time.perf_counter() - t0
     t0 = time.perf_counter()
+    search = chain == "optimal" and budget is not None
     for i in chosen:  # stages inside the candidate; the largest ones for chain='optimal'
-        chains[i] = refine_chain(chains[i], cands[i][1].polygon,  # type: ignore[call-overload]
-                                 search=chain == "optimal" and budget is not None)
+        chains[i] = found.refined(int(i), search)
     timing["chains"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     cache: dict = {}

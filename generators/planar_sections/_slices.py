@@ -23,7 +23,7 @@ import trimesh
 from scipy import ndimage
 
 from viscore import Scene, camera_basis, directions_fibonacci, voxelize
-from viscore._content_cache import ContentCache
+from viscore._content_cache import ContentCache, content_key
 from viscore._jit import njit_cached
 from viscore.level.ground import ground_fill, ground_share
 from viscore.voxel.coverage_hull import exposed_count, exposure, hull_directions
@@ -32,7 +32,8 @@ from viscore.voxel.winding import is_closed_oriented
 
 __all__ = ["SectionSolid", "GroundFill", "Slice", "VoxelBase", "voxel_base", "section_solid",
            "closed_solid",
-           "slice_directions", "best_slices", "make_slice", "slice_image", "PIXELS_PER_VOXEL"]
+           "slice_directions", "best_slices", "make_slice", "slice_image", "solid_key",
+           "PIXELS_PER_VOXEL"]
 
 #: Pixels per voxel side of the slice images (sec. 4.2: every voxel covers >= 1 pixel).
 PIXELS_PER_VOXEL = 1
@@ -462,3 +463,14 @@ def slice_image(sec: SectionSolid, s: Slice) -> np.ndarray:
     ny, nx = s.shape
     return _slice_pixels(sec.solid_along(s.direction), sec.grid.origin, sec.grid.pitch,
                          s.corner, s.right * s.pixel, s.up * s.pixel, s.direction, nx, ny, s.depth)
+
+
+def solid_key(sec: SectionSolid) -> tuple:
+    """What a run's occluder depends on besides the options every run shares: the solid
+    on its grid and the ground fill's cells, exposures and thresholds (none when the fill
+    adds no voxel)."""
+    fill = sec.fill
+    parts: list = [sec.solid, np.asarray(sec.grid.origin, np.float64), float(sec.grid.pitch)]
+    if fill is not None and len(fill.cells):
+        parts += [fill.cells, fill.exposure, fill.directions, fill.misses, fill.grazing]
+    return content_key(*parts)

@@ -22,7 +22,7 @@ from .._precision_check import (
     passes,
 )
 from ._single import _generate_one, _no_interior, _resolution, _section
-from ._slices import SectionSolid, VoxelBase, section_solid, voxel_base
+from ._slices import VoxelBase, section_solid, solid_key, voxel_base
 
 _log = logging.getLogger(__name__)
 
@@ -129,7 +129,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
         opts = {**options, "close": close}
         sec = _section(mesh, size, conservative=opts["conservative"], dilate=opts["dilate"],
                        close=close, ground=fill, up=opts["up"], base=bases.get(size))
-        key = _solid_key(sec)
+        key = solid_key(sec)
         with by_solid_lock:
             earlier = by_solid.get(key)
         if earlier is not None:  # a closing or fill that adds nothing: the run made already
@@ -329,19 +329,6 @@ class _VoxelBases:
         if kept["base"] is None:  # its maker failed: make it here (and raise what it raised)
             return voxel_base(self.mesh, closed=self._closed, **size)
         return kept["base"]
-
-
-def _solid_key(sec: SectionSolid) -> tuple:
-    """What a run's occluder depends on besides the options every run shares: the solid
-    on its grid and the ground fill's cells, exposures and thresholds (none when the fill
-    adds no voxel)."""
-    from viscore._content_cache import content_key
-
-    fill = sec.fill
-    parts: list = [sec.solid, np.asarray(sec.grid.origin, np.float64), float(sec.grid.pitch)]
-    if fill is not None and len(fill.cells):
-        parts += [fill.cells, fill.exposure, fill.directions, fill.misses, fill.grazing]
-    return content_key(*parts)
 
 
 def _best(tried: list, floor: float) -> tuple:

@@ -87,7 +87,7 @@ def _line(plane_a: np.ndarray, plane_b: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def weld_points(points: np.ndarray, region: int, creases: dict, planes: np.ndarray, *,
-                reach: float) -> np.ndarray:
+                reach: float, lines: dict | None = None) -> np.ndarray:
     """``points`` of a patch of ``region`` moved onto the creases within ``reach``.
 
     A point within ``reach`` of one of the region's crease edges
@@ -96,7 +96,9 @@ def weld_points(points: np.ndarray, region: int, creases: dict, planes: np.ndarr
     near edges of two or more partner planes moves to the point where its own
     plane and the two nearest partners' meet, when that point is within
     twice ``reach``. Others stay. ``points`` are (m, 3) world units in
-    the region's plane; returns a new array.
+    the region's plane; returns a new array. ``lines``, a dict the caller keeps
+    for one occluder's welds, holds each (region, partner) plane pair's line,
+    found once.
     """
     out = np.array(points, dtype=np.float64, copy=True)
     if region not in creases or len(out) == 0:
@@ -109,7 +111,11 @@ def weld_points(points: np.ndarray, region: int, creases: dict, planes: np.ndarr
     s0, span, length2, partner = s0[good], span[good], length2[good], partner[good]
     if len(partner) == 0:
         return out
-    lines = {int(p): _line(planes[region], planes[int(p)]) for p in np.unique(partner)}
+    kept = {} if lines is None else lines
+    for p in np.unique(partner).tolist():
+        if (region, p) not in kept:
+            kept[region, p] = _line(planes[region], planes[p])
+    lines = {p: kept[region, p] for p in np.unique(partner).tolist()}  # this region's
     point = np.stack([lines[int(p)][0] for p in partner])
     direction = np.stack([lines[int(p)][1] for p in partner])
     # (m, k): distance of each point to each edge (within reach, its foot on the line is

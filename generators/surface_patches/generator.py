@@ -703,6 +703,7 @@ def _kept_output(vertices: np.ndarray, faces: np.ndarray, regions: list, cands: 
     creases, planes = ({}, None) if weld == "off" or not len(wanted) else \
         _region_creases(vertices, faces, regions, grid, wanted)
     reach = EROSION * diag + 2 * grid  # a vertex of the erosion's rim, snapped
+    lines: dict = {}  # each crease's line, found once for every weld below
     out_v, out_f, polygons = [], [], []
     offset = dropped = curtains_kept = welded = 0
     area = 0.0
@@ -727,11 +728,13 @@ def _kept_output(vertices: np.ndarray, faces: np.ndarray, regions: list, cands: 
         loop = ch.stage_ring(int(s)) * grid
         ring = o + loop[:, :1] * u + loop[:, 1:2] * v
         if k >= 0 and k in creases:  # onto the creases the erosion left (._crease_weld)
-            moved = weld_points(world, k, creases, planes, reach=reach)  # type: ignore[arg-type]
+            moved = weld_points(world, k, creases, planes, reach=reach,  # type: ignore[arg-type]
+                                lines=lines)
             moved_xy = np.stack([(moved - o) @ u, (moved - o) @ v], axis=1)
             if welded_ring(pts, moved_xy, inv.reshape(-1, 3), union, tolerance=grid):
                 world, pts = moved, moved_xy
-                ring = weld_points(ring, k, creases, planes, reach=reach)  # type: ignore[arg-type]
+                ring = weld_points(ring, k, creases, planes, reach=reach,  # type: ignore[arg-type]
+                                   lines=lines)
                 welded += 1
         out_v.append(world)
         out_f.append(inv.reshape(-1, 3) + offset)

@@ -1,0 +1,121 @@
+"""Work the budgets of one mesh share, made once per process: the greedy search taken
+further, planar sections' candidates, hybrid's candidates and volume views, the check
+views. A kept result must be the one made anew (a hit and a miss give the same occluder),
+and another mesh must not find it."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from viscore import load_mesh
+from viscore.cli.study.runner import Job, StudySettings, _tasks
+from viscore.generators._precision_check import _CHECK_VIEWS, check_views
+from viscore.generators.hybrid import generator as hybrid
+from viscore.generators.planar_sections import _single, generate_planar_sections
+from viscore.generators.planar_sections._select import GreedySearch, select_greedy
+
+#: Few bins and voxels given (no precision floor): the generator's speed is a benchmark's.
+FAST = {"direction_bins": 6, "depth_bins": 2, "voxels": 24}
+
+
+def _same(a, b) -> bool:
+    return (np.array_equal(np.asarray(a.mesh.vertices), np.asarray(b.mesh.vertices))
+            and np.array_equal(np.asarray(a.mesh.faces), np.asarray(b.mesh.faces)))
+
+
+def _blobs(seed: int = 3) -> np.ndarray:
+    """(30, 4, 24, 24) bitmaps of random rectangles: a search of many steps."""
+    rng = np.random.default_rng(seed)
+    bm = np.zeros((30, 4, 24, 24), bool)
+    for i in range(30):
+        for k in range(4):
+            r, c = rng.integers(0, 18, 2)
+            h, w = rng.integers(2, 7, 2)
+            bm[i, k, r:r + h, c:c + w] = True
+    return bm
+
+
+def test_greedy_search_taken_further_equals_searches_made_anew():
+    bm = _blobs()
+    full, full_totals = select_greedy(bm, 0.5, alpha=0.0)
+    assert len(full) > 8
+    search = GreedySearch(bm, 0.5, alpha=0.0)
+    for m in (3, 8, 5, None):  # further, then a shorter prefix, then to its end
+        chosen, totals = search.result(m)
+        fresh, fresh_totals = select_greedy(bm, 0.5, alpha=0.0, max_polygons=m)
+        assert np.array_equal(chosen, fresh) and np.array_equal(totals, fresh_totals)
+    assert np.array_equal(chosen, full) and np.array_equal(totals, full_totals)
+
+
+def test_greedy_prefix_is_the_first_polygons_of_the_longer_search():
+    bm = _blobs(5)
+    long, _ = select_greedy(bm, 1.0, alpha=0.0, max_polygons=10)
+    short, _ = select_greedy(bm, 1.0, alpha=0.0, max_polygons=4)
+    assert len(long) == 10 and np.array_equal(short, long[:4])
+
+
+@pytest.fixture(scope="module")
+def torus():
+    return load_mesh("fat-torus")
+
+
+def test_planar_sections_kept_candidates_give_the_occluder_made_anew(torus):
+    _single._CANDIDATES.clear()
+    small_first = generate_planar_sections(torus, budget=16, **FAST)
+    assert len(_single._CANDIDATES._items) == 1
+    larger_after = generate_planar_sections(torus, budget=48, **FAST)  # a hit, searched further
+    again = generate_planar_sections(torus, budget=16, **FAST)  # a hit, a prefix
+    assert len(_single._CANDIDATES._items) == 1
+    _single._CANDIDATES.clear()
+    larger_alone = generate_planar_sections(torus, budget=48, **FAST)  # a miss
+    assert larger_alone.triangles > small_first.triangles
+    assert _same(larger_after, larger_alone) and _same(again, small_first)
+    assert larger_after.info["measure_totals"] == larger_alone.info["measure_totals"]
+
+
+def test_planar_sections_changed_mesh_misses(torus):
+    _single._CANDIDATES.clear()
+    generate_planar_sections(torus, budget=16, **FAST)
+    moved = torus.copy()
+    moved.vertices[0] += 0.05 * float(np.max(moved.extents))
+    generate_planar_sections(moved, budget=16, **FAST)
+    assert len(_single._CANDIDATES._items) == 2
+    _single._CANDIDATES.clear()
+
+
+def test_check_views_kept_per_mesh_and_seed():
+    box = trimesh.creation.box()
+    _CHECK_VIEWS.clear()
+    first = check_views(box, 0, 4)
+    assert check_views(box.copy(), 0, 4) is first  # the same content: a hit
+    assert check_views(box, 1, 4) is not first  # another seed
+    other = trimesh.creation.box(extents=(1, 1, 2))
+    changed = check_views(other, 0, 4)
+    assert changed is not first and changed.extent != first.extent
+    _CHECK_VIEWS.clear()
+
+
+def test_hybrid_kept_candidates_give_the_occluder_made_anew():
+    box = trimesh.creation.box()
+    box = trimesh.util.concatenate([box, trimesh.creation.box().apply_translation([2, 0, 0])])
+    opts = {"mgos": False, "voxels": 16}
+    hybrid._CANDIDATES.clear()
+    made = hybrid.generate_hybrid(box, budget=40, **opts)
+    kept = hybrid.generate_hybrid(box, budget=40, **opts)
+    assert len(hybrid._CANDIDATES._items) == 1
+    assert _same(made, kept) and made.info["faces"] == kept.info["faces"]
+    moved = box.copy()
+    moved.vertices[0] += 0.3
+    hybrid.generate_hybrid(moved, budget=40, **opts)
+    assert len(hybrid._CANDIDATES._items) == 2
+    hybrid._CANDIDATES.clear()
+
+
+def test_study_tasks_hold_a_methods_budgets_together():
+    s = StudySettings(budgets=(64, 256))
+    jobs = [Job("m", "qem", 64, s), Job("m", "bbox", None, s), Job("m", "qem", 256, s),
+            Job("m", "f", None, s, source="a.obj", digest="1"),
+            Job("m", "f", 64, s, source="b.obj", digest="2")]
+    tasks = _tasks(jobs)
+    assert [[(j.method, j.budget) for j in t] for t in tasks] == [
+        [("qem", 64), ("qem", 256)], [("bbox", None)], [("f", None)], [("f", 64)]]
