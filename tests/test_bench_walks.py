@@ -77,10 +77,32 @@ def test_bench_walks_gap_leaves_the_figures_and_adds_up(tmp_path):
         assert g["culled"] / g["hidden"] == pytest.approx(b["best_over_hidden"])
 
 
+def test_bench_walks_buffer_scale_reaches_every_depth_buffer(tmp_path, monkeypatch):
+    # the runtimes and the --gap reference at the runtimes' resolution get the scale asked;
+    # the full-resolution references get 1
+    import viscore.generators as gens
+
+    seen = []
+    real = gens.culling_runtimes
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("reduction"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(gens, "culling_runtimes", spy)
+    level = _room_level(tmp_path / "room.glb")
+    r = bench_walks([level], frames=2, cull=True, width=160, height=90, gap=True,
+                    buffer_scale=2)
+    assert r["settings"]["buffer_scale"] == 2
+    assert seen[0] == 2 and seen[1] == 2 and set(seen[2:]) == {1}
+
+
 @pytest.mark.parametrize("argv, message", [
     (["bench", "walks", "/no/such/level.glb"], "/no/such/level.glb: no such file"),
     (["bench", "walks", "city", "--bounds", "box"], "--bounds: only with --cull"),
     (["bench", "walks", "city", "--gap"], "--gap: only with --cull"),
+    (["bench", "walks", "city", "--buffer-scale", "2"], "--buffer-scale: only with --cull"),
+    (["bench", "walks", "city", "--cull", "--buffer-scale", "0"], "--buffer-scale"),
     (["bench", "walks", "city", "--cull", "--bounds", "boxes"], "--bounds: expected"),
     (["bench", "walks", "city", "--frames", "0"], "--frames: expected a positive integer"),
     (["bench", "walks", "city", "--eye-height", "-1"], "--eye-height"),

@@ -34,6 +34,10 @@ WIDTH, HEIGHT = 1280, 720
 #: level: they are its whole mesh.
 GAP_OWN, GAP_OWN_FULL, GAP_EVERY_FULL = "gap:own", "gap:own-full", "gap:every-full"
 
+#: Screen pixels per depth-buffer pixel along each side (``viscore cull --buffer-scale``'s
+#: default: the quarter-size buffer of the occluder-skins paper, sec. 7).
+BUFFER_SCALE = 4
+
 
 def _interval(num: np.ndarray, den: np.ndarray, seed: int) -> list[float]:
     from viscore.metrics import bootstrap_ratio
@@ -48,28 +52,27 @@ def _share(num: np.ndarray, den: np.ndarray) -> float | None:
     return float(np.sum(num)) / total if total > 0 else None
 
 
-def _gap_runtimes(level, seed: int) -> dict:
+def _gap_runtimes(level, seed: int, reduction: int) -> dict:
     """The reference runtimes of :func:`viscore.metrics.culling_gap.culling_gap`: the
-    occluder objects' own triangles at the default resolution and at full resolution, and
-    every object's at full resolution when some object gets no occluder."""
+    occluder objects' own triangles at the runtimes' resolution (``reduction``) and at full
+    resolution, and every object's at full resolution when some object gets no occluder."""
     from viscore.generators import culling_runtimes
 
     objects, chosen = level.objects, level.chosen
     out = {}
-    for name, indices, reduction in (
-            (GAP_OWN, chosen, None), (GAP_OWN_FULL, chosen, 1),
+    for name, indices, scale in (
+            (GAP_OWN, chosen, reduction), (GAP_OWN_FULL, chosen, 1),
             (GAP_EVERY_FULL, np.arange(len(objects)), 1)):
         if name == GAP_EVERY_FULL and len(chosen) == len(objects):
             continue
-        extra = {} if reduction is None else {"reduction": reduction}
         rts, _ = culling_runtimes(objects, indices, ["original"], seed=seed, frusta=False,
-                                  flat=level.flat, **extra)
+                                  flat=level.flat, reduction=scale)
         out[name] = rts["depth-buffer:original"]
     return out
 
 
 def _cull_figures(level, walk, *, seed: int, bounds: str, methods: Sequence[str] | None,
-                  width: int, height: int, gap: bool = False) -> dict:
+                  width: int, height: int, gap: bool = False, reduction: int = 4) -> dict:
     """The culling simulation along ``walk``: truth, best guaranteed runtime, false culls
     (with ``gap``, where the best runtime's misses go)."""
     from viscore.culling import occludee_boxes, parse_bounds
@@ -81,8 +84,8 @@ def _cull_figures(level, walk, *, seed: int, bounds: str, methods: Sequence[str]
     if methods is None:  # cull's default: the methods that can be guaranteed
         methods = [m for m, spec in REGISTRY.items() if spec.conservative]
     runtimes, info = culling_runtimes(objects, level.chosen, list(methods), seed=seed,
-                                      flat=level.flat)
-    references = _gap_runtimes(level, seed) if gap else {}
+                                      flat=level.flat, reduction=reduction)
+    references = _gap_runtimes(level, seed, reduction) if gap else {}
     boxes, kind, split = occludee_boxes(objects, kind, clusters)
     result = simulate_culling(objects, {**runtimes, **references}, list(walk.cameras),
                               width=width, height=height, bounds=boxes, stances=walk.stances,
@@ -132,6 +135,7 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
                 up: str | None = None, eye_height: float | None = None, cull: bool = False,
                 bounds: str | None = None, methods: Sequence[str] | None = None,
                 width: int = WIDTH, height: int = HEIGHT, gap: bool = False,
+                buffer_scale: int = BUFFER_SCALE,
                 progress: Callable[[dict], None] | None = None) -> dict:
     """The walk on each level, and with ``cull`` the culling along it.
 
@@ -164,6 +168,9 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
         best guaranteed runtime's misses by cause (the key ``gap`` of ``cull``:
         :meth:`~viscore.metrics.culling_gap.CullingGap.to_json` and the references'
         culled shares); default False. Several times the work of ``cull`` alone.
+    buffer_scale : int, optional
+        With ``cull``: screen pixels per depth-buffer pixel along each side, as ``cull
+        --buffer-scale`` (default :data:`BUFFER_SCALE`, 4: 320 x 180 at 1280 x 720).
     progress : callable, optional
         Called with each level's row when it is done.
 
@@ -189,6 +196,7 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
     seed = as_seed(seed)
     width = as_positive_int(width, "--width", maximum=16384)
     height = as_positive_int(height, "--height", maximum=16384)
+    buffer_scale = as_positive_int(buffer_scale, "--buffer-scale", maximum=min(width, height))
     if eye_height is not None:
         eye_height = as_positive(eye_height, "--eye-height")
     if cull:
@@ -221,7 +229,8 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
                "up": level.up, "up_reason": level.up_reason}
         if cull:
             row["cull"] = _cull_figures(level, walk, seed=seed, bounds=bounds, methods=methods,
-                                        width=width, height=height, gap=gap)
+                                        width=width, height=height, gap=gap,
+                                        reduction=buffer_scale)
         row["seconds"] = time.perf_counter() - start
         rows.append(row)
         if progress is not None:
@@ -230,6 +239,7 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
                                          "eye_height": eye_height, "cull": bool(cull),
                                          "bounds": bounds if cull else None,
                                          "gap": bool(cull and gap),
+                                         "buffer_scale": buffer_scale if cull else None,
                                          "width": width, "height": height,
                                          "confidence": CONFIDENCE}}
 
