@@ -67,6 +67,7 @@ from .culling import (
     check_culling_memory,
     simulate_culling,
 )
+from .culling_gap import GAP_CAUSES, CullingGap, culling_gap
 from .culling_runtimes import (
     Runtime,
     depth_buffer_runtime,
@@ -121,6 +122,7 @@ __all__ = [
     "BetaModelSummary", "uncertainty_report", "convergence_ablation", "AblationResult",
     # culling simulation
     "simulate_culling", "CullingResult", "RuntimeFrames", "Runtime", "no_culling",
+    "culling_gap", "CullingGap", "GAP_CAUSES",
     "frusta_runtime", "depth_buffer_runtime", "view_frustum_mask", "camera_path",
     "read_camera_path", "camera_path_json", "PathCamera", "camera_walk", "camera_stances",
     "guess_eye_height", "culling_plot", "check_camera_path",

@@ -57,9 +57,52 @@ def test_bench_walks_cull_never_culls_what_is_seen(tmp_path):
     assert "hidden" in text and "best guaranteed" in text
 
 
+def test_bench_walks_gap_leaves_the_figures_and_adds_up(tmp_path):
+    # the references run beside the runtimes: the level's figures are those without them,
+    # no reference is a runtime of the level, and the misses by cause add up to the best
+    # runtime's misses (its culled / hidden the same as best_over_hidden)
+    level = _room_level(tmp_path / "room.glb")
+    plain = bench_walks([level], frames=4, cull=True, width=160, height=90)
+    both = bench_walks([level], frames=4, cull=True, width=160, height=90, gap=True)
+    a, b = plain["levels"][0]["cull"], both["levels"][0]["cull"]
+    assert not any(k.startswith("gap:") for k in b["runtimes"])
+    for key in ("hidden_share", "best_guaranteed", "best_culled_share", "best_over_hidden"):
+        assert a[key] == b[key]
+    assert "gap" not in a and both["settings"]["gap"] is True
+    g = b["gap"]
+    assert {"gap:own", "gap:own-full"} <= set(g["reference_culled_share"])
+    if b["best_guaranteed"] is not None:
+        assert sum(g["causes"].values()) == g["hidden"] - g["culled"]
+        assert g["hidden"] > 0
+        assert g["culled"] / g["hidden"] == pytest.approx(b["best_over_hidden"])
+
+
+def test_bench_walks_buffer_scale_reaches_every_depth_buffer(tmp_path, monkeypatch):
+    # the runtimes and the --gap reference at the runtimes' resolution get the scale asked;
+    # the full-resolution references get 1
+    import viscore.generators as gens
+
+    seen = []
+    real = gens.culling_runtimes
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("reduction"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(gens, "culling_runtimes", spy)
+    level = _room_level(tmp_path / "room.glb")
+    r = bench_walks([level], frames=2, cull=True, width=160, height=90, gap=True,
+                    buffer_scale=2)
+    assert r["settings"]["buffer_scale"] == 2
+    assert seen[0] == 2 and seen[1] == 2 and set(seen[2:]) == {1}
+
+
 @pytest.mark.parametrize("argv, message", [
     (["bench", "walks", "/no/such/level.glb"], "/no/such/level.glb: no such file"),
     (["bench", "walks", "city", "--bounds", "box"], "--bounds: only with --cull"),
+    (["bench", "walks", "city", "--gap"], "--gap: only with --cull"),
+    (["bench", "walks", "city", "--buffer-scale", "2"], "--buffer-scale: only with --cull"),
+    (["bench", "walks", "city", "--cull", "--buffer-scale", "0"], "--buffer-scale"),
     (["bench", "walks", "city", "--cull", "--bounds", "boxes"], "--bounds: expected"),
     (["bench", "walks", "city", "--frames", "0"], "--frames: expected a positive integer"),
     (["bench", "walks", "city", "--eye-height", "-1"], "--eye-height"),

@@ -161,3 +161,30 @@ def test_occluded_triangles_invalid_input():
         with pytest.raises(InputError, match=match):
             buf.occluded_triangles(bad_tri, start)
     assert buf.occluded_triangles(np.zeros((0, 3, 3)), [0]).shape == (0,)
+
+
+def test_triangles_under_a_ground_seen_at_a_grazing_angle_are_culled_by_its_plane():
+    """A ground quad (two triangles, one planar facet) 1.7 under an eye looking along it,
+    and a slab 0.3 under the ground from 15 to 40 ahead: every ray to the slab crosses the
+    ground first (hidden), yet two buffer pixels under the horizon a pixel of the ground
+    spans depths from 23 to 35 (1.4 degrees), beyond the slab's nearest there, so depths
+    alone keep it. The pixel's plane culls it; the same slab 0.3 over the ground (seen)
+    is never culled."""
+    eye = np.array([0.0, 1.7, 0.0])
+    cam = PerspectiveCamera(eye, (0, 0, 1), up=(0, 1, 0), fov=90, resolution=256, height=144)
+    ground = trimesh.Trimesh([[-4000, 0, -1], [4000, 0, -1], [4000, 0, 4000],
+                              [-4000, 0, 4000]], [[0, 2, 1], [0, 3, 2]])
+    buf = ConservativeDepthBuffer.from_occluders(ground, cam)
+    under = trimesh.creation.box(bounds=[[-3, -0.4, 15], [3, -0.3, 40]])
+    over = trimesh.creation.box(bounds=[[-3, 0.3, 15], [3, 0.4, 40]])
+    # the truth: every ray from the eye to the slab's corners meets the ground first
+    ends = under.vertices - eye
+    t_ground = 1.7 / -ends[:, 1]  # fraction of the way at which y reaches 0
+    assert (t_ground < 1).all()
+    assert buf.occluded_triangles(under.triangles, [0, len(under.triangles)]).tolist() == [True]
+    assert buf.occluded_triangles(over.triangles, [0, len(over.triangles)]).tolist() == [False]
+    # depths alone (no planes) keep the slab under the ground: the plane rule culls it
+    bare = ConservativeDepthBuffer(depth=buf.depth, camera=cam, hits=0)
+    assert bare.occluded_triangles(under.triangles, [0, len(under.triangles)]).tolist() \
+        == [False]
+    assert np.isfinite(buf.plane[..., 3]).any()

@@ -114,6 +114,13 @@ def add_parser(sub, common) -> None:
                    metavar="triangles|meshlets[:T]|auto|box|clusters[:N]",
                    help="with --cull: the occludee bounds, as 'viscore cull --bounds' "
                         "(default as cull's, triangles)")
+    w.add_argument("--buffer-scale", type=int, default=None, metavar="N",
+                   help="with --cull: depth buffer's screen pixels per buffer pixel along each "
+                        "side, as 'viscore cull --buffer-scale' (default 4)")
+    w.add_argument("--gap", action="store_true",
+                   help="with --cull: sort the best guaranteed runtime's misses (hidden, not "
+                        "culled) by cause, against depth buffers of the level's own triangles "
+                        "(several times the work)")
     w.set_defaults(run=run_walks)
     gb = bsub.add_parser("godot-bake", parents=[common],
                          help="our godot baseline against Godot's own bake of its occlusion "
@@ -357,10 +364,15 @@ def run_walks(args) -> int:
 
     if args.bounds is not None and not args.cull:
         raise InputError("--bounds: only with --cull")
+    if args.gap and not args.cull:
+        raise InputError("--gap: only with --cull")
+    if args.buffer_scale is not None and not args.cull:
+        raise InputError("--buffer-scale: only with --cull")
     r = bench_walks(args.levels, frames=args.frames, seed=args.seed, up=args.up,
                     eye_height=args.eye_height, cull=args.cull,
                     bounds=DEFAULT_BOUNDS if args.bounds is None else args.bounds,
-                    progress=say)
+                    gap=args.gap, progress=say,
+                    **({} if args.buffer_scale is None else {"buffer_scale": args.buffer_scale}))
     emit({**r, "provenance": provenance()}, args.json, bench_walks_text(r))
     return 0
 

@@ -28,6 +28,16 @@ CONFIDENCE = 0.95
 #: Ground-truth image of the culling simulation (``viscore cull``'s default).
 WIDTH, HEIGHT = 1280, 720
 
+#: The reference runtimes of ``--gap`` (:func:`viscore.metrics.culling_gap.culling_gap`):
+#: the occluder objects' own triangles at the default buffer resolution and at full
+#: resolution, and every object's at full resolution. Never a guaranteed runtime of the
+#: level: they are its whole mesh.
+GAP_OWN, GAP_OWN_FULL, GAP_EVERY_FULL = "gap:own", "gap:own-full", "gap:every-full"
+
+#: Screen pixels per depth-buffer pixel along each side (``viscore cull --buffer-scale``'s
+#: default: the quarter-size buffer of the occluder-skins paper, sec. 7).
+BUFFER_SCALE = 4
+
 
 def _interval(num: np.ndarray, den: np.ndarray, seed: int) -> list[float]:
     from viscore.metrics import bootstrap_ratio
@@ -42,9 +52,29 @@ def _share(num: np.ndarray, den: np.ndarray) -> float | None:
     return float(np.sum(num)) / total if total > 0 else None
 
 
+def _gap_runtimes(level, seed: int, reduction: int) -> dict:
+    """The reference runtimes of :func:`viscore.metrics.culling_gap.culling_gap`: the
+    occluder objects' own triangles at the runtimes' resolution (``reduction``) and at full
+    resolution, and every object's at full resolution when some object gets no occluder."""
+    from viscore.generators import culling_runtimes
+
+    objects, chosen = level.objects, level.chosen
+    out = {}
+    for name, indices, scale in (
+            (GAP_OWN, chosen, reduction), (GAP_OWN_FULL, chosen, 1),
+            (GAP_EVERY_FULL, np.arange(len(objects)), 1)):
+        if name == GAP_EVERY_FULL and len(chosen) == len(objects):
+            continue
+        rts, _ = culling_runtimes(objects, indices, ["original"], seed=seed, frusta=False,
+                                  flat=level.flat, reduction=scale)
+        out[name] = rts["depth-buffer:original"]
+    return out
+
+
 def _cull_figures(level, walk, *, seed: int, bounds: str, methods: Sequence[str] | None,
-                  width: int, height: int) -> dict:
-    """The culling simulation along ``walk``: truth, best guaranteed runtime, false culls."""
+                  width: int, height: int, gap: bool = False, reduction: int = 4) -> dict:
+    """The culling simulation along ``walk``: truth, best guaranteed runtime, false culls
+    (with ``gap``, where the best runtime's misses go)."""
     from viscore.culling import occludee_boxes, parse_bounds
     from viscore.generators import REGISTRY, culling_runtimes
     from viscore.metrics import simulate_culling
@@ -54,13 +84,15 @@ def _cull_figures(level, walk, *, seed: int, bounds: str, methods: Sequence[str]
     if methods is None:  # cull's default: the methods that can be guaranteed
         methods = [m for m, spec in REGISTRY.items() if spec.conservative]
     runtimes, info = culling_runtimes(objects, level.chosen, list(methods), seed=seed,
-                                      flat=level.flat)
+                                      flat=level.flat, reduction=reduction)
+    references = _gap_runtimes(level, seed, reduction) if gap else {}
     boxes, kind, split = occludee_boxes(objects, kind, clusters)
-    result = simulate_culling(objects, runtimes, list(walk.cameras), width=width,
-                              height=height, bounds=boxes, stances=walk.stances)
+    result = simulate_culling(objects, {**runtimes, **references}, list(walk.cameras),
+                              width=width, height=height, bounds=boxes, stances=walk.stances,
+                              keep_frames=range(len(walk.cameras)) if gap else ())
     in_view = result.in_view.astype(float)
     hidden = in_view - result.visible
-    totals = result.totals()
+    totals = {k: t for k, t in result.totals().items() if k not in references}
     guaranteed = {k: t for k, t in totals.items()
                   if k != "none" and t["conservative"] and info[k].get("occluders", 0)}
     best = max(guaranteed, key=lambda k: (guaranteed[k]["culled_share"], k), default=None)
@@ -85,13 +117,25 @@ def _cull_figures(level, walk, *, seed: int, bounds: str, methods: Sequence[str]
                    best_false_culls=totals[best]["false_culls"],
                    best_over_hidden=_share(culled, hidden),
                    best_over_hidden_ci=_interval(culled, hidden, seed))
+    if gap:
+        from viscore.metrics import culling_gap
+
+        every = GAP_EVERY_FULL if GAP_EVERY_FULL in references else None
+        shares = result.totals()
+        out["gap"] = {"reference_culled_share": {k: shares[k]["culled_share"]
+                                                 for k in references}}
+        if best is not None:
+            out["gap"].update(culling_gap(result, objects.lower, objects.upper,
+                                          list(objects.names), best, own=GAP_OWN,
+                                          own_full=GAP_OWN_FULL, every_full=every).to_json())
     return out
 
 
 def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
                 up: str | None = None, eye_height: float | None = None, cull: bool = False,
                 bounds: str | None = None, methods: Sequence[str] | None = None,
-                width: int = WIDTH, height: int = HEIGHT,
+                width: int = WIDTH, height: int = HEIGHT, gap: bool = False,
+                buffer_scale: int = BUFFER_SCALE,
                 progress: Callable[[dict], None] | None = None) -> dict:
     """The walk on each level, and with ``cull`` the culling along it.
 
@@ -118,6 +162,15 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
         that can be guaranteed).
     width, height : int, optional
         Ground-truth image, pixels (default 1280 x 720).
+    gap : bool, optional
+        With ``cull``: also run the reference runtimes :data:`GAP_OWN`,
+        :data:`GAP_OWN_FULL` and :data:`GAP_EVERY_FULL` along the walk and sort the
+        best guaranteed runtime's misses by cause (the key ``gap`` of ``cull``:
+        :meth:`~viscore.metrics.culling_gap.CullingGap.to_json` and the references'
+        culled shares); default False. Several times the work of ``cull`` alone.
+    buffer_scale : int, optional
+        With ``cull``: screen pixels per depth-buffer pixel along each side, as ``cull
+        --buffer-scale`` (default :data:`BUFFER_SCALE`, 4: 320 x 180 at 1280 x 720).
     progress : callable, optional
         Called with each level's row when it is done.
 
@@ -143,6 +196,7 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
     seed = as_seed(seed)
     width = as_positive_int(width, "--width", maximum=16384)
     height = as_positive_int(height, "--height", maximum=16384)
+    buffer_scale = as_positive_int(buffer_scale, "--buffer-scale", maximum=min(width, height))
     if eye_height is not None:
         eye_height = as_positive(eye_height, "--eye-height")
     if cull:
@@ -175,7 +229,8 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
                "up": level.up, "up_reason": level.up_reason}
         if cull:
             row["cull"] = _cull_figures(level, walk, seed=seed, bounds=bounds, methods=methods,
-                                        width=width, height=height)
+                                        width=width, height=height, gap=gap,
+                                        reduction=buffer_scale)
         row["seconds"] = time.perf_counter() - start
         rows.append(row)
         if progress is not None:
@@ -183,6 +238,8 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
     return {"levels": rows, "settings": {"frames": frames, "seed": seed, "up": up,
                                          "eye_height": eye_height, "cull": bool(cull),
                                          "bounds": bounds if cull else None,
+                                         "gap": bool(cull and gap),
+                                         "buffer_scale": buffer_scale if cull else None,
                                          "width": width, "height": height,
                                          "confidence": CONFIDENCE}}
 
@@ -209,6 +266,11 @@ def walk_row_text(row: dict) -> str:
                f"{'-' if c['best_over_hidden'] is None else format(c['best_over_hidden'], '.2f')}"
                f"{'' if c['best_over_hidden'] is None else _ci_ratio(c['best_over_hidden_ci'])}")
             + f"; bounds {c['bounds']}")
+    g = c.get("gap")
+    if g and "causes" in g:
+        tail += (f"\n  misses (hidden, not culled) {g['hidden'] - g['culled']} of "
+                 f"{g['hidden']} object-frames: "
+                 + ", ".join(f"{k} {v}" for k, v in g["causes"].items()))
     return head + "\n" + tail
 
 

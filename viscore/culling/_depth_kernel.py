@@ -103,13 +103,34 @@ def _coefficient(pl, eye, r, u, f, coef, p):
 
 
 @njit_cached()
-def _fill(depth, i0, j0, s, coef, planes, xs, ys, margin, corner):
+def _fill(depth, i0, j0, s, coef, planes, xs, ys, margin, corner, plane):
     """Pixels of one covered tile (those inside ``depth``): per pixel the largest entry
     distance of its four corner rays into the piece of ``planes`` rows of ``coef``
     (along the direction (x, y, 1): its length over the smallest a x + b y + c, for a
     solid over its planes facing the eye), plus ``margin``; ``inf`` where a corner ray
-    does not enter."""
+    does not enter.
+
+    With one plane (a facet or a coplanar region covering the tile), ``plane`` (H, W, 4)
+    also gets per pixel its (a, b, c) and the threshold ``1 + margin * g``, ``g`` the
+    largest a x + b y + c over the pixel's corners (all positive; else the threshold
+    stays ``inf``): a point ``q`` (camera coordinates: along r, u, f from the eye) in
+    the pixel's pyramid is at least ``margin`` behind the plane, so hidden, when
+    ``a q_r + b q_u + c q_f`` reaches the threshold (:func:`_triangle_hidden`)."""
     h, w = depth.shape
+    if planes == 1:
+        for a in range(min(s, h - i0)):
+            for b in range(min(s, w - j0)):
+                g_max = -np.inf
+                for da in range(2):
+                    for db in range(2):
+                        g = coef[0, 0] * xs[j0 + b + db] + coef[0, 1] * ys[i0 + a + da] \
+                            + coef[0, 2]
+                        g_max = max(g_max, g) if g > 0 else np.inf
+                if np.isfinite(g_max):
+                    plane[i0 + a, j0 + b, 0] = coef[0, 0]
+                    plane[i0 + a, j0 + b, 1] = coef[0, 1]
+                    plane[i0 + a, j0 + b, 2] = coef[0, 2]
+                    plane[i0 + a, j0 + b, 3] = 1.0 + margin * g_max
     for a in range(s + 1):
         y = ys[i0 + a]
         for b in range(s + 1):
@@ -173,7 +194,7 @@ def _in_rectangle(ra, ca, dr, dc, r0, r1, c0, c1):  # pragma: no cover
 @njit_cached()
 def settle_tiles(ti, tj, s, stride, facet, piece, region, n_facets, facet_plane, solid_plane,
                  solid_ok, region_plane, segments, seg_start, region_ok, seg_slack, eye, r, u,
-                 f, tol, xs, ys, margin, thin, depth, corner, coef, child_i, child_j):
+                 f, tol, xs, ys, margin, thin, depth, corner, coef, child_i, child_j, plane):
     """Settle the tiles of side ``s`` whose corners are labelled.
 
     A tile whose four corners hit one planar facet, or one convex solid, is
@@ -205,7 +226,7 @@ def settle_tiles(ti, tj, s, stride, facet, piece, region, n_facets, facet_plane,
             pl = facet_plane[f0]
             if abs(pl[3] - (pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2])) > tol:
                 _coefficient(pl, eye, r, u, f, coef, 0)
-                _fill(depth, i0, j0, s, coef, 1, xs, ys, margin, corner)
+                _fill(depth, i0, j0, s, coef, 1, xs, ys, margin, corner, plane)
                 tiles += 1
             continue
         if p0 >= 0 and piece[c01] == p0 and piece[c10] == p0 and piece[c11] == p0:
@@ -218,7 +239,7 @@ def settle_tiles(ti, tj, s, stride, facet, piece, region, n_facets, facet_plane,
                     _coefficient(pl, eye, r, u, f, coef, planes)
                     planes += 1
             if planes:
-                _fill(depth, i0, j0, s, coef, planes, xs, ys, margin, corner)
+                _fill(depth, i0, j0, s, coef, planes, xs, ys, margin, corner, plane)
                 tiles += 1
             continue
         g0 = region[c00]
@@ -229,7 +250,7 @@ def settle_tiles(ti, tj, s, stride, facet, piece, region, n_facets, facet_plane,
             pl = region_plane[g0]
             if abs(pl[3] - (pl[0] * eye[0] + pl[1] * eye[1] + pl[2] * eye[2])) > tol:
                 _coefficient(pl, eye, r, u, f, coef, 0)
-                _fill(depth, i0, j0, s, coef, 1, xs, ys, margin, corner)
+                _fill(depth, i0, j0, s, coef, 1, xs, ys, margin, corner, plane)
                 tiles += 1
                 continue
         if s == 1:
@@ -771,14 +792,15 @@ def _clip_to_pyramid(ax, ay, px, py, pz, qx, qy, qz, n):  # pragma: no cover
 
 
 @njit_cached()
-def _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, px, py, pz, qx, qy, qz, sc,
-                     sr):  # pragma: no cover
+def _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, plane, px, py, pz, qx, qy, qz,
+                     sc, sr):  # pragma: no cover
     """Whether no ray of the buffer's screen meets triangle ``k`` of ``tri`` (m, 3, 3)
     nearer than the buffer's depth: its part in the view pyramid (clipped to the four
     side planes widened by :data:`PYRAMID_SLACK`) is empty, or every buffer pixel that
     part's projection may touch holds a depth nearer than a lower bound of the triangle's
-    distance along any ray through the pixel. ``px`` ... ``sr`` are scratch arrays of at
-    least 8 entries."""
+    distance along any ray through the pixel, or is covered by one plane (``plane``,
+    :func:`_fill`) that the whole clipped part lies behind. ``px`` ... ``sr`` are scratch
+    arrays of at least 8 entries."""
     h, w = depth.shape
     for m in range(3):
         dx = tri[k, m, 0] - eye[0]
@@ -862,12 +884,21 @@ def _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, px, py, pz, qx, qy, qz
             xb = _nearest_to_centre(j, w, hx)
             bound = zb * math.sqrt(1.0 + xb * xb + yb * yb) * SEC_SHRINK
             if not depth[i, j] < bound:
-                return False
+                # every ray through the pixel meets the covering plane (within one piece
+                # of it) before the part, which lies wholly behind it: a point that is
+                # behind the plane everywhere is behind it in this pixel too
+                tau = plane[i, j, 3]
+                if not tau < np.inf:
+                    return False
+                for m in range(n):
+                    if not plane[i, j, 0] * px[m] + plane[i, j, 1] * py[m] \
+                            + plane[i, j, 2] * pz[m] >= tau:
+                        return False
     return True
 
 
 @njit_cached()
-def occluded_triangles(tri, start, eye, r, u, f, hx, hy, depth, out):
+def occluded_triangles(tri, start, eye, r, u, f, hx, hy, depth, plane, out):
     """Set ``out[g]`` for the groups of triangles (``tri[start[g]:start[g + 1]]``) of which
     every triangle is hidden in the buffer (:func:`_triangle_hidden`); a group stops at its
     first triangle that is not."""
@@ -882,8 +913,8 @@ def occluded_triangles(tri, start, eye, r, u, f, hx, hy, depth, out):
     for g in range(start.shape[0] - 1):
         hidden = True
         for k in range(start[g], start[g + 1]):
-            if not _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, px, py, pz,
-                                    qx, qy, qz, sc, sr):
+            if not _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, plane, px, py,
+                                    pz, qx, qy, qz, sc, sr):
                 hidden = False
                 break
         out[g] = hidden

@@ -787,12 +787,23 @@ class ConservativeDepthBuffer:
         Rays cast for this frame (tile and pixel corners; at most
         ``(W + 1) * (H + 1)`` plus those of tiles straddling the buffer's
         right and bottom edges).
+    plane : (H, W, 4) float64 or None
+        Per pixel covered by one plane (a planar facet or coplanar region covering
+        it whole), that plane as ``(a, b, c, threshold)``: a point ``q`` in the
+        pixel's pyramid, in camera coordinates (along the camera's right, up and
+        forward axes from the eye), lies at least the depth margin behind the plane
+        when ``a q_r + b q_u + c q_f >= threshold`` (``inf`` threshold: no such
+        plane). :meth:`occluded_triangles` culls a triangle lying behind it in a pixel
+        whose depth alone does not (a floor or road under the ground seen at a grazing
+        angle, where the plane's farthest depth over the pixel is far). None: no
+        planes (a buffer made from depths alone).
     """
 
     depth: np.ndarray
     camera: PerspectiveCamera
     hits: int
     rays: int = 0
+    plane: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -867,6 +878,7 @@ class ConservativeDepthBuffer:
         segments, region_ok = occ._screen_segments(eye, basis, hx, hy, w, h)
         outside = np.full(occ._n_solids, -1, dtype=np.int8)
         depth = np.full((h, w), np.inf)
+        plane = np.full((h, w, 4), np.inf)
         corner = np.empty((tile + 1, tile + 1))
         coef = np.empty((max(1, occ._solid_plane.shape[1]), 3))
         thin = np.empty((len(occ._bounds), 5))
@@ -891,7 +903,7 @@ class ConservativeDepthBuffer:
                                 occ._facet_plane, occ._solid_plane, occ._solid_plane_ok,
                                 occ._region_plane, segments, occ._segment_start, region_ok,
                                 _SEGMENT_SLACK, eye, r, u, f, tol, xs, ys, margin, thin, depth,
-                                corner, coef, child_i, child_j)
+                                corner, coef, child_i, child_j, plane)
             ti, tj = child_i[:n], child_j[:n]
             s //= 2
         layers = ([(occ._patch, occ._patch_edges6, occ._n_patches, None)]
@@ -911,7 +923,7 @@ class ConservativeDepthBuffer:
                            r, u, f, tol, _CREASE_TOLERANCE * size, margin, _SEGMENT_SLACK)
         if CONTOUR_RULE and not np.isfinite(depth).all():
             _contour_depths(occ, eye, basis, hx, hy, depth, margin)
-        return cls(depth=depth, camera=camera, hits=hits, rays=rays)
+        return cls(depth=depth, camera=camera, hits=hits, rays=rays, plane=plane)
 
     def screen_rectangles(self, lower: npt.ArrayLike, upper: npt.ArrayLike
                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -1029,7 +1041,8 @@ class ConservativeDepthBuffer:
         the triangle really is there, times the secant of the pixel's ray nearest the
         view axis). A group is hidden when every triangle is: outside the view pyramid,
         or behind a nearer depth in every pixel it may touch (sec. 6 of [1]_ with the
-        triangle in place of the bounding box).
+        triangle in place of the bounding box), or, in a pixel covered by one occluder
+        plane (:attr:`plane`), wholly behind that plane by the depth margin.
 
         Parameters
         ----------
@@ -1073,7 +1086,8 @@ class ConservativeDepthBuffer:
         cam = self.camera
         f, r, u = cam.basis
         out = np.zeros(len(start) - 1, dtype=bool)
+        plane = self.plane if self.plane is not None else np.full((*self.shape, 4), np.inf)
         occluded_triangles(tri, start.astype(np.int64), np.asarray(cam.position,
                            dtype=np.float64), r, u, f, cam._half, cam._half_vertical,
-                           self.depth, out)
+                           self.depth, plane, out)
         return out
