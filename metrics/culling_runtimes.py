@@ -28,6 +28,7 @@ import numpy.typing as npt
 
 from viscore import PerspectiveCamera
 from viscore._validate import as_positive_int
+from viscore.constants import DEFAULT_REDUCTION
 
 __all__ = ["Runtime", "no_culling", "frusta_runtime", "depth_buffer_runtime",
            "view_frustum_mask"]
@@ -162,8 +163,8 @@ def _solids_scene(solids: list, polygons: Sequence | None) -> Callable:
     return scene
 
 
-def depth_buffer_runtime(occluders, *, reduction: int = 4, conservative: bool = True,
-                         count: int | None = None) -> Runtime:
+def depth_buffer_runtime(occluders, *, reduction: int = DEFAULT_REDUCTION,
+                         conservative: bool = True, count: int | None = None) -> Runtime:
     """Conservative reduced-resolution depth-buffer runtime (occluder skins, sec. 5-6).
 
     Parameters
@@ -175,8 +176,9 @@ def depth_buffer_runtime(occluders, *, reduction: int = 4, conservative: bool = 
         (for example the cut of a planar-sections hierarchy for the frame's
         camera), whose time counts in the overhead.
     reduction : int, optional
-        Screen pixels per buffer pixel along each side (default 4: 320 x 180
-        for 1280 x 720, the quarter-size buffer of sec. 7).
+        Screen pixels per buffer pixel along each side (default
+        :data:`~viscore.constants.DEFAULT_REDUCTION`, 2: 640 x 360 for
+        1280 x 720, a quarter of the screen's pixels, sec. 7).
     conservative : bool, optional
         Whether the occluders carry the conservativeness guarantee.
     count : int, optional

@@ -73,7 +73,7 @@ def test_point_sampled_buffer_would_cull_through_gap():
 def test_depth_buffer_wall_culls_hidden_not_partly_visible():
     wall = trimesh.creation.box(extents=(10, 1, 10))
     cam = PerspectiveCamera((0, -20, 0), (0, 1, 0), **CAM)
-    buf = ConservativeDepthBuffer.from_occluders(wall, cam)
+    buf = ConservativeDepthBuffer.from_occluders(wall, cam, width=32, height=18)
     assert buf.shape == (18, 32)
     lo = np.array([[-1, 3, -1], [6.0, 3, -1], [-1, -4, -1], [-1, 0.51, -1]])
     hi = np.array([[1, 4, 1], [9.0, 4, 1], [1, -3, 1], [1, 1, 1]])
@@ -233,7 +233,7 @@ def test_hierarchical_buffer_conservative_against_dense_rays(seed):
     for eye in eyes:
         fwd = (rng.uniform(-0.4, 0.4), 1, rng.uniform(-0.2, 0.2))
         cam = PerspectiveCamera(eye, fwd, fov=70, resolution=256, height=144)
-        buf = ConservativeDepthBuffer.from_occluders(occ, cam)
+        buf = ConservativeDepthBuffer.from_occluders(occ, cam, width=64, height=36)
         assert buf.shape == (36, 64) and 0 < buf.hits <= buf.rays < 65 * 37
         _assert_conservative(occ, buf, rng)
 
@@ -695,11 +695,11 @@ def test_closed_convex_part_of_a_mesh_is_one_convex_piece(rng):
     cam = PerspectiveCamera((0.0, 0, -9), (0, 0, 1), fov=70, resolution=256, height=144)
     occ = OccluderScene([split])
     assert occ.pieces == 1
-    buf = ConservativeDepthBuffer.from_occluders(occ, cam)
+    buf = ConservativeDepthBuffer.from_occluders(occ, cam, width=64, height=36)
     corners = np.isfinite(_full_corner_depth(occ, cam, 64, 36))
     assert corners.sum() > 100 and (buf.covered >= corners).all()
     apart = ConservativeDepthBuffer.from_occluders(  # each triangle an open piece
-        [trimesh.Trimesh(t, [[0, 1, 2]]) for t in ball.triangles], cam)
+        [trimesh.Trimesh(t, [[0, 1, 2]]) for t in ball.triangles], cam, width=64, height=36)
     assert buf.covered.sum() > 1.3 * apart.covered.sum()  # 300 and 208 pixels
     _assert_conservative(occ, buf, rng)
     torus = trimesh.creation.torus(major_radius=2.0, minor_radius=0.5)

@@ -242,9 +242,9 @@ def test_a_region_behind_works_when_it_is_the_only_region():
     cam = PerspectiveCamera((0.02, 2.0, 0.0), (0, 0, 1), up=(0, 1, 0), fov=60,
                             resolution=256, height=144)
     box = ([[-0.6, 2, 11]], [[0.6, 4, 12]])  # behind the wall, wider than the pillar's image
-    on = ConservativeDepthBuffer.from_occluders(occ, cam)
+    on = ConservativeDepthBuffer.from_occluders(occ, cam, width=64, height=36)
     off = ConservativeDepthBuffer.from_occluders(
-        _without_region_creases(OccluderScene([level])), cam)
+        _without_region_creases(OccluderScene([level])), cam, width=64, height=36)
     assert on.occluded(*box)[0] and not off.occluded(*box)[0]
     _assert_never_nearer(Scene(level), cam, on, on.covered & ~off.covered,
                          np.random.default_rng(8))

@@ -116,7 +116,7 @@ def add_parser(sub, common) -> None:
                         "(default as cull's, triangles)")
     w.add_argument("--buffer-scale", type=int, default=None, metavar="N",
                    help="with --cull: depth buffer's screen pixels per buffer pixel along each "
-                        "side, as 'viscore cull --buffer-scale' (default 4)")
+                        "side, as 'viscore cull --buffer-scale' (default 2)")
     w.add_argument("--gap", action="store_true",
                    help="with --cull: sort the best guaranteed runtime's misses (hidden, not "
                         "culled) by cause, against depth buffers of the level's own triangles "

@@ -21,6 +21,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from viscore._validate import as_positive, as_positive_int, as_seed
+from viscore.constants import DEFAULT_REDUCTION
 
 #: Two-sided level of the bootstrap intervals over frames.
 CONFIDENCE = 0.95
@@ -35,8 +36,8 @@ WIDTH, HEIGHT = 1280, 720
 GAP_OWN, GAP_OWN_FULL, GAP_EVERY_FULL = "gap:own", "gap:own-full", "gap:every-full"
 
 #: Screen pixels per depth-buffer pixel along each side (``viscore cull --buffer-scale``'s
-#: default: the quarter-size buffer of the occluder-skins paper, sec. 7).
-BUFFER_SCALE = 4
+#: default: a quarter of the screen's pixels, the occluder-skins paper, sec. 7).
+BUFFER_SCALE = DEFAULT_REDUCTION
 
 
 def _interval(num: np.ndarray, den: np.ndarray, seed: int) -> list[float]:
@@ -72,7 +73,8 @@ def _gap_runtimes(level, seed: int, reduction: int) -> dict:
 
 
 def _cull_figures(level, walk, *, seed: int, bounds: str, methods: Sequence[str] | None,
-                  width: int, height: int, gap: bool = False, reduction: int = 4) -> dict:
+                  width: int, height: int, gap: bool = False,
+                  reduction: int = DEFAULT_REDUCTION) -> dict:
     """The culling simulation along ``walk``: truth, best guaranteed runtime, false culls
     (with ``gap``, where the best runtime's misses go)."""
     from viscore.culling import occludee_boxes, parse_bounds
@@ -170,7 +172,7 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
         culled shares); default False. Several times the work of ``cull`` alone.
     buffer_scale : int, optional
         With ``cull``: screen pixels per depth-buffer pixel along each side, as ``cull
-        --buffer-scale`` (default :data:`BUFFER_SCALE`, 4: 320 x 180 at 1280 x 720).
+        --buffer-scale`` (default :data:`BUFFER_SCALE`, 2: 640 x 360 at 1280 x 720).
     progress : callable, optional
         Called with each level's row when it is done.
 

@@ -28,6 +28,7 @@ import numpy.typing as npt
 
 from viscore import InputError
 from viscore._validate import as_positive_int
+from viscore.constants import DEFAULT_REDUCTION
 from viscore.level.scene_graph import SceneObjects
 from viscore.metrics.culling import Runtime, depth_buffer_runtime, frusta_runtime, no_culling
 
@@ -134,7 +135,7 @@ def _hierarchy_source(occluders: list[Occluder], width_of: Callable) -> Callable
 
 def culling_runtimes(objects: SceneObjects, indices: Sequence[int] | np.ndarray,
                      methods: Sequence[str], *,
-                     active: int = 15, reduction: int = 4, seed: int = 0,
+                     active: int = 15, reduction: int = DEFAULT_REDUCTION, seed: int = 0,
                      frusta: bool = True, frusta_source: str | None = None,
                      cap: str = "front-faces", rank: str = "faces",
                      params: dict[str, dict] | None = None,
@@ -156,7 +157,7 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int] | np.ndarray,
         Active occluders per frame of the frusta runtimes (default 15).
     reduction : int, optional
         Depth buffer: screen pixels per buffer pixel along each side (default
-        4: 320 x 180 for 1280 x 720).
+        :data:`~viscore.constants.DEFAULT_REDUCTION`, 2: 640 x 360 for 1280 x 720).
     seed : int, optional
         Passed to every generator.
     frusta : bool, optional

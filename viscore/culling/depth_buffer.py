@@ -11,7 +11,7 @@ References
    (CACIC 2012), Workshop de Computacion Grafica, Imagenes y Visualizacion,
    2012. http://sedici.unlp.edu.ar/handle/10915/23640 (the "Occluder Skins"
    paper: sec. 5 depth buffer generation, sec. 6 occludee test, sec. 7 a
-   quarter-size buffer)
+   buffer of a quarter of the screen's size)
 .. [2] Zhang, H., Manocha, D., Hudson, T., Hoff, K. "Visibility Culling using
    Hierarchical Occlusion Maps". SIGGRAPH 1997. :DOI:`10.1145/258734.258781`
 .. [3] Haines, E. "Fast Ray-Convex Polyhedron Intersection". In Arvo, J. (ed.),
@@ -30,6 +30,7 @@ import numpy.typing as npt
 import trimesh
 
 from .._validate import InputError, as_positive_int, check_memory
+from ..constants import DEFAULT_REDUCTION
 from ..ray.cameras import PerspectiveCamera
 from ..ray.embree_scene import Scene
 from ._creases import flat_pairs, height_field_patches
@@ -37,10 +38,6 @@ from .shadow_frusta import _as_boxes
 
 __all__ = ["OccluderScene", "ConservativeDepthBuffer", "DEFAULT_REDUCTION",
            "DEPTH_MARGIN_RELATIVE"]
-
-#: The buffer has 1/4 of the screen's pixels per side by default (1280 x 720 ->
-#: 320 x 180): the quarter-size buffer of the occluder-skins paper, sec. 7.
-DEFAULT_REDUCTION = 4
 
 #: Stored depths are widened by this fraction of (occluder scene diagonal +
 #: distance from the eye to its centre), far beyond the float64 rounding of the
@@ -847,8 +844,8 @@ class ConservativeDepthBuffer:
         >>> wall = trimesh.creation.box(extents=(10, 1, 10))
         >>> cam = PerspectiveCamera((0, -5, 0), (0, 1, 0), fov=60, resolution=64, height=36)
         >>> buf = ConservativeDepthBuffer.from_occluders(wall, cam)
-        >>> buf.shape, bool(buf.covered.all()), buf.rays   # one 16 x 16 tile: 4 rays
-        ((9, 16), True, 4)
+        >>> buf.shape, bool(buf.covered.all()), buf.rays   # 2 x 2 tiles of 16 x 16: 9 rays
+        ((18, 32), True, 9)
         """
         from ._depth_kernel import (
             region_creases,
