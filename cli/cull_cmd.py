@@ -20,11 +20,11 @@ from viscore import InputError, provenance, stream_seed
 from viscore._atomic import LockedFolder
 from viscore._jobs import JOBS_PER_CORE, check_scheduler, connect_scheduler
 from viscore._validate import as_positive, as_positive_int, as_seed, check_memory
-from viscore.constants import DEFAULT_REDUCTION
 from viscore.culling import (
     AUTO_MIN_SIZE,
     DEFAULT_BOUNDS,
     DEFAULT_CLUSTERS,
+    DEFAULT_REDUCTION,
     MAX_CLUSTERS,
     MESHLET_TRIANGLES,
     occludee_boxes,

@@ -21,7 +21,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from viscore._validate import as_positive, as_positive_int, as_seed
-from viscore.constants import DEFAULT_REDUCTION
+from viscore.culling import DEFAULT_REDUCTION
 
 #: Two-sided level of the bootstrap intervals over frames.
 CONFIDENCE = 0.95

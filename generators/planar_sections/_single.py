@@ -112,6 +112,7 @@ class _Candidates:
     _searches: dict = field(default_factory=dict, repr=False)
     _refined: dict = field(default_factory=dict, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+    _polygon_locks: dict = field(default_factory=dict, repr=False)
 
     @classmethod
     def make(cls, sec: _slices.SectionSolid, direction_bins: int, depth_bins: int,
@@ -152,13 +153,22 @@ class _Candidates:
             return self._searches[key]
 
     def refined(self, i: int, search: bool):
-        """:func:`refine_chain` of candidate ``i``'s chain, made once."""
+        """:func:`refine_chain` of candidate ``i``'s chain, made once.
+
+        One thread at a time refines a candidate: its shapely polygon is shared, and
+        GEOS aborts the process when two threads prepare or query one prepared
+        geometry at once (the precision floor's threads slice the same solid)."""
         with self._lock:
             kept = self._refined.get((i, search))
+            lock = self._polygon_locks.setdefault(i, threading.Lock())
         if kept is None:
-            kept = refine_chain(self.chains[i], self.cands[i][1].polygon, search=search)
-            with self._lock:
-                kept = self._refined.setdefault((i, search), kept)
+            with lock:
+                kept = self._refined.get((i, search))
+                if kept is None:
+                    kept = refine_chain(self.chains[i], self.cands[i][1].polygon,
+                                        search=search)
+                    with self._lock:
+                        self._refined[(i, search)] = kept
         return kept
 
 

@@ -1,7 +1,7 @@
 """Culling runtimes: shadow frusta and their per-frame culler, the conservative depth buffer,
 occludee bounds."""
 
-from .depth_buffer import ConservativeDepthBuffer, OccluderScene
+from .depth_buffer import DEFAULT_REDUCTION, ConservativeDepthBuffer, OccluderScene
 from .frustum_culler import ACTIVE_OCCLUDERS, FrustumCuller
 from .occludee_bounds import (
     AUTO_MIN_SIZE,
@@ -27,8 +27,8 @@ from .shadow_frusta import (
     solid_frustum,
 )
 
-__all__ = ["ConservativeDepthBuffer", "OccluderScene", "FrustumCuller", "Frustum",
-           "solid_frustum", "polygon_frustum", "boxes_in_frustum", "boxes_in_frusta",
+__all__ = ["ConservativeDepthBuffer", "OccluderScene", "DEFAULT_REDUCTION", "FrustumCuller",
+           "Frustum", "solid_frustum", "polygon_frustum", "boxes_in_frustum", "boxes_in_frusta",
            "rank_solids", "rank_planar", "solid_faces_as_polygons", "cluster_boxes",
            "object_cluster_boxes", "occludee_boxes", "DEFAULT_CLUSTERS", "MAX_CLUSTERS",
            "AUTO_MIN_SIZE", "ACTIVE_OCCLUDERS", "MARGIN_RELATIVE", "SHAPE_TOLERANCE",
