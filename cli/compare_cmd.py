@@ -49,8 +49,8 @@ _log = logging.getLogger(__name__)
 MAX_RESOLUTION = 4096
 
 #: Meshes of a study given none: a closed solid with a hole, a scan and a game building,
-#: so that ``viscore compare`` runs every method in minutes (238 s on an idle 2-core
-#: machine, 460 CPU-s).
+#: so that ``viscore compare`` runs every method in minutes (255 s on an idle 2-core
+#: machine, 464 CPU-s; 309 s on a fresh install's first run, which compiles the kernels).
 DEFAULT_SCENES = ("fat-torus", "bunny", "building-house")
 
 #: Frames of the culling column's walk through the built-in city.
