@@ -78,8 +78,8 @@ class _Bar:
 
     The bar fills with the jobs' work (triangles plus a fixed part each, from
     :func:`viscore.generators.levels.occlude_level`), not their count: the
-    biggest meshes run first, so counting jobs put the end 10-150 times too
-    far at the start. The time left is elapsed x work left / work done.
+    biggest meshes run first, so counting jobs put the end up to 87 times too
+    far at the start (sauer-zdm2). The time left is elapsed x work left / work done.
     """
 
     def __init__(self, enabled: bool) -> None:

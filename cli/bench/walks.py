@@ -35,10 +35,6 @@ WIDTH, HEIGHT = 1280, 720
 #: level: they are its whole mesh.
 GAP_OWN, GAP_OWN_FULL, GAP_EVERY_FULL = "gap:own", "gap:own-full", "gap:every-full"
 
-#: Screen pixels per depth-buffer pixel along each side (``viscore cull --buffer-scale``'s
-#: default: a quarter of the screen's pixels, the occluder-skins paper, sec. 7).
-BUFFER_SCALE = DEFAULT_REDUCTION
-
 
 def _interval(num: np.ndarray, den: np.ndarray, seed: int) -> list[float]:
     from viscore.metrics import bootstrap_ratio
@@ -137,7 +133,7 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
                 up: str | None = None, eye_height: float | None = None, cull: bool = False,
                 bounds: str | None = None, methods: Sequence[str] | None = None,
                 width: int = WIDTH, height: int = HEIGHT, gap: bool = False,
-                buffer_scale: int = BUFFER_SCALE,
+                buffer_scale: int = DEFAULT_REDUCTION,
                 progress: Callable[[dict], None] | None = None) -> dict:
     """The walk on each level, and with ``cull`` the culling along it.
 
@@ -172,7 +168,8 @@ def bench_walks(levels: Sequence[str], *, frames: int = 20, seed: int = 0,
         culled shares); default False. Several times the work of ``cull`` alone.
     buffer_scale : int, optional
         With ``cull``: screen pixels per depth-buffer pixel along each side, as ``cull
-        --buffer-scale`` (default :data:`BUFFER_SCALE`, 2: 640 x 360 at 1280 x 720).
+        --buffer-scale`` (default :data:`viscore.culling.DEFAULT_REDUCTION`, 2: 640 x 360
+        at 1280 x 720).
     progress : callable, optional
         Called with each level's row when it is done.
 
