@@ -17,6 +17,7 @@ from viscore.generators.levels import (
     transform_occluder,
 )
 from viscore.level.scene_graph import load_scene_objects
+from viscore.metrics import camera_walk
 from viscore.metrics.culling import (
     PathCamera,
     Runtime,
@@ -525,6 +526,69 @@ def test_camera_path_walks_the_town_not_the_wide_ground_around_it():
     small = _town_on_a_wide_ground(0.45 * LEVEL_SPAN * 130)
     assert small.built_bounds()[1] is False
     np.testing.assert_array_equal(small.built_bounds()[0], small.bounds)
+
+
+def _towns_in_a_landscape(*, fine_hills: bool = False) -> trimesh.Scene:
+    """Two towns 3 km apart on a lake (16 houses at the origin, 10 at x = 3000), each on
+    its own ground, in a coarse bowl of hills 12 km across rising to 1,500 (a lake game's
+    map): the hills are not flat, and their box holds the towns'."""
+    rng = np.random.default_rng(1)
+    scene = trimesh.Scene()
+    for town, (cx, count) in enumerate(((0.0, 16), (3000.0, 10))):
+        scene.add_geometry(trimesh.creation.box(bounds=[[cx - 110, -0.2, -110],
+                                                        [cx + 110, 0, 110]]),
+                           geom_name=f"ground{town}", node_name=f"ground{town}")
+        for k in range(count):
+            x, z = rng.uniform(-95, 85, 2)
+            house = trimesh.creation.box(bounds=[[cx + x, 0, z], [cx + x + 9, 6, z + 9]])
+            house = house.subdivide().subdivide()  # modelled: more triangles than a box
+            scene.add_geometry(house, geom_name=f"house{town}_{k}",
+                               node_name=f"house{town}_{k}")
+    scene.add_geometry(trimesh.creation.box(bounds=[[-4000, -0.5, -4000], [4000, -0.3, 4000]]),
+                       geom_name="lake", node_name="lake")
+    xs = np.linspace(-6000, 6000, 5)
+    gx, gz = np.meshgrid(xs, xs, indexing="ij")
+    rim = (np.abs(gx) == 6000) | (np.abs(gz) == 6000)
+    verts = np.stack([gx.ravel(), np.where(rim, 1500.0, -10.0).ravel(), gz.ravel()], axis=1)
+    faces = [[i * 5 + j, i * 5 + j + 1, (i + 1) * 5 + j] for i in range(4) for j in range(4)]
+    faces += [[i * 5 + j + 1, (i + 1) * 5 + j + 1, (i + 1) * 5 + j] for i in range(4)
+              for j in range(4)]
+    hills = trimesh.Trimesh(verts, faces)
+    if fine_hills:  # the map's own mesh, holding most of its triangles
+        hills = hills.subdivide().subdivide().subdivide().subdivide()
+    scene.add_geometry(hills, geom_name="hills", node_name="hills")
+    return scene
+
+
+def test_two_towns_in_a_landscape_walk_and_size_the_larger_town(tmp_path):
+    """A lake map 12 km across holding two towns of 200 m 3 km apart (a game's map seen
+    on a new level: the walk stood on the lake 1-2 km from both towns, and 2% of the
+    hills' 14 km diagonal left all but 13 of 307 objects without an occluder): the built
+    part is the larger town, the walk stands among its houses, and its houses are sized
+    against it. The hills are a landscape only while coarse: as a map's main mesh,
+    holding most of the triangles, they still set the level's extent."""
+    from viscore.level.objects import level_objects
+
+    scene = _towns_in_a_landscape()
+    objects = load_scene_objects(scene)
+    box, part = objects.built_bounds()
+    assert part
+    assert -111 <= box[0][0] and box[1][0] <= 111 and -111 <= box[0][2] and box[1][2] <= 111
+    walk = camera_walk(objects, frames=20, seed=0)
+    eyes = np.array([c.position for c in walk.cameras])
+    assert len(eyes) >= 17 and (np.abs(eyes[:, [0, 2]]) < 111).all()
+    assert walk.floors and all(s.standing for s in walk.stances)
+    level_file = tmp_path / "lake.glb"
+    scene.export(level_file)
+    level = level_objects(level_file)
+    houses = [i for i, n in enumerate(level.objects.names) if n.startswith("house")]
+    assert set(houses) <= set(level.chosen.tolist())
+    # hills holding most of the triangles are the level's own mesh, not a landscape
+    mesh = load_scene_objects(_towns_in_a_landscape(fine_hills=True))
+    hills = mesh.names.index("hills")
+    assert mesh.triangles[hills] > 0.5 * mesh.triangles.sum()
+    box, part = mesh.built_bounds()
+    assert not part and box[1][0] == 6000
 
 
 def test_a_sky_dome_neither_sets_the_level_nor_gets_occluders(tmp_path):

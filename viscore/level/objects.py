@@ -346,8 +346,9 @@ def _choose(objects: SceneObjects, up: str, min_size: float | None,
     box, part = objects.built_bounds(axis)
     if part:
         built = float(np.linalg.norm(box[1] - box[0]))
-        _log.info("%s: flat objects or a sky span %.4g world units around the rest of %.4g; "
-                  "object sizes are fractions of the latter", objects.source, level, built)
+        _log.info("%s: its built part spans %.4g world units, %.4g with what lies around it "
+                  "(flat ground or sea, a sky, a landscape, far outskirts); object sizes are "
+                  "fractions of the built part", objects.source, built, level)
         level = built
     sizes = diag / level
     for arr in (sizes, flat):

@@ -135,6 +135,17 @@ FLAT_RATIO = 0.1
 #: the non-flat objects' box (an outer ground plane, a sea around a town) does not set
 #: the level's extent: its built part is the non-flat objects' box.
 LEVEL_SPAN = 2.0
+#: The largest object around the others is a landscape (:meth:`SceneObjects.built_bounds`)
+#: only when it holds under this share of their triangles: a coarse terrain around a
+#: detailed town (2,345 of 77,093 in a game's lakeside towns), not a map's main mesh
+#: around a few props (96-98% in exported shooter maps).
+LANDSCAPE_SHARE = 0.25
+#: Objects whose boxes, seen from above, come within this many median object diagonals
+#: of each other are of one district (:meth:`SceneObjects.built_bounds`): the buildings of
+#: a town across its streets and squares, not two towns kilometres apart.
+DISTRICT_GAP = 5.0
+#: Most cells along a side of the grid the districts are marked on.
+DISTRICT_CELLS = 1024
 #: Largest objects checked by :meth:`SceneObjects.sky` (a sky box around a sky dome).
 SKY_CANDIDATES = 3
 
@@ -266,20 +277,109 @@ class SceneObjects:
     def built_bounds(self, up: npt.ArrayLike | None = None) -> tuple[np.ndarray, bool]:
         """``(2, 3)`` the box of the level's built part, and whether it is not the whole.
 
-        The box of the objects that are neither flat nor sky (:meth:`sky`) when
-        the others (an outer ground plane, a sea around a town, a sky dome)
-        make the whole box's diagonal more than :data:`LEVEL_SPAN` times its
-        diagonal; otherwise :attr:`bounds`.
+        Three things around a level do not set its extent, each only when it makes
+        the box's diagonal more than :data:`LEVEL_SPAN` times that of what it
+        surrounds:
+
+        - the *outer* objects: flat ones (an outer ground plane, a sea around a
+          town) and a sky (:meth:`sky`);
+        - a *landscape*: the largest other object, when its box holds the centre
+          of the others' box and it holds under :data:`LANDSCAPE_SHARE` of their
+          triangles (a coarse terrain of hills around a detailed town, not flat
+          because of its mountains; not a map's main mesh around its props);
+        - the *outskirts*: objects whose boxes, seen from above, come within
+          :data:`DISTRICT_GAP` median box diagonals of each other are of one
+          district, and the district of most objects is the built part when the
+          others lie far from it (two towns kilometres apart on a lake's shores,
+          islands between them).
+
+        Returns :attr:`bounds` and False when none of these applies.
         """
+        axis = self.up if up is None else up
         whole = self.bounds
-        outer = self.flat(up) | self.sky()
-        if outer.all() or not outer.any():
+        outer = self.flat(axis) | self.sky()
+        if outer.all():
             return whole, False
-        built = np.stack([self.lower[~outer].min(axis=0), self.upper[~outer].max(axis=0)])
-        span = float(np.linalg.norm(built[1] - built[0]))
-        if span > 0 and float(np.linalg.norm(whole[1] - whole[0])) > LEVEL_SPAN * span:
+
+        def box(mask: np.ndarray) -> np.ndarray:
+            return np.stack([self.lower[mask].min(axis=0), self.upper[mask].max(axis=0)])
+
+        def span(b: np.ndarray) -> float:
+            return float(np.linalg.norm(b[1] - b[0]))
+
+        inner = ~outer
+        # a landscape: the largest built object, around the others' box from far wider
+        order = np.flatnonzero(inner)
+        if len(order) > 1:
+            big = order[int(np.argmax(np.linalg.norm(self.upper[order] - self.lower[order],
+                                                     axis=1)))]
+            rest = inner.copy()
+            rest[big] = False
+            centre = box(rest).mean(axis=0)
+            around = bool(np.all((self.lower[big] <= centre) & (centre <= self.upper[big])))
+            coarse = self.triangles[big] < LANDSCAPE_SHARE * self.triangles[inner].sum()
+            if around and coarse and span(np.stack([self.lower[big], self.upper[big]])) \
+                    > LEVEL_SPAN * span(box(rest)):
+                inner = rest
+        # the outskirts: the largest district, when the built part is far wider
+        district = self._districts(axis, inner)
+        labels = district[inner]
+        if len(labels):
+            main = district == int(np.bincount(labels).argmax())
+            if span(box(inner)) > LEVEL_SPAN * span(box(main)):
+                inner = main
+        built = box(inner)
+        if span(built) > 0 and span(whole) > LEVEL_SPAN * span(built):
             return built, True
         return whole, False
+
+    def _districts(self, up: npt.ArrayLike, among: np.ndarray) -> np.ndarray:
+        """``(n,) int64``: a district number per object of ``among`` (-1 for the others).
+
+        The boxes, seen from above along ``up`` and widened by half of
+        :data:`DISTRICT_GAP` times their median diagonal on each side, are marked on
+        a grid of cells that wide (at most :data:`DISTRICT_CELLS` along a side,
+        wider cells beyond); marked cells that touch form a district, and each
+        object belongs to the district of its box's centre.
+        """
+        from scipy import ndimage
+
+        u = np.asarray(up, dtype=np.float64)
+        u = u / np.linalg.norm(u)
+        district = np.full(len(self), -1, dtype=np.int64)
+        keep = np.flatnonzero(among)
+        if not len(keep):
+            return district
+        axis = np.zeros(3)
+        axis[int(np.argmin(np.abs(u)))] = 1.0
+        e1 = np.cross(u, axis)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(e1, u)
+        corners = np.stack([np.where(np.array([x, y, z]), self.upper[keep], self.lower[keep])
+                            for x in (0, 1) for y in (0, 1) for z in (0, 1)], axis=1)
+        plane = np.stack([corners @ e1, corners @ e2], axis=2)  # (k, 8, 2)
+        lo, hi = plane.min(axis=1), plane.max(axis=1)
+        gap = DISTRICT_GAP * float(np.median(np.linalg.norm(self.upper[keep]
+                                                            - self.lower[keep], axis=1)))
+        origin = lo.min(axis=0) - gap
+        extent = float((hi.max(axis=0) + gap - origin).max())
+        cell = max(gap, extent / DISTRICT_CELLS, 1e-300)
+        shape = np.minimum(np.ceil((hi.max(axis=0) + gap - origin) / cell).astype(np.int64)
+                           + 1, DISTRICT_CELLS + 1)
+        first = np.clip(((lo - gap / 2 - origin) / cell).astype(np.int64), 0, shape - 1)
+        last = np.clip(((hi + gap / 2 - origin) / cell).astype(np.int64), 0, shape - 1)
+        # each box's cells marked by a 2-D difference array: +1 at its first corner,
+        # -1 past its last, summed along both axes
+        marks = np.zeros(shape + 1, dtype=np.int64)
+        np.add.at(marks, (first[:, 0], first[:, 1]), 1)
+        np.add.at(marks, (last[:, 0] + 1, first[:, 1]), -1)
+        np.add.at(marks, (first[:, 0], last[:, 1] + 1), -1)
+        np.add.at(marks, (last[:, 0] + 1, last[:, 1] + 1), 1)
+        covered = marks.cumsum(axis=0).cumsum(axis=1)[:-1, :-1] > 0
+        labels, _ = ndimage.label(covered, structure=np.ones((3, 3)))
+        centre = np.clip((((lo + hi) / 2 - origin) / cell).astype(np.int64), 0, shape - 1)
+        district[keep] = labels[centre[:, 0], centre[:, 1]] - 1
+        return district
 
     @property
     def total_triangles(self) -> int:
