@@ -89,6 +89,24 @@ def test_camera_walk_level_in_centimetres():
     assert guess_eye_height(_rooms(), metres=True).value == 1.7
 
 
+def test_eye_height_leaves_out_cavities_between_layers():
+    """A deck 0.125 thick on legs 0.375 over half of the rooms' floor (a Sauerbraten map's
+    4-unit gaps under its platforms, a fifth of its floors under a ceiling, put the eye
+    at 1.4 where the game's is 14): the lower quartile of the headrooms is the gap under
+    the deck, which no one stands in; without it, the rooms over the deck (2.5) set the
+    eye, not the gap (0.375)."""
+    rooms = _rooms()
+    boxes = {n: [rooms.lower[i], rooms.upper[i]] for i, n in enumerate(rooms.names)}
+    boxes["deck"] = [[0.0, 0.375, 0.0], [9.9, 0.5, 20.0]]
+    objects = _objects(boxes)
+    eye = guess_eye_height(objects)
+    assert eye.sign == 1.0
+    assert eye.value == pytest.approx(0.35 * 2.5, rel=0.02)
+    assert "cavities" in eye.reason
+    # the rooms alone: their lower quartile is the crates' tops and the floor (2-3)
+    assert guess_eye_height(rooms).value >= 0.35 * 2.0
+
+
 def test_camera_walk_open_blockout_in_small_units():
     # the rooms without their roof, a twentieth of the size (a blockout of closed boxes,
     # 0.16 high): no floor has a ceiling, and turned over the floor slab's inside reads
