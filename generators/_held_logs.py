@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import re
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import TypeVar
+
+import numpy as np
 
 __all__ = ["held_records", "release", "report_parts", "call_held", "portable", "restored",
            "report_kinds", "UNHELD"]
@@ -15,6 +18,31 @@ T = TypeVar("T")
 
 #: Stands for a part's own name while texts are grouped (:func:`report_parts`).
 _EACH = "\x00each\x00"
+
+#: Stands for a number while texts are grouped: texts that differ only by their numbers
+#: (one mesh's walls of 0.006 need voxels of 0.003, another's of 0.01) are one kind.
+_NUMBER = "\x00n\x00"
+
+#: A number of a text, not part of a name (``Plane.086``, ``GLTF_19``).
+_NUMBER_RE = re.compile(r"(?<![\w.])-?\d+(?:\.\d+)?(?:[eE][+-]?\d+)?(?!\w)")
+
+
+def _template(text: str) -> tuple[str, list[str]]:
+    """``text`` with each number replaced by :data:`_NUMBER`, and the numbers."""
+    return _NUMBER_RE.sub(_NUMBER, text), _NUMBER_RE.findall(text)
+
+
+def _filled(key: str, numbers: Sequence[Sequence[str]]) -> str:
+    """A grouped text again: each number the one all texts had, or their range."""
+    pieces = key.split(_NUMBER)
+    out = [pieces[0]]
+    for k, piece in enumerate(pieces[1:]):
+        column = [row[k] for row in numbers]
+        values = [float(v) for v in column]
+        lo, hi = column[int(np.argmin(values))], column[int(np.argmax(values))]
+        out.append(lo if min(values) == max(values) else f"{lo} to {hi}")
+        out.append(piece)
+    return "".join(out)
 
 #: The loggers held: this one and every logger below it.
 _PREFIX = "viscore"
@@ -141,9 +169,11 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
 
     Notes
     -----
-    A text that begins with ``label`` and a colon loses that beginning (the
-    line starts with the label already). One record per distinct text, in the
-    order the texts first came, at the
+    Texts that differ only by their numbers are one text too, each number said
+    as the range of those it stood for ("walls of 0.004 to 0.01"). A text that
+    begins with ``label`` and a colon loses that beginning (the line starts
+    with the label already). One record per distinct text, in the order the
+    texts first came, at the
     highest level that text came at, through the logger that made it first:
     ``hierarchy: 29 of 57 nodes: <text>`` when several parts gave it,
     ``hierarchy node 12: <text>`` when one did (``label: <text>`` when ``names`` gives
@@ -167,16 +197,18 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
         if text.startswith(label + ": "):  # the label once: not "aabb-skins: ... aabb-skins:"
             text = text[len(label) + 2:]
         own = (names or {}).get(part)
-        key = text.replace(own, _EACH) if own else text
-        group = groups.setdefault(key, [record, set(), text])
+        key, numbers = _template(text.replace(own, _EACH) if own else text)
+        group = groups.setdefault(key, [record, set(), text, []])
         if record.levelno > group[0].levelno:
             group[0] = record
         group[1].add(part)
-    for key, (record, which, text) in groups.items():
+        group[3].append(numbers)
+    for key, (record, which, text, numbers) in groups.items():
         logger = logging.getLogger(record.name)
         if len(which) == 1:
             part = next(iter(which))
             own = (names or {}).get(part)
+            text = _filled(key, numbers).replace(_EACH, own) if own else _filled(key, numbers)
             if own and own in text:  # the text names its part: not "mesh 6: ...:Cube.001: ..."
                 logger.log(record.levelno, "%s: %s", label, text)
             else:
@@ -185,7 +217,7 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
                            own or str(part), text)
         else:
             logger.log(record.levelno, "%s: %d of %d %s: %s", label, len(which), parts, what,
-                       key.replace(_EACH, "each of them"))
+                       _filled(key, numbers).replace(_EACH, "each of them"))
 
 
 #: Fields of a record kept by :func:`portable` (its message is formatted first).
@@ -246,7 +278,9 @@ def report_kinds(records: Sequence[logging.LogRecord], *, labels: Sequence[str] 
     -----
     One record per kind, in the order the kinds first came, at the highest
     level that kind came at, through the logger that made it first: the text
-    as it was when it came once, else ``<labels>: <text> (<n> <what>)``.
+    as it was when it came once, else ``<labels>: <text> (<n> <what>)``. Texts
+    that differ only by their numbers are one kind, each number said as the
+    range of those it stood for.
 
     Examples
     --------
@@ -271,17 +305,20 @@ def report_kinds(records: Sequence[logging.LogRecord], *, labels: Sequence[str] 
             if text.startswith(candidate + ": "):
                 label, text = candidate, text[len(candidate) + 2:]
                 break
-        group = groups.setdefault(text, [record, [], 0])
+        key, numbers = _template(text)
+        group = groups.setdefault(key, [record, [], 0, []])
         if record.levelno > group[0].levelno:
             group[0] = record
         if label is not None and label not in group[1]:
             group[1].append(label)
         group[2] += 1
-    for text, (record, names, count) in groups.items():
+        group[3].append(numbers)
+    for key, (record, names, count, numbers) in groups.items():
         logger = logging.getLogger(record.name)
         if count == 1:
             logger.log(record.levelno, "%s", record.getMessage())
         else:
             prefix = ", ".join(names) + ": " if names else ""
-            logger.log(record.levelno, "%s%s (%d %s)", prefix, text, count, what)
+            logger.log(record.levelno, "%s%s (%d %s)", prefix, _filled(key, numbers), count,
+                       what)
     return len(groups)

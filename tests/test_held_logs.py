@@ -99,6 +99,34 @@ def test_report_parts_groups_texts_that_name_their_own_part(caplog):
         "aabb-skins mesh town.gltf:GLTF_2: no inside voxel"]
 
 
+def test_texts_differing_by_their_numbers_are_one_line_with_ranges(caplog):
+    """A lake map's 74 meshes gave 10 lines of one warning whose voxel sizes differed mesh
+    by mesh: one line now, each differing number said as its range, the shared ones as
+    they were; numbers inside names (Plane.086, GLTF_19) are no numbers."""
+    names = {0: "city.gltf:Plane.086", 1: "city.gltf:Plane.101", 2: "city.gltf:GLTF_19"}
+    with held_records() as records:
+        for part, voxel in ((0, "0.01315"), (1, "0.004005"), (2, "0.011")):
+            _LOG.warning("%s: walls of 0.006096 (20%% quantile) need voxels under 0.002743, "
+                         "grid of 16,000,000 cells has %s", names[part], voxel)
+        _LOG.warning("%s: 3 triangles dropped", names[1])
+        _LOG.warning("%s: 12 triangles dropped", names[1])
+    held = list(zip([0, 1, 2, 1, 1], records, strict=True))
+    report_parts(held, 74, what="meshes", label="aabb-skins", one="mesh", names=names)
+    assert [r.getMessage() for r in caplog.records] == [
+        "aabb-skins: 3 of 74 meshes: each of them: walls of 0.006096 (20% quantile) need "
+        "voxels under 0.002743, grid of 16,000,000 cells has 0.004005 to 0.01315",
+        "aabb-skins: city.gltf:Plane.101: 3 to 12 triangles dropped"]
+    caplog.clear()
+    with held_records() as records:
+        _LOG.warning("aabb-skins: GLTF_19 has 2 holes")
+        _LOG.warning("aabb-skins: GLTF_22 has 2 holes")
+        _LOG.warning("solid-frusta: GLTF_19 has 5 holes")
+    assert report_kinds(records, labels=("aabb-skins", "solid-frusta")) == 2
+    assert [r.getMessage() for r in caplog.records] == [
+        "aabb-skins, solid-frusta: GLTF_19 has 2 to 5 holes (2 times)",
+        "aabb-skins: GLTF_22 has 2 holes"]
+
+
 def test_report_parts_says_its_label_once():
     log = logging.getLogger("viscore.example")
     log.setLevel(logging.INFO)
