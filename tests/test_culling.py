@@ -591,6 +591,24 @@ def test_two_towns_in_a_landscape_walk_and_size_the_larger_town(tmp_path):
     assert not part and box[1][0] == 6000
 
 
+def test_a_scatter_of_props_keeps_the_whole_map():
+    """Rocks strewn 100 apart over an open map 1 km across, three of them in one clump:
+    the clump is the district of most objects but holds a fraction of the triangles, so
+    the map is not cut down to it."""
+    rng = np.random.default_rng(3)
+    scene = trimesh.Scene()
+    spots = [(x, z) for x in range(0, 1000, 100) for z in range(0, 1000, 100)]
+    spots += [(503.0, 503.0), (506.0, 506.0)]  # a clump with the rock at (500, 500)
+    for k, (x, z) in enumerate(spots):
+        h = rng.uniform(2, 4)
+        scene.add_geometry(trimesh.creation.box(bounds=[[x, 0, z], [x + 2, h, z + 2]]),
+                           geom_name=f"rock{k}", node_name=f"rock{k}")
+    objects = load_scene_objects(scene)
+    box, part = objects.built_bounds()
+    assert not part and box[1][0] == 902
+    np.testing.assert_array_equal(box, objects.bounds)
+
+
 def test_a_sky_dome_neither_sets_the_level_nor_gets_occluders(tmp_path):
     """A half-sphere sky 4 km across around a town of 200 m (Godot and three.js scenes
     ship one): the sky is found, the houses are sized against the town (all of them got

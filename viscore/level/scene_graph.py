@@ -144,6 +144,10 @@ LANDSCAPE_SHARE = 0.25
 #: of each other are of one district (:meth:`SceneObjects.built_bounds`): the buildings of
 #: a town across its streets and squares, not two towns kilometres apart.
 DISTRICT_GAP = 5.0
+#: The district of most objects is the built part only when it holds at least this share
+#: of the built objects' triangles (one of two towns: 37,415 of 77,093), not one clump
+#: of a scatter of props across an open map.
+DISTRICT_SHARE = 0.3
 #: Most cells along a side of the grid the districts are marked on.
 DISTRICT_CELLS = 1024
 #: Largest objects checked by :meth:`SceneObjects.sky` (a sky box around a sky dome).
@@ -290,8 +294,9 @@ class SceneObjects:
         - the *outskirts*: objects whose boxes, seen from above, come within
           :data:`DISTRICT_GAP` median box diagonals of each other are of one
           district, and the district of most objects is the built part when the
-          others lie far from it (two towns kilometres apart on a lake's shores,
-          islands between them).
+          others lie far from it and it holds :data:`DISTRICT_SHARE` of their
+          triangles (two towns kilometres apart on a lake's shores, islands
+          between them).
 
         Returns :attr:`bounds` and False when none of these applies.
         """
@@ -326,7 +331,8 @@ class SceneObjects:
         labels = district[inner]
         if len(labels):
             main = district == int(np.bincount(labels).argmax())
-            if span(box(inner)) > LEVEL_SPAN * span(box(main)):
+            share = self.triangles[main].sum() / max(1, self.triangles[inner].sum())
+            if share >= DISTRICT_SHARE and span(box(inner)) > LEVEL_SPAN * span(box(main)):
                 inner = main
         built = box(inner)
         if span(built) > 0 and span(whole) > LEVEL_SPAN * span(built):
