@@ -589,6 +589,19 @@ def test_two_towns_in_a_landscape_walk_and_size_the_larger_town(tmp_path):
     assert mesh.triangles[hills] > 0.5 * mesh.triangles.sum()
     box, part = mesh.built_bounds()
     assert not part and box[1][0] == 6000
+    # nor is a coarse hall's shell (12 triangles) over detailed machines in its middle
+    hall = trimesh.Scene()
+    hall.add_geometry(trimesh.creation.box(bounds=[[-50, 0, -50], [50, 10, 50]]),
+                      geom_name="shell", node_name="shell")
+    for k in range(8):
+        x, z = 8.0 * (k % 4) - 12, 8.0 * (k // 4) - 4
+        machine = trimesh.creation.box(bounds=[[x, 0, z], [x + 4, 3, z + 4]])
+        hall.add_geometry(machine.subdivide().subdivide(), geom_name=f"machine{k}",
+                          node_name=f"machine{k}")
+    inside = load_scene_objects(hall)
+    assert inside.triangles[inside.names.index("shell")] < 0.25 * inside.triangles.sum()
+    box, part = inside.built_bounds()
+    assert not part and box[1][0] == 50
 
 
 def test_a_scatter_of_props_keeps_the_whole_map():

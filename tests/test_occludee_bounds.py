@@ -108,8 +108,11 @@ def test_object_cluster_boxes_follow_instances():
 
 def test_object_cluster_boxes_split_only_objects_of_min_size():
     scene = trimesh.Scene()  # a 20 m chunk of two pillars (not flat) and two small spheres
-    chunk = trimesh.util.concatenate([trimesh.creation.box(bounds=[[0, 0, 0], [2, 3, 1]]),
-                                      trimesh.creation.box(bounds=[[18, 0, 0], [20, 3, 1]])])
+    # (the pillars modelled finely: a coarse object around detailed ones is a landscape,
+    # which does not set the level's size)
+    chunk = trimesh.util.concatenate([
+        trimesh.creation.box(bounds=[[0, 0, 0], [2, 3, 1]]).subdivide().subdivide(),
+        trimesh.creation.box(bounds=[[18, 0, 0], [20, 3, 1]]).subdivide().subdivide()])
     scene.add_geometry(chunk, geom_name="chunk", node_name="chunk")
     ball = trimesh.creation.icosphere(subdivisions=2)
     for x in (5, 12):

@@ -140,6 +140,9 @@ LEVEL_SPAN = 2.0
 #: detailed town (2,345 of 77,093 in a game's lakeside towns), not a map's main mesh
 #: around a few props (96-98% in exported shooter maps).
 LANDSCAPE_SHARE = 0.25
+#: Most objects from whose tops :meth:`SceneObjects.built_bounds` casts a ray up to tell
+#: a landscape around them from a roof over them.
+ROOF_SAMPLES = 256
 #: Objects whose boxes, seen from above, come within this many median object diagonals
 #: of each other are of one district (:meth:`SceneObjects.built_bounds`): the buildings of
 #: a town across its streets and squares, not two towns kilometres apart.
@@ -288,9 +291,10 @@ class SceneObjects:
         - the *outer* objects: flat ones (an outer ground plane, a sea around a
           town) and a sky (:meth:`sky`);
         - a *landscape*: the largest other object, when its box holds the centre
-          of the others' box and it holds under :data:`LANDSCAPE_SHARE` of their
-          triangles (a coarse terrain of hills around a detailed town, not flat
-          because of its mountains; not a map's main mesh around its props);
+          of the others' box, it holds under :data:`LANDSCAPE_SHARE` of their
+          triangles and it is not over most of them (a coarse terrain of hills
+          around a detailed town, not flat because of its mountains; not a map's
+          main mesh around its props, nor a hall's shell over its machines);
         - the *outskirts*: objects whose boxes, seen from above, come within
           :data:`DISTRICT_GAP` median box diagonals of each other are of one
           district, and the district of most objects is the built part when the
@@ -324,7 +328,7 @@ class SceneObjects:
             around = bool(np.all((self.lower[big] <= centre) & (centre <= self.upper[big])))
             coarse = self.triangles[big] < LANDSCAPE_SHARE * self.triangles[inner].sum()
             if around and coarse and span(np.stack([self.lower[big], self.upper[big]])) \
-                    > LEVEL_SPAN * span(box(rest)):
+                    > LEVEL_SPAN * span(box(rest)) and not self._roofs(big, rest, axis):
                 inner = rest
         # the outskirts: the largest district, when the built part is far wider
         district = self._districts(axis, inner)
@@ -338,6 +342,25 @@ class SceneObjects:
         if span(built) > 0 and span(whole) > LEVEL_SPAN * span(built):
             return built, True
         return whole, False
+
+    def _roofs(self, big: int, under: np.ndarray, up: npt.ArrayLike) -> bool:
+        """Whether object ``big`` is over most of the objects ``under``: a ray cast up from
+        the top of each one's box (at most :data:`ROOF_SAMPLES`, evenly taken) first hits
+        ``big`` for at least half of them (a hall's shell over its machines, not the
+        hills around a town)."""
+        u = np.asarray(up, dtype=np.float64)
+        u = u / np.linalg.norm(u)
+        which = np.flatnonzero(under)
+        which = which[np.linspace(0, len(which) - 1, min(ROOF_SAMPLES, len(which)))
+                      .astype(np.int64)]
+        centre = (self.lower[which] + self.upper[which]) / 2
+        top = np.where(u > 0, self.upper[which], self.lower[which]) @ u
+        origins = centre + np.outer(top - centre @ u, u)
+        scene, owner = self.combined
+        _, tri = scene.first_hit(origins + 1e-6 * max(1.0, float(np.abs(origins).max())) * u,
+                                 np.broadcast_to(u, origins.shape))
+        hit = np.where(tri >= 0, owner[np.maximum(tri, 0)], -1)
+        return bool(np.mean(hit == big) >= 0.5)
 
     def _districts(self, up: npt.ArrayLike, among: np.ndarray) -> np.ndarray:
         """``(n,) int64``: a district number per object of ``among`` (-1 for the others).
