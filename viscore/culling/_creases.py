@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from .._jit import njit_cached
+from ._sheets import corner_distance
 
 __all__ = ["height_field_patches", "flat_pairs", "patch_frame", "INJECTIVE_TOLERANCE"]
 
@@ -361,7 +362,7 @@ def _patch_edges(f: np.ndarray, fid: np.ndarray, patch: np.ndarray) -> np.ndarra
 
 @njit_cached()
 def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack, pa, pb,
-                blocked, crease, disabled):  # pragma: no cover
+                blocked, crease, disabled, corners=False):  # pragma: no cover
     """One frame's images of the patches' edges (see the module docstring).
 
     ``edges`` (m, 6): two vertices, the third vertex of each triangle on the
@@ -376,7 +377,10 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack, pa, p
     then raises ``crease[i, j]`` to the largest distance at the ends of its
     part within the pixel widened by ``slack``. Sets ``disabled[g]`` for a
     group with an edge within ``reach`` of the eye. Parts of edges nearer than
-    ``z0`` along the view are cut off.
+    ``z0`` along the view are cut off. With ``corners`` (the sheet rule of
+    :mod:`viscore.culling._sheets`), a crease also raises ``crease[i, j]`` to the
+    distance at each corner of the pixel whose ray passes through one of its two
+    triangles.
     """
     kx = 0.5 / hx
     ky = 0.5 / hy
@@ -468,6 +472,15 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack, pa, p
                                     + (a2 + t1 * d2) ** 2))
                 if far > crease[i, j]:
                     crease[i, j] = far
+                if corners:
+                    for side in range(2):
+                        c = edges[k, 2 + side]
+                        for ki in range(2):
+                            for kj in range(2):
+                                dist = corner_distance(vert, edges[k, 0], edges[k, 1], c, eye,
+                                                       r, u, f, hx, hy, w, h, i + ki, j + kj)
+                                if dist > crease[i, j]:
+                                    crease[i, j] = dist
 
 
 @njit_cached()

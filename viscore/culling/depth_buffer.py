@@ -34,6 +34,7 @@ from ..constants import DEFAULT_REDUCTION
 from ..ray.cameras import PerspectiveCamera
 from ..ray.embree_scene import Scene
 from ._creases import flat_pairs, height_field_patches
+from ._sheets import mesh_sheets
 from .shadow_frusta import _as_boxes
 
 __all__ = ["OccluderScene", "ConservativeDepthBuffer", "DEFAULT_REDUCTION",
@@ -52,6 +53,11 @@ _FACET_TOLERANCE = 1e-9
 #: (:mod:`viscore.culling._contour`): the centre ray meets an occluder and no contour edge
 #: of the occluders crosses the pixel.
 CONTOUR_RULE = False
+
+#: Whether pixels still without a depth get one from the sheet rule
+#: (:mod:`viscore.culling._sheets`): the four corner rays first hit one edge-connected
+#: set of triangles and no contour edge of it crosses the pixel.
+SHEET_RULE = True
 
 #: Side of the coarsest tiles, in buffer pixels (a power of two).
 _TILE = 16
@@ -351,6 +357,12 @@ class OccluderScene:
         # creases between planar flats (a wall and the floor): pairs of flats as patches
         self._flat, self._flat_pairs, self._flat_edges = flat_pairs(v, f)
         self._n_flats = int(self._flat.max()) + 1 if len(self._flat) else 0
+        # any edge-connected triangles (a house of many small ones): the sheet rule
+        # (viscore.culling._sheets), tried on the pixels the others leave open
+        self._sheet, self._sheet_edges = mesh_sheets(v, f)
+        self._n_sheets = int(self._sheet.max()) + 1 if len(self._sheet) else 0
+        #: whether the sheet rule covers pixels (off only to measure it)
+        self._sheet_rule = SHEET_RULE
         self._facet = np.concatenate(facet)
         raw_solid = np.concatenate(solid)
         # solid ids: dense, and labels offset past the facet labels
@@ -621,9 +633,11 @@ def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tr
                   hy: float, size: float, margin: float) -> None:
     """The crease rule (:mod:`viscore.culling._creases`) on the pixels without depth, in place, for
     one kind of patch, ``layer`` = ``(group of each triangle, edges (m, 6), groups,
-    pairs)``: the height-field patches (``pairs`` None: a pixel's corners on one patch),
-    or the planar flats (``pairs`` the sorted keys of the flats' pairs: a pixel's corners
-    on the two flats of a pair):
+    pairs, corners)``: the height-field patches (``pairs`` None: a pixel's corners on one
+    patch), the planar flats (``pairs`` the sorted keys of the flats' pairs: a pixel's
+    corners on the two flats of a pair), or the sheets (``pairs`` None, ``corners``
+    True: the sheet rule of :mod:`viscore.culling._sheets`, whose depths add the
+    distances at the corners through the triangles of the corners and the creases):
     a pixel whose four corner rays (cast by the tiles' subdivision: ``corner_tri``,
     (H + 1, W + 1), the triangle each first hit, -1 a miss, -2 not cast; ``xs``, ``ys``
     the corners' camera-plane coordinates) first hit one patch, with no boundary edge of
@@ -652,7 +666,7 @@ def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tr
     grid_t = np.full((h + 1, w + 1), np.inf)
     grid_p = np.full((h + 1, w + 1), -1, dtype=np.int64)
     grid_t[ci[good], cj[good]] = t[good]
-    group, edges, n_groups, pairs = layer
+    group, edges, n_groups, pairs, at_corners = layer
     grid_p[ci[good], cj[good]] = group[tri[good]]
     # each pixel's patch: its corners' one patch, or the two flats of a pair
     corners = np.stack([grid_p[:-1, :-1], grid_p[:-1, 1:], grid_p[1:, :-1], grid_p[1:, 1:]])
@@ -678,13 +692,20 @@ def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tr
     disabled = np.zeros(n_groups, dtype=bool)
     z0, reach = _near_cut(size, hx, hy)
     patch_frame(occ._vertices, edges, np.asarray(eye, dtype=np.float64), r, u, f,
-                hx, hy, w, h, z0, reach, _SEGMENT_SLACK, pa, pb, blocked, crease, disabled)
+                hx, hy, w, h, z0, reach, _SEGMENT_SLACK, pa, pb, blocked, crease, disabled,
+                at_corners)
     # a patch passing within reach of the eye inside a triangle (not at an edge): the cut
     # of that triangle at z0 could bound its image on the screen; not used either
     disabled[_near_patches(occ, group, eye, reach)] = True
     one = two & ~blocked & ~disabled[np.maximum(pa, 0)] & ~disabled[np.maximum(pb, 0)]
     far = np.maximum(np.maximum(grid_t[:-1, :-1], grid_t[:-1, 1:]),
                      np.maximum(grid_t[1:, :-1], grid_t[1:, 1:]))
+    if at_corners and one.any():
+        from ._sheets import corner_triangle_depths
+
+        grid_tri = np.where(grid_p >= 0, corner_tri, -1)
+        corner_triangle_depths(occ._vertices, occ._faces, grid_tri, one,
+                               np.asarray(eye, dtype=np.float64), r, u, f, hx, hy, crease)
     depth[one] = np.maximum(far, crease)[one] + margin
 
 
@@ -903,10 +924,12 @@ class ConservativeDepthBuffer:
                                 corner, coef, child_i, child_j, plane)
             ti, tj = child_i[:n], child_j[:n]
             s //= 2
-        layers = ([(occ._patch, occ._patch_edges6, occ._n_patches, None)]
+        layers = ([(occ._patch, occ._patch_edges6, occ._n_patches, None, False)]
                   if occ._n_patches else []) \
-            + ([(occ._flat, occ._flat_edges, occ._n_flats, occ._flat_pairs)]
-               if len(occ._flat_pairs) else [])
+            + ([(occ._flat, occ._flat_edges, occ._n_flats, occ._flat_pairs, False)]
+               if len(occ._flat_pairs) else []) \
+            + ([(occ._sheet, occ._sheet_edges, occ._n_sheets, None, True)]
+               if occ._n_sheets and occ._sheet_rule else [])
         for layer in layers:
             if np.isfinite(depth).all():
                 break
