@@ -11,8 +11,8 @@ nothing of the shape and pays for it with the depths at the pixel's corners:
 A buffer pixel whose four corner rays first hit triangles of one sheet ``S``, and whose
 square (widened by the crease rule's slack) meets no *contour* edge of ``S`` (an edge
 with one triangle of ``S`` or three or more, or a fold seen from the eye: both its
-triangles on one side of the plane through the eye and the edge), is covered whole, at
-the largest of
+triangles on one side of the plane through the eye and the edge; but see the last
+paragraph for one fold), is covered whole, at the largest of
 
 - the distances at its corners to the triangles the corner rays first hit, and to those
   triangles again at every other corner whose ray passes through them;
@@ -38,6 +38,17 @@ is one, or the pixel would be blocked). Each of them is among the distances abov
 one-to-one projection is needed: a sheet that folds over itself (a spiral ramp, a bump
 on a terrain seen from low down) has several layers over the pixel, and the bound holds
 for the one through the corner.
+
+One fold may cross the pixel. A fold of ``S`` (an edge of two triangles of ``S`` both on
+one side of the plane through the eye and the edge: a crest seen against the same sheet
+behind it) does not block the pixel when it is the only one meeting it and its part
+within the widened pixel runs from side to side (neither end of the edge inside): its
+image, a straight chord, cuts the pixel's square into two convex parts, each holding a
+pixel corner, whose ray first hits ``S``. The edges of ``S`` that could bound its
+projection (contours) meet neither part, so each part lies wholly inside the
+projection: every ray through the pixel meets ``S``. In each part, the part of ``S``
+over it through that corner maps onto it, and the argument above bounds its distance,
+now with the fold's two triangles and its ends counted as a crease's.
 
 References
 ----------

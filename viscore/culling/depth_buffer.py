@@ -361,8 +361,10 @@ class OccluderScene:
         # (viscore.culling._sheets), tried on the pixels the others leave open
         self._sheet, self._sheet_edges = mesh_sheets(v, f)
         self._n_sheets = int(self._sheet.max()) + 1 if len(self._sheet) else 0
-        #: whether the sheet rule covers pixels (off only to measure it)
+        #: whether the sheet rule covers pixels (off only to measure it), and whether it
+        #: lets one fold of the sheet cross a pixel
         self._sheet_rule = SHEET_RULE
+        self._sheet_folds = True
         self._facet = np.concatenate(facet)
         raw_solid = np.concatenate(solid)
         # solid ids: dense, and labels offset past the facet labels
@@ -690,10 +692,14 @@ def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tr
     blocked = np.zeros((h, w), dtype=bool)
     crease = np.zeros((h, w))
     disabled = np.zeros(n_groups, dtype=bool)
+    folds = np.zeros((h, w), dtype=np.int64)
+    fold_end = np.zeros((h, w), dtype=bool)
     z0, reach = _near_cut(size, hx, hy)
     patch_frame(occ._vertices, edges, np.asarray(eye, dtype=np.float64), r, u, f,
                 hx, hy, w, h, z0, reach, _SEGMENT_SLACK, pa, pb, blocked, crease, disabled,
-                at_corners)
+                at_corners, folds, fold_end)
+    if at_corners:  # the sheet rule: one fold across the pixel, from side to side, at most
+        blocked |= (folds > (1 if occ._sheet_folds else 0)) | fold_end
     # a patch passing within reach of the eye inside a triangle (not at an edge): the cut
     # of that triangle at z0 could bound its image on the screen; not used either
     disabled[_near_patches(occ, group, eye, reach)] = True
@@ -927,9 +933,7 @@ class ConservativeDepthBuffer:
         layers = ([(occ._patch, occ._patch_edges6, occ._n_patches, None, False)]
                   if occ._n_patches else []) \
             + ([(occ._flat, occ._flat_edges, occ._n_flats, occ._flat_pairs, False)]
-               if len(occ._flat_pairs) else []) \
-            + ([(occ._sheet, occ._sheet_edges, occ._n_sheets, None, True)]
-               if occ._n_sheets and occ._sheet_rule else [])
+               if len(occ._flat_pairs) else [])
         for layer in layers:
             if np.isfinite(depth).all():
                 break
@@ -941,6 +945,11 @@ class ConservativeDepthBuffer:
             region_creases(depth, facet, region, stride, occ._region_plane, region_ok,
                            segments, occ._segment_start, occ._segments, xs, ys, hx, hy, eye,
                            r, u, f, tol, _CREASE_TOLERANCE * size, margin, _SEGMENT_SLACK)
+        # last: the sheet rule's depths are looser than the region rules' where both apply
+        if occ._n_sheets and occ._sheet_rule and not np.isfinite(depth).all():
+            _patch_depths(occ, (occ._sheet, occ._sheet_edges, occ._n_sheets, None, True), depth,
+                          corner_tri.reshape(rows + 1, stride)[:h + 1, :w + 1],
+                          eye, basis, xs, ys, hx, hy, size, margin)
         if CONTOUR_RULE and not np.isfinite(depth).all():
             _contour_depths(occ, eye, basis, hx, hy, depth, margin)
         return cls(depth=depth, camera=camera, hits=hits, rays=rays, plane=plane)
