@@ -678,11 +678,10 @@ def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, hits: tup
     a pixel whose four corner rays (cast by the tiles' subdivision: ``hits``, the
     corners' distances and triangles from :func:`_corner_hits` for every pixel open when
     it was called; ``xs``, ``ys`` the corners' camera-plane coordinates) first hit one
-    patch, with no boundary edge of
-    that patch across it, gets the largest of the corners' distances to their triangles'
-    planes and of the crease distances in the pixel. A crease between two triangles
-    splits the tiles across it down to pixels, so its pixels' corners are cast; no ray
-    is cast here."""
+    patch, with no boundary edge of that patch across it, gets the largest of the corners'
+    distances to their triangles' planes and of the crease distances in the pixel. A
+    crease between two triangles splits the tiles across it down to pixels, so its pixels'
+    corners are cast; no ray is cast here."""
     from ._creases import patch_frame
 
     h, w = depth.shape
@@ -968,7 +967,7 @@ class ConservativeDepthBuffer:
         at_corners = None  # the open pixels' corner distances, for the crease and sheet rules
         if layers or (occ._n_sheets and occ._sheet_rule):
             at_corners = _corner_hits(occ, corner_tri.reshape(rows + 1, stride)[:h + 1, :w + 1],
-                                ~np.isfinite(depth), eye, basis, xs, ys)
+                                      ~np.isfinite(depth), eye, basis, xs, ys)
         for layer in layers:
             if np.isfinite(depth).all():
                 break
