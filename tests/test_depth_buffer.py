@@ -141,7 +141,9 @@ def test_depth_buffer_solid_beats_facets_and_eye_inside_falls_back():
                                                    cam, width=64, height=64)
     # the box's six sides apart (open pieces): by planar facets
     sides = [trimesh.Trimesh(box.vertices, box.faces[2 * i:2 * i + 2]) for i in range(6)]
-    facets = ConservativeDepthBuffer.from_occluders(sides, cam, width=64, height=64)
+    apart = OccluderScene(sides)
+    apart._sheet_rule = False  # the sheet rule joins the sides again at their shared edges
+    facets = ConservativeDepthBuffer.from_occluders(apart, cam, width=64, height=64)
     assert solid.covered.sum() > facets.covered.sum()  # the edges' pixels
     assert (facets.covered <= solid.covered).all()
     # eye inside the box: everything outside is hidden; inside boxes are not culled
@@ -698,8 +700,9 @@ def test_closed_convex_part_of_a_mesh_is_one_convex_piece(rng):
     buf = ConservativeDepthBuffer.from_occluders(occ, cam, width=64, height=36)
     corners = np.isfinite(_full_corner_depth(occ, cam, 64, 36))
     assert corners.sum() > 100 and (buf.covered >= corners).all()
-    apart = ConservativeDepthBuffer.from_occluders(  # each triangle an open piece
-        [trimesh.Trimesh(t, [[0, 1, 2]]) for t in ball.triangles], cam, width=64, height=36)
+    pieces = OccluderScene([trimesh.Trimesh(t, [[0, 1, 2]]) for t in ball.triangles])
+    pieces._sheet_rule = False  # each triangle an open piece (no sheet joins them)
+    apart = ConservativeDepthBuffer.from_occluders(pieces, cam, width=64, height=36)
     assert buf.covered.sum() > 1.3 * apart.covered.sum()  # 300 and 208 pixels
     _assert_conservative(occ, buf, rng)
     torus = trimesh.creation.torus(major_radius=2.0, minor_radius=0.5)

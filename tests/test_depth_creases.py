@@ -26,6 +26,7 @@ def _corner():
 def _without_pairs(occ: OccluderScene) -> OccluderScene:
     occ._flat_pairs = occ._flat_pairs[:0]
     occ._region_creases = False  # the line rule of two regions covers such creases too
+    occ._sheet_rule = False  # and so does the sheet rule of any edge-connected triangles
     return occ
 
 

@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from .._jit import njit_cached
+from ._sheets import corner_distance
 
 __all__ = ["height_field_patches", "flat_pairs", "patch_frame", "INJECTIVE_TOLERANCE"]
 
@@ -361,7 +362,7 @@ def _patch_edges(f: np.ndarray, fid: np.ndarray, patch: np.ndarray) -> np.ndarra
 
 @njit_cached()
 def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack, pa, pb,
-                blocked, crease, disabled):  # pragma: no cover
+                blocked, crease, disabled, corners, folds, fold_end):  # pragma: no cover
     """One frame's images of the patches' edges (see the module docstring).
 
     ``edges`` (m, 6): two vertices, the third vertex of each triangle on the
@@ -376,7 +377,14 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack, pa, p
     then raises ``crease[i, j]`` to the largest distance at the ends of its
     part within the pixel widened by ``slack``. Sets ``disabled[g]`` for a
     group with an edge within ``reach`` of the eye. Parts of edges nearer than
-    ``z0`` along the view are cut off.
+    ``z0`` along the view are cut off. With ``corners`` (the sheet rule of
+    :mod:`viscore.culling._sheets`), a crease also raises ``crease[i, j]`` to the
+    distance at each corner of the pixel whose ray passes through one of its two
+    triangles, and a fold of the pixel's sheet (an edge of two of its triangles, both
+    strictly on one side of the plane through the eye and the edge) does not block the
+    pixel: it counts in ``folds[i, j]``, sets ``fold_end[i, j]`` when an end of its part
+    within the widened pixel is an end of the edge (or of its part in front of ``z0``),
+    and raises ``crease[i, j]`` as a crease does.
     """
     kx = 0.5 / hx
     ky = 0.5 / hy
@@ -404,6 +412,7 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack, pa, p
                 disabled[gb] = True
             continue
         is_crease = False
+        is_fold = False
         if edges[k, 3] >= 0:
             nx = a1 * b2 - a2 * b1
             ny = a2 * b0 - a0 * b2
@@ -419,6 +428,7 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack, pa, p
             ep = SIDE_TOLERANCE * nn * math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
             eq = SIDE_TOLERANCE * nn * math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
             is_crease = (sp > ep and sq < -eq) or (sp < -ep and sq > eq)
+            is_fold = (sp > ep and sq > eq) or (sp < -ep and sq < -eq)
         # the part in front of z0
         s0, s1 = 0.0, 1.0
         if az_ < z0 and bz_ < z0:
@@ -452,7 +462,9 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack, pa, p
                 qa, qb = pa[i, j], pb[i, j]
                 if qa < 0 or not (ga == qa or ga == qb or (gb >= 0 and (gb == qa or gb == qb))):
                     continue  # not the pixel's patch: its edges do not bound it
-                if not is_crease or not ((ga == qa and gb == qb) or (ga == qb and gb == qa)):
+                ours = (ga == qa and gb == qb) or (ga == qb and gb == qa)
+                bend = corners and is_fold and ours
+                if not (is_crease or bend) or not ours:
                     blocked[i, j] = True
                     continue
                 # the crease's part within the pixel's rows (widened by slack): the row is
@@ -462,12 +474,25 @@ def patch_frame(vert, edges, eye, r, u, f, hx, hy, w, h, z0, reach, slack, pa, p
                                  ra, rb, ay_, az_, dy, dz, lo, hi)
                 if t0 > t1:
                     continue
+                if bend:
+                    folds[i, j] += 1
+                    if t0 <= s0 or t1 >= s1:
+                        fold_end[i, j] = True
                 far = max(math.sqrt((a0 + t0 * d0) ** 2 + (a1 + t0 * d1) ** 2
                                     + (a2 + t0 * d2) ** 2),
                           math.sqrt((a0 + t1 * d0) ** 2 + (a1 + t1 * d1) ** 2
                                     + (a2 + t1 * d2) ** 2))
                 if far > crease[i, j]:
                     crease[i, j] = far
+                if corners:
+                    for side in range(2):
+                        c = edges[k, 2 + side]
+                        for ki in range(2):
+                            for kj in range(2):
+                                dist = corner_distance(vert, edges[k, 0], edges[k, 1], c, eye,
+                                                       r, u, f, hx, hy, w, h, i + ki, j + kj)
+                                if dist > crease[i, j]:
+                                    crease[i, j] = dist
 
 
 @njit_cached()

@@ -34,6 +34,7 @@ from ..constants import DEFAULT_REDUCTION
 from ..ray.cameras import PerspectiveCamera
 from ..ray.embree_scene import Scene
 from ._creases import flat_pairs, height_field_patches
+from ._sheets import mesh_sheets
 from .shadow_frusta import _as_boxes
 
 __all__ = ["OccluderScene", "ConservativeDepthBuffer", "DEFAULT_REDUCTION",
@@ -52,6 +53,11 @@ _FACET_TOLERANCE = 1e-9
 #: (:mod:`viscore.culling._contour`): the centre ray meets an occluder and no contour edge
 #: of the occluders crosses the pixel.
 CONTOUR_RULE = False
+
+#: Whether pixels still without a depth get one from the sheet rule
+#: (:mod:`viscore.culling._sheets`): the four corner rays first hit one edge-connected
+#: set of triangles and no contour edge of it crosses the pixel.
+SHEET_RULE = True
 
 #: Side of the coarsest tiles, in buffer pixels (a power of two).
 _TILE = 16
@@ -351,6 +357,14 @@ class OccluderScene:
         # creases between planar flats (a wall and the floor): pairs of flats as patches
         self._flat, self._flat_pairs, self._flat_edges = flat_pairs(v, f)
         self._n_flats = int(self._flat.max()) + 1 if len(self._flat) else 0
+        # any edge-connected triangles (a house of many small ones): the sheet rule
+        # (viscore.culling._sheets), tried on the pixels the others leave open
+        self._sheet, self._sheet_edges = mesh_sheets(v, f)
+        self._n_sheets = int(self._sheet.max()) + 1 if len(self._sheet) else 0
+        #: whether the sheet rule covers pixels (off only to measure it), and whether it
+        #: lets one fold of the sheet cross a pixel
+        self._sheet_rule = SHEET_RULE
+        self._sheet_folds = True
         self._facet = np.concatenate(facet)
         raw_solid = np.concatenate(solid)
         # solid ids: dense, and labels offset past the facet labels
@@ -616,31 +630,26 @@ def _near_cut(size: float, hx: float, hy: float) -> tuple[float, float]:
     return z0, 3 * z0 * float(np.sqrt(1 + 9 * hx * hx + 9 * hy * hy))
 
 
-def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tri: np.ndarray,
-                  eye: np.ndarray, basis, xs: np.ndarray, ys: np.ndarray, hx: float,
-                  hy: float, size: float, margin: float) -> None:
-    """The crease rule (:mod:`viscore.culling._creases`) on the pixels without depth, in place, for
-    one kind of patch, ``layer`` = ``(group of each triangle, edges (m, 6), groups,
-    pairs)``: the height-field patches (``pairs`` None: a pixel's corners on one patch),
-    or the planar flats (``pairs`` the sorted keys of the flats' pairs: a pixel's corners
-    on the two flats of a pair):
-    a pixel whose four corner rays (cast by the tiles' subdivision: ``corner_tri``,
-    (H + 1, W + 1), the triangle each first hit, -1 a miss, -2 not cast; ``xs``, ``ys``
-    the corners' camera-plane coordinates) first hit one patch, with no boundary edge of
-    that patch across it, gets the largest of the corners' distances to their triangles'
-    planes and of the crease distances in the pixel. A crease between two triangles
-    splits the tiles across it down to pixels, so its pixels' corners are cast; no ray
-    is cast here."""
-    from ._creases import patch_frame
-
-    h, w = depth.shape
+def _corner_hits(occ: OccluderScene, corner_tri: np.ndarray, todo: np.ndarray,
+                 eye: np.ndarray, basis, xs: np.ndarray, ys: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel corner's exact distance to the plane of the triangle its ray first hit, and
+    that triangle, for the corners of the pixels of ``todo`` (H, W): ``(H + 1, W + 1)``
+    float64 (``inf`` elsewhere) and int64 (-1 for a miss, a corner not cast or not needed,
+    or a ray grazing its triangle). ``corner_tri`` (H + 1, W + 1) is the triangle each cast
+    corner ray first hit (-1 a miss, -2 not cast); ``xs``, ``ys`` the corners'
+    camera-plane coordinates."""
+    h, w = todo.shape
     f, r, u = basis
-    todo = ~np.isfinite(depth)
-    ci, cj = np.nonzero(corner_tri >= 0)
+    need = np.zeros((h + 1, w + 1), dtype=bool)
+    for a in (0, 1):
+        for b in (0, 1):
+            need[a:a + h, b:b + w] |= todo
+    ci, cj = np.nonzero(need & (corner_tri >= 0))
     tri = corner_tri[ci, cj]
     d = f[None] + xs[cj][:, None] * r[None] + ys[ci][:, None] * u[None]
     d /= np.linalg.norm(d, axis=1)[:, None]
-    # each corner's exact distance to its triangle's plane (float64), and its patch
+    # each corner's exact distance to its triangle's plane (float64)
     plane = occ._tri_plane[tri]
     facing = np.einsum("ij,ij->i", plane[:, :3], d)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -650,15 +659,44 @@ def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tr
     grazing = np.abs(facing) < 1e-6
     good = np.isfinite(t) & (t > 0) & ~grazing
     grid_t = np.full((h + 1, w + 1), np.inf)
-    grid_p = np.full((h + 1, w + 1), -1, dtype=np.int64)
+    grid_tri = np.full((h + 1, w + 1), -1, dtype=np.int64)
     grid_t[ci[good], cj[good]] = t[good]
-    group, edges, n_groups, pairs = layer
-    grid_p[ci[good], cj[good]] = group[tri[good]]
+    grid_tri[ci[good], cj[good]] = tri[good]
+    return grid_t, grid_tri
+
+
+def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, hits: tuple,
+                  eye: np.ndarray, basis, xs: np.ndarray, ys: np.ndarray, hx: float,
+                  hy: float, size: float, margin: float) -> None:
+    """The crease rule (:mod:`viscore.culling._creases`) on the pixels without depth, in place, for
+    one kind of patch, ``layer`` = ``(group of each triangle, edges (m, 6), groups,
+    pairs, corners)``: the height-field patches (``pairs`` None: a pixel's corners on one
+    patch), the planar flats (``pairs`` the sorted keys of the flats' pairs: a pixel's
+    corners on the two flats of a pair), or the sheets (``pairs`` None, ``corners``
+    True: the sheet rule of :mod:`viscore.culling._sheets`, whose depths add the
+    distances at the corners through the triangles of the corners and the creases):
+    a pixel whose four corner rays (cast by the tiles' subdivision: ``hits``, the
+    corners' distances and triangles from :func:`_corner_hits` for every pixel open when
+    it was called; ``xs``, ``ys`` the corners' camera-plane coordinates) first hit one
+    patch, with no boundary edge of that patch across it, gets the largest of the corners'
+    distances to their triangles' planes and of the crease distances in the pixel. A
+    crease between two triangles splits the tiles across it down to pixels, so its pixels'
+    corners are cast; no ray is cast here."""
+    from ._creases import patch_frame
+
+    h, w = depth.shape
+    f, r, u = basis
+    grid_t, grid_tri = hits
+    group, edges, n_groups, pairs, at_corners = layer
+    # the open pixels only (a few per cent of the buffer): their corners' patches
+    ii, jj = np.nonzero(~np.isfinite(depth))
+    corners = np.stack([grid_tri[ii, jj], grid_tri[ii, jj + 1], grid_tri[ii + 1, jj],
+                        grid_tri[ii + 1, jj + 1]])
+    corners = np.where(corners >= 0, group[np.maximum(corners, 0)], -1)
     # each pixel's patch: its corners' one patch, or the two flats of a pair
-    corners = np.stack([grid_p[:-1, :-1], grid_p[:-1, 1:], grid_p[1:, :-1], grid_p[1:, 1:]])
     pa, pb = corners.min(axis=0), corners.max(axis=0)
-    two = ((corners == pa) | (corners == pb)).all(axis=0) & (pa >= 0) & todo
-    if pairs is None:  # height-field patches: one patch
+    two = ((corners == pa) | (corners == pb)).all(axis=0) & (pa >= 0)
+    if pairs is None:  # height-field patches and sheets: one patch
         two &= pa == pb
     else:  # flats: two of them, a pair
         key = pa * n_groups + pb  # the flats' layer is used only when it has a pair
@@ -666,26 +704,45 @@ def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, corner_tr
         two &= (pa != pb) & (pairs[at] == key)
     if not two.any():
         return
-    pa, pb = np.where(two, pa, -1), np.where(two, pb, -1)
+    ii, jj, pa, pb = ii[two], jj[two], pa[two], pb[two]
     # only the edges of the pixels' patches: another's could only block a pixel or raise
     # its depth
     seen = np.zeros(n_groups + 1, dtype=bool)
-    seen[pa[two]] = True
-    seen[pb[two]] = True
+    seen[pa] = True
+    seen[pb] = True
     edges = edges[seen[edges[:, 4]] | seen[edges[:, 5]]]  # -1 lands on the extra last entry
+    grid_pa = np.full((h, w), -1, dtype=np.int64)
+    grid_pb = np.full((h, w), -1, dtype=np.int64)
+    grid_pa[ii, jj] = pa
+    grid_pb[ii, jj] = pb
     blocked = np.zeros((h, w), dtype=bool)
     crease = np.zeros((h, w))
     disabled = np.zeros(n_groups, dtype=bool)
+    folds = np.zeros((h, w), dtype=np.int64)
+    fold_end = np.zeros((h, w), dtype=bool)
     z0, reach = _near_cut(size, hx, hy)
     patch_frame(occ._vertices, edges, np.asarray(eye, dtype=np.float64), r, u, f,
-                hx, hy, w, h, z0, reach, _SEGMENT_SLACK, pa, pb, blocked, crease, disabled)
+                hx, hy, w, h, z0, reach, _SEGMENT_SLACK, grid_pa, grid_pb, blocked, crease,
+                disabled, at_corners, folds, fold_end)
+    if at_corners:  # the sheet rule: one fold across the pixel, from side to side, at most
+        blocked |= (folds > (1 if occ._sheet_folds else 0)) | fold_end
     # a patch passing within reach of the eye inside a triangle (not at an edge): the cut
     # of that triangle at z0 could bound its image on the screen; not used either
     disabled[_near_patches(occ, group, eye, reach)] = True
-    one = two & ~blocked & ~disabled[np.maximum(pa, 0)] & ~disabled[np.maximum(pb, 0)]
-    far = np.maximum(np.maximum(grid_t[:-1, :-1], grid_t[:-1, 1:]),
-                     np.maximum(grid_t[1:, :-1], grid_t[1:, 1:]))
-    depth[one] = np.maximum(far, crease)[one] + margin
+    one = ~blocked[ii, jj] & ~disabled[pa] & ~disabled[pb]
+    ii, jj = ii[one], jj[one]
+    if not len(ii):
+        return
+    far = np.maximum(np.maximum(grid_t[ii, jj], grid_t[ii, jj + 1]),
+                     np.maximum(grid_t[ii + 1, jj], grid_t[ii + 1, jj + 1]))
+    if at_corners:
+        from ._sheets import corner_triangle_depths
+
+        todo = np.zeros((h, w), dtype=bool)
+        todo[ii, jj] = True
+        corner_triangle_depths(occ._vertices, occ._faces, grid_tri, todo,
+                               np.asarray(eye, dtype=np.float64), r, u, f, hx, hy, crease)
+    depth[ii, jj] = np.maximum(far, crease[ii, jj]) + margin
 
 
 def _near_patches(occ: OccluderScene, patch: np.ndarray, eye: np.ndarray, reach: float
@@ -903,21 +960,28 @@ class ConservativeDepthBuffer:
                                 corner, coef, child_i, child_j, plane)
             ti, tj = child_i[:n], child_j[:n]
             s //= 2
-        layers = ([(occ._patch, occ._patch_edges6, occ._n_patches, None)]
+        layers = ([(occ._patch, occ._patch_edges6, occ._n_patches, None, False)]
                   if occ._n_patches else []) \
-            + ([(occ._flat, occ._flat_edges, occ._n_flats, occ._flat_pairs)]
+            + ([(occ._flat, occ._flat_edges, occ._n_flats, occ._flat_pairs, False)]
                if len(occ._flat_pairs) else [])
+        at_corners = None  # the open pixels' corner distances, for the crease and sheet rules
+        if layers or (occ._n_sheets and occ._sheet_rule):
+            at_corners = _corner_hits(occ, corner_tri.reshape(rows + 1, stride)[:h + 1, :w + 1],
+                                      ~np.isfinite(depth), eye, basis, xs, ys)
         for layer in layers:
             if np.isfinite(depth).all():
                 break
-            _patch_depths(occ, layer, depth,
-                          corner_tri.reshape(rows + 1, stride)[:h + 1, :w + 1],
-                          eye, basis, xs, ys, hx, hy, size, margin)
+            _patch_depths(occ, layer, depth, at_corners, eye, basis, xs, ys, hx, hy, size,
+                          margin)
         if occ._region_creases and len(occ._region_plane) \
                 and not np.isfinite(depth).all():
             region_creases(depth, facet, region, stride, occ._region_plane, region_ok,
                            segments, occ._segment_start, occ._segments, xs, ys, hx, hy, eye,
                            r, u, f, tol, _CREASE_TOLERANCE * size, margin, _SEGMENT_SLACK)
+        # last: the sheet rule's depths are looser than the region rules' where both apply
+        if occ._n_sheets and occ._sheet_rule and not np.isfinite(depth).all():
+            _patch_depths(occ, (occ._sheet, occ._sheet_edges, occ._n_sheets, None, True), depth,
+                          at_corners, eye, basis, xs, ys, hx, hy, size, margin)
         if CONTOUR_RULE and not np.isfinite(depth).all():
             _contour_depths(occ, eye, basis, hx, hy, depth, margin)
         return cls(depth=depth, camera=camera, hits=hits, rays=rays, plane=plane)
