@@ -8,6 +8,7 @@ import pytest
 import trimesh
 
 from viscore import load_mesh
+from viscore.cli.study import runner
 from viscore.cli.study.runner import Job, StudySettings, _tasks
 from viscore.generators._precision_check import _CHECK_VIEWS, check_views
 from viscore.generators.hybrid import generator as hybrid
@@ -119,3 +120,47 @@ def test_study_tasks_hold_a_methods_budgets_together():
     tasks = _tasks(jobs)
     assert [[(j.method, j.budget) for j in t] for t in tasks] == [
         [("qem", 64), ("qem", 256)], [("bbox", None)], [("f", None)], [("f", 64)]]
+
+
+def test_study_task_cost_ranks_heavy_methods_first():
+    s = StudySettings(budgets=(64, 256))
+    pair = [Job("m", "planar-sections", 64, s), Job("m", "planar-sections", 256, s)]
+    assert runner._task_cost(pair) == 2 * runner._task_cost(pair[:1])
+    variant = [Job("m", "planar-sections:chain=greedy", 64, s)]
+    assert runner._task_cost(variant) == runner._task_cost(pair[:1])
+    qem = [Job("m", "qem", 64, s)]
+    bbox = [Job("m", "bbox", None, s)]
+    file = [Job("m", "planar-sections", 64, s, source="a.obj", digest="1")]
+    assert runner._task_cost(pair[:1]) > runner._task_cost(qem) > runner._task_cost(bbox)
+    assert runner._task_cost(file) == runner._task_cost(bbox) == runner._OTHER_COST
+
+
+def test_local_study_starts_the_costliest_ready_task_first(tmp_path, monkeypatch):
+    """One worker: every mesh's views first, then the tasks longest first, whatever the
+    order of the jobs; each job committed once with its own task's result."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    s = StudySettings(budgets=(64, 256))
+    started: list = []
+    monkeypatch.setattr(runner, "process_pool", lambda n: ThreadPoolExecutor(1))
+    monkeypatch.setattr(runner, "_write_views",
+                        lambda mesh, settings, workers, original, path: started.append(
+                            ("views", mesh)) or path)
+    monkeypatch.setattr(runner, "_run_jobs_on_file", lambda task, workers, path: started.append(
+        (task[0].mesh, task[0].method)) or [(j.method, j.budget, path) for j in task])
+    pending = [Job(mesh, method, b, s) for mesh in ("a", "b")
+               for method, budgets in (("bbox", (None,)), ("qem", (64, 256)),
+                                       ("hybrid", (64, 256)), ("planar-sections", (64, 256)))
+               for b in budgets]
+    committed = []
+    runner._local(pending, 1, 1, lambda job, result: committed.append((job, result)),
+                  scratch=tmp_path)
+    assert started[:2] == [("views", "a"), ("views", "b")]
+    assert started[2:] == [("a", "planar-sections"), ("b", "planar-sections"),
+                           ("a", "hybrid"), ("b", "hybrid"), ("a", "qem"), ("b", "qem"),
+                           ("a", "bbox"), ("b", "bbox")]
+    assert sorted((j.mesh, j.method, j.budget or 0) for j, _ in committed) == sorted(
+        (j.mesh, j.method, j.budget or 0) for j in pending)
+    assert all(r[:2] == (j.method, j.budget) for j, r in committed)
+    assert not list(tmp_path.iterdir())  # the views folder removed
+

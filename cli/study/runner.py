@@ -64,6 +64,18 @@ MAX_FILES_PER_MESH = 256
 #: Names an ``--occluder-files`` row may take (no ``:`` or ``,``: never a method variant).
 _FILE_ROW_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
 
+#: Expected cost of one job of a method (generation and assessment), seconds: the mean
+#: over the default study's three meshes (fat-torus, bunny, building-house) of its rows'
+#: ``seconds`` + ``seconds_evaluate`` on main at 1b0eb5e (``viscore compare``, 2 cores).
+#: Only the order matters: a local study starts its tasks longest first, so that the
+#: cores finish together instead of one waiting on a long task started last (the
+#: results never depend on the order).
+_METHOD_COST = {"planar-sections": 32.0, "hybrid": 29.6, "solid-frusta": 5.8,
+                "surface-patches": 4.7, "aabb-skins": 3.0, "qem": 1.8}
+#: Cost of a job of any other method (godot, bbox, original: 1.0 to 1.6 s) or an occluder
+#: file's, in the units of :data:`_METHOD_COST`.
+_OTHER_COST = 1.5
+
 
 @dataclass(frozen=True)
 class StudySettings:
@@ -447,6 +459,16 @@ def _tasks(group: list[Job]) -> list[list[Job]]:
     return list(tasks.values())
 
 
+def _task_cost(task: list[Job]) -> float:
+    """Expected cost of a worker task (:func:`_tasks`), in :data:`_METHOD_COST`'s units:
+    its method's cost per budget (a variant ``NAME:option=value`` costs as ``NAME``;
+    an occluder file or an unknown method :data:`_OTHER_COST`) times its budgets."""
+    job = task[0]
+    method = job.method.split(":", 1)[0]
+    per_job = _OTHER_COST if job.source is not None else _METHOD_COST.get(method, _OTHER_COST)
+    return per_job * len(task)
+
+
 def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings,
                files: list[OccluderFile] = ()) -> list[Job]:
     """One job per mesh, method and budget (one budget-less job for unbudgeted methods).
@@ -473,30 +495,42 @@ def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
     loading it) and pickles them to a file in a temporary folder made in
     ``scratch``; each task of that mesh (a method's budgets, :func:`_tasks`)
     carries the file's path and each worker reads a file once
-    (:func:`views_from_file`). ``commit(job, result)`` is
-    called in this process as each job finishes. On any exception (Ctrl-C
+    (:func:`views_from_file`). The views are built first; then, each time a
+    worker is free, it is given the costliest task whose views are ready
+    (:func:`_task_cost`; ties in the order of ``pending``): the longest tasks
+    start first and the short ones fill in at the end. ``commit(job, result)``
+    is called in this process as each job finishes. On any exception (Ctrl-C
     included) the jobs that finished are committed, the others cancelled and
     the workers killed, then the exception goes on; the temporary folder is
     removed in every case.
     """
+    import heapq
+
     groups = _by_mesh(pending)
     originals = originals or {}
     folder = tempfile.mkdtemp(prefix=".views-", suffix=".tmp", dir=scratch)
     try:
-        pool = process_pool(max(1, min(jobs, len(pending))))
+        workers = max(1, min(jobs, len(pending)))
+        pool = process_pool(workers)
         running: dict = {}
+        ready: list = []  # (-cost, order, task, views file): tasks whose views are built
         try:
             building = {pool.submit(_write_views, mesh, settings, per_job, originals.get(mesh),
                                     os.path.join(folder, f"{k}.pickle")): (mesh, settings)
                         for k, (mesh, settings) in enumerate(groups)}
-            while building or running:
+            order = 0
+            while building or running or ready:
+                # a free worker takes the costliest ready task (none queue behind a busy one)
+                while ready and len(building) + len(running) < workers:
+                    _, _, task, path = heapq.heappop(ready)
+                    running[pool.submit(_run_jobs_on_file, task, per_job, path)] = task
                 done, _ = wait([*building, *running], return_when=FIRST_COMPLETED)
                 for fut in done:
                     if fut in building:
                         path = fut.result()
                         for task in _tasks(groups[building.pop(fut)]):
-                            running[pool.submit(_run_jobs_on_file, task, per_job,
-                                                path)] = task
+                            heapq.heappush(ready, (-_task_cost(task), order, task, path))
+                            order += 1
                     else:
                         for job, result in zip(running.pop(fut), fut.result(), strict=True):
                             commit(job, result)
