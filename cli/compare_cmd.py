@@ -27,6 +27,7 @@ from viscore.generators import (
     get_generator,
     parse_method,
     plugin_versions,
+    prepare_kernels,
     report_kinds,
 )
 
@@ -219,6 +220,8 @@ def run_compare(args) -> int:
         check_memory(study_memory(settings, originals, n_jobs),
                      f"--jobs {jobs} --views {views} --quads {quads} --res {res} --rays {rays}")
     # 2. the study, in a folder this process alone writes (the cluster reached first)
+    if args.scheduler is None:  # the kernels compiled once, before the processes fork
+        prepare_kernels()
     held: list = []  # the jobs' and the culling column's log records, said once at the end
     with connect_scheduler(args.scheduler) as client, StudyFolder(out) as study:
         beside = (_CullingBeside(culling_methods, out, frames=culling_frames, seed=seed,
