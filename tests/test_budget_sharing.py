@@ -119,7 +119,7 @@ def test_study_tasks_hold_a_methods_budgets_together():
             Job("m", "f", 64, s, source="b.obj", digest="2")]
     tasks = _tasks(jobs)
     assert [[(j.method, j.budget) for j in t] for t in tasks] == [
-        [("qem", 64), ("qem", 256)], [("bbox", None)], [("f", None)], [("f", 64)]]
+        [("qem", 256), ("qem", 64)], [("bbox", None)], [("f", None)], [("f", 64)]]
 
 
 def test_study_task_cost_ranks_heavy_methods_first():
@@ -164,3 +164,46 @@ def test_local_study_starts_the_costliest_ready_task_first(tmp_path, monkeypatch
     assert all(r[:2] == (j.method, j.budget) for j, r in committed)
     assert not list(tmp_path.iterdir())  # the views folder removed
 
+
+def test_mgos_shared_state_gives_the_result_made_anew(torus, monkeypatch):
+    """Budgets 100 then 30 sharing the prepared state (the second from where the first's
+    recall step stopped on its budget), each equal to the call alone; another budget
+    above the first's stop starts from the prepared state."""
+    from viscore.generators.hybrid import metric_guided as mg
+    from viscore.metrics import ReferenceViews
+
+    cand = hybrid.generate_hybrid(torus, mgos=False).mesh
+    views = ReferenceViews(torus, protocol="volume", spacing=0.25 * float(
+        np.linalg.norm(torus.extents)), quads=200, resolution=16, seed=0)
+
+    def run(budget, share):
+        return mg.metric_guided_simplify(torus, cand, reference=views, max_faces=budget,
+                                         share=share)
+
+    def same(a, b):
+        (ma, ia), (mb, ib) = a, b
+        ia = {k: v for k, v in ia.items() if not k.startswith("seconds")}
+        ib = {k: v for k, v in ib.items() if not k.startswith("seconds")}
+        return (np.array_equal(ma.faces, mb.faces)
+                and np.array_equal(ma.vertices, mb.vertices) and ia == ib)
+
+    alone = {b: run(b, False) for b in (200, 100, 30)}
+    assert alone[100][1]["faces_after"] < 100 and alone[30][1]["removed_budget"] > 0
+    mg._SHARED.clear()
+    made, removed = [], []
+    init, remove = mg._State.__init__, mg._State.remove
+    monkeypatch.setattr(mg._State, "__init__", lambda self, *a, **k: made.append(1) or init(
+        self, *a, **k))
+    monkeypatch.setattr(mg._State, "remove", lambda self, f: removed.append(f) or remove(
+        self, f))
+    first = run(100, True)
+    fork = next(iter(mg._SHARED._items.values())).fork
+    assert fork is not None and 30 < fork[0] <= 100  # where budget 100 stopped removing
+    assert same(first, alone[100])
+    before = len(removed)
+    assert same(run(30, True), alone[30])  # from the fork: its removals only
+    assert len(removed) - before == fork[0] - alone[30][1]["faces_after"]
+    assert same(run(200, True), alone[200])  # from the prepared state
+    assert same(run(30, True), alone[30])
+    assert len(mg._SHARED._items) == 1 and len(made) == 1  # cast once
+    mg._SHARED.clear()

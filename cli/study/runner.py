@@ -451,12 +451,14 @@ def _by_mesh(pending: list[Job]) -> dict:
 
 
 def _tasks(group: list[Job]) -> list[list[Job]]:
-    """One mesh's jobs as worker tasks: a method's budgets together, in order (they share
-    work in one process: :func:`_run_jobs_on_file`); each occluder file alone."""
+    """One mesh's jobs as worker tasks: a method's budgets together, the largest first
+    (they share work in one process: :func:`_run_jobs_on_file`; hybrid's recall step
+    goes on for a smaller budget from where a larger one stopped); each occluder file
+    alone."""
     tasks: dict = {}
     for job in group:
         tasks.setdefault((job.method, job.source), []).append(job)
-    return list(tasks.values())
+    return [sorted(task, key=lambda j: -(j.budget or 0)) for task in tasks.values()]
 
 
 def _task_cost(task: list[Job]) -> float:
