@@ -44,7 +44,8 @@ __all__ = ["StudySettings", "Job", "OccluderFile", "study_jobs", "occluder_file_
            "resolve_occluder_files", "file_digest", "view_settings", "study_memory",
            "build_views", "views_from_file", "run_job", "run_study", "check_scheduler",
            "connect_scheduler",
-           "TIMING_FIELDS", "JOBS_PER_CORE", "SCHEDULER_PROBE_SECONDS", "OCCLUDER_SUFFIXES"]
+           "TIMING_FIELDS", "JOBS_PER_CORE", "KEPT_BYTES_PER_JOB", "SCHEDULER_PROBE_SECONDS",
+           "OCCLUDER_SUFFIXES"]
 
 #: Fields of a row that are wall times (they differ between runs; everything
 #: else in a row is deterministic given the settings).
@@ -63,6 +64,14 @@ MAX_FILE_ROW_NAME = 64
 MAX_FILES_PER_MESH = 256
 #: Names an ``--occluder-files`` row may take (no ``:`` or ``,``: never a method variant).
 _FILE_ROW_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
+
+#: Bytes a worker keeps between the budgets of a method, beyond what
+#: :func:`viscore.metrics.estimates.study_bytes` counts: about 190 MB for planar sections'
+#: candidates per voxel solid, hybrid's candidate set and volume views and the precision
+#: check's views (a worker's peak on the default study), and 194 MiB for hybrid's
+#: metric-guided state on the bunny kept with its copy where the recall step stopped
+#: (96 + 98 MiB, the arrays' bytes after budgets 256 and 64).
+KEPT_BYTES_PER_JOB = 384 * 2**20
 
 #: Expected cost of one job of a method (generation and assessment), seconds: the mean
 #: over the default study's three meshes (fat-torus, bunny, building-house) of its rows'
@@ -293,7 +302,8 @@ def study_memory(settings: StudySettings, meshes: dict, jobs: int) -> float:
     :func:`viscore.metrics.estimates.study_bytes` for the study's settings:
     each of ``jobs`` workers holds a process, the reference views of its mesh,
     one ray-casting batch, the conservativeness rays, a measure image and the
-    mesh, plus one copy of every mesh's views.
+    mesh, plus one copy of every mesh's views; and each worker the work its
+    tasks keep between a method's budgets (:data:`KEPT_BYTES_PER_JOB`).
 
     Parameters
     ----------
@@ -310,7 +320,7 @@ def study_memory(settings: StudySettings, meshes: dict, jobs: int) -> float:
     """
     return study_bytes(settings.protocol, views=settings.views, quads=settings.quads,
                        resolution=settings.resolution, rays=settings.rays, meshes=meshes,
-                       jobs=jobs)
+                       jobs=jobs) + jobs * KEPT_BYTES_PER_JOB
 
 
 def build_views(mesh: str, settings: StudySettings, workers: int | None = None,
