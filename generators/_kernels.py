@@ -12,6 +12,24 @@ from __future__ import annotations
 __all__ = ["prepare_kernels"]
 
 
+def _ray_kernels() -> None:
+    """Compile (or load from numba's cache) the ray core's kernels, without a scene.
+
+    The kernels :class:`viscore.Scene` compiles on its first query and its
+    packet scene on its first build (:mod:`viscore.ray.embree_scene`,
+    :mod:`viscore.ray._embree4`), for the signatures they are pinned to. No
+    Embree device or thread is made: a process may fork safely afterwards.
+    """
+    from viscore._jit import compile_kernels
+    from viscore.ray import _embree4, embree_scene
+
+    embree_scene._ready_kernels()
+    _embree4._ready_kernels()
+    compile_kernels({_embree4._mark_stacked: [
+        "(float32[:, ::1], uint32[:, ::1], float64[:, ::1], float64[::1], int64[:, ::1], "
+        "float64[:, ::1], int64[::1], int64[::1], float64, boolean[::1])"]})
+
+
 def _measure_kernels() -> dict:
     """Polygon chains, the soup measure, box growth: kernel -> signatures (as the callers
     type their arrays: C-contiguous, writeable)."""
@@ -68,7 +86,7 @@ def prepare_kernels() -> None:
     Nothing is run: results are those of kernels compiled in the workers.
     """
     from viscore._jit import compile_kernels
-    from viscore._jobs import compile_ahead, compile_ray_kernels
+    from viscore._jobs import compile_ahead
 
-    compile_ahead([compile_ray_kernels, lambda: compile_kernels(_selection_kernels())],
+    compile_ahead([_ray_kernels, lambda: compile_kernels(_selection_kernels())],
                   [lambda: compile_kernels(_measure_kernels())])

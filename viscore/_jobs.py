@@ -13,8 +13,7 @@ from collections.abc import Callable, Sequence
 from ._validate import InputError
 
 __all__ = ["worker_init", "stop_pool", "process_pool", "run_jobs", "check_scheduler",
-           "connect_scheduler", "compile_ahead", "compile_ray_kernels",
-           "SCHEDULER_PROBE_SECONDS", "JOBS_PER_CORE"]
+           "connect_scheduler", "compile_ahead", "SCHEDULER_PROBE_SECONDS", "JOBS_PER_CORE"]
 
 #: Local jobs allowed per core (``--jobs`` beyond ``JOBS_PER_CORE`` x cores is refused).
 JOBS_PER_CORE = 4
@@ -63,24 +62,6 @@ def worker_init(parent: int, threads: int | None = None) -> None:
         threading.Thread(target=watch, daemon=True).start()
     if os.getppid() != parent:  # the parent died before the prctl
         os._exit(1)
-
-
-def compile_ray_kernels() -> None:
-    """Compile (or load from numba's cache) the ray core's kernels, without a scene.
-
-    The kernels :class:`viscore.Scene` compiles on its first query and its
-    packet scene on its first build (:mod:`viscore.ray.embree_scene`,
-    :mod:`viscore.ray._embree4`), for the signatures they are pinned to. No
-    Embree device or thread is made: a process may fork safely afterwards.
-    """
-    from ._jit import compile_kernels
-    from .ray import _embree4, embree_scene
-
-    embree_scene._ready_kernels()
-    _embree4._ready_kernels()
-    compile_kernels({_embree4._mark_stacked: [
-        "(float32[:, ::1], uint32[:, ::1], float64[:, ::1], float64[::1], int64[:, ::1], "
-        "float64[:, ::1], int64[::1], int64[::1], float64, boolean[::1])"]})
 
 
 def _compile_steps(steps: Sequence[Callable[[], None]], parent: int) -> None:
