@@ -27,6 +27,7 @@ from viscore.generators import (
     get_generator,
     parse_method,
     plugin_versions,
+    prepare_kernels,
     report_kinds,
 )
 
@@ -50,7 +51,9 @@ MAX_RESOLUTION = 4096
 
 #: Meshes of a study given none: a closed solid with a hole, a scan and a game building,
 #: so that ``viscore compare`` runs every method in minutes (255 s on an idle 2-core
-#: machine, 464 CPU-s; 309 s on a fresh install's first run, which compiles the kernels).
+#: machine, 464 CPU-s, and 309 s on a fresh install's first run, at 1b0eb5e; since, side
+#: by side on a loaded machine: the first run 0.90x the wall and 0.91x the CPU of that
+#: code's, a run on warm caches 1.00x and 0.96x).
 DEFAULT_SCENES = ("fat-torus", "bunny", "building-house")
 
 #: Frames of the culling column's walk through the built-in city.
@@ -219,6 +222,8 @@ def run_compare(args) -> int:
         check_memory(study_memory(settings, originals, n_jobs),
                      f"--jobs {jobs} --views {views} --quads {quads} --res {res} --rays {rays}")
     # 2. the study, in a folder this process alone writes (the cluster reached first)
+    if args.scheduler is None:  # the kernels compiled once, before the processes fork
+        prepare_kernels()
     held: list = []  # the jobs' and the culling column's log records, said once at the end
     with connect_scheduler(args.scheduler) as client, StudyFolder(out) as study:
         beside = (_CullingBeside(culling_methods, out, frames=culling_frames, seed=seed,

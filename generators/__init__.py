@@ -13,6 +13,7 @@ methods under the ``viscore.generators`` entry points (plugins, see
 """
 
 from ._held_logs import UNHELD, call_held, portable, release, report_kinds, restored
+from ._kernels import prepare_kernels
 from .aabb_skins import boxes_mesh, generate_aabb_skins
 from .baselines import generate_bbox, generate_godot, generate_original, generate_qem
 from .hybrid import generate_hybrid, metric_guided_simplify
@@ -70,4 +71,5 @@ __all__ = ["Occluder", "check_parts", "REGISTRY", "GeneratorSpec", "GeneratorOpt
            "culling_column", "default_methods", "occlude_level",
            "culling_column", "default_methods",
            "PluginError", "PLUGIN_GROUP", "plugin_versions", "check_generator",
-           "call_held", "portable", "restored", "release", "report_kinds", "UNHELD"]
+           "call_held", "portable", "restored", "release", "report_kinds", "UNHELD",
+           "prepare_kernels"]

@@ -8,6 +8,7 @@ import pytest
 import trimesh
 
 from viscore import load_mesh
+from viscore.cli.study import runner
 from viscore.cli.study.runner import Job, StudySettings, _tasks
 from viscore.generators._precision_check import _CHECK_VIEWS, check_views
 from viscore.generators.hybrid import generator as hybrid
@@ -118,4 +119,91 @@ def test_study_tasks_hold_a_methods_budgets_together():
             Job("m", "f", 64, s, source="b.obj", digest="2")]
     tasks = _tasks(jobs)
     assert [[(j.method, j.budget) for j in t] for t in tasks] == [
-        [("qem", 64), ("qem", 256)], [("bbox", None)], [("f", None)], [("f", 64)]]
+        [("qem", 256), ("qem", 64)], [("bbox", None)], [("f", None)], [("f", 64)]]
+
+
+def test_study_task_cost_ranks_heavy_methods_first():
+    s = StudySettings(budgets=(64, 256))
+    pair = [Job("m", "planar-sections", 64, s), Job("m", "planar-sections", 256, s)]
+    assert runner._task_cost(pair) == 2 * runner._task_cost(pair[:1])
+    variant = [Job("m", "planar-sections:chain=greedy", 64, s)]
+    assert runner._task_cost(variant) == runner._task_cost(pair[:1])
+    qem = [Job("m", "qem", 64, s)]
+    bbox = [Job("m", "bbox", None, s)]
+    file = [Job("m", "planar-sections", 64, s, source="a.obj", digest="1")]
+    assert runner._task_cost(pair[:1]) > runner._task_cost(qem) > runner._task_cost(bbox)
+    assert runner._task_cost(file) == runner._task_cost(bbox) == runner._OTHER_COST
+
+
+def test_local_study_starts_the_costliest_ready_task_first(tmp_path, monkeypatch):
+    """One worker: every mesh's views first, then the tasks longest first, whatever the
+    order of the jobs; each job committed once with its own task's result."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    s = StudySettings(budgets=(64, 256))
+    started: list = []
+    monkeypatch.setattr(runner, "process_pool", lambda n: ThreadPoolExecutor(1))
+    monkeypatch.setattr(runner, "_write_views",
+                        lambda mesh, settings, workers, original, path: started.append(
+                            ("views", mesh)) or path)
+    monkeypatch.setattr(runner, "_run_jobs_on_file", lambda task, workers, path: started.append(
+        (task[0].mesh, task[0].method)) or [(j.method, j.budget, path) for j in task])
+    pending = [Job(mesh, method, b, s) for mesh in ("a", "b")
+               for method, budgets in (("bbox", (None,)), ("qem", (64, 256)),
+                                       ("hybrid", (64, 256)), ("planar-sections", (64, 256)))
+               for b in budgets]
+    committed = []
+    runner._local(pending, 1, 1, lambda job, result: committed.append((job, result)),
+                  scratch=tmp_path)
+    assert started[:2] == [("views", "a"), ("views", "b")]
+    assert started[2:] == [("a", "planar-sections"), ("b", "planar-sections"),
+                           ("a", "hybrid"), ("b", "hybrid"), ("a", "qem"), ("b", "qem"),
+                           ("a", "bbox"), ("b", "bbox")]
+    assert sorted((j.mesh, j.method, j.budget or 0) for j, _ in committed) == sorted(
+        (j.mesh, j.method, j.budget or 0) for j in pending)
+    assert all(r[:2] == (j.method, j.budget) for j, r in committed)
+    assert not list(tmp_path.iterdir())  # the views folder removed
+
+
+def test_mgos_shared_state_gives_the_result_made_anew(torus, monkeypatch):
+    """Budgets 100 then 30 sharing the prepared state (the second from where the first's
+    recall step stopped on its budget), each equal to the call alone; another budget
+    above the first's stop starts from the prepared state."""
+    from viscore.generators.hybrid import metric_guided as mg
+    from viscore.metrics import ReferenceViews
+
+    cand = hybrid.generate_hybrid(torus, mgos=False).mesh
+    views = ReferenceViews(torus, protocol="volume", spacing=0.25 * float(
+        np.linalg.norm(torus.extents)), quads=200, resolution=16, seed=0)
+
+    def run(budget, share):
+        return mg.metric_guided_simplify(torus, cand, reference=views, max_faces=budget,
+                                         share=share)
+
+    def same(a, b):
+        (ma, ia), (mb, ib) = a, b
+        ia = {k: v for k, v in ia.items() if not k.startswith("seconds")}
+        ib = {k: v for k, v in ib.items() if not k.startswith("seconds")}
+        return (np.array_equal(ma.faces, mb.faces)
+                and np.array_equal(ma.vertices, mb.vertices) and ia == ib)
+
+    alone = {b: run(b, False) for b in (200, 100, 30)}
+    assert alone[100][1]["faces_after"] < 100 and alone[30][1]["removed_budget"] > 0
+    mg._SHARED.clear()
+    made, removed = [], []
+    init, remove = mg._State.__init__, mg._State.remove
+    monkeypatch.setattr(mg._State, "__init__", lambda self, *a, **k: made.append(1) or init(
+        self, *a, **k))
+    monkeypatch.setattr(mg._State, "remove", lambda self, f: removed.append(f) or remove(
+        self, f))
+    first = run(100, True)
+    fork = next(iter(mg._SHARED._items.values())).fork
+    assert fork is not None and 30 < fork[0] <= 100  # where budget 100 stopped removing
+    assert same(first, alone[100])
+    before = len(removed)
+    assert same(run(30, True), alone[30])  # from the fork: its removals only
+    assert len(removed) - before == fork[0] - alone[30][1]["faces_after"]
+    assert same(run(200, True), alone[200])  # from the prepared state
+    assert same(run(30, True), alone[30])
+    assert len(mg._SHARED._items) == 1 and len(made) == 1  # cast once
+    mg._SHARED.clear()

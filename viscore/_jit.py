@@ -6,7 +6,7 @@ import logging
 import threading
 from collections.abc import Callable
 
-__all__ = ["njit_cached", "pinned_kernels"]
+__all__ = ["njit_cached", "pinned_kernels", "compile_kernels"]
 
 _log = logging.getLogger(__name__)
 
@@ -66,3 +66,25 @@ def pinned_kernels(signatures: Callable[[], dict]) -> Callable[[], None]:
                 ready = True
 
     return ready_kernels
+
+
+def compile_kernels(signatures: dict) -> None:
+    """Compile (or load from numba's cache) each kernel for the signatures it is mapped to.
+
+    Unlike :func:`pinned_kernels`, other versions stay allowed: a call with
+    other argument types compiles one as before. Compiled in a process that
+    then forks, the kernels are the children's without compiling; compiled in
+    a process of their own, they are on disk (``cache=True``) for the next
+    process to load. Kernels run as Python under ``NUMBA_DISABLE_JIT`` are
+    left as they are.
+
+    Parameters
+    ----------
+    signatures : dict
+        Kernel (a ``numba`` dispatcher) -> list of signatures (numba types or
+        their strings).
+    """
+    for kernel, kernel_signatures in signatures.items():
+        if hasattr(kernel, "compile"):  # not under NUMBA_DISABLE_JIT
+            for signature in kernel_signatures:
+                kernel.compile(signature)

@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence
 from ._validate import InputError
 
 __all__ = ["worker_init", "stop_pool", "process_pool", "run_jobs", "check_scheduler",
-           "connect_scheduler", "SCHEDULER_PROBE_SECONDS", "JOBS_PER_CORE"]
+           "connect_scheduler", "compile_ahead", "SCHEDULER_PROBE_SECONDS", "JOBS_PER_CORE"]
 
 #: Local jobs allowed per core (``--jobs`` beyond ``JOBS_PER_CORE`` x cores is refused).
 JOBS_PER_CORE = 4
@@ -62,6 +62,47 @@ def worker_init(parent: int, threads: int | None = None) -> None:
         threading.Thread(target=watch, daemon=True).start()
     if os.getppid() != parent:  # the parent died before the prctl
         os._exit(1)
+
+
+def _compile_steps(steps: Sequence[Callable[[], None]], parent: int) -> None:
+    """In :func:`compile_ahead`'s helper: each step, then exit (its kernels are on disk)."""
+    worker_init(parent)
+    for step in steps:
+        step()
+
+
+def compile_ahead(here: Sequence[Callable[[], None]],
+                  beside: Sequence[Callable[[], None]]) -> None:
+    """Compile numba kernels in this process before it forks workers, on two cores.
+
+    The steps ``beside`` run in a forked helper, whose kernels numba keeps in
+    its disk cache (``cache=True``), while this process runs ``here``; then
+    this process runs ``beside`` too, loading what the helper wrote. Each step
+    compiles kernels (:func:`viscore._jit.compile_kernels`) and runs nothing
+    else. Where numba keeps no cache (a read-only install), the helper's work
+    is lost and this process compiles it again; where processes cannot fork,
+    every step runs here.
+    """
+    import multiprocessing
+
+    helper = None
+    if beside and "fork" in multiprocessing.get_all_start_methods():
+        helper = multiprocessing.get_context("fork").Process(
+            target=_compile_steps, args=(list(beside), os.getpid()),
+            name="viscore-compile", daemon=True)
+        helper.start()
+    try:
+        for step in here:
+            step()
+    except BaseException:  # Ctrl-C included: the helper goes now
+        if helper is not None:
+            helper.kill()
+            helper.join()
+        raise
+    if helper is not None:
+        helper.join()
+    for step in beside:
+        step()
 
 
 def stop_pool(pool) -> None:

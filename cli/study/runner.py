@@ -44,7 +44,8 @@ __all__ = ["StudySettings", "Job", "OccluderFile", "study_jobs", "occluder_file_
            "resolve_occluder_files", "file_digest", "view_settings", "study_memory",
            "build_views", "views_from_file", "run_job", "run_study", "check_scheduler",
            "connect_scheduler",
-           "TIMING_FIELDS", "JOBS_PER_CORE", "SCHEDULER_PROBE_SECONDS", "OCCLUDER_SUFFIXES"]
+           "TIMING_FIELDS", "JOBS_PER_CORE", "KEPT_BYTES_PER_JOB", "SCHEDULER_PROBE_SECONDS",
+           "OCCLUDER_SUFFIXES"]
 
 #: Fields of a row that are wall times (they differ between runs; everything
 #: else in a row is deterministic given the settings).
@@ -63,6 +64,26 @@ MAX_FILE_ROW_NAME = 64
 MAX_FILES_PER_MESH = 256
 #: Names an ``--occluder-files`` row may take (no ``:`` or ``,``: never a method variant).
 _FILE_ROW_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
+
+#: Bytes a worker keeps between the budgets of a method, beyond what
+#: :func:`viscore.metrics.estimates.study_bytes` counts: about 190 MB for planar sections'
+#: candidates per voxel solid, hybrid's candidate set and volume views and the precision
+#: check's views (a worker's peak on the default study), and 194 MiB for hybrid's
+#: metric-guided state on the bunny kept with its copy where the recall step stopped
+#: (96 + 98 MiB, the arrays' bytes after budgets 256 and 64).
+KEPT_BYTES_PER_JOB = 384 * 2**20
+
+#: Expected cost of one job of a method (generation and assessment), seconds: the mean
+#: over the default study's three meshes (fat-torus, bunny, building-house) of its rows'
+#: ``seconds`` + ``seconds_evaluate`` on main at 1b0eb5e (``viscore compare``, 2 cores).
+#: Only the order matters: a local study starts its tasks longest first, so that the
+#: cores finish together instead of one waiting on a long task started last (the
+#: results never depend on the order).
+_METHOD_COST = {"planar-sections": 32.0, "hybrid": 29.6, "solid-frusta": 5.8,
+                "surface-patches": 4.7, "aabb-skins": 3.0, "qem": 1.8}
+#: Cost of a job of any other method (godot, bbox, original: 1.0 to 1.6 s) or an occluder
+#: file's, in the units of :data:`_METHOD_COST`.
+_OTHER_COST = 1.5
 
 
 @dataclass(frozen=True)
@@ -281,7 +302,8 @@ def study_memory(settings: StudySettings, meshes: dict, jobs: int) -> float:
     :func:`viscore.metrics.estimates.study_bytes` for the study's settings:
     each of ``jobs`` workers holds a process, the reference views of its mesh,
     one ray-casting batch, the conservativeness rays, a measure image and the
-    mesh, plus one copy of every mesh's views.
+    mesh, plus one copy of every mesh's views; and each worker the work its
+    tasks keep between a method's budgets (:data:`KEPT_BYTES_PER_JOB`).
 
     Parameters
     ----------
@@ -298,7 +320,7 @@ def study_memory(settings: StudySettings, meshes: dict, jobs: int) -> float:
     """
     return study_bytes(settings.protocol, views=settings.views, quads=settings.quads,
                        resolution=settings.resolution, rays=settings.rays, meshes=meshes,
-                       jobs=jobs)
+                       jobs=jobs) + jobs * KEPT_BYTES_PER_JOB
 
 
 def build_views(mesh: str, settings: StudySettings, workers: int | None = None,
@@ -439,12 +461,24 @@ def _by_mesh(pending: list[Job]) -> dict:
 
 
 def _tasks(group: list[Job]) -> list[list[Job]]:
-    """One mesh's jobs as worker tasks: a method's budgets together, in order (they share
-    work in one process: :func:`_run_jobs_on_file`); each occluder file alone."""
+    """One mesh's jobs as worker tasks: a method's budgets together, the largest first
+    (they share work in one process: :func:`_run_jobs_on_file`; hybrid's recall step
+    goes on for a smaller budget from where a larger one stopped); each occluder file
+    alone."""
     tasks: dict = {}
     for job in group:
         tasks.setdefault((job.method, job.source), []).append(job)
-    return list(tasks.values())
+    return [sorted(task, key=lambda j: -(j.budget or 0)) for task in tasks.values()]
+
+
+def _task_cost(task: list[Job]) -> float:
+    """Expected cost of a worker task (:func:`_tasks`), in :data:`_METHOD_COST`'s units:
+    its method's cost per budget (a variant ``NAME:option=value`` costs as ``NAME``;
+    an occluder file or an unknown method :data:`_OTHER_COST`) times its budgets."""
+    job = task[0]
+    method = job.method.split(":", 1)[0]
+    per_job = _OTHER_COST if job.source is not None else _METHOD_COST.get(method, _OTHER_COST)
+    return per_job * len(task)
 
 
 def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings,
@@ -473,30 +507,42 @@ def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
     loading it) and pickles them to a file in a temporary folder made in
     ``scratch``; each task of that mesh (a method's budgets, :func:`_tasks`)
     carries the file's path and each worker reads a file once
-    (:func:`views_from_file`). ``commit(job, result)`` is
-    called in this process as each job finishes. On any exception (Ctrl-C
+    (:func:`views_from_file`). The views are built first; then, each time a
+    worker is free, it is given the costliest task whose views are ready
+    (:func:`_task_cost`; ties in the order of ``pending``): the longest tasks
+    start first and the short ones fill in at the end. ``commit(job, result)``
+    is called in this process as each job finishes. On any exception (Ctrl-C
     included) the jobs that finished are committed, the others cancelled and
     the workers killed, then the exception goes on; the temporary folder is
     removed in every case.
     """
+    import heapq
+
     groups = _by_mesh(pending)
     originals = originals or {}
     folder = tempfile.mkdtemp(prefix=".views-", suffix=".tmp", dir=scratch)
     try:
-        pool = process_pool(max(1, min(jobs, len(pending))))
+        workers = max(1, min(jobs, len(pending)))
+        pool = process_pool(workers)
         running: dict = {}
+        ready: list = []  # (-cost, order, task, views file): tasks whose views are built
         try:
             building = {pool.submit(_write_views, mesh, settings, per_job, originals.get(mesh),
                                     os.path.join(folder, f"{k}.pickle")): (mesh, settings)
                         for k, (mesh, settings) in enumerate(groups)}
-            while building or running:
+            order = 0
+            while building or running or ready:
+                # a free worker takes the costliest ready task (none queue behind a busy one)
+                while ready and len(building) + len(running) < workers:
+                    _, _, task, path = heapq.heappop(ready)
+                    running[pool.submit(_run_jobs_on_file, task, per_job, path)] = task
                 done, _ = wait([*building, *running], return_when=FIRST_COMPLETED)
                 for fut in done:
                     if fut in building:
                         path = fut.result()
                         for task in _tasks(groups[building.pop(fut)]):
-                            running[pool.submit(_run_jobs_on_file, task, per_job,
-                                                path)] = task
+                            heapq.heappush(ready, (-_task_cost(task), order, task, path))
+                            order += 1
                     else:
                         for job, result in zip(running.pop(fut), fut.result(), strict=True):
                             commit(job, result)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import time
 
 import numpy as np
@@ -365,6 +366,16 @@ class _State:
         self._cast(images, todo, reps)
         self.seconds_cast = time.perf_counter() - start
         self.zero_loss = 0.5 * float(self.coef_r[self.coef_r > 0].min(initial=np.inf))
+
+    def copy(self) -> _State:
+        """A state that removals change apart from this one: every array and the extra
+        owners' lists copied; the reference, its images and the read-only tables shared."""
+        other = copy.copy(self)
+        for name, value in vars(self).items():
+            if isinstance(value, np.ndarray):
+                setattr(other, name, value.copy())
+        other.extras = {k: list(v) for k, v in self.extras.items()}
+        return other
 
     # ------------------------------------------------------------------ casting
     def _cast(self, images: list, todo: list, reps: np.ndarray) -> None:

@@ -386,6 +386,7 @@ def _select(original: trimesh.Trimesh, combined: trimesh.Trimesh, source: np.nda
                                resolution=resolution, seed=seed))
     current, info = metric_guided_simplify(original, combined, reference=reference,
                                            eps_p=eps_p, eps_r=eps_r, seed=seed,
-                                           max_faces=budget, min_precision=min_precision)
+                                           max_faces=budget, min_precision=min_precision,
+                                           share=True)
     source = source[np.asarray(info["kept"], dtype=np.int64)]
     return current, source, {k: v for k, v in info.items() if k != "kept"}

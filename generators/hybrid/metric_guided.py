@@ -14,13 +14,16 @@ References
 
 from __future__ import annotations
 
+import json
 import logging
 import time
+from dataclasses import dataclass
 
 import numpy as np
 import trimesh
 
 from viscore import InputError, validate_mesh
+from viscore._content_cache import ContentCache
 from viscore._validate import as_fraction, as_positive, as_positive_int, as_seed
 from viscore.metrics.reference_views import ReferenceViews
 
@@ -41,6 +44,11 @@ MGOS_SPACING_FRACTION = 0.12
 MGOS_RESOLUTION = 32
 MGOS_QUADS = 1000
 
+#: With ``share=True``: the prepared state of the last occluder in this process (a study
+#: runs a mesh's budgets one after the other), kept by the content of the meshes and the
+#: settings of the step (:class:`_Shared`).
+_SHARED = ContentCache(1)
+
 # ---------------------------------------------------------------------------- the method
 def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Trimesh, *,
                            reference: ReferenceViews | None = None, eps_p: float = EPS_P,
@@ -48,7 +56,7 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
                            quads: int | None = None, resolution: int | None = None,
                            seed: int = 0, skip_unseen: bool = True,
                            skip_backfacing: bool = False, max_faces: int | None = None,
-                           min_precision: float | None = None
+                           min_precision: float | None = None, share: bool = False
                            ) -> tuple[trimesh.Trimesh, dict]:
     """Drop occluder faces by their effect on volume precision and recall (MGOS).
 
@@ -116,6 +124,13 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
         the tracked precision is under it, the face whose removal raises
         precision most goes, gains recomputed after each (false occlusion
         spread over many faces, each under ``eps_p``). Default None: no floor.
+    share : bool, optional
+        Keep, in this process, the state after the precision step and where
+        the recall step's greedy order first depends on ``max_faces``, for the
+        next call with the same meshes, reference and thresholds but another
+        ``max_faces`` (a study's budgets of one mesh): it starts from there
+        instead of casting again. The result is the one the call gives alone.
+        Default False (nothing kept).
 
     Returns
     -------
@@ -202,7 +217,8 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
     seed = as_seed(seed)
     if max_faces is not None:
         max_faces = as_positive_int(max_faces, "max_faces")
-    for name, flag in (("skip_unseen", skip_unseen), ("skip_backfacing", skip_backfacing)):
+    for name, flag in (("skip_unseen", skip_unseen), ("skip_backfacing", skip_backfacing),
+                       ("share", share)):
         if not isinstance(flag, (bool, np.bool_)):
             raise InputError(f"{name}: expected True or False, got {flag!r}")
     if reference is not None:
@@ -240,20 +256,41 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
                  "images": 0, "images_used": 0,
                  "images_skipped": 0, "seconds": time.perf_counter() - start}
         return occluder_mesh.copy(), info
-    state = _State(reference, occ, skip_unseen=bool(skip_unseen),
-                   skip_backfacing=bool(skip_backfacing))
-    # the tallies of reference.score(occ), bit for bit (the same images, quads and pixels)
-    info["precision_before"], info["recall_before"] = state.figures()
-    # 1. the precision step: all faces judged against the whole occluder, removed together
-    drop = np.flatnonzero(_alive_gains(state) > eps_p)
-    for f in drop:
-        state.remove(int(f))
-    removed_p = len(drop)
-    removed_f = _precision_floor(state, min_precision)
-    # 2. the recall step: least loss first, losses kept up to date after each removal
-    removed_r = removed_b = 0
-    eps_final = eps_r
-    state.refresh_losses()
+
+    def prepared() -> _Shared:  # the casting and the precision step: not budget-dependent
+        state = _State(reference, occ, skip_unseen=bool(skip_unseen),
+                       skip_backfacing=bool(skip_backfacing))
+        # the tallies of reference.score(occ), bit for bit (the same images, quads, pixels)
+        figures = state.figures()
+        # 1. the precision step: all faces judged against the whole occluder, removed together
+        drop = np.flatnonzero(_alive_gains(state) > eps_p)
+        for f in drop:
+            state.remove(int(f))
+        removed_f = _precision_floor(state, min_precision)
+        state.refresh_losses()
+        return _Shared(state, figures, len(drop), removed_f)
+
+    if share:
+        shared = _SHARED.get((np.asarray(original.vertices), np.asarray(original.faces),
+                              np.asarray(occ.vertices), np.asarray(occ.faces),
+                              reference.protocol, json.dumps(reference.settings, sort_keys=True,
+                                                             default=str),
+                              eps_p, eps_r, min_precision, bool(skip_unseen),
+                              bool(skip_backfacing)), prepared)
+    else:
+        shared = prepared()
+    info["precision_before"], info["recall_before"] = shared.figures
+    removed_p, removed_f = shared.removed_precision, shared.removed_floor
+    # 2. the recall step: least loss first, losses kept up to date after each removal; from
+    # where a larger budget's order left it, when this one's is the same up to there
+    fork = shared.fork
+    if share and max_faces is not None and fork is not None and fork[0] > max_faces:
+        _, state, (removed_r, removed_b, eps_final) = fork
+        state = state.copy()
+    else:
+        state = shared.state.copy() if share else shared.state
+        removed_r = removed_b = 0
+        eps_final = eps_r
     refreshed = False
     while state.alive.any():
         alone = state.group_alone()
@@ -265,6 +302,9 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
         if not best < eps_r and not over:
             if refreshed:
                 break
+            if share and not (fork is not None and fork[0] <= len(cand)):
+                # a smaller budget goes on removing here, where this one stops or refreshes
+                shared.fork = fork = (len(cand), state.copy(), (removed_r, removed_b, eps_final))
             state.refresh_losses()  # rounding drift of the kept sums, once before stopping
             refreshed = True
             continue
@@ -301,6 +341,20 @@ def metric_guided_simplify(original: trimesh.Trimesh, occluder_mesh: trimesh.Tri
               info["precision_before"], after.precision, info["recall_before"], after.recall,
               info["seconds"])
     return mesh, info
+
+
+@dataclass
+class _Shared:
+    """The state after the precision step (never changed: each call works on a copy), its
+    figures before any removal, the faces each step removed, and ``fork``: None, or the
+    remaining candidates, a copy of the state and the recall step's counters where a call's
+    recall step first stopped on its budget (one with a smaller budget goes on from there)."""
+
+    state: _State
+    figures: tuple
+    removed_precision: int
+    removed_floor: int
+    fork: tuple | None = None
 
 
 def _alive_gains(state) -> np.ndarray:
