@@ -971,6 +971,7 @@ class ConservativeDepthBuffer:
         for layer in layers:
             if np.isfinite(depth).all():
                 break
+            assert at_corners is not None  # made above whenever there is a layer
             _patch_depths(occ, layer, depth, at_corners, eye, basis, xs, ys, hx, hy, size,
                           margin)
         if occ._region_creases and len(occ._region_plane) \
@@ -980,6 +981,7 @@ class ConservativeDepthBuffer:
                            r, u, f, tol, _CREASE_TOLERANCE * size, margin, _SEGMENT_SLACK)
         # last: the sheet rule's depths are looser than the region rules' where both apply
         if occ._n_sheets and occ._sheet_rule and not np.isfinite(depth).all():
+            assert at_corners is not None  # made above whenever there are sheets
             _patch_depths(occ, (occ._sheet, occ._sheet_edges, occ._n_sheets, None, True), depth,
                           at_corners, eye, basis, xs, ys, hx, hy, size, margin)
         if CONTOUR_RULE and not np.isfinite(depth).all():
