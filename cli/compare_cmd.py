@@ -50,10 +50,10 @@ _log = logging.getLogger(__name__)
 MAX_RESOLUTION = 4096
 
 #: Meshes of a study given none: a closed solid with a hole, a scan and a game building,
-#: so that ``viscore compare`` runs every method in minutes (255 s on an idle 2-core
-#: machine, 464 CPU-s, and 309 s on a fresh install's first run, at 1b0eb5e; since, side
-#: by side on a loaded machine: the first run 0.90x the wall and 0.91x the CPU of that
-#: code's, a run on warm caches 1.00x and 0.96x).
+#: so that ``viscore compare`` runs every method in minutes (197 s on an idle 2-core
+#: machine, 361 CPU-s, and 235 s, 408 CPU-s, on a fresh venv's first run, at 93f13c6; at
+#: 1b0eb5e 255 s, 464 CPU-s, and 309 s, 575 CPU-s). The culling column on the city ends
+#: the run: the study's jobs are done about 40 s before it.
 DEFAULT_SCENES = ("fat-torus", "bunny", "building-house")
 
 #: Frames of the culling column's walk through the built-in city.
