@@ -25,6 +25,7 @@ import numpy.typing as npt
 
 from viscore import InputError, PerspectiveCamera
 from viscore._validate import as_positive, as_positive_int, as_seed, as_vector
+from viscore.ray.cameras import horizontal_basis
 
 if TYPE_CHECKING:  # pragma: no cover - hints only
     from viscore.level.scene_graph import SceneObjects
@@ -375,16 +376,6 @@ def camera_path_json(cameras: Sequence[PathCamera]) -> str:
 
 
 # --------------------------------------------------------------------------- path generation
-def _horizontal_basis(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors spanning the plane perpendicular to ``up`` (right-handed with it)."""
-    axis = np.zeros(3)
-    axis[int(np.argmin(np.abs(up)))] = 1.0
-    e1 = np.cross(up, axis)
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(e1, up)
-    return e1, e2
-
-
 def _height_map(objects: SceneObjects, up: np.ndarray):
     """Top heights of the scene seen from above on a horizontal grid, and the ground level.
 
@@ -398,7 +389,7 @@ def _height_map(objects: SceneObjects, up: np.ndarray):
     rays start from, and the cosine of the first hit's normal with ``up``
     (NaN on a miss) comes last.
     """
-    e1, e2 = _horizontal_basis(up)
+    e1, e2 = horizontal_basis(up)
 
     def corners(box):
         return np.array([[x, y, z] for x in box[:, 0] for y in box[:, 1] for z in box[:, 2]])

@@ -54,6 +54,7 @@ from ..exchange.mesh_io import (
     validate_mesh,
 )
 from ..exchange.mesh_validation import _MAX_COORDINATE, _MAX_OFFSET_RATIO
+from ..ray.cameras import horizontal_basis
 from ..ray.embree_scene import Scene
 from .hidden_nodes import hidden_reason
 
@@ -379,11 +380,7 @@ class SceneObjects:
         keep = np.flatnonzero(among)
         if not len(keep):
             return district
-        axis = np.zeros(3)
-        axis[int(np.argmin(np.abs(u)))] = 1.0
-        e1 = np.cross(u, axis)
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(e1, u)
+        e1, e2 = horizontal_basis(u)
         corners = np.stack([np.where(np.array([x, y, z]), self.upper[keep], self.lower[keep])
                             for x in (0, 1) for y in (0, 1) for z in (0, 1)], axis=1)
         plane = np.stack([corners @ e1, corners @ e2], axis=2)  # (k, 8, 2)

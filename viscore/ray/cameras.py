@@ -23,7 +23,8 @@ import numpy.typing as npt
 
 from .._validate import InputError, as_positive, as_positive_int, as_vector, check_memory
 
-__all__ = ["OrthoCamera", "PerspectiveCamera", "cube_cameras", "camera_basis"]
+__all__ = ["OrthoCamera", "PerspectiveCamera", "cube_cameras", "camera_basis",
+           "horizontal_basis"]
 
 #: Axes and up vectors of the six cube frusta (+X, -X, +Y, -Y, +Z, -Z).
 _CUBE_AXES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]],
@@ -34,6 +35,17 @@ _BYTES_PER_PIXEL = 160
 
 _CUBE_UPS = np.array([[0, 0, 1], [0, 0, 1], [0, 0, 1], [0, 0, 1], [0, 1, 0], [0, 1, 0]],
                      dtype=np.float64)
+
+
+def horizontal_basis(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors spanning the plane perpendicular to the unit vector ``up``
+    (right-handed with it): a level's map seen from above."""
+    axis = np.zeros(3)
+    axis[int(np.argmin(np.abs(up)))] = 1.0
+    e1 = np.cross(up, axis)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(e1, up)
+    return e1, e2
 
 
 def camera_basis(forward: npt.ArrayLike, up: npt.ArrayLike | None = None
