@@ -9,8 +9,6 @@ import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import TypeVar
 
-import numpy as np
-
 __all__ = ["held_records", "release", "report_parts", "call_held", "portable", "restored",
            "report_kinds", "UNHELD"]
 
@@ -38,9 +36,8 @@ def _filled(key: str, numbers: Sequence[Sequence[str]]) -> str:
     out = [pieces[0]]
     for k, piece in enumerate(pieces[1:]):
         column = [row[k] for row in numbers]
-        values = [float(v) for v in column]
-        lo, hi = column[int(np.argmin(values))], column[int(np.argmax(values))]
-        out.append(lo if min(values) == max(values) else f"{lo} to {hi}")
+        lo, hi = min(column, key=float), max(column, key=float)
+        out.append(lo if float(lo) == float(hi) else f"{lo} to {hi}")
         out.append(piece)
     return "".join(out)
 
@@ -198,17 +195,18 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
             text = text[len(label) + 2:]
         own = (names or {}).get(part)
         key, numbers = _template(text.replace(own, _EACH) if own else text)
-        group = groups.setdefault(key, [record, set(), text, []])
+        group = groups.setdefault(key, [record, set(), []])
         if record.levelno > group[0].levelno:
             group[0] = record
         group[1].add(part)
-        group[3].append(numbers)
-    for key, (record, which, text, numbers) in groups.items():
+        group[2].append(numbers)
+    for key, (record, which, numbers) in groups.items():
         logger = logging.getLogger(record.name)
+        text = _filled(key, numbers)
         if len(which) == 1:
             part = next(iter(which))
             own = (names or {}).get(part)
-            text = _filled(key, numbers).replace(_EACH, own) if own else _filled(key, numbers)
+            text = text.replace(_EACH, own) if own else text
             if own and own in text:  # the text names its part: not "mesh 6: ...:Cube.001: ..."
                 logger.log(record.levelno, "%s: %s", label, text)
             else:
@@ -217,7 +215,7 @@ def report_parts(held: Sequence[tuple[int, logging.LogRecord]], parts: int,
                            own or str(part), text)
         else:
             logger.log(record.levelno, "%s: %d of %d %s: %s", label, len(which), parts, what,
-                       _filled(key, numbers).replace(_EACH, "each of them"))
+                       text.replace(_EACH, "each of them"))
 
 
 #: Fields of a record kept by :func:`portable` (its message is formatted first).
