@@ -13,6 +13,7 @@ References
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import logging
 import os
@@ -61,8 +62,7 @@ CULLING_FRAMES = 24
 
 #: Most jobs run at once given no ``--jobs``: one per core up to this, fewer when the
 #: memory estimate does not fit. On 2 cores the default study keeps both busy (the
-#: culling column in its own process beside the jobs; 238 s against 260 s with one
-#: job, the same results).
+#: culling column's pieces among the jobs, :class:`_CullingInPool`).
 DEFAULT_JOBS = 4
 
 
@@ -226,13 +226,19 @@ def run_compare(args) -> int:
         prepare_kernels()
     held: list = []  # the jobs' and the culling column's log records, said once at the end
     with connect_scheduler(args.scheduler) as client, StudyFolder(out) as study:
-        beside = (_CullingBeside(culling_methods, out, frames=culling_frames, seed=seed,
+        # the culling column: work of the local pool, or beside a cluster's jobs
+        column = beside = None
+        if args.culling and culling_methods:
+            column_kind = _CullingInPool if args.scheduler is None else _CullingBeside
+            beside = column_kind(culling_methods, out, frames=culling_frames, seed=seed,
                                  quiet=args.quiet or args.json)
-                  if args.culling and culling_methods else None)
+            if args.scheduler is None:
+                column = beside
         try:
             rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
                              scheduler=client, progress=not (args.quiet or args.json),
-                             originals=originals, files=files, on_records=held.extend)
+                             originals=originals, files=files, on_records=held.extend,
+                             extra=column.units() if column is not None else ())
             paired = paired_rows(rows, versus) if versus else []
             culling = beside.result() if beside is not None else []
             held.extend(beside.records if beside is not None else [])
@@ -342,7 +348,9 @@ def _culling_child(conn, parent: int, methods: list[str], frames: int, seed: int
 
 
 class _CullingBeside:
-    """The culling column, one row per method, kept in ``out/culling.json``.
+    """The culling column beside a cluster's jobs (``--scheduler``), one row per method,
+    kept in ``out/culling.json``. A local study runs it in its own pool instead
+    (:class:`_CullingInPool`).
 
     Computed once per (methods, frames, seed, viscore version): running the
     study again reuses the file, as the study store reuses finished jobs.
@@ -429,6 +437,124 @@ class _CullingBeside:
         if self._process is not None and self._process.is_alive():
             self._process.kill()
             self._process.join(timeout=2)
+            self._bar.close()
+
+
+#: Expected cost of a piece of the culling column's occluders (one method on one distinct
+#: mesh of the city; a joined method's piece is all of them), in the units of the study's
+#: task costs (seconds): ``culling_column`` profiled in one process on main at b42f7fb
+#: (planar-sections 70 s, surface-patches 16.3 s, solid-frusta 15.7 s and aabb-skins
+#: 7.6 s over the city's 17 meshes). Only the order matters.
+_PIECE_COST = {"planar-sections": 4.1, "surface-patches": 16.3, "solid-frusta": 0.9,
+               "aabb-skins": 0.45}
+#: Cost of a piece of any other method (qem, godot, bbox, original).
+_OTHER_PIECE_COST = 0.1
+#: Cost of the column once its occluders are in: the depth buffers set up (22 s) and the
+#: frames (14 s). Each piece counts it too: it waits for the last piece.
+_SIMULATION_COST = 36.0
+
+
+def _column_piece_task(method: str, mesh_ids: tuple[int, ...], seed: int) -> dict:
+    """In a worker: one piece of the culling column's occluders, its records portable."""
+    from viscore.generators import portable
+    from viscore.generators.levels import column_piece
+
+    return {key: (occ, portable(records))
+            for key, (occ, records) in column_piece(method, mesh_ids, seed=seed).items()}
+
+
+def _column_task(methods: list[str], frames: int, seed: int, made: dict) -> tuple:
+    """In a worker: the culling column from its pieces' occluders, its records held."""
+    from viscore.generators import call_held, portable, restored
+    from viscore.generators.levels import culling_column
+
+    made = {m: {key: (occ, restored(records)) for key, (occ, records) in pieces.items()}
+            for m, pieces in made.items()}
+    column, records = call_held(culling_column, methods, frames=frames, seed=seed, made=made)
+    return column, portable(records)
+
+
+class _CullingInPool:
+    """The culling column, one row per method, as work of the study's own pool.
+
+    Kept in ``out/culling.json`` as :class:`_CullingBeside` keeps it. Its
+    occluders are made piece by piece (:func:`viscore.generators.levels.column_pieces`:
+    a method on a distinct mesh) by the workers that run the study's jobs,
+    each taken when its cost is the largest ready (:data:`_PIECE_COST`, the
+    column's frames counted in: they wait for the last piece); then one
+    worker runs the column's frames on them. Both cores stay busy to the end
+    instead of a process of its own finishing alone; the rows are the ones
+    :func:`culling_column` gives in one process.
+    """
+
+    def __init__(self, methods: list[str], out: Path, *, frames: int, seed: int,
+                 quiet: bool) -> None:
+        self.methods, self.out, self.frames, self.seed = methods, out, frames, seed
+        self.rows = _cached_culling(methods, out, frames=frames, seed=seed)
+        self.records: list = []
+        self._made: dict = {m: {} for m in dict.fromkeys(methods)}
+        self._left = 0
+        self._bar = None
+        if self.rows is not None:
+            return
+        from tqdm import tqdm
+
+        from viscore.generators.levels import column_pieces
+
+        self._pieces = column_pieces(methods)
+        self._left = len(self._pieces)
+        if not quiet:
+            _log.info("culling column: %s on the built-in city, %d frames, in the study's "
+                      "pool", ", ".join(methods), frames)
+        self._bar = tqdm(desc="culling column", unit="step", disable=quiet, position=1,
+                         leave=False, total=len(self._pieces) + 1)
+
+    def units(self) -> list:
+        """The pieces, as the pool's work (none when the rows were kept)."""
+        from .study.runner import Unit
+
+        if self.rows is not None:
+            return []
+        return [Unit(cost=_PIECE_COST.get(m.split(":", 1)[0], _OTHER_PIECE_COST)
+                     + _SIMULATION_COST, fn=_column_piece_task, args=(m, ids, self.seed),
+                     done=functools.partial(self._piece_done, m))
+                for m, ids in self._pieces]
+
+    def _piece_done(self, method: str, result: dict) -> list:
+        from .study.runner import Unit
+
+        self._made[method].update(result)
+        self._left -= 1
+        self._bar.set_postfix_str(method)
+        self._bar.update(1)
+        if self._left:
+            return []
+        self._bar.set_postfix_str("frames")
+        return [Unit(cost=_SIMULATION_COST, fn=_column_task,
+                     args=(self.methods, self.frames, self.seed, self._made),
+                     done=self._column_done)]
+
+    def _column_done(self, result: tuple) -> list:
+        from viscore.generators import restored
+
+        column, records = result
+        self.records = restored(records)
+        self.rows = _culling_rows(self.methods, column)
+        write_atomic(self.out / "culling.json",
+                     dumps({"key": _culling_key(self.methods, self.frames, self.seed),
+                            "rows": self.rows}).encode())
+        self._bar.update(1)
+        return []
+
+    def result(self) -> list[dict]:
+        """The rows, once the pool ran the column."""
+        if self.rows is None:
+            raise RuntimeError("the culling column's work did not run")
+        return self.rows
+
+    def stop(self) -> None:
+        """Close the progress bar; idempotent."""
+        if self._bar is not None:
             self._bar.close()
 
 

@@ -165,6 +165,38 @@ def test_local_study_starts_the_costliest_ready_task_first(tmp_path, monkeypatch
     assert not list(tmp_path.iterdir())  # the views folder removed
 
 
+def test_local_study_runs_extra_units_by_cost_and_their_followers(tmp_path, monkeypatch):
+    """Other work in the study's pool (compare's culling column): a unit is taken when its
+    cost is the largest ready, between the jobs' tasks; what its ``done`` returns becomes
+    ready then, and runs though it costs the least."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    s = StudySettings(budgets=(64,))
+    started: list = []
+    monkeypatch.setattr(runner, "process_pool", lambda n: ThreadPoolExecutor(1))
+    monkeypatch.setattr(runner, "_write_views",
+                        lambda mesh, settings, workers, original, path: path)
+    monkeypatch.setattr(runner, "_run_jobs_on_file", lambda task, workers, path: started.append(
+        task[0].method) or [None for _ in task])
+    follower = runner.Unit(cost=0.0, fn=lambda x: started.append(x) or x * 2, args=("follow",),
+                           done=lambda result: started.append(result) or [])
+    piece = runner.Unit(cost=10.0, fn=lambda x: started.append(x) or x, args=("piece",),
+                        done=lambda result: [follower])
+    pending = [Job("a", m, b, s) for m, b in (("planar-sections", 64), ("bbox", None))]
+    runner._local(pending, 1, 1, lambda job, result: None, scratch=tmp_path, extra=[piece])
+    # planar-sections costs 32, the piece 10, bbox 1.5: the follower comes once the piece is in
+    assert started == ["planar-sections", "piece", "bbox", "follow", "followfollow"]
+
+
+def test_study_refuses_extra_work_on_a_scheduler(tmp_path):
+    from viscore import InputError
+
+    unit = runner.Unit(cost=1.0, fn=print, args=(), done=lambda result: [])
+    with pytest.raises(InputError, match="local pool only"):
+        runner.run_study([], [], StudySettings(), tmp_path / "s", scheduler=object(),
+                         progress=False, extra=[unit])
+
+
 def test_mgos_shared_state_gives_the_result_made_anew(torus, monkeypatch):
     """Budgets 100 then 30 sharing the prepared state (the second from where the first's
     recall step stopped on its budget), each equal to the call alone; another budget

@@ -343,15 +343,15 @@ def test_compare_says_each_warning_once_with_its_count(tmp_path, capsys, verbose
 
 def test_compare_culling_column_error_in_its_process_is_one_line(tmp_path, capsys,
                                                                 monkeypatch):
-    """The culling column runs in a process of its own beside the jobs: its bad input
-    comes back as the one line and exit 2 it was in this process, and no results."""
+    """The culling column runs in the study's worker processes beside the jobs: its bad
+    input comes back as the one line and exit 2 it was in this process, and no results."""
     from viscore import InputError
     from viscore.generators import levels
 
     def broken(*args, **kwargs):
         raise InputError("culling: broken on purpose")
 
-    monkeypatch.setattr(levels, "culling_column", broken)  # the forked process has it too
+    monkeypatch.setattr(levels, "culling_column", broken)  # the forked workers have it too
     out = tmp_path / "s"
     argv = ["compare", "building-house", "--methods", "bbox", "--budget", "32", "--views", "2",
             "--quads", "100", "--res", "16", "--rays", "200", "--culling-frames", "2",

@@ -164,6 +164,60 @@ def test_bench_cull_and_culling_column_on_a_small_scene(street):
     assert 0 <= column["bbox"]["culled_share"] <= 1
 
 
+def test_culling_column_from_its_pieces_is_the_column_made_alone(tmp_path, monkeypatch):
+    """compare's pool makes the column's occluders piece by piece (a method on a distinct
+    mesh; a joined method at once): handed in, nothing is generated again and the column
+    is the one made in one call."""
+    from viscore.generators.levels import (
+        column_piece,
+        column_pieces,
+        culling_column,
+        occluders,
+        runtimes,
+    )
+    from viscore.level import load_scene_objects
+
+    # a town of 4 x 4 blocks, two meshes (a tower instanced 8 times, a hall 8 times), and
+    # crates
+    town = trimesh.Scene()
+    tower = trimesh.creation.box(bounds=[[0, 0, 0], [4, 12, 4]])
+    hall = trimesh.creation.box(bounds=[[0, 0, 0], [5, 6, 3]])
+    for k in range(16):
+        mesh, name = (tower, "tower") if (k + k // 4) % 2 else (hall, "hall")
+        matrix = trimesh.transformations.translation_matrix((10.0 * (k % 4), 0, 10.0 * (k // 4)))
+        town.add_geometry(mesh, geom_name=name, node_name=f"{name}_{k}", transform=matrix)
+    crate = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+    for k in range(20):  # the small things between them, hidden behind the blocks
+        matrix = trimesh.transformations.translation_matrix((7.0 + 10 * (k % 4), 0,
+                                                             7.0 + 8 * (k // 4)))
+        town.add_geometry(crate, geom_name="crate", node_name=f"crate_{k}", transform=matrix)
+    scene = tmp_path / "town.glb"
+    scene.write_bytes(town.export(file_type="glb"))
+    methods = ["aabb-skins", "bbox", "surface-patches"]
+    pieces = column_pieces(methods, scene=str(scene))
+    meshes = load_scene_objects(scene).meshes
+    assert sorted((m, tuple(meshes[i].metadata["name"].split(":")[-1] for i in ids))
+                  for m, ids in pieces) == [
+        ("aabb-skins", ("hall",)), ("aabb-skins", ("tower",)), ("bbox", ("hall",)),
+        ("bbox", ("tower",)), ("surface-patches", ())]
+    made: dict = {}
+    for method, ids in pieces:
+        made.setdefault(method, {}).update(column_piece(method, ids, scene=str(scene)))
+    alone = culling_column(methods, scene=str(scene), frames=6, width=64, height=36)
+
+    def again(*args, **kwargs):
+        raise AssertionError("generated again")
+
+    for module in (runtimes, occluders):
+        monkeypatch.setattr(module, "generate_held", again)
+    monkeypatch.setattr(runtimes, "joined_occluder", again)
+    given = culling_column(methods, scene=str(scene), frames=6, width=64, height=36, made=made)
+    keys = ("culled_share", "false_culls", "conservative")
+    assert {m: [given[m][k] for k in keys] for m in methods} == {
+        m: [alone[m][k] for k in keys] for m in methods}
+    assert alone["bbox"]["culled_share"] > 0  # blocks hide blocks: the column measured
+
+
 def test_culling_column_tests_objects_as_cull_does_by_default(street, monkeypatch):
     """compare's culling column splits the level's chunks as `cull --bounds auto` does: the
     street's wall (0.66 of its diagonal) is tested through its clusters, the box and the

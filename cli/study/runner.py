@@ -20,10 +20,11 @@ import pickle
 import re
 import shutil
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 from viscore import InputError, cpu_cores
 from viscore._jobs import (
@@ -499,8 +500,27 @@ def study_jobs(meshes: list[str], methods: list[str], settings: StudySettings,
     return jobs
 
 
+@dataclass(frozen=True)
+class Unit:
+    """Work of another kind a local study's pool runs beside its jobs (compare's culling
+    column, :func:`run_study`'s ``extra``).
+
+    ``fn(*args)`` runs in a worker; ``done(result)`` in this process when it
+    finishes, returning the units it makes ready (a column's simulation once
+    its last piece of occluders is in). ``cost`` orders it among the jobs'
+    tasks, in :data:`_METHOD_COST`'s units: the time it keeps the work after
+    it waiting (its own and its followers'), so that a chain starts early.
+    """
+
+    cost: float
+    fn: Callable
+    args: tuple
+    done: Callable[[Any], list]
+
+
 def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
-           scratch: str | os.PathLike, originals: dict | None = None) -> None:
+           scratch: str | os.PathLike, originals: dict | None = None,
+           extra: Sequence[Unit] = ()) -> None:
     """Each mesh's views built once in the pool and written once, then its jobs.
 
     A worker builds a mesh's views (from ``originals[mesh]`` when given, else
@@ -509,12 +529,13 @@ def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
     carries the file's path and each worker reads a file once
     (:func:`views_from_file`). The views are built first; then, each time a
     worker is free, it is given the costliest task whose views are ready
-    (:func:`_task_cost`; ties in the order of ``pending``): the longest tasks
-    start first and the short ones fill in at the end. ``commit(job, result)``
-    is called in this process as each job finishes. On any exception (Ctrl-C
-    included) the jobs that finished are committed, the others cancelled and
-    the workers killed, then the exception goes on; the temporary folder is
-    removed in every case.
+    (:func:`_task_cost`; ties in the order of ``pending``), or the costliest
+    of the ``extra`` units (:class:`Unit`) when that costs more: the longest
+    tasks start first and the short ones fill in at the end. ``commit(job,
+    result)`` is called in this process as each job finishes. On any
+    exception (Ctrl-C included) the jobs that finished are committed, the
+    others cancelled and the workers killed, then the exception goes on; the
+    temporary folder is removed in every case.
     """
     import heapq
 
@@ -522,20 +543,27 @@ def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
     originals = originals or {}
     folder = tempfile.mkdtemp(prefix=".views-", suffix=".tmp", dir=scratch)
     try:
-        workers = max(1, min(jobs, len(pending)))
+        workers = max(1, min(jobs, len(pending) + len(extra)))
         pool = process_pool(workers)
         running: dict = {}
-        ready: list = []  # (-cost, order, task, views file): tasks whose views are built
+        # (-cost, order, task or Unit, views file or None): what a free worker may take
+        ready: list = []
+        order = 0
+        for unit in extra:
+            heapq.heappush(ready, (-unit.cost, order, unit, None))
+            order += 1
         try:
             building = {pool.submit(_write_views, mesh, settings, per_job, originals.get(mesh),
                                     os.path.join(folder, f"{k}.pickle")): (mesh, settings)
                         for k, (mesh, settings) in enumerate(groups)}
-            order = 0
             while building or running or ready:
                 # a free worker takes the costliest ready task (none queue behind a busy one)
                 while ready and len(building) + len(running) < workers:
                     _, _, task, path = heapq.heappop(ready)
-                    running[pool.submit(_run_jobs_on_file, task, per_job, path)] = task
+                    if isinstance(task, Unit):
+                        running[pool.submit(task.fn, *task.args)] = task
+                    else:
+                        running[pool.submit(_run_jobs_on_file, task, per_job, path)] = task
                 done, _ = wait([*building, *running], return_when=FIRST_COMPLETED)
                 for fut in done:
                     if fut in building:
@@ -543,13 +571,20 @@ def _local(pending: list[Job], jobs: int, per_job: int, commit: Callable, *,
                         for task in _tasks(groups[building.pop(fut)]):
                             heapq.heappush(ready, (-_task_cost(task), order, task, path))
                             order += 1
+                        continue
+                    task = running.pop(fut)
+                    if isinstance(task, Unit):
+                        for unit in task.done(fut.result()):
+                            heapq.heappush(ready, (-unit.cost, order, unit, None))
+                            order += 1
                     else:
-                        for job, result in zip(running.pop(fut), fut.result(), strict=True):
+                        for job, result in zip(task, fut.result(), strict=True):
                             commit(job, result)
         except BaseException:
             try:
                 for fut, task in list(running.items()):  # keep what finished meanwhile
-                    if fut.done() and not fut.cancelled() and fut.exception() is None:
+                    if (not isinstance(task, Unit) and fut.done() and not fut.cancelled()
+                            and fut.exception() is None):
                         for job, result in zip(task, fut.result(), strict=True):
                             commit(job, result)
             finally:
@@ -585,7 +620,8 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
               on_row: Callable[[dict], None] | None = None,
               originals: dict | None = None,
               files: list[OccluderFile] = (),
-              on_records: Callable[[list], None] | None = None) -> list[dict]:
+              on_records: Callable[[list], None] | None = None,
+              extra: Sequence[Unit] = ()) -> list[dict]:
     """Run (or resume) every job; returns the rows in mesh, method, budget order.
 
     The log records a job makes are held in its worker and come back with its
@@ -623,12 +659,17 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
         Called once, at the end, with the jobs' held records (``logging.LogRecord``,
         in the order the jobs finished) instead of saying their warnings here;
         not called with ``--verbose``, where each job's records were said already.
+    extra : sequence of Unit, optional
+        Other work for the local pool, run beside the jobs, costliest first
+        among them (:func:`_local`); refused with a scheduler. Its results go
+        to each unit's ``done``.
     """
     if not isinstance(out_dir, StudyFolder):
         with StudyFolder(out_dir) as study:
             return run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
                              scheduler=scheduler, progress=progress, on_row=on_row,
-                             originals=originals, files=files, on_records=on_records)
+                             originals=originals, files=files, on_records=on_records,
+                             extra=extra)
     import logging
 
     from tqdm import tqdm
@@ -670,12 +711,16 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
             on_row(row)
 
     try:
-        if not pending:
+        if scheduler is not None and extra:
+            raise InputError("run_study: extra work runs in the local pool only, not on a "
+                             "scheduler")
+        if not pending and not extra:
             pass
         elif scheduler is not None:
             _dask(pending, scheduler, commit)
         else:
-            _local(pending, jobs, per_job, commit, scratch=study.path, originals=originals)
+            _local(pending, jobs, per_job, commit, scratch=study.path, originals=originals,
+                   extra=extra)
     finally:
         bar.close()
         if not verbose:

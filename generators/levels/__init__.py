@@ -42,6 +42,8 @@ from .occluders import (
     transform_occluder,
 )
 from .runtimes import (
+    column_piece,
+    column_pieces,
     culling_column,
     culling_runtimes,
     frusta_method,
@@ -53,7 +55,8 @@ __all__ = ["occlude_level", "occluder_of_mesh", "LevelOccluders", "MeshOccluder"
            "default_methods", "check_occlude_folder", "MANIFEST_NAME", "JOB_DIR", "scene_occluders",
            "scene_hierarchy", "transform_occluder", "joined_occluder", "generate_held",
            "file_occluder", "JOINED_METHODS", "OCCLUDE_MANIFEST", "culling_runtimes",
-           "culling_column", "frusta_method", "method_indices", "guaranteed_methods",
+           "culling_column", "column_pieces", "column_piece", "frusta_method",
+           "method_indices", "guaranteed_methods",
            # the level's objects (viscore.level), for the old paths of this face's modules
            "LevelObjects", "level_objects", "occluder_objects", "guess_up", "MIN_SIZE",
            "SIZE_FACTOR", "PART_FRACTION", "FLAT_RATIO", "FALLBACK_SHARE", "LEVEL_SPAN",

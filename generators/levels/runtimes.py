@@ -19,6 +19,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
@@ -46,7 +47,7 @@ from .occluders import (
 )
 
 __all__ = ["culling_runtimes", "frusta_method", "method_indices", "culling_column",
-           "guaranteed_methods"]
+           "column_pieces", "column_piece", "guaranteed_methods"]
 
 _log = logging.getLogger(__name__)
 
@@ -142,7 +143,8 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int] | np.ndarray,
                      progress: Callable[[int], None] | None = None,
                      files: Mapping[str, Occluder] | None = None,
                      joined: Sequence[str] | None = None,
-                     flat: npt.ArrayLike | None = None
+                     flat: npt.ArrayLike | None = None,
+                     made: Mapping[str, Mapping[int, tuple[Occluder, list]]] | None = None
                      ) -> tuple[dict[str, Runtime], dict]:
     """The runtimes of the culling simulation for a scene's occluder objects.
 
@@ -259,8 +261,13 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int] | np.ndarray,
                 return cache[method]
             _log.debug("generating %s occluders for %d objects", method, len(indices))
             options = params.get(method, {})
+            have = dict((made or {}).get(method, {}))
             if method in joined and len(indices):
-                occ = joined_occluder(objects, indices, method, seed=seed, **options)
+                if _JOINED in have:
+                    occ, records = have[_JOINED]
+                    release(records)
+                else:
+                    occ = joined_occluder(objects, indices, method, seed=seed, **options)
                 if progress is not None:
                     progress(len(set(objects.mesh_ids[indices].tolist())))
                 cache[method] = {_JOINED: occ} if occ.triangles else {}
@@ -269,7 +276,8 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int] | np.ndarray,
             # tree over all the occluder objects instead of one per mesh
             # (kept for the mesh by mesh generation: the first mesh is made once)
             first = int(objects.mesh_ids[indices[0]])
-            probe, records = generate_held(objects, first, method, seed=seed, **options)
+            probe, records = (have[first] if first in have
+                              else generate_held(objects, first, method, seed=seed, **options))
             if "hierarchy" in probe.parts:
                 release(records)
                 cache[method] = {-1: scene_hierarchy(objects, indices, method, seed=seed,
@@ -279,7 +287,8 @@ def culling_runtimes(objects: SceneObjects, indices: Sequence[int] | np.ndarray,
             else:
                 cache[method] = scene_occluders(objects, indices, method, seed=seed,
                                                 progress=progress,
-                                                made={first: (probe, records)}, **options)
+                                                made={**have, first: (probe, records)},
+                                                **options)
         return cache[method]
 
     runtimes: dict[str, Runtime] = {"none": no_culling()}
@@ -352,7 +361,8 @@ def _unsure_names(objects: SceneObjects, indices: Sequence[int]) -> list[str]:
 def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int = 24,
                    width: int = 640, height: int = 360, seed: int = 0,
                    bounds: str = "auto",
-                   progress: Callable[[int, int, str], None] | None = None
+                   progress: Callable[[int, int, str], None] | None = None,
+                   made: Mapping[str, Mapping[int, tuple[Occluder, list]]] | None = None
                    ) -> dict[str, dict]:
     """Culled share and false culls of each method's occluders on a culling scene.
 
@@ -380,6 +390,10 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
     progress : callable, optional
         Called as ``progress(done, total, what)`` after each distinct mesh
         generated (per method) and each frame simulated; ``total`` counts both.
+    made : mapping, optional
+        The methods' occluders made already, piece by piece
+        (:func:`column_pieces`, :func:`column_piece`; see
+        :func:`culling_runtimes`): the column is the same with or without.
 
     Returns
     -------
@@ -412,7 +426,8 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
         return tick
 
     runtimes, _ = culling_runtimes(objects, indices, list(methods), seed=seed, frusta=False,
-                                   progress=None if progress is None else step("occluders"))
+                                   progress=None if progress is None else step("occluders"),
+                                   made=made)
     path = camera_path(objects, frames=frames, seed=seed)
     boxes, _, _ = occludee_boxes(objects, bounds, DEFAULT_CLUSTERS if bounds == "auto" else 1)
     result = simulate_culling(objects, runtimes, path, width=width, height=height,
@@ -422,3 +437,60 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
     return {m: {key: totals[f"depth-buffer:{m}"][key]
                 for key in ("culled_share", "false_culls", "conservative", "overhead_ms")}
             for m in dict.fromkeys(methods)}
+
+
+def column_pieces(methods: Sequence[str], *, scene: str = "city"
+                  ) -> list[tuple[str, tuple[int, ...]]]:
+    """The occluder generation of :func:`culling_column` as independent pieces.
+
+    One piece per method and distinct mesh of the scene's occluder objects,
+    ``(method, (mesh_id,))``, and one ``(method, ())`` for a joined method
+    (:data:`JOINED_METHODS`), generated over all the objects at once. Each
+    piece is :func:`column_piece`'s work; any process can make it, and the
+    pieces together, handed to :func:`culling_column` as ``made``, give the
+    column it computes alone.
+
+    Examples
+    --------
+    >>> pieces = column_pieces(["aabb-skins", "surface-patches"])
+    >>> pieces[0][0], len(pieces[0][1]), pieces[-1]
+    ('aabb-skins', 1, ('surface-patches', ()))
+    """
+    from viscore.level import load_scene_objects
+    from viscore.level.objects import occluder_objects
+
+    objects = load_scene_objects(scene)
+    distinct = np.unique(objects.mesh_ids[occluder_objects(objects)]).tolist()
+    pieces: list[tuple[str, tuple[int, ...]]] = []
+    for m in dict.fromkeys(methods):
+        if get_generator(m).name in JOINED_METHODS:
+            pieces.append((m, ()))
+        else:
+            pieces += [(m, (int(mesh),)) for mesh in distinct]
+    return pieces
+
+
+@functools.lru_cache(maxsize=1)
+def _piece_scene(scene: str) -> SceneObjects:
+    """The scene of :func:`column_piece`, loaded once per process (a worker makes many
+    pieces of one scene; loading the built-in city takes about 0.3 s)."""
+    from viscore.level import load_scene_objects
+
+    return load_scene_objects(scene)
+
+
+def column_piece(method: str, mesh_ids: Sequence[int], *, scene: str = "city", seed: int = 0
+                 ) -> dict[int, tuple[Occluder, list[logging.LogRecord]]]:
+    """One piece of :func:`culling_column`'s occluders (:func:`column_pieces`), with the log
+    records each generation held: the meshes' occluders in their own frames by mesh id,
+    or for ``mesh_ids`` empty, the method's joined occluder over all the scene's occluder
+    objects under ``-2``, as :func:`culling_runtimes` takes them in ``made``."""
+    from viscore.level.objects import occluder_objects
+
+    from .._held_logs import call_held
+
+    objects = _piece_scene(scene)
+    if not mesh_ids:
+        return {_JOINED: call_held(joined_occluder, objects, occluder_objects(objects),
+                                   method, seed=seed)}
+    return {int(m): generate_held(objects, int(m), method, seed=seed) for m in mesh_ids}
