@@ -226,6 +226,7 @@ def run_compare(args) -> int:
         prepare_kernels()
     held: list = []  # the jobs' and the culling column's log records, said once at the end
     with connect_scheduler(args.scheduler) as client, StudyFolder(out) as study:
+        figures = _Figures(out, meshes, seed, originals)
         # the culling column: work of the local pool, or beside a cluster's jobs
         column = beside = None
         if args.culling and culling_methods:
@@ -238,7 +239,8 @@ def run_compare(args) -> int:
             rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
                              scheduler=client, progress=not (args.quiet or args.json),
                              originals=originals, files=files, on_records=held.extend,
-                             extra=column.units() if column is not None else ())
+                             extra=column.units() if column is not None else (),
+                             on_jobs_done=figures.start)
             paired = paired_rows(rows, versus) if versus else []
             culling = beside.result() if beside is not None else []
             held.extend(beside.records if beside is not None else [])
@@ -266,8 +268,7 @@ def run_compare(args) -> int:
         write_atomic(out / "results.json", dumps(doc).encode())
         write_atomic(out / "results.csv", table_csv(rows).encode())
         write_atomic(out / "results.md", md.encode())
-        images = _plots(rows, out, meshes, seed)
-        write_occluder_glbs(rows, out, originals)
+        images = figures.result(rows)
         write_report(out, rows, paired_rows=paired, settings=asdict(settings),
                      provenance=doc["provenance"], images=images, culling_rows=culling)
     emit(doc, args.json, md + f"\nintervals: 95% bootstrap over views; wrote {out}/results."
@@ -275,6 +276,44 @@ def run_compare(args) -> int:
          f"silhouettes_*.png, and a .glb beside each occluder in {out}/occluders/ "
          "(original grey, occluder coloured)")
     return 0
+
+
+class _Figures:
+    """The study's figures and occluder GLBs, drawn in a thread as soon as every job is in
+    (the culling column's last work may still run in the pool meanwhile)."""
+
+    def __init__(self, out: Path, meshes: list[str], seed: int, originals: dict) -> None:
+        self.out, self.meshes, self.seed, self.originals = out, meshes, seed, originals
+        self._thread = None
+        self._answer: tuple = ("none", None)
+
+    def start(self, rows: list[dict]) -> None:
+        """Begin drawing ``rows`` (called once, by the study, when its jobs are in)."""
+        import threading
+
+        def draw() -> None:
+            try:
+                self._answer = ("done", self._draw(rows))
+            except BaseException as exc:  # raised in the main thread by result()
+                self._answer = ("error", exc)
+
+        self._thread = threading.Thread(target=draw, name="viscore-figures", daemon=True)
+        self._thread.start()
+
+    def _draw(self, rows: list[dict]) -> dict[str, str]:
+        images = _plots(rows, self.out, self.meshes, self.seed)
+        write_occluder_glbs(rows, self.out, self.originals)
+        return images
+
+    def result(self, rows: list[dict]) -> dict[str, str]:
+        """The figures' captions and files (drawn now if they were not started)."""
+        if self._thread is None:
+            return self._draw(rows)
+        self._thread.join()
+        kind, value = self._answer
+        if kind == "error":
+            raise value
+        return value
 
 
 def _plots(rows: list[dict], out: Path, meshes: list[str], seed: int) -> dict[str, str]:

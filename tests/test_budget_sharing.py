@@ -188,6 +188,25 @@ def test_local_study_runs_extra_units_by_cost_and_their_followers(tmp_path, monk
     assert started == ["planar-sections", "piece", "bbox", "follow", "followfollow"]
 
 
+def test_study_says_its_jobs_are_in_before_the_extra_work_ends(tmp_path, monkeypatch):
+    """compare draws its figures while the culling column's last work runs: ``on_jobs_done``
+    comes once, with the rows run_study returns, before a cheaper extra unit is done; on
+    a study resumed with every row kept, at once."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    monkeypatch.setattr(runner, "process_pool", lambda n: ThreadPoolExecutor(1))
+    s = StudySettings(views=2, quads=100, resolution=16, directions=4, rays=200, budgets=(32,))
+    said: list = []
+    unit = runner.Unit(cost=0.0, fn=lambda: "column", args=(),
+                       done=lambda result: said.append(result) or [])
+    for _ in range(2):
+        rows = runner.run_study(["building-house"], ["bbox"], s, tmp_path / "s", jobs=1,
+                                progress=False, extra=[unit],
+                                on_jobs_done=lambda r: said.append(r))
+        assert said == [rows, "column"] and rows[0]["method"] == "bbox"
+        said.clear()
+
+
 def test_study_refuses_extra_work_on_a_scheduler(tmp_path):
     from viscore import InputError
 

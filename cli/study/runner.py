@@ -621,7 +621,8 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
               originals: dict | None = None,
               files: list[OccluderFile] = (),
               on_records: Callable[[list], None] | None = None,
-              extra: Sequence[Unit] = ()) -> list[dict]:
+              extra: Sequence[Unit] = (),
+              on_jobs_done: Callable[[list[dict]], None] | None = None) -> list[dict]:
     """Run (or resume) every job; returns the rows in mesh, method, budget order.
 
     The log records a job makes are held in its worker and come back with its
@@ -663,13 +664,17 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
         Other work for the local pool, run beside the jobs, costliest first
         among them (:func:`_local`); refused with a scheduler. Its results go
         to each unit's ``done``.
+    on_jobs_done : callable, optional
+        Called once, in this process, with the rows (as returned) as soon as
+        every job is in, while ``extra`` work may still run: the rows' figures
+        can be drawn meanwhile.
     """
     if not isinstance(out_dir, StudyFolder):
         with StudyFolder(out_dir) as study:
             return run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
                              scheduler=scheduler, progress=progress, on_row=on_row,
                              originals=originals, files=files, on_records=on_records,
-                             extra=extra)
+                             extra=extra, on_jobs_done=on_jobs_done)
     import logging
 
     from tqdm import tqdm
@@ -709,7 +714,12 @@ def run_study(meshes: list[str], methods: list[str], settings: StudySettings,
         bar.update(1)
         if on_row:
             on_row(row)
+        if on_jobs_done is not None and len(rows) == len(todo_keys):
+            on_jobs_done([rows[j.key] for j in todo])
 
+    todo_keys = list(dict.fromkeys(j.key for j in todo))
+    if on_jobs_done is not None and not pending:
+        on_jobs_done([rows[j.key] for j in todo])
     try:
         if scheduler is not None and extra:
             raise InputError("run_study: extra work runs in the local pool only, not on a "
