@@ -741,10 +741,17 @@ def _coplanar_partners(vertices: np.ndarray, faces: np.ndarray, normals: np.ndar
     for c0 in range(0, len(reps), _PARTNER_CHUNK):
         sl = slice(c0, c0 + _PARTNER_CHUNK)
         par = np.abs(n[sl] @ n.T) > 1 - _PARALLEL_TOLERANCE
-        near = (np.abs(np.einsum("id,jkd->ijk", n[sl], tri) - offset[sl, None, None])
+        # the box and plane tests only on the columns parallel to some face of the chunk,
+        # then only on those whose boxes also meet (the plane test's products in the same
+        # layout as over every column: the same values)
+        some = np.flatnonzero(par.any(axis=0))
+        both = par[:, some] & ((lo[sl, None] <= hi[None, some])
+                               & (hi[sl, None] >= lo[None, some])).all(axis=2)
+        some, both = some[both.any(axis=0)], both[:, both.any(axis=0)]
+        near = (np.abs(np.einsum("id,jkd->ijk", n[sl], tri[some]) - offset[sl, None, None])
                 <= tol).all(axis=2)
-        box = ((lo[sl, None] <= hi[None]) & (hi[sl, None] >= lo[None])).all(axis=2)
-        i, j = np.nonzero(par & near & box)
+        i, j = np.nonzero(both & near)
+        j = some[j]
         keep = (i + c0) != j
         i, j = i[keep] + c0, j[keep]
         keep = _overlap_2d(tri[i], tri[j], n[i], margin)
