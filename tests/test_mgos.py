@@ -104,6 +104,16 @@ def test_state_pixel_rays_are_the_reference_rays(box_views):
         assert np.array_equal(dirs[k], d[state.a_loc[p]])
 
 
+def test_state_face_pixel_lists_ascend_strictly(box_views):
+    """remove() takes a face's own pixels as they are listed: ascending, each once."""
+    occ = _join(_box(), _sheet(0.5, 0.4), _sheet(0.5, 0.4))  # a duplicated face too
+    state = _State(box_views, occ, skip_unseen=True, skip_backfacing=False)
+    for f in range(len(occ.faces)):
+        own = state.fpix[state.fptr[f]:state.fptr[f + 1]]
+        assert np.all(np.diff(own) > 0)
+    assert state.fptr[-1] > 0
+
+
 def test_state_kept_losses_equal_recomputed(box_views):
     occ = _join(_box(), _sheet(0.5, 0.4))
     state = _State(box_views, occ, skip_unseen=True, skip_backfacing=False)

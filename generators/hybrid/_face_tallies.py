@@ -615,8 +615,8 @@ class _State:
             return
         main = self.fpix[self.fptr[g]:self.fptr[g + 1]]
         extra = [p for p in self.extras.get(g, ()) if self.extra_owner[p] == g]
-        plist = np.concatenate([main, np.asarray(extra, np.int64)]) if extra else main
-        plist = np.unique(plist)
+        # the face's own pixels are ascending and distinct (one record per pixel and face)
+        plist = np.unique(np.concatenate([main, np.asarray(extra, np.int64)])) if extra else main
         refound = np.zeros(len(plist), bool)
         last = plist[self.c[plist] == 1]
         if len(last):
