@@ -415,7 +415,7 @@ def _solid_candidates(mesh: trimesh.Trimesh, size: dict, box_size: dict, source:
         raise
     return _Candidates(records=kept + later,
                        boxes=boxes, closed=closed, candidates=candidates,
-                       boxes_count=n_boxes, cover=np.packbits(cover, axis=1),
+                       boxes_count=n_boxes, cover=np.packbits(cover.astype(bool), axis=1),
                        centres=len(centres), pitch=pitch, cell_volume=cell_volume,
                        solid_volume=solid_volume)
 
