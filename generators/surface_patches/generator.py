@@ -446,7 +446,7 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
             return whole
 
     t0 = time.perf_counter()
-    regions = _REGIONS.get((vertices, faces, plane_tolerance * diag),
+    regions = _REGIONS.get((vertices, faces, plane_tolerance * diag, plane_regions),
                            lambda: _read_only(plane_regions(vertices, faces,
                                                             tolerance=plane_tolerance * diag)))
     timing["regions"] = time.perf_counter() - t0
@@ -774,8 +774,9 @@ def _kept_output(vertices: np.ndarray, faces: np.ndarray, regions: list, cands: 
                    dropped=dropped, curtains_kept=curtains_kept, welded=welded)
 
 
-#: The plane regions of the last mesh in this process (by content and tolerance): a
-#: study's budgets of one mesh group its faces once (the budget does not change them).
+#: The plane regions of the last mesh in this process (by content, tolerance and the
+#: grouping function, so that a test's stand-in is called): a study's budgets of one
+#: mesh group its faces once (the budget does not change them).
 _REGIONS = ContentCache(1)
 
 
