@@ -258,3 +258,24 @@ def test_mgos_shared_state_gives_the_result_made_anew(torus, monkeypatch):
     assert same(run(30, True), alone[30])
     assert len(mg._SHARED._items) == 1 and len(made) == 1  # cast once
     mg._SHARED.clear()
+
+
+def test_hybrid_keeps_its_metric_guided_state_only_inside_shared_budgets(torus):
+    """Outside :func:`shared_budgets` (occlude, a single generate) no state is kept; inside,
+    the second budget goes on from the first's state, each occluder the one made alone, and
+    the state is released when the block ends (issue 44)."""
+    from viscore.generators.hybrid import metric_guided as mg
+    from viscore.generators.hybrid import shared_budgets
+
+    opts = {"voxels": 24, "mgos_resolution": 16, "mgos_quads": 200}
+    mg._SHARED.clear()
+    alone = {b: hybrid.generate_hybrid(torus, budget=b, **opts) for b in (120, 40)}
+    assert not mg._SHARED._items  # nothing kept by a call outside the block
+    with shared_budgets():
+        with shared_budgets():  # nested: released only when the outer block ends
+            large = hybrid.generate_hybrid(torus, budget=120, **opts)
+            assert len(mg._SHARED._items) == 1
+        small = hybrid.generate_hybrid(torus, budget=40, **opts)
+        assert len(mg._SHARED._items) == 1
+    assert not mg._SHARED._items
+    assert _same(large, alone[120]) and _same(small, alone[40])

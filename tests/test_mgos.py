@@ -91,6 +91,29 @@ def test_state_tracked_tallies_equal_fresh_score(box_views):
         assert state.figures() == pytest.approx((fresh.precision, fresh.recall), abs=1e-12)
 
 
+def test_state_pixel_rays_are_the_reference_rays(box_views):
+    occ = _join(_box(), _sheet(1.5, 0.5))
+    state = _State(box_views, occ, skip_unseen=True, skip_backfacing=False)
+    assert state._rays_by_table
+    pixels = np.random.default_rng(1).permutation(len(state.a_loc))[:200]
+    origins, dirs = state._pixel_rays(pixels)
+    for k, p in enumerate(pixels):  # each pixel's ray as ReferenceViews casts it
+        r = state.live[state.a_img[p]]
+        o, d = box_views.pixel_rays(r.unit, r.cam, r.box)
+        assert np.array_equal(origins[k], o[state.a_loc[p]])
+        assert np.array_equal(dirs[k], d[state.a_loc[p]])
+
+
+def test_state_face_pixel_lists_ascend_strictly(box_views):
+    """remove() takes a face's own pixels as they are listed: ascending, each once."""
+    occ = _join(_box(), _sheet(0.5, 0.4), _sheet(0.5, 0.4))  # a duplicated face too
+    state = _State(box_views, occ, skip_unseen=True, skip_backfacing=False)
+    for f in range(len(occ.faces)):
+        own = state.fpix[state.fptr[f]:state.fptr[f + 1]]
+        assert np.all(np.diff(own) > 0)
+    assert state.fptr[-1] > 0
+
+
 def test_state_kept_losses_equal_recomputed(box_views):
     occ = _join(_box(), _sheet(0.5, 0.4))
     state = _State(box_views, occ, skip_unseen=True, skip_backfacing=False)

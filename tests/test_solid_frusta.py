@@ -9,6 +9,7 @@ import trimesh
 from viscore import InputError, load_mesh, winding_numbers
 from viscore.culling import FrustumCuller, solid_frustum
 from viscore.generators.aabb_skins import generate_aabb_skins
+from viscore.generators.solid_frusta import generator as solid_frusta_module
 from viscore.generators.solid_frusta.generator import (
     _Containment,
     _hull,
@@ -109,6 +110,42 @@ def test_solid_frusta_open_mesh_warns_once(open_cube, caplog):
     caplog.clear()
     generate_aabb_skins(open_cube, voxels=16)  # alone, aabb-skins says it itself
     assert any("not closed" in r.getMessage() for r in caplog.records)
+
+
+def test_solid_frusta_budgets_share_the_candidates_and_match_made_anew(monkeypatch):
+    """A second budget of the same mesh chooses from the kept candidates (made once) and
+    gives the occluder a call alone gives; another mesh misses."""
+    mesh = load_mesh("bunny")
+    made = []
+    original = solid_frusta_module._solid_candidates
+    monkeypatch.setattr(solid_frusta_module, "_solid_candidates",
+                        lambda *a, **k: made.append(1) or original(*a, **k))
+    solid_frusta_module._SOLIDS.clear()
+    options = {"voxels": 32, "solids": 5}
+    large = generate_solid_frusta(mesh, budget=60, **options)
+    small = generate_solid_frusta(mesh, budget=24, **options)
+    assert len(made) == 1
+    solid_frusta_module._SOLIDS.clear()
+    alone = generate_solid_frusta(mesh, budget=24, **options)
+    assert len(made) == 2 and small.triangles < large.triangles
+    assert np.array_equal(small.mesh.vertices, alone.mesh.vertices)
+    assert np.array_equal(small.mesh.faces, alone.mesh.faces)
+    assert small.info == alone.info
+    moved = trimesh.Trimesh(mesh.vertices + 1.0, mesh.faces, process=False)
+    generate_solid_frusta(moved, budget=24, **options)
+    assert len(made) == 3
+
+
+def test_solid_frusta_kept_candidates_say_the_box_source_lines_again(open_cube, caplog):
+    caplog.set_level(logging.INFO, logger="viscore")
+    solid_frusta_module._SOLIDS.clear()
+    said = []
+    for budget in (24, 12):  # a miss, then a hit
+        caplog.clear()
+        generate_solid_frusta(open_cube, voxels=16, budget=budget)
+        said.append([(r.levelno, r.getMessage()) for r in caplog.records])
+    assert said[0] == said[1]
+    assert any(m.startswith("aabb-skins: ") for _, m in said[1])
 
 
 def test_containment_rejects_crossing_and_accepts_inner():

@@ -361,3 +361,28 @@ def test_a_budget_larger_than_the_candidate_cap_is_spent():
     assert occ.info["polygons"] == 449 and occ.triangles == 898
     smaller = generate_surface_patches(treads, budget=600, boxes="off", sheets="off")
     assert smaller.info["polygons"] == 300 and smaller.triangles == 600
+
+
+def test_surface_patches_budgets_share_the_plane_regions(monkeypatch):
+    """A second budget of the same mesh reads the kept plane regions (grouped once) and
+    gives the occluder a call alone gives; another mesh misses."""
+    from viscore import load_mesh
+    from viscore.generators.surface_patches import generator as module
+
+    mesh = load_mesh("building-house")
+    grouped = []
+    original = module.plane_regions
+    monkeypatch.setattr(module, "plane_regions",
+                        lambda *a, **k: grouped.append(1) or original(*a, **k))
+    module._REGIONS.clear()
+    module.generate_surface_patches(mesh, budget=256)
+    kept = module.generate_surface_patches(mesh, budget=64)
+    assert len(grouped) == 1
+    module._REGIONS.clear()
+    alone = module.generate_surface_patches(mesh, budget=64)
+    assert len(grouped) == 2
+    assert np.array_equal(kept.mesh.vertices, alone.mesh.vertices)
+    assert np.array_equal(kept.mesh.faces, alone.mesh.faces)
+    moved = trimesh.Trimesh(mesh.vertices * 2.0, mesh.faces, process=False)
+    module.generate_surface_patches(moved, budget=64)
+    assert len(grouped) == 3

@@ -140,8 +140,10 @@ def test_crease_lines_match_vertices_by_position_and_skip_parallel_planes():
     for _ in range(2):
         kept = weld_points(np.array([[1e-4, 0, 2.0], [1e-4, 0, 5.0]]), 1, creases,
                            np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0]]), reach=1e-3, lines=lines)
-        assert np.array_equal(kept, moved) and list(lines) == [(1, 0)]
-    lines[1, 0] = (np.array([0.0, 0, 0]), np.array([0.0, 1, 0]))  # a kept line is the one used
+        assert np.array_equal(kept, moved) and list(lines) == [(1, 0), ("region", 1)]
+    s0, span, length2, partner, point, _ = lines["region", 1]  # the kept edges are those used
+    lines["region", 1] = (s0, span, length2, partner, np.zeros_like(point),
+                          np.tile([0.0, 1, 0], (len(partner), 1)))
     assert not np.array_equal(weld_points(np.array([[1e-4, 0, 2.0]]), 1, creases, np.array(
         [[1.0, 0, 0, 0], [0, 1.0, 0, 0]]), reach=1e-3, lines=lines), moved[:1])
 

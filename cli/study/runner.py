@@ -383,8 +383,11 @@ def _run_jobs_on_file(jobs: list[Job], workers: int | None, path: str
     budget (the check views, planar sections' candidates and greedy search),
     each made once; every row is the one its job gives alone.
     """
+    from viscore.generators.hybrid import shared_budgets
+
     views = views_from_file(path)
-    return [_held_job(job, workers, views) for job in jobs]
+    with shared_budgets():  # hybrid's budgets go on from one state, released at the end
+        return [_held_job(job, workers, views) for job in jobs]
 
 
 def _file_occluder(job: Job):

@@ -392,6 +392,9 @@ class _State:
         planes = np.cross(self.normals[:, None, :], edges)
         planes /= np.maximum(np.linalg.norm(planes, axis=2, keepdims=True), 1e-300)
         self._edge_planes = planes, np.einsum("mkd,mkd->mk", planes, tri)
+        # each face's centroid and bounding radius, for the re-casts' nearness test
+        self._centre = tri.mean(axis=1)
+        self._radius = np.linalg.norm(tri - self._centre[:, None], axis=2).max(axis=1)
         live, maps, a_loc_parts, hit_pix, hit_face, hit_back = [], [], [], [], [], []
         rays_cast = 0
         n_active = 0
@@ -445,6 +448,7 @@ class _State:
         self.img_h = np.array([r.box[2] - r.box[0] for r in self.live], np.int64)
         self.img_w = np.array([r.box[3] - r.box[1] for r in self.live], np.int64)
         self.img_unit = np.array([r.unit for r in self.live], np.int64)
+        self._ray_table(ref)
         self.pm_off = np.concatenate([[0], np.cumsum(self.img_h * self.img_w)]).astype(np.int64)
         self.pixmap = np.concatenate(maps) if L else np.zeros(0, np.int32)
         self.a_loc = np.concatenate(a_loc_parts) if L else np.zeros(0, np.int32)
@@ -611,8 +615,8 @@ class _State:
             return
         main = self.fpix[self.fptr[g]:self.fptr[g + 1]]
         extra = [p for p in self.extras.get(g, ()) if self.extra_owner[p] == g]
-        plist = np.concatenate([main, np.asarray(extra, np.int64)]) if extra else main
-        plist = np.unique(plist)
+        # the face's own pixels are ascending and distinct (one record per pixel and face)
+        plist = np.unique(np.concatenate([main, np.asarray(extra, np.int64)])) if extra else main
         refound = np.zeros(len(plist), bool)
         last = plist[self.c[plist] == 1]
         if len(last):
@@ -639,11 +643,8 @@ class _State:
             return np.zeros(0, np.int64)
         origins, dirs = self._pixel_rays(pixels)
         planes, offsets = self._edge_planes
-        tri = self.vertices[self.faces[keep]]
-        centre = tri.mean(axis=1)
-        if not _any_ray_near(centre, np.linalg.norm(tri - centre[:, None], axis=2).max(axis=1),
-                             self.normals[keep], planes[keep], offsets[keep], origins, dirs,
-                             self._near):
+        if not _any_ray_near(self._centre[keep], self._radius[keep], self.normals[keep],
+                             planes[keep], offsets[keep], origins, dirs, self._near):
             return np.zeros(0, np.int64)  # no face left near any of these rays: no hit
         scene = Scene(trimesh.Trimesh(self.vertices, self.faces[keep], process=False))
         _, tri = scene.first_hit(origins, dirs)
@@ -656,7 +657,32 @@ class _State:
             self.extras.setdefault(o, []).append(p)
         return found
 
+    def _ray_table(self, ref: ReferenceViews) -> None:
+        """The live images' rays as tables: each image's origin, and each frustum's
+        whole-image directions, read from :meth:`ReferenceViews.pixel_rays` once (volume
+        protocol: one origin per position, one direction bundle per frustum), so that
+        :meth:`_pixel_rays` picks any pixels' rays by indexing, the same values."""
+        self._rays_by_table = ref.protocol == "volume" and bool(self.live)
+        if not self._rays_by_table:
+            return
+        cams = sorted({int(r.cam) for r in self.live})
+        self._cam_row = np.full(max(cams) + 1, -1, np.int64)
+        self._cam_row[cams] = np.arange(len(cams))
+        self._cam_dirs = np.stack([ref.pixel_rays(self.live[0].unit, c)[1] for c in cams])
+        self.img_origin = np.stack([ref.pixel_rays(r.unit, r.cam)[0][0] for r in self.live])
+        self.img_cam = self._cam_row[np.array([r.cam for r in self.live], np.int64)]
+        self.img_r0 = np.array([r.box[0] for r in self.live], np.int64)
+        self.img_c0 = np.array([r.box[1] for r in self.live], np.int64)
+        self._res = int(ref.resolution)
+
     def _pixel_rays(self, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self._rays_by_table:
+            img = self.a_img[pixels]
+            loc = self.a_loc[pixels].astype(np.int64)
+            w = self.img_w[img]
+            row, col = self.img_r0[img] + loc // w, self.img_c0[img] + loc % w
+            return (self.img_origin[img],
+                    self._cam_dirs[self.img_cam[img], row * self._res + col])
         origins = np.empty((len(pixels), 3))
         dirs = np.empty((len(pixels), 3))
         img = self.a_img[pixels]
@@ -715,10 +741,17 @@ def _coplanar_partners(vertices: np.ndarray, faces: np.ndarray, normals: np.ndar
     for c0 in range(0, len(reps), _PARTNER_CHUNK):
         sl = slice(c0, c0 + _PARTNER_CHUNK)
         par = np.abs(n[sl] @ n.T) > 1 - _PARALLEL_TOLERANCE
-        near = (np.abs(np.einsum("id,jkd->ijk", n[sl], tri) - offset[sl, None, None])
+        # the box and plane tests only on the columns parallel to some face of the chunk,
+        # then only on those whose boxes also meet (the plane test's products in the same
+        # layout as over every column: the same values)
+        some = np.flatnonzero(par.any(axis=0))
+        both = par[:, some] & ((lo[sl, None] <= hi[None, some])
+                               & (hi[sl, None] >= lo[None, some])).all(axis=2)
+        some, both = some[both.any(axis=0)], both[:, both.any(axis=0)]
+        near = (np.abs(np.einsum("id,jkd->ijk", n[sl], tri[some]) - offset[sl, None, None])
                 <= tol).all(axis=2)
-        box = ((lo[sl, None] <= hi[None]) & (hi[sl, None] >= lo[None])).all(axis=2)
-        i, j = np.nonzero(par & near & box)
+        i, j = np.nonzero(both & near)
+        j = some[j]
         keep = (i + c0) != j
         i, j = i[keep] + c0, j[keep]
         keep = _overlap_2d(tri[i], tri[j], n[i], margin)

@@ -19,10 +19,13 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import numbers
+import threading
 import time
+from collections.abc import Iterator
 
 import numpy as np
 import trimesh
@@ -39,7 +42,7 @@ from ._holes import SEGMENT_LENGTH
 from ._patches import patch_candidates
 from ._voxel import BYTES_PER_SAMPLE, grid_shape, simplify_isosurface, winding_isosurface
 
-__all__ = ["generate_hybrid", "GROUPINGS", "CANDIDATES"]
+__all__ = ["generate_hybrid", "shared_budgets", "GROUPINGS", "CANDIDATES"]
 
 _log = logging.getLogger(__name__)
 
@@ -47,6 +50,10 @@ _log = logging.getLogger(__name__)
 #: the last meshes in this process: a study runs a mesh's budgets one after the other.
 _CANDIDATES = ContentCache(2)
 _REFERENCES = ContentCache(2)
+
+#: Open :func:`shared_budgets` blocks in this process (any thread), and their lock.
+_SHARING = [0]
+_SHARING_LOCK = threading.Lock()
 
 #: Patch groupings: dihedral angles (the paper) or xatlas charts.
 GROUPINGS = ("dihedral", "xatlas")
@@ -360,6 +367,40 @@ def generate_hybrid(mesh: trimesh.Trimesh, *, budget: int | None = BUDGET, seed:
                     seconds=time.perf_counter() - start, parts={}, info=info)
 
 
+@contextlib.contextmanager
+def shared_budgets() -> Iterator[None]:
+    """Within the block, the budgets of one mesh share hybrid's metric-guided state.
+
+    A study's worker runs a mesh's budgets one after the other, the largest
+    first: inside this block, the metric-guided step keeps its state after the
+    precision step and where the recall step stopped for a budget
+    (:func:`~viscore.generators.hybrid.metric_guided_simplify`, ``share``), and
+    a smaller budget of the same mesh goes on from there instead of casting
+    again. Each result is the one the call gives alone. When the last open
+    block ends the kept state (some 200 MB on the bunny) is released; outside
+    any block (``occlude``, a single ``generate``) nothing is kept.
+
+    Examples
+    --------
+    >>> from viscore.generators.hybrid import metric_guided
+    >>> with shared_budgets():
+    ...     pass
+    >>> len(metric_guided._SHARED._items)
+    0
+    """
+    from .metric_guided import _SHARED
+
+    with _SHARING_LOCK:
+        _SHARING[0] += 1
+    try:
+        yield
+    finally:
+        with _SHARING_LOCK:
+            _SHARING[0] -= 1
+            if _SHARING[0] == 0:
+                _SHARED.clear()
+
+
 def _select(original: trimesh.Trimesh, combined: trimesh.Trimesh, source: np.ndarray, *,
             budget: int | None, eps_p: float, eps_r: float, seed: int, views: tuple,
             min_precision: float | None = None):
@@ -387,6 +428,6 @@ def _select(original: trimesh.Trimesh, combined: trimesh.Trimesh, source: np.nda
     current, info = metric_guided_simplify(original, combined, reference=reference,
                                            eps_p=eps_p, eps_r=eps_r, seed=seed,
                                            max_faces=budget, min_precision=min_precision,
-                                           share=True)
+                                           share=_SHARING[0] > 0)
     source = source[np.asarray(info["kept"], dtype=np.int64)]
     return current, source, {k: v for k, v in info.items() if k != "kept"}

@@ -23,11 +23,13 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import dataclass
 
 import numpy as np
 import trimesh
 
 from viscore import InputError, Scene, points_inside, voxelize
+from viscore._content_cache import ContentCache
 from viscore._validate import as_positive_int, as_seed, check_memory
 from viscore.culling.shadow_frusta import _solid_arrays
 from viscore.voxel.grid import inside_voxels_winding
@@ -338,6 +340,86 @@ def _covered(points: np.ndarray, hull: trimesh.Trimesh) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True)
+class _Candidates:
+    """What :func:`generate_solid_frusta` chooses from, which the budget does not change:
+    the box source's records to say (``records``), its boxes (k, 2, 3) and whether the mesh
+    is closed, the candidate solids (mesh, kind, scale; boxes first, ``boxes_count`` of
+    them), ``cover`` (candidates, ceil(centres / 8)) uint8: each candidate's inner voxel
+    centres, bit-packed along the centres, the voxel pitch, cell volume and the solid's
+    volume (world units)."""
+
+    records: list
+    boxes: np.ndarray
+    closed: bool
+    candidates: list
+    boxes_count: int
+    cover: np.ndarray
+    centres: int
+    pitch: float
+    cell_volume: float
+    solid_volume: float
+
+
+#: The candidates of the last mesh and options in this process (:class:`_Candidates`, the
+#: inner voxels' cover bit-packed): a study's budgets of one mesh make them once.
+_SOLIDS = ContentCache(1)
+
+
+def _solid_candidates(mesh: trimesh.Trimesh, size: dict, box_size: dict, source: dict, *,
+                      solids: int, pieces: str, shrink_steps: int, seed: int) -> _Candidates:
+    """The box source's boxes and the voxel hulls, and the inner voxel centres each covers
+    (:func:`generate_solid_frusta`, every step before the greedy choice)."""
+    with held_records() as said:  # the box source's lines: its warning on openness is ours
+        skins = source["generate"](mesh, **box_size, max_boxes=solids, fill=1.0)
+    boxes = np.asarray(skins.parts["boxes"], dtype=np.float64)
+    closed = bool(skins.info["closed_oriented"])
+    kept = [r for r in said if closed or r.levelno < logging.WARNING]
+    later: list = []
+    try:
+        with held_records() as later:  # said by each call, after the box source's
+            vox = voxelize(mesh, **size)
+            pitch = vox.grid.pitch
+            inner = inside_voxels_winding(mesh.vertices, mesh.faces, vox.grid, vox.surface,
+                                          closed=closed) if closed else None
+            if inner is None:  # open mesh: the candidates aabb-skins used, centres inside
+                inner = inside_voxels_winding(mesh.vertices, mesh.faces, vox.grid, vox.surface,
+                                              candidates=vox.solid & ~vox.surface, closed=False)
+            index = np.argwhere(inner)
+            centres = vox.grid.centers(index)
+            cell_volume = float(np.float64(pitch) ** 3)
+            with np.errstate(divide="ignore", invalid="ignore"):  # trimesh's centre, flat mesh
+                solid_volume = abs(float(mesh.volume)) if closed else len(index) * cell_volume
+
+            # candidates: boxes first (as 12-triangle solids), then hulls
+            box_meshes = [boxes_mesh(b[None]) for b in boxes]
+            candidates = [(m, "box", 1.0) for m in box_meshes]
+            # one box over every inner voxel (a slab of ground, a block): its gain, all the
+            # centres, is the most any hull could have, and ties go to the boxes, so the greedy
+            # below takes that box and stops; the hulls (k-means over millions of voxels on a
+            # level's ground) would change nothing
+            one_box = closed and len(boxes) == 1 and skins.info["covered_voxels"] == len(index)
+            if pieces == "voxel-hulls" and len(index) >= 4 and not one_box:
+                depth = _inner_depth(inner, index)
+                test = _Containment(mesh, pitch)
+                rng = np.random.default_rng(seed)
+                for hull, scale in _voxel_hulls(centres, depth, pitch, solids, rng, test,
+                                                shrink_steps):
+                    if _runtime_solid(hull):
+                        candidates.append((hull, "hull", scale))
+            n_boxes = len(box_meshes)
+            cover = np.array([_covered(centres, m) for m, _, _ in candidates]).reshape(
+                len(candidates), len(centres))
+    except BaseException:
+        release(kept + later)
+        raise
+    return _Candidates(records=kept + later,
+                       boxes=boxes, closed=closed, candidates=candidates,
+                       boxes_count=n_boxes, cover=np.packbits(cover.astype(bool), axis=1),
+                       centres=len(centres), pitch=pitch, cell_volume=cell_volume,
+                       solid_volume=solid_volume)
+
+
 def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, seed: int = 0,
                           voxels: int | None = None, solids: int = 8,
                           pieces: str = "voxel-hulls", shrink_steps: int = 6,
@@ -471,46 +553,19 @@ def generate_solid_frusta(mesh: trimesh.Trimesh, *, budget: int | None = None, s
                  f"solid-frusta: {what} ({grid.shape[0]} x {grid.shape[1]} x "
                  f"{grid.shape[2]} voxels)")
 
-    with held_records() as said:  # the box source's lines: its warning on openness is ours
-        skins = source["generate"](mesh, **box_size, max_boxes=solids, fill=1.0)
-    boxes = np.asarray(skins.parts["boxes"], dtype=np.float64)
-    closed = bool(skins.info["closed_oriented"])
-    release([r for r in said if closed or r.levelno < logging.WARNING])
-    vox = voxelize(mesh, **size)
-    pitch = vox.grid.pitch
-    inner = inside_voxels_winding(mesh.vertices, mesh.faces, vox.grid, vox.surface,
-                                  closed=closed) if closed else None
-    if inner is None:  # open mesh: the candidates aabb-skins used, centres inside
-        inner = inside_voxels_winding(mesh.vertices, mesh.faces, vox.grid, vox.surface,
-                                      candidates=vox.solid & ~vox.surface, closed=False)
-    index = np.argwhere(inner)
-    centres = vox.grid.centers(index)
-    cell_volume = float(np.float64(pitch) ** 3)
-    with np.errstate(divide="ignore", invalid="ignore"):  # trimesh's centre of a flat mesh
-        solid_volume = abs(float(mesh.volume)) if closed else len(index) * cell_volume
-
-    # candidates: boxes first (as 12-triangle solids), then hulls
-    box_meshes = [boxes_mesh(b[None]) for b in boxes]
-    candidates = [(m, "box", 1.0) for m in box_meshes]
-    # one box over every inner voxel (a slab of ground, a block): its gain, all the
-    # centres, is the most any hull could have, and ties go to the boxes, so the greedy
-    # below takes that box and stops; the hulls (k-means over millions of voxels on a
-    # level's ground) would change nothing
-    one_box = closed and len(boxes) == 1 and skins.info["covered_voxels"] == len(index)
-    if pieces == "voxel-hulls" and len(index) >= 4 and not one_box:
-        depth = _inner_depth(inner, index)
-        test = _Containment(mesh, pitch)
-        rng = np.random.default_rng(seed)
-        for hull, scale in _voxel_hulls(centres, depth, pitch, solids, rng, test, shrink_steps):
-            if _runtime_solid(hull):
-                candidates.append((hull, "hull", scale))
-    n_boxes = len(box_meshes)
-    n_hulls = len(candidates) - n_boxes
-
+    made = _SOLIDS.get((np.asarray(mesh.vertices), np.asarray(mesh.faces),
+                        mesh.metadata.get("name"), tuple(sorted(size.items())),
+                        tuple(sorted(box_size.items())), solids, pieces, shrink_steps, seed),
+                       lambda: _solid_candidates(mesh, size, box_size, source, solids=solids,
+                                                 pieces=pieces, shrink_steps=shrink_steps,
+                                                 seed=seed))
+    release(made.records)
+    boxes, closed, candidates = made.boxes, made.closed, made.candidates
+    n_boxes, n_hulls, pitch = made.boxes_count, len(candidates) - made.boxes_count, made.pitch
+    cell_volume, solid_volume = made.cell_volume, made.solid_volume
     # greedy: the candidate adding the most uncovered inner voxel centres
-    cover = np.array([_covered(centres, m) for m, _, _ in candidates]).reshape(
-        len(candidates), len(centres))
-    taken = np.zeros(len(centres), dtype=bool)
+    cover = np.unpackbits(made.cover, axis=1, count=made.centres).view(bool)
+    taken = np.zeros(made.centres, dtype=bool)
     chosen: list[int] = []
     triangles = 0
     shares = []

@@ -86,6 +86,26 @@ def _line(plane_a: np.ndarray, plane_b: np.ndarray) -> tuple[np.ndarray, np.ndar
     return point, direction / np.sqrt(sq)
 
 
+def _region_edges(region: int, creases: dict, planes: np.ndarray, kept: dict) -> tuple:
+    """A region's crease edges of non-zero length, as :func:`weld_points` reads them: their
+    starts, spans and squared lengths, partner regions, and for each the point and unit
+    direction of its plane pair's line (``kept[region, partner]``, found once)."""
+    segs, partner = creases[region]
+    s0, s1 = segs[:, 0], segs[:, 1]
+    span = s1 - s0
+    length2 = np.einsum("ij,ij->i", span, span)
+    good = length2 > 0
+    s0, span, length2, partner = s0[good], span[good], length2[good], partner[good]
+    parts, which = np.unique(partner, return_inverse=True)
+    for p in parts.tolist():
+        if (region, p) not in kept:
+            kept[region, p] = _line(planes[region], planes[p])
+    point = np.array([kept[region, p][0] for p in parts.tolist()]).reshape(-1, 3)
+    direction = np.array([kept[region, p][1] for p in parts.tolist()]).reshape(-1, 3)
+    which = which.ravel()
+    return s0, span, length2, partner, point[which], direction[which]
+
+
 def weld_points(points: np.ndarray, region: int, creases: dict, planes: np.ndarray, *,
                 reach: float, lines: dict | None = None) -> np.ndarray:
     """``points`` of a patch of ``region`` moved onto the creases within ``reach``.
@@ -97,41 +117,33 @@ def weld_points(points: np.ndarray, region: int, creases: dict, planes: np.ndarr
     plane and the two nearest partners' meet, when that point is within
     twice ``reach``. Others stay. ``points`` are (m, 3) world units in
     the region's plane; returns a new array. ``lines``, a dict the caller keeps
-    for one occluder's welds, holds each (region, partner) plane pair's line,
-    found once.
+    for one occluder's welds, holds each (region, partner) plane pair's line
+    and each ``("region", region)``'s edges (:func:`_region_edges`), found once.
     """
     out = np.array(points, dtype=np.float64, copy=True)
     if region not in creases or len(out) == 0:
         return out
-    segs, partner = creases[region]
-    s0, s1 = segs[:, 0], segs[:, 1]
-    span = s1 - s0
-    length2 = np.einsum("ij,ij->i", span, span)
-    good = length2 > 0
-    s0, span, length2, partner = s0[good], span[good], length2[good], partner[good]
+    kept = {} if lines is None else lines
+    if ("region", region) not in kept:
+        kept["region", region] = _region_edges(region, creases, planes, kept)
+    s0, span, length2, partner, point, direction = kept["region", region]
     if len(partner) == 0:
         return out
-    kept = {} if lines is None else lines
-    for p in np.unique(partner).tolist():
-        if (region, p) not in kept:
-            kept[region, p] = _line(planes[region], planes[p])
-    lines = {p: kept[region, p] for p in np.unique(partner).tolist()}  # this region's
-    point = np.stack([lines[int(p)][0] for p in partner])
-    direction = np.stack([lines[int(p)][1] for p in partner])
     # (m, k): distance of each point to each edge (within reach, its foot on the line is
-    # within reach of the edge too), and that foot
+    # within reach of the edge too), and that foot (for the points near some edge)
     rel = out[:, None, :] - s0[None]
     t = np.clip(np.einsum("mkj,kj->mk", rel, span) / length2, 0.0, 1.0)
     near = np.linalg.norm(rel - t[..., None] * span[None], axis=2)
-    foot = point[None] + np.einsum("mkj,kj->mk", out[:, None, :] - point[None],
-                                   direction)[..., None] * direction[None]
     hit = near <= reach
-    for m in np.flatnonzero(hit.any(axis=1)):  # a loop over the few points beside a crease
+    rows = np.flatnonzero(hit.any(axis=1))
+    foot = point[None] + np.einsum("mkj,kj->mk", out[rows][:, None, :] - point[None],
+                                   direction)[..., None] * direction[None]
+    for i, m in enumerate(rows):  # a loop over the few points beside a crease
         ks = np.flatnonzero(hit[m])
         parts = np.unique(partner[ks])
         if len(parts) == 1:
             k = ks[np.argmin(near[m, ks])]
-            out[m] = foot[m, k]
+            out[m] = foot[i, k]
             continue
         # the two nearest partners of different lines: the corner of three planes
         best = [partner[ks][np.argmin(near[m, ks])]]

@@ -38,6 +38,7 @@ from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
 from viscore import InputError, Scene
+from viscore._content_cache import ContentCache
 from viscore.constants import CONSERVATIVE_EPS_RELATIVE
 from viscore.level.ground import UP_AXES, guess_up
 
@@ -445,7 +446,9 @@ def generate_surface_patches(mesh: trimesh.Trimesh, *, budget: int | None = DEFA
             return whole
 
     t0 = time.perf_counter()
-    regions = plane_regions(vertices, faces, tolerance=plane_tolerance * diag)
+    regions = _REGIONS.get((vertices, faces, plane_tolerance * diag, plane_regions),
+                           lambda: _read_only(plane_regions(vertices, faces,
+                                                            tolerance=plane_tolerance * diag)))
     timing["regions"] = time.perf_counter() - t0
     total = float(sum(r.area for r in regions))
     floor = min_area * total
@@ -770,6 +773,20 @@ def _kept_output(vertices: np.ndarray, faces: np.ndarray, regions: list, cands: 
     return _Output(mesh=occ_mesh, polygons=polygons, patch_polygons=patch_polygons, area=area,
                    dropped=dropped, curtains_kept=curtains_kept, welded=welded)
 
+
+#: The plane regions of the last mesh in this process (by content, tolerance and the
+#: grouping function, so that a test's stand-in is called): a study's budgets of one
+#: mesh group its faces once (the budget does not change them).
+_REGIONS = ContentCache(1)
+
+
+def _read_only(regions: list) -> list:
+    """``regions`` with their face arrays made read-only: kept results are shared."""
+    for reg in regions:
+        reg.faces.flags.writeable = False
+        reg.origin.flags.writeable = False
+        reg.normal.flags.writeable = False
+    return regions
 
 def _whole_input(vertices: np.ndarray, faces: np.ndarray, area: np.ndarray, budget: int,
                  params: dict, diag: float, start: float) -> Occluder | None:
