@@ -292,9 +292,13 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
             if best_next < ch.stages:
                 step_img = step_img - bitmaps_of(best, best_next)
             counts_img = counts_img - step_img
-            if cover is not None:
-                cover = counts_img > 0
-                base = soup_measures(cover, pixel)
+            if cover is not None:  # measured again only in the directions whose image changed
+                after_step = counts_img > 0
+                moved = (after_step != cover).reshape(len(cover), -1).any(axis=1)
+                cover = after_step
+                if moved.any():
+                    base = base.copy()  # type: ignore[union-attr]
+                    base[moved] = soup_measures(cover[moved], pixel)
             # the directions whose counts this step changed, for every chain; the chain
             # stepped, all of its own
             stale |= step_img.reshape(len(step_img), -1).any(axis=1)
