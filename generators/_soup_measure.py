@@ -22,7 +22,6 @@ import numpy as np
 from viscore import camera_basis, directions_fibonacci
 from viscore._jit import njit_cached
 from viscore._validate import check_memory
-from viscore.metrics.erosion import lower_envelope_min
 
 __all__ = ["measure_directions", "measure_bases", "project_candidates", "soup_measures",
            "soup_totals", "in_threads", "MEASURE_DIRECTIONS", "MEASURE_RESOLUTION"]
@@ -118,76 +117,119 @@ def _fill_polygons(xs, ys, starts, out, k):  # pragma: no cover
                     out[i, k, row, col] = True
 
 
-@njit_cached(nogil=True)
-def _envelope(f, out, v, z):  # pragma: no cover
-    """Lower envelope of parabolas (q - p)^2 + f[p] at each q (Felzenszwalb, Huttenlocher).
+#: The measure kernel keeps squared distances times 4 as integers (pixel centres and
+#: crossings on a grid of half pixels: exact, and its envelope compares intersections by
+#: cross-multiplying instead of dividing); this stands for "no crossing".
+_FAR = 2**62
 
-    inf everywhere if every ``f[p]`` is inf; see
-    :func:`viscore.metrics.erosion.lower_envelope_min`. ``v`` (>= n,) int64 and
-    ``z`` (>= n + 1,) float64 are its scratch buffers (written before they are read).
+
+@njit_cached(nogil=True)
+def _envelope4(f, n, out, v, zn, zd):  # pragma: no cover
+    """``out[q] = min_p 4 (q - p)^2 + f[p]`` for q < n, integers, over the p with ``f[p]`` under
+    :data:`_FAR` (all :data:`_FAR`: ``out`` is :data:`_FAR`).
+
+    The lower envelope of parabolas (Felzenszwalb, Huttenlocher [2]_, DT(f)), with each
+    intersection kept as a fraction ``zn / zd`` (zd > 0) and compared exactly. Scratch:
+    ``v``, ``zn``, ``zd`` (>= n,) int64.
     """
-    out[:] = np.inf
-    lower_envelope_min(f, v, z, out)
+    k = -1
+    for q in range(n):
+        fq = f[q]
+        if fq >= _FAR:
+            continue
+        if k < 0:
+            k = 0
+            v[0] = q
+            continue
+        num = 0
+        den = 1
+        while True:  # intersection with parabola v[k]: (fq + 4q^2 - fp - 4p^2) / (8 (q - p))
+            p = v[k]
+            num = fq + 4 * q * q - f[p] - 4 * p * p
+            den = 8 * (q - p)
+            if k > 0 and num * zd[k] <= zn[k] * den:
+                k -= 1
+            else:
+                break
+        k += 1
+        v[k] = q
+        zn[k] = num
+        zd[k] = den
+    if k < 0:
+        for q in range(n):
+            out[q] = _FAR
+        return
+    last = k
+    k = 0
+    for q in range(n):
+        while k < last and zn[k + 1] < q * zd[k + 1]:
+            k += 1
+        p = v[k]
+        out[q] = 4 * (q - p) * (q - p) + f[p]
 
 
 @njit_cached(nogil=True)
-def _image_measure(img, buf_a, buf_b, col, tmp, v, z):  # pragma: no cover
+def _image_measure(img, buf_a, buf_b, col, tmp, v, zn, zd):  # pragma: no cover
     """Sum over covered pixels of the distance (pixels) to the nearest mid-point crossing.
 
-    ``img`` (H, W) bool is taken with a background border around it. Buffers
-    (H, W) float64 ``buf_a``, ``buf_b``; ``col``, ``tmp`` of length max(H, W); the
-    envelope's scratch ``v`` (max(H, W),) int64 and ``z`` (max(H, W) + 1,) float64.
+    ``img`` (H, W) bool is taken with a background border around it; the covered
+    pixels are summed row by row. Distances are found squared and times 4, as
+    integers (exact), by :func:`_envelope4`. Buffers (H, W) int64 ``buf_a``,
+    ``buf_b``; ``col``, ``tmp``, ``v``, ``zn``, ``zd`` int64 of length max(H, W).
     """
     h, w = img.shape
-    # 1) crossings on rows (between horizontal neighbours), nearest along the row
+    # 1) crossings on rows (between horizontal neighbours), nearest along the row; with
+    # pixel j at 2j, the crossing before it at 2j - 1 and after it at 2j + 1
     for i in range(h):
-        last = -np.inf
+        seen, last = False, 0
         for j in range(w):
             left = img[i, j - 1] if j > 0 else False
             if img[i, j] != left:
-                last = j - 0.5
-            buf_a[i, j] = (j - last) ** 2
-        nxt = np.inf
+                seen, last = True, 2 * j - 1
+            buf_a[i, j] = (2 * j - last) * (2 * j - last) if seen else _FAR
+        seen, nxt = False, 0
         for j in range(w - 1, -1, -1):
             right = img[i, j + 1] if j < w - 1 else False
             if img[i, j] != right:
-                nxt = j + 0.5
-            d = (nxt - j) ** 2
-            if d < buf_a[i, j]:
-                buf_a[i, j] = d
+                seen, nxt = True, 2 * j + 1
+            if seen:
+                d = (nxt - 2 * j) * (nxt - 2 * j)
+                if d < buf_a[i, j]:
+                    buf_a[i, j] = d
     for j in range(w):  # envelope down each column
         for i in range(h):
             col[i] = buf_a[i, j]
-        _envelope(col[:h], tmp[:h], v, z)
+        _envelope4(col, h, tmp, v, zn, zd)
         for i in range(h):
             buf_a[i, j] = tmp[i]
     # 2) crossings on columns (between vertical neighbours), nearest along the column
     for j in range(w):
-        last = -np.inf
+        seen, last = False, 0
         for i in range(h):
             up = img[i - 1, j] if i > 0 else False
             if img[i, j] != up:
-                last = i - 0.5
-            buf_b[i, j] = (i - last) ** 2
-        nxt = np.inf
+                seen, last = True, 2 * i - 1
+            buf_b[i, j] = (2 * i - last) * (2 * i - last) if seen else _FAR
+        seen, nxt = False, 0
         for i in range(h - 1, -1, -1):
             down = img[i + 1, j] if i < h - 1 else False
             if img[i, j] != down:
-                nxt = i + 0.5
-            d = (nxt - i) ** 2
-            if d < buf_b[i, j]:
-                buf_b[i, j] = d
+                seen, nxt = True, 2 * i + 1
+            if seen:
+                d = (nxt - 2 * i) * (nxt - 2 * i)
+                if d < buf_b[i, j]:
+                    buf_b[i, j] = d
     total = 0.0
     for i in range(h):  # envelope along each row, then the minimum of both families
         for j in range(w):
             col[j] = buf_b[i, j]
-        _envelope(col[:w], tmp[:w], v, z)
+        _envelope4(col, w, tmp, v, zn, zd)
         for j in range(w):
             if img[i, j]:
                 d = tmp[j]
                 if buf_a[i, j] < d:
                     d = buf_a[i, j]
-                total += np.sqrt(d)
+                total += np.sqrt(np.float64(d) * 0.25)
     return total
 
 
@@ -200,13 +242,14 @@ def _soup_totals(ids, union, bitmaps, base, use_area, out):  # pragma: no cover
     """
     _, nd, h, w = bitmaps.shape
     img = np.empty((h, w), np.bool_)
-    buf_a = np.empty((h, w))
-    buf_b = np.empty((h, w))
+    buf_a = np.empty((h, w), np.int64)
+    buf_b = np.empty((h, w), np.int64)
     m = max(h, w)
-    col = np.empty(m)
-    tmp = np.empty(m)
+    col = np.empty(m, np.int64)
+    tmp = np.empty(m, np.int64)
     env_v = np.empty(m, np.int64)
-    env_z = np.empty(m + 1)
+    env_zn = np.empty(m, np.int64)
+    env_zd = np.empty(m, np.int64)
     for t in range(len(ids)):
         i = ids[t]
         total = 0.0
@@ -230,7 +273,7 @@ def _soup_totals(ids, union, bitmaps, base, use_area, out):  # pragma: no cover
                 total += base[k] + adds
             else:  # the covered pixels' bounding box: outside it is background anyway
                 total += _image_measure(img[a0:a1 + 1, b0:b1 + 1], buf_a, buf_b, col, tmp,
-                                        env_v, env_z)
+                                        env_v, env_zn, env_zd)
         out[t] = total
     return out
 
@@ -240,14 +283,15 @@ def _images_measures(images, out):  # pragma: no cover
     """``out[k]`` = :func:`_image_measure` of ``images[k]`` (pixel units)."""
     h, w = images.shape[1:]
     m = max(h, w)
-    buf_a = np.empty((h, w))
-    buf_b = np.empty((h, w))
-    col = np.empty(m)
-    tmp = np.empty(m)
+    buf_a = np.empty((h, w), np.int64)
+    buf_b = np.empty((h, w), np.int64)
+    col = np.empty(m, np.int64)
+    tmp = np.empty(m, np.int64)
     env_v = np.empty(m, np.int64)
-    env_z = np.empty(m + 1)
+    env_zn = np.empty(m, np.int64)
+    env_zd = np.empty(m, np.int64)
     for k in range(len(images)):
-        out[k] = _image_measure(images[k], buf_a, buf_b, col, tmp, env_v, env_z)
+        out[k] = _image_measure(images[k], buf_a, buf_b, col, tmp, env_v, env_zn, env_zd)
 
 
 #: Fewest items (candidates of a greedy step, images of a measure) per thread: below

@@ -237,6 +237,10 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
     # the images of some directions (stale: recomputed there only, so the values, and
     # their sums in the same order, are those a whole recomputation gives)
     kept_vals: list = [None] * k
+    # and the images those values are the measures of: a direction whose counts a step
+    # changed can leave a chain's image as it was (a pixel still covered), and keeps its
+    # value (the measure of one image is the same bits however it is batched)
+    kept_after: list = [None] * k
     stale = np.ones((k, 1), dtype=bool)
     while tri > budget:
         by_area = reduce == "area" or tri > measure_from * budget
@@ -273,10 +277,18 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
                         changed = (after != cover[todo]).reshape(len(after), -1).any(axis=1)  # type: ignore[index]
                         vals = base.copy() if kept_vals[i] is None else kept_vals[i].copy()  # type: ignore[union-attr]
                         part = base[todo].copy()  # type: ignore[index]
+                        if kept_after[i] is not None:  # an image measured for this chain before
+                            again = changed & (kept_after[i][todo] == after).reshape(  # type: ignore[index]
+                                len(after), -1).all(axis=1)
+                            part[again] = vals[todo][again]
+                            changed &= ~again
                         if changed.any():
                             part[changed] = soup_measures(after[changed], pixel)
                         vals[todo] = part
                         kept_vals[i] = vals
+                        if kept_after[i] is None:
+                            kept_after[i] = np.empty_like(cover)
+                        kept_after[i][todo] = after  # type: ignore[index]
                         stale[i] = False
                     val = float(kept_vals[i].sum())
                 if val > best_val:
@@ -292,9 +304,13 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
             if best_next < ch.stages:
                 step_img = step_img - bitmaps_of(best, best_next)
             counts_img = counts_img - step_img
-            if cover is not None:
-                cover = counts_img > 0
-                base = soup_measures(cover, pixel)
+            if cover is not None:  # measured again only in the directions whose image changed
+                after_step = counts_img > 0
+                moved = (after_step != cover).reshape(len(cover), -1).any(axis=1)
+                cover = after_step
+                if moved.any():
+                    base = base.copy()  # type: ignore[union-attr]
+                    base[moved] = soup_measures(cover[moved], pixel)
             # the directions whose counts this step changed, for every chain; the chain
             # stepped, all of its own
             stale |= step_img.reshape(len(step_img), -1).any(axis=1)

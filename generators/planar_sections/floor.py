@@ -11,6 +11,7 @@ import numpy as np
 import trimesh
 
 from viscore import InputError, get_workers
+from viscore._content_cache import ContentCache, content_key
 from viscore.metrics.frames import orbit_frame
 
 from .._held_logs import held_records, release
@@ -90,6 +91,14 @@ GROUND_FILLS = ({"grazing": 0.0, "misses": 0.05}, {"grazing": 0.0, "misses": 0.1
 #: have its closings tried (no interior, or closing grows it by :data:`AUTO_CLOSE_GAIN`).
 GROUND_SHARE = 0.8
 
+#: Voxel solids (:func:`._single._section`) a process keeps, by the mesh's content and
+#: the solid's options: each budget of a mesh runs the precision floor again, on the same
+#: solids (about ten a mesh: closings, ground fills, coarser and finer voxels; 64^3 bits
+#: and their counts: 80 MiB for the eleven of building-house).
+SOLIDS_KEPT = 12
+
+_SOLIDS = ContentCache(SOLIDS_KEPT)
+
 
 def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed: int,
                           options: dict, *, auto_close: bool = False, coarsen: bool = False,
@@ -115,6 +124,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     solid is not a candidate).
     """
     views = check_views(mesh, seed, FLOOR_VIEWS)
+    mesh_key = content_key(np.asarray(mesh.vertices), np.asarray(mesh.faces))[0]
     extent = float(np.max(mesh.extents))
     # every step's selection frame, computed once: the check views' own orbit frame (the
     # same function of the same mesh; a smallest enclosing ball over every vertex)
@@ -127,8 +137,12 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
         t0 = time.perf_counter()
         fill = None if kind is None else {"height": ground["height"], **kind}  # type: ignore[index]
         opts = {**options, "close": close}
-        sec = _section(mesh, size, conservative=opts["conservative"], dilate=opts["dilate"],
-                       close=close, ground=fill, up=opts["up"], base=bases.get(size))
+        sec = _SOLIDS.get(
+            (mesh_key, repr(sorted(size.items())), opts["conservative"], opts["dilate"], close,
+             None if fill is None else repr(sorted(fill.items())), opts["up"]),
+            lambda: _section(mesh, size, conservative=opts["conservative"],
+                             dilate=opts["dilate"], close=close, ground=fill, up=opts["up"],
+                             base=bases.get(size)))
         key = solid_key(sec)
         with by_solid_lock:
             earlier = by_solid.get(key)
@@ -208,8 +222,11 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
     gain = None
     if auto_close:
         solid = result[2]["solid_voxels"]
-        closed = section_solid(mesh, dilate=options["dilate"], close=max(AUTO_CLOSINGS),
-                               base=bases.get(size), **size).solid_voxels
+        closed = _SOLIDS.get(
+            (mesh_key, repr(sorted(size.items())), "closed", options["dilate"],
+             max(AUTO_CLOSINGS)),
+            lambda: section_solid(mesh, dilate=options["dilate"], close=max(AUTO_CLOSINGS),
+                                  base=bases.get(size), **size)).solid_voxels
         gain = closed / solid - 1.0 if solid else math.inf
     if gain is not None and (gain >= AUTO_CLOSE_GAIN or _no_interior(result[2])):
         closings = [(size, k, None) for k in AUTO_CLOSINGS]
