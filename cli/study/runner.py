@@ -71,8 +71,10 @@ _FILE_ROW_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
 #: candidates per voxel solid, hybrid's candidate set and volume views and the precision
 #: check's views (a worker's peak on the default study), and 194 MiB for hybrid's
 #: metric-guided state on the bunny kept with its copy where the recall step stopped
-#: (96 + 98 MiB, the arrays' bytes after budgets 256 and 64).
-KEPT_BYTES_PER_JOB = 384 * 2**20
+#: (96 + 98 MiB, the arrays' bytes after budgets 256 and 64), and 80 MiB for planar
+#: sections' voxel solids kept by mesh and options (building-house's 11 solids; at most
+#: 12 a process).
+KEPT_BYTES_PER_JOB = 464 * 2**20
 
 #: Expected cost of one job of a method (generation and assessment), seconds: the mean
 #: over the default study's three meshes (fat-torus, bunny, building-house) of its rows'
