@@ -254,45 +254,91 @@ def _side_covered(loc, m, mx, my, nx, ny, sx, sy, tol):  # pragma: no cover
 
 
 @njit_cached()
-def _covers(loc, m, q0, q1, tol, params):  # pragma: no cover
+def _segment(loc, s, q0, q1):  # pragma: no cover
+    """Segment ``s`` of the cover test: the square's sides (0-3, counter-clockwise: inside
+    on the left), then the triangles' edges (``4 + 3 t + k``): its ends."""
+    if s < 4:
+        if s == 0:
+            return q0, q0, q1, q0
+        if s == 1:
+            return q1, q0, q1, q1
+        if s == 2:
+            return q1, q1, q0, q1
+        return q0, q1, q0, q0
+    t, k = (s - 4) // 3, (s - 4) % 3
+    return loc[t, k, 0], loc[t, k, 1], loc[t, (k + 1) % 3, 0], loc[t, (k + 1) % 3, 1]
+
+
+@njit_cached()
+def _clipped(px, py, dx, dy, q0, q1):  # pragma: no cover
+    """The parameters ``(ta, tb)`` of the part of ``p + t d``, ``t`` in [0, 1], in the
+    square [q0, q1]^2 (Liang-Barsky; ``tb < ta`` when none)."""
+    ta, tb = 0.0, 1.0
+    for axis in range(2):
+        pv = px if axis == 0 else py
+        dv = dx if axis == 0 else dy
+        if dv == 0.0:
+            if pv < q0 or pv > q1:
+                return 1.0, 0.0
+            continue
+        u0, u1 = (q0 - pv) / dv, (q1 - pv) / dv
+        if u0 > u1:
+            u0, u1 = u1, u0
+        ta, tb = max(ta, u0), min(tb, u1)
+    return ta, tb
+
+
+@njit_cached()
+def _in_some(loc, m, x, y, tol):  # pragma: no cover
+    """Whether the point lies in one of the first ``m`` triangles, within ``tol``."""
+    for t in range(m):
+        inside = True
+        for k in range(3):
+            ax, ay = loc[t, k, 0], loc[t, k, 1]
+            ex, ey = loc[t, (k + 1) % 3, 0] - ax, loc[t, (k + 1) % 3, 1] - ay
+            le = math.sqrt(ex * ex + ey * ey)
+            if ex * (y - ay) - ey * (x - ax) < -tol * le:
+                inside = False
+                break
+        if inside:
+            return True
+    return False
+
+
+@njit_cached()
+def _covers(loc, m, q0, q1, tol, params, live):  # pragma: no cover
     """Whether the first ``m`` triangles ``loc`` (pixel-relative, counter-clockwise)
     cover the square [q0, q1]^2: no piece of a side of the square or of a triangle's edge
-    within it has its tested side uncovered (the module docstring's argument)."""
-    nseg = 4 + 3 * m
-    for s in range(nseg):
-        if s < 4:  # the square's sides, counter-clockwise: inside on the left
-            cs = ((q0, q0), (q1, q0), (q1, q1), (q0, q1))
-            px, py = cs[s]
-            qx, qy = cs[(s + 1) % 4]
-            inward = True
-        else:
-            t, k = (s - 4) // 3, (s - 4) % 3
-            px, py = loc[t, k, 0], loc[t, k, 1]
-            qx, qy = loc[t, (k + 1) % 3, 0], loc[t, (k + 1) % 3, 1]
-            inward = False
+    within it has its tested side uncovered (the module docstring's argument). A point of
+    a 3 x 3 grid over the square in no triangle answers no at once."""
+    for a in range(3):
+        for b in range(3):
+            x = q0 + 0.5 * a * (q1 - q0)
+            y = q0 + 0.5 * b * (q1 - q0)
+            if not _in_some(loc, m, x, y, tol):
+                return False
+    # the segments meeting the square (only they can split a piece inside it)
+    nlive = 0
+    for s in range(4 + 3 * m):
+        px, py, qx, qy = _segment(loc, s, q0, q1)
+        ta, tb = _clipped(px, py, qx - px, qy - py, q0, q1)
+        if tb >= ta:
+            live[nlive] = s
+            nlive += 1
+    for si in range(nlive):
+        s = live[si]
+        px, py, qx, qy = _segment(loc, s, q0, q1)
         dx, dy = qx - px, qy - py
         length = math.sqrt(dx * dx + dy * dy)
         if length == 0.0:
             continue
-        # clip to the square (Liang-Barsky)
-        ta, tb = 0.0, 1.0
-        empty = False
-        for pv, dv in ((px, dx), (py, dy)):
-            if dv == 0.0:
-                if pv < q0 or pv > q1:
-                    empty = True
-                continue
-            u0, u1 = (q0 - pv) / dv, (q1 - pv) / dv
-            if u0 > u1:
-                u0, u1 = u1, u0
-            ta, tb = max(ta, u0), min(tb, u1)
-        if empty or tb <= ta:
+        ta, tb = _clipped(px, py, dx, dy, q0, q1)
+        if tb <= ta:
             continue
-        # the tested side: left of the direction for the square (inside), right of a
-        # counter-clockwise triangle's edge in (column, row) with rows down... the
-        # outward normal of an edge is (uy, -ux) for the inward (-uy, ux)
+        # the tested side: the square's inside (left of its sides), a triangle's outside
+        # (right of its counter-clockwise edges)
         sx, sy = dx / length, dy / length
-        if inward:
+        if s < 4:
             nx, ny = -sy, sx
         else:
             nx, ny = sy, -sx
@@ -302,24 +348,18 @@ def _covers(loc, m, q0, q1, tol, params):  # pragma: no cover
         n += 1
         params[n] = tb
         n += 1
-        for o in range(4 + 3 * m):
+        for oi in range(nlive):
+            o = live[oi]
             if o == s:
                 continue
-            if o < 4:
-                cs = ((q0, q0), (q1, q0), (q1, q1), (q0, q1))
-                ax, ay = cs[o]
-                bx, by = cs[(o + 1) % 4]
-            else:
-                t2, k2 = (o - 4) // 3, (o - 4) % 3
-                ax, ay = loc[t2, k2, 0], loc[t2, k2, 1]
-                bx, by = loc[t2, (k2 + 1) % 3, 0], loc[t2, (k2 + 1) % 3, 1]
+            ax, ay, bx, by = _segment(loc, o, q0, q1)
             ex, ey = bx - ax, by - ay
             den = dx * ey - dy * ex
             le = math.sqrt(ex * ex + ey * ey)
             if abs(den) <= tol * length * max(le, 1e-300):  # parallel: the ends along
-                for cx, cy in ((ax, ay), (bx, by)):
-                    params[n] = ((cx - px) * dx + (cy - py) * dy) / (length * length)
-                    n += 1
+                params[n] = ((ax - px) * dx + (ay - py) * dy) / (length * length)
+                params[n + 1] = ((bx - px) * dx + (by - py) * dy) / (length * length)
+                n += 2
                 continue
             # p + a d = c + b e
             a = ((ax - px) * ey - (ay - py) * ex) / den
@@ -349,6 +389,7 @@ def _cover_pixels(tri2, vc, faces, cand, start, pix_i, pix_j, slack, w, h, hx, h
     tmp = np.empty((16, 2))
     loc = np.empty((MAX_USED, 3, 2))
     params = np.empty(2 + 2 * (4 + 3 * MAX_USED) + 8)
+    live = np.empty(4 + 3 * MAX_USED, dtype=np.int64)
     for p in range(len(pix_i)):
         out[p] = np.inf
         n = start[p + 1] - start[p]
@@ -380,16 +421,12 @@ def _cover_pixels(tri2, vc, faces, cand, start, pix_i, pix_j, slack, w, h, hx, h
             continue
         tol = ON_EDGE * big
         q0, q1 = -slack, 1.0 + slack
-        if not _covers(loc, m, q0, q1, tol, params):
-            continue
-        lo, hi = 1, m  # the shortest covering prefix (covering grows with the prefix)
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if _covers(loc, mid, q0, q1, tol, params):
-                hi = mid
-            else:
-                lo = mid + 1
-        out[p] = reach[order[lo - 1]]
+        # the shortest covering prefix (covering grows with the prefix): tried from the
+        # shortest, most failing at once on the grid of points
+        for k in range(1, m + 1):
+            if _covers(loc, k, q0, q1, tol, params, live):
+                out[p] = reach[order[k - 1]]
+                break
 
 
 def junction_depths(vertices: np.ndarray, faces: np.ndarray, todo: np.ndarray,
