@@ -432,14 +432,33 @@ def _cover_pixels(tri2, vc, faces, cand, start, pix_i, pix_j, slack, w, h, hx, h
 def junction_depths(vertices: np.ndarray, faces: np.ndarray, todo: np.ndarray,
                     eye: np.ndarray, basis, hx: float, hy: float, z0: float, slack: float
                     ) -> np.ndarray:
-    """Depths of the pixels ``todo`` (H, W) bool that the union of occluder triangles
-    covers (the module docstring's rule), ``inf`` for the others, before the depth
-    margin: (H, W) float64.
+    """Depths of the pixels that the union of occluder triangles covers (the module
+    docstring's rule), before the depth margin.
 
-    ``vertices`` (V, 3) and ``faces`` (T, 3) are the occluder triangles, ``eye`` and
-    ``basis`` (forward, right, up) the camera, ``hx``, ``hy`` the tangents of its half
-    angles, ``z0`` the near cut ahead of the eye, ``slack`` the widening of a pixel's
-    square in pixels.
+    Parameters
+    ----------
+    vertices : (V, 3) float
+        Occluder vertices, world units.
+    faces : (T, 3) int
+        Occluder triangles.
+    todo : (H, W) bool
+        The buffer pixels to test.
+    eye : (3,) float
+        The camera's position.
+    basis : tuple of three (3,) float
+        The camera's forward, right and up unit vectors.
+    hx, hy : float
+        Tangents of the camera's horizontal and vertical half angles.
+    z0 : float
+        Near cut: a triangle with a vertex less than this ahead of the eye is not used.
+    slack : float
+        Widening of each pixel's square, in pixels.
+
+    Returns
+    -------
+    (H, W) float64
+        The reach of the shortest covering prefix of each covered pixel of ``todo``;
+        ``inf`` elsewhere.
     """
     h, w = todo.shape
     out = np.full((h, w), np.inf)
