@@ -143,6 +143,7 @@ def test_depth_buffer_solid_beats_facets_and_eye_inside_falls_back():
     sides = [trimesh.Trimesh(box.vertices, box.faces[2 * i:2 * i + 2]) for i in range(6)]
     apart = OccluderScene(sides)
     apart._sheet_rule = False  # the sheet rule joins the sides again at their shared edges
+    apart._junction_rule = False  # and the junction rule covers their union
     facets = ConservativeDepthBuffer.from_occluders(apart, cam, width=64, height=64)
     assert solid.covered.sum() > facets.covered.sum()  # the edges' pixels
     assert (facets.covered <= solid.covered).all()
@@ -702,6 +703,7 @@ def test_closed_convex_part_of_a_mesh_is_one_convex_piece(rng):
     assert corners.sum() > 100 and (buf.covered >= corners).all()
     pieces = OccluderScene([trimesh.Trimesh(t, [[0, 1, 2]]) for t in ball.triangles])
     pieces._sheet_rule = False  # each triangle an open piece (no sheet joins them)
+    pieces._junction_rule = False  # nor their union
     apart = ConservativeDepthBuffer.from_occluders(pieces, cam, width=64, height=36)
     assert buf.covered.sum() > 1.3 * apart.covered.sum()  # 300 and 208 pixels
     _assert_conservative(occ, buf, rng)

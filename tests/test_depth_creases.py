@@ -31,7 +31,10 @@ def _without_pairs(occ: OccluderScene) -> OccluderScene:
 
 
 def _without_region_creases(occ: OccluderScene) -> OccluderScene:
+    """The scene without the region crease rule, nor the junction rule (which covers the
+    same pixels by the triangles themselves)."""
     occ._region_creases = False
+    occ._junction_rule = False
     return occ
 
 

@@ -215,6 +215,7 @@ def test_a_crest_seen_against_the_waves_behind_covers_its_pixels(height):
     occ = OccluderScene([waves])
     strict = OccluderScene([waves])
     strict._sheet_folds = False
+    occ._junction_rule = strict._junction_rule = False  # the sheet rule alone
     buf = ConservativeDepthBuffer.from_occluders(occ, cam)
     without = ConservativeDepthBuffer.from_occluders(strict, cam)
     assert (buf.covered >= without.covered).all()

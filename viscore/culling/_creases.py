@@ -8,6 +8,7 @@ import numpy as np
 
 from .._jit import njit_cached
 from ._sheets import corner_distance
+from .shadow_frusta import _cross
 
 __all__ = ["height_field_patches", "flat_pairs", "patch_frame", "INJECTIVE_TOLERANCE"]
 
@@ -172,14 +173,14 @@ def flat_pairs(vertices: np.ndarray, faces: np.ndarray
     bounds = np.searchsorted(flat[order], np.arange(nf + 1))
     members = [order[bounds[k]:bounds[k + 1]] for k in range(nf)]
     flat_normal = np.array([unit[m[np.argmax(size[m])]] for m in members])
-    simple = np.zeros(nf, dtype=np.int8)  # 0 unknown, 1 one-to-one in its plane, -1 not
+    # whether each flat of a pair is one layer in its plane, all at once
+    simple = np.zeros(nf, dtype=bool)
+    tested = np.unique(np.concatenate([keys // nf, keys % nf]))
+    simple[tested] = _one_layers([tri[members[g]] for g in tested], flat_normal[tested])
     good = np.zeros(len(keys), dtype=bool)
     for k, (key, vertex) in enumerate(zip(keys, on_edge, strict=True)):
         a_, b_ = int(key // nf), int(key % nf)
-        for g in (a_, b_):
-            if simple[g] == 0:
-                simple[g] = 1 if _one_layer(tri[members[g]], flat_normal[g]) else -1
-        if simple[a_] > 0 and simple[b_] > 0:
+        if simple[a_] and simple[b_]:
             ta_, tb_ = tri[members[a_]], tri[members[b_]]
             good[k] = _separated(ta_, tb_, flat_normal[a_], flat_normal[b_], v[vertex], scale)
     pairs = keys[good]
@@ -207,25 +208,45 @@ def _one_to_one(flat: np.ndarray, projected: np.ndarray) -> bool:
     :data:`INJECTIVE_TOLERANCE` of the whole."""
     import shapely
 
+    return _disjoint(projected, shapely.union_all(shapely.polygons(flat)).area)
+
+
+def _disjoint(projected: np.ndarray, union: float) -> bool:
+    """The test of :func:`_one_to_one` on the triangles' areas and their union's."""
     area = projected.sum()
-    union = shapely.union_all(shapely.polygons(flat)).area
     return abs(union - area) <= min(INJECTIVE_TOLERANCE * area, 1e-6 * projected.min())
 
 
 def _across(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two unit axes across the unit direction ``d``."""
-    ax = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
+    ax = _cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
     ax /= np.linalg.norm(ax)
-    return ax, np.cross(d, ax)
+    return ax, _cross(d, ax)
 
 
-def _one_layer(tri: np.ndarray, normal: np.ndarray) -> bool:
-    """Whether planar triangles ``(k, 3, 3)`` (unit ``normal``) have disjoint interiors in
-    their plane (the test of :func:`height_field_patches`, along the normal)."""
-    ax, ay = _across(normal)
-    flat = np.stack([tri @ ax, tri @ ay], axis=2)
-    e1, e2 = flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0]
-    return _one_to_one(flat, 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]))
+def _one_layers(tris: list[np.ndarray], normals: np.ndarray) -> np.ndarray:
+    """Per planar set of triangles ``tris[k]`` ``(m_k, 3, 3)`` (unit normal ``normals[k]``),
+    whether they have disjoint interiors in their plane (the test of
+    :func:`height_field_patches`, along the normal). The same test as
+    :func:`_one_to_one` on each, with the unions of the sets of one size taken in one
+    shapely call (``union_all`` along an axis: the same union of each row)."""
+    import shapely
+
+    flats, areas = [], []
+    for t, normal in zip(tris, normals, strict=True):  # a loop over flats, not rays
+        ax, ay = _across(normal)
+        flat = np.stack([t @ ax, t @ ay], axis=2)
+        e1, e2 = flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0]
+        flats.append(flat)
+        areas.append(0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]))
+    out = np.zeros(len(tris), dtype=bool)
+    counts = np.array([len(t) for t in tris], dtype=np.int64)
+    for m in np.unique(counts):  # a loop over set sizes
+        which = np.flatnonzero(counts == m)
+        polys = shapely.polygons(np.concatenate([flats[k] for k in which]))
+        union = shapely.area(shapely.union_all(polys.reshape(len(which), m), axis=1))
+        out[which] = [_disjoint(areas[k], float(a)) for k, a in zip(which, union, strict=True)]
+    return out
 
 
 def _separated(ta: np.ndarray, tb: np.ndarray, na: np.ndarray, nb: np.ndarray,
@@ -240,7 +261,7 @@ def _separated(ta: np.ndarray, tb: np.ndarray, na: np.ndarray, nb: np.ndarray,
     can meet the other flat's images: those pairs are intersected (shapely), each
     overlap allowed a millionth of the smaller triangle (float rounding)."""
 
-    line = np.cross(na, nb)
+    line = _cross(na, nb)
     if np.linalg.norm(line) == 0:
         return False
     line /= np.linalg.norm(line)
@@ -249,7 +270,7 @@ def _separated(ta: np.ndarray, tb: np.ndarray, na: np.ndarray, nb: np.ndarray,
         d = d / np.linalg.norm(d)
         if min(abs(float(na @ d)), abs(float(nb @ d))) < MIN_FACING:
             continue
-        m = np.cross(d, line)
+        m = _cross(d, line)
         sa, sb = (ta - point) @ m, (tb - point) @ m  # (k, 3) per vertex
         if sa.sum() > 0:  # a on the negative side, b on the positive
             sa, sb = -sa, -sb

@@ -59,6 +59,11 @@ CONTOUR_RULE = False
 #: set of triangles and no contour edge of it crosses the pixel.
 SHEET_RULE = True
 
+#: Whether pixels still without a depth get one from the junction rule
+#: (:mod:`viscore.culling._junctions`): the union of the occluder triangles over the pixel,
+#: from any sheets or meshes, covers its square (decided exactly).
+JUNCTION_RULE = True
+
 #: Side of the coarsest tiles, in buffer pixels (a power of two).
 _TILE = 16
 
@@ -364,6 +369,8 @@ class OccluderScene:
         #: whether the sheet rule covers pixels (off only to measure it), and whether it
         #: lets one fold of the sheet cross a pixel
         self._sheet_rule = SHEET_RULE
+        #: whether the junction rule covers pixels (off only to measure it)
+        self._junction_rule = JUNCTION_RULE
         self._sheet_folds = True
         self._facet = np.concatenate(facet)
         raw_solid = np.concatenate(solid)
@@ -745,6 +752,25 @@ def _patch_depths(occ: OccluderScene, layer: tuple, depth: np.ndarray, hits: tup
     depth[ii, jj] = np.maximum(far, crease[ii, jj]) + margin
 
 
+def _junction_fill(occ: OccluderScene, corner_tri: np.ndarray, depth: np.ndarray,
+                   eye: np.ndarray, basis, hx: float, hy: float, size: float,
+                   margin: float) -> None:
+    """The junction rule (:mod:`viscore.culling._junctions`) on the pixels without depth
+    whose four corner rays hit an occluder (``corner_tri`` (H + 1, W + 1), the triangle
+    each cast corner ray first hit, -1 a miss, -2 not cast), in place."""
+    from ._junctions import junction_depths
+
+    hit = corner_tri >= 0
+    todo = ~np.isfinite(depth) & hit[:-1, :-1] & hit[:-1, 1:] & hit[1:, :-1] & hit[1:, 1:]
+    if not todo.any():
+        return
+    z0, _ = _near_cut(size, hx, hy)
+    found = junction_depths(occ._vertices, occ._faces, todo, np.asarray(eye, dtype=np.float64),
+                            basis, hx, hy, z0, _SEGMENT_SLACK)
+    new = np.isfinite(found)
+    depth[new] = found[new] + margin
+
+
 def _near_patches(occ: OccluderScene, patch: np.ndarray, eye: np.ndarray, reach: float
                   ) -> np.ndarray:
     """Patches with a triangle whose interior lies within ``reach`` of the eye (the foot
@@ -984,6 +1010,10 @@ class ConservativeDepthBuffer:
             assert at_corners is not None  # made above whenever there are sheets
             _patch_depths(occ, (occ._sheet, occ._sheet_edges, occ._n_sheets, None, True), depth,
                           at_corners, eye, basis, xs, ys, hx, hy, size, margin)
+        # last: pixels where separate meshes meet, covered by their triangles together
+        if occ._junction_rule and not np.isfinite(depth).all():
+            _junction_fill(occ, corner_tri.reshape(rows + 1, stride)[:h + 1, :w + 1], depth,
+                           eye, basis, hx, hy, size, margin)
         if CONTOUR_RULE and not np.isfinite(depth).all():
             _contour_depths(occ, eye, basis, hx, hy, depth, margin)
         return cls(depth=depth, camera=camera, hits=hits, rays=rays, plane=plane)
