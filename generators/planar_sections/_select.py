@@ -278,7 +278,7 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
                         vals = base.copy() if kept_vals[i] is None else kept_vals[i].copy()  # type: ignore[union-attr]
                         part = base[todo].copy()  # type: ignore[index]
                         if kept_after[i] is not None:  # an image measured for this chain before
-                            again = changed & (kept_after[i][todo] == after).reshape(  # type: ignore[index]
+                            again = changed & (kept_after[i][todo] == after).reshape(
                                 len(after), -1).all(axis=1)
                             part[again] = vals[todo][again]
                             changed &= ~again
@@ -288,7 +288,7 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
                         kept_vals[i] = vals
                         if kept_after[i] is None:
                             kept_after[i] = np.empty_like(cover)
-                        kept_after[i][todo] = after  # type: ignore[index]
+                        kept_after[i][todo] = after
                         stale[i] = False
                     val = float(kept_vals[i].sum())
                 if val > best_val:
@@ -305,8 +305,8 @@ def reduce_to_budget(chains: list[SimplificationChain], budget: int | None, *,
                 step_img = step_img - bitmaps_of(best, best_next)
             counts_img = counts_img - step_img
             if cover is not None:  # measured again only in the directions whose image changed
-                after_step = counts_img > 0
-                moved = (after_step != cover).reshape(len(cover), -1).any(axis=1)
+                after_step = np.asarray(counts_img > 0)
+                moved = (after_step != cover).reshape(len(after_step), -1).any(axis=1)
                 cover = after_step
                 if moved.any():
                     base = base.copy()  # type: ignore[union-attr]
