@@ -51,10 +51,10 @@ _log = logging.getLogger(__name__)
 MAX_RESOLUTION = 4096
 
 #: Meshes of a study given none: a closed solid with a hole, a scan and a game building,
-#: so that ``viscore compare`` runs every method in minutes (197 s on an idle 2-core
-#: machine, 361 CPU-s, and 235 s, 408 CPU-s, on a fresh venv's first run, at 93f13c6; at
-#: 1b0eb5e 255 s, 464 CPU-s, and 309 s, 575 CPU-s). The culling column on the city ends
-#: the run: the study's jobs are done about 40 s before it.
+#: so that ``viscore compare`` runs every method in about two minutes: 128 s on an idle
+#: 2-core machine, 247 CPU-s (median of 2, paired with b42f7fb's 156 s, 286 CPU-s: x0.82
+#: wall), and 174 s, 334 CPU-s, on a fresh venv's first run (numba compiling), at 2cee924;
+#: at 1b0eb5e 255 s, 464 CPU-s, and 309 s, 575 CPU-s.
 DEFAULT_SCENES = ("fat-torus", "bunny", "building-house")
 
 #: Frames of the culling column's walk through the built-in city.
