@@ -252,3 +252,23 @@ def test_ground_fill_allowed_counts_each_cell_as_its_own_row():
         expected = exposed_count(bits, seen) <= np.floor(0.1 * seen.sum())
         assert 0 < expected.sum() < len(expected)
         assert np.array_equal(fill.allowed(normal), expected)
+
+
+@pytest.mark.parametrize("kind", ["sheet", "slab"])
+def test_no_interior_warning_says_why_the_plain_solid_was_kept(kind, caplog):
+    """A solid with no interior keeps its plain voxels for one of two reasons, and the
+    warning says which: on an open sheet no closing passes the precision floor; on a thin
+    closed slab every closing passes but gives the same solid, so none recalls more."""
+    import logging
+
+    from viscore.generators import generate
+
+    mesh = _flat_sheet() if kind == "sheet" else trimesh.creation.box(extents=[8, 0.12, 8])
+    with caplog.at_level(logging.WARNING, logger="viscore"):
+        generate("planar-sections", mesh, budget=64, seed=0)
+    said = [r.getMessage() for r in caplog.records if "no interior" in r.getMessage()]
+    assert len(said) == 1
+    if kind == "sheet":
+        assert "passes the precision floor" in said[0] and "recalls more" not in said[0]
+    else:
+        assert "recalls more than none" in said[0] and "passes the precision" not in said[0]

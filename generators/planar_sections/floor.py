@@ -244,10 +244,16 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
                   [round(t["precision"], 4) for t in closings], step["close"],  # type: ignore[arg-type, call-overload]
                   step["ground"])
         if step["close"] == 0 and step["ground"] is None and _no_interior(result[2]):
+            # the plain solid kept: either no closing (nor fill) passes the floor, or
+            # none that passes recalls more (a flat sheet's closings are the same solid)
+            others = [t for t in closings if t["close"] or t["ground"] is not None]
             _log.warning("planar-sections: the voxel solid has (almost) no interior at %d "
-                         "voxels and no closing up to %d%s passes the precision floor, so "
-                         "the slices are thin strips", step["voxels"], max(AUTO_CLOSINGS),
-                         "" if ground is None else " nor ground fill")
+                         "voxels and no closing up to %d%s %s, so the slices are thin "
+                         "strips", step["voxels"], max(AUTO_CLOSINGS),
+                         "" if ground is None else " nor ground fill",
+                         "recalls more than none in the precision check"
+                         if any(passes(t, floor) for t in others)
+                         else "passes the precision floor")
         steps, results = [step], [result]
     elif forced:
         closings = [t[1] for t in tried]
