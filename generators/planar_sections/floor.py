@@ -246,7 +246,7 @@ def _with_precision_floor(mesh: trimesh.Trimesh, size: dict, floor: float, seed:
         if step["close"] == 0 and step["ground"] is None and _no_interior(result[2]):
             # the plain solid kept: either no closing (nor fill) passes the floor, or
             # none that passes recalls more (a flat sheet's closings are the same solid)
-            others = [t for t in closings if t["close"] or t["ground"] is not None]
+            others = [t[1] for t in tried if t[1]["close"] or t[1]["ground"] is not None]
             _log.warning("planar-sections: the voxel solid has (almost) no interior at %d "
                          "voxels and no closing up to %d%s %s, so the slices are thin "
                          "strips", step["voxels"], max(AUTO_CLOSINGS),
