@@ -46,8 +46,12 @@ by more than :data:`ON_EDGE` times (1 + the largest coordinate of the pixel's
 triangles), and a midpoint within that of an edge's line is on it: two edges along one
 line count as meeting when they are that close (float rounding of one line computed
 twice), so a gap narrower than that (about a billionth of a pixel for triangles near the
-pixel) is taken as closed. A midpoint on an edge that is not parallel to the piece (a
-piece shorter than the tolerance) is not covered.
+pixel, up to a thousandth when one of the pixel's triangles reaches :data:`MAX_COORD`
+pixels away, such as a ground vertex near the eye) is taken as closed; the same number,
+as a sine, decides that two edges are parallel. A midpoint on an edge that is not
+parallel to the piece (a piece shorter than the tolerance) is not covered: a shared edge
+or a T-junction inside the pixel, whose crossing is computed from two triangles with
+different rounding, can leave such a piece and the pixel open (never the other way).
 """
 
 from __future__ import annotations
