@@ -46,7 +46,7 @@ by more than :data:`ON_EDGE` times (1 + the largest coordinate of the pixel's
 triangles), and a midpoint within that of an edge's line is on it: two edges along one
 line count as meeting when they are that close (float rounding of one line computed
 twice), so a gap narrower than that (about a billionth of a pixel for triangles near the
-pixel, up to a thousandth when one of the pixel's triangles reaches :data:`MAX_COORD`
+pixel, up to a thousandth when one of the pixel's triangles reaches ``MAX_COORD``
 pixels away, such as a ground vertex near the eye) is taken as closed; the same number,
 as a sine, decides that two edges are parallel. A midpoint on an edge that is not
 parallel to the piece (a piece shorter than the tolerance) is not covered: a shared edge
