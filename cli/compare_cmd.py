@@ -228,13 +228,11 @@ def run_compare(args) -> int:
     with connect_scheduler(args.scheduler) as client, StudyFolder(out) as study:
         figures = _Figures(out, meshes, seed, originals)
         # the culling column: work of the local pool, or beside a cluster's jobs
-        column = beside = None
+        column: _CullingInPool | _CullingBeside | None = None
         if args.culling and culling_methods:
             column_kind = _CullingInPool if args.scheduler is None else _CullingBeside
-            beside = column_kind(culling_methods, out, frames=culling_frames, seed=seed,
+            column = column_kind(culling_methods, out, frames=culling_frames, seed=seed,
                                  quiet=args.quiet or args.json)
-            if args.scheduler is None:
-                column = beside
         try:
             rows = run_study(meshes, methods, settings, study, jobs=jobs, workers=workers,
                              scheduler=client, progress=not (args.quiet or args.json),
@@ -242,11 +240,11 @@ def run_compare(args) -> int:
                              extra=column.units() if column is not None else (),
                              on_jobs_done=figures.start)
             paired = paired_rows(rows, versus) if versus else []
-            culling = beside.result() if beside is not None else []
-            held.extend(beside.records if beside is not None else [])
+            culling = column.result() if column is not None else []
+            held.extend(column.records if column is not None else [])
         finally:  # each kind of warning once, with its count (all of them with --verbose)
-            if beside is not None:
-                beside.stop()
+            if column is not None:
+                column.stop()
             report_kinds(held, labels=list(dict.fromkeys([*methods, *culling_methods])))
         # plugin methods: their distribution and version beside the toolkit's
         plugins = plugin_versions(methods)
@@ -386,7 +384,32 @@ def _culling_child(conn, parent: int, methods: list[str], frames: int, seed: int
         conn.close()
 
 
-class _CullingBeside:
+class _CullingColumn:
+    """What both ways of running the culling column share: its settings, the rows kept
+    in ``out/culling.json`` for them (None until computed) and its held log records."""
+
+    def __init__(self, methods: list[str], out: Path, *, frames: int, seed: int) -> None:
+        self.methods, self.out, self.frames, self.seed = methods, out, frames, seed
+        self.rows = _cached_culling(methods, out, frames=frames, seed=seed)
+        self.records: list = []
+
+    def units(self) -> list:
+        """Work for the study's own pool (none unless the column runs there)."""
+        return []
+
+    def _keep(self, column: dict, records: list) -> None:
+        """The column's rows and records, from a worker's answer; written to
+        ``out/culling.json``."""
+        from viscore.generators import restored
+
+        self.records = restored(records)
+        self.rows = _culling_rows(self.methods, column)
+        write_atomic(self.out / "culling.json",
+                     dumps({"key": _culling_key(self.methods, self.frames, self.seed),
+                            "rows": self.rows}).encode())
+
+
+class _CullingBeside(_CullingColumn):
     """The culling column beside a cluster's jobs (``--scheduler``), one row per method,
     kept in ``out/culling.json``. A local study runs it in its own pool instead
     (:class:`_CullingInPool`).
@@ -405,9 +428,7 @@ class _CullingBeside:
 
     def __init__(self, methods: list[str], out: Path, *, frames: int, seed: int,
                  quiet: bool) -> None:
-        self.methods, self.out, self.frames, self.seed = methods, out, frames, seed
-        self.rows = _cached_culling(methods, out, frames=frames, seed=seed)
-        self.records: list = []
+        super().__init__(methods, out, frames=frames, seed=seed)
         self._process = None
         if self.rows is not None:
             return
@@ -461,14 +482,7 @@ class _CullingBeside:
         kind, *payload = self._answer
         if kind == "error":
             raise payload[0]
-        from viscore.generators import restored
-
-        column, records = payload
-        self.records = restored(records)
-        self.rows = _culling_rows(self.methods, column)
-        write_atomic(self.out / "culling.json",
-                     dumps({"key": _culling_key(self.methods, self.frames, self.seed),
-                            "rows": self.rows}).encode())
+        self._keep(*payload)
         return self.rows
 
     def stop(self) -> None:
@@ -513,7 +527,7 @@ def _column_task(methods: list[str], frames: int, seed: int, made: dict) -> tupl
     return column, portable(records)
 
 
-class _CullingInPool:
+class _CullingInPool(_CullingColumn):
     """The culling column, one row per method, as work of the study's own pool.
 
     Kept in ``out/culling.json`` as :class:`_CullingBeside` keeps it. Its
@@ -528,9 +542,7 @@ class _CullingInPool:
 
     def __init__(self, methods: list[str], out: Path, *, frames: int, seed: int,
                  quiet: bool) -> None:
-        self.methods, self.out, self.frames, self.seed = methods, out, frames, seed
-        self.rows = _cached_culling(methods, out, frames=frames, seed=seed)
-        self.records: list = []
+        super().__init__(methods, out, frames=frames, seed=seed)
         self._made: dict = {m: {} for m in dict.fromkeys(methods)}
         self._left = 0
         self._bar = None
@@ -574,14 +586,7 @@ class _CullingInPool:
                      done=self._column_done)]
 
     def _column_done(self, result: tuple) -> list:
-        from viscore.generators import restored
-
-        column, records = result
-        self.records = restored(records)
-        self.rows = _culling_rows(self.methods, column)
-        write_atomic(self.out / "culling.json",
-                     dumps({"key": _culling_key(self.methods, self.frames, self.seed),
-                            "rows": self.rows}).encode())
+        self._keep(*result)
         self._bar.update(1)
         return []
 
