@@ -224,6 +224,14 @@ def _reach(tri2, vc, faces, t, c0, r0, c1, r1, w, h, hx, hy, poly, tmp):  # prag
 
 
 @njit_cached()
+def _edge(loc, t, k):  # pragma: no cover
+    """Edge ``k`` of triangle ``t`` of ``loc``: its start, its vector and its length."""
+    ax, ay = loc[t, k, 0], loc[t, k, 1]
+    ex, ey = loc[t, (k + 1) % 3, 0] - ax, loc[t, (k + 1) % 3, 1] - ay
+    return ax, ay, ex, ey, math.sqrt(ex * ex + ey * ey)
+
+
+@njit_cached()
 def _side_covered(loc, m, mx, my, nx, ny, sx, sy, tol):  # pragma: no cover
     """Whether one of the first ``m`` triangles ``loc`` (pixel-relative, counter-clockwise)
     covers the side ``(nx, ny)`` of the point ``(mx, my)`` on a piece along unit
@@ -232,9 +240,7 @@ def _side_covered(loc, m, mx, my, nx, ny, sx, sy, tol):  # pragma: no cover
     for t in range(m):
         inside = True
         for k in range(3):
-            ax, ay = loc[t, k, 0], loc[t, k, 1]
-            ex, ey = loc[t, (k + 1) % 3, 0] - ax, loc[t, (k + 1) % 3, 1] - ay
-            le = math.sqrt(ex * ex + ey * ey)
+            ax, ay, ex, ey, le = _edge(loc, t, k)
             # signed distance from the edge's line, positive inside (rows grow down:
             # counter-clockwise in (column, row) puts the inside on the cross's sign)
             dist = (ex * (my - ay) - ey * (mx - ax)) / le
@@ -298,9 +304,7 @@ def _in_some(loc, m, x, y, tol):  # pragma: no cover
     for t in range(m):
         inside = True
         for k in range(3):
-            ax, ay = loc[t, k, 0], loc[t, k, 1]
-            ex, ey = loc[t, (k + 1) % 3, 0] - ax, loc[t, (k + 1) % 3, 1] - ay
-            le = math.sqrt(ex * ex + ey * ey)
+            ax, ay, ex, ey, le = _edge(loc, t, k)
             if ex * (y - ay) - ey * (x - ax) < -tol * le:
                 inside = False
                 break
