@@ -439,6 +439,16 @@ def culling_column(methods: Sequence[str], *, scene: str = "city", frames: int =
             for m in dict.fromkeys(methods)}
 
 
+@functools.lru_cache(maxsize=1)
+def _piece_scene(scene: str) -> SceneObjects:
+    """The scene of :func:`column_pieces` and :func:`column_piece`, loaded once per process
+    (a worker makes many pieces of one scene, and workers forked after the pieces were
+    listed start with it; loading the built-in city takes about 0.3 s)."""
+    from viscore.level import load_scene_objects
+
+    return load_scene_objects(scene)
+
+
 def column_pieces(methods: Sequence[str], *, scene: str = "city"
                   ) -> list[tuple[str, tuple[int, ...]]]:
     """The occluder generation of :func:`culling_column` as independent pieces.
@@ -456,10 +466,9 @@ def column_pieces(methods: Sequence[str], *, scene: str = "city"
     >>> pieces[0][0], len(pieces[0][1]), pieces[-1]
     ('aabb-skins', 1, ('surface-patches', ()))
     """
-    from viscore.level import load_scene_objects
     from viscore.level.objects import occluder_objects
 
-    objects = load_scene_objects(scene)
+    objects = _piece_scene(scene)
     distinct = np.unique(objects.mesh_ids[occluder_objects(objects)]).tolist()
     pieces: list[tuple[str, tuple[int, ...]]] = []
     for m in dict.fromkeys(methods):
@@ -468,15 +477,6 @@ def column_pieces(methods: Sequence[str], *, scene: str = "city"
         else:
             pieces += [(m, (int(mesh),)) for mesh in distinct]
     return pieces
-
-
-@functools.lru_cache(maxsize=1)
-def _piece_scene(scene: str) -> SceneObjects:
-    """The scene of :func:`column_piece`, loaded once per process (a worker makes many
-    pieces of one scene; loading the built-in city takes about 0.3 s)."""
-    from viscore.level import load_scene_objects
-
-    return load_scene_objects(scene)
 
 
 def column_piece(method: str, mesh_ids: Sequence[int], *, scene: str = "city", seed: int = 0
