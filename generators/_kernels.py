@@ -27,7 +27,7 @@ def _ray_kernels() -> None:
     _embree4._ready_kernels()
     compile_kernels({_embree4._mark_stacked: [
         "(float32[:, ::1], uint32[:, ::1], float64[:, ::1], float64[::1], int64[:, ::1], "
-        "float64[:, ::1], int64[::1], int64[::1], float64, boolean[::1])"]})
+        "float64[:, ::1], int64[::1], int64[::1], float64[::1], float64, boolean[::1])"]})
 
 
 def _measure_kernels() -> dict:

@@ -303,3 +303,37 @@ def test_packets_stacked_walls_seen_by_orthographic_views(monkeypatch, workers):
     assert packets._packets._stacked.any()
     o, d = bench_ray_sets(mesh, views=2, resolution=256, rays=10, seed=256)["coherent"]
     _assert_same(packets, embreex, o, d)
+
+
+def test_cell_quantiles_are_each_large_groups_percentile_of_sizes():
+    rng = np.random.default_rng(1)
+    counts = np.array([3, _embree4._SWEEP_GROUP, _embree4._SWEEP_GROUP + 1, 250, 1, 400])
+    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    box = rng.random((starts[-1], 4))
+    size = np.maximum(box[:, 1] - box[:, 0], box[:, 3] - box[:, 2])
+    got = _embree4._cell_quantiles(box, starts)
+    for g, (a, b) in enumerate(zip(starts[:-1], starts[1:], strict=True)):
+        if b - a > _embree4._SWEEP_GROUP:
+            want = np.percentile(size[a:b], _embree4._GRID_CELL_QUANTILE)
+            assert got[g] == pytest.approx(want, rel=1e-12)
+        else:  # swept, not put on grids
+            assert got[g] == 0.0
+
+
+def test_stacked_triangles_on_a_plane_of_more_triangles_than_a_sweep():
+    # 20 x 20 unit squares in z = 0 (800 triangles, one group: put on grids) share
+    # edges only; a small triangle laid inside square (3, 5) overlaps its two halves
+    # and nothing else
+    n = 20
+    xs, ys = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+    v = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], axis=1)
+    at = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
+    faces = np.concatenate([np.stack([at, at + n + 1, at + n + 2], axis=1),
+                            np.stack([at, at + n + 2, at + 1], axis=1)])
+    assert len(faces) > _embree4._SWEEP_GROUP
+    small = np.array([[3.2, 5.2, 0], [3.8, 5.3, 0], [3.5, 5.8, 0]])
+    v = np.concatenate([v, small]).astype(np.float32)
+    faces = np.concatenate([faces, [[len(v) - 3, len(v) - 2, len(v) - 1]]])
+    stacked = _embree4._stacked_triangles(v, faces)
+    square = 3 * n + 5
+    assert sorted(np.flatnonzero(stacked).tolist()) == [square, n * n + square, len(faces) - 1]
