@@ -39,6 +39,37 @@ def runs_along_x(avail):
 
 
 @njit_cached()
+def _runs_along_y_z(avail):
+    """Run lengths of available voxels along +Y and along +Z from each voxel (0 if
+    unavailable), as :func:`runs_along_x` along +X.
+
+    Loops of their own rather than ``runs_along_x`` of a transposed copy: numba's
+    ``transpose(axes)`` alone took some 6 s to compile (its error messages).
+    """
+    nx, ny, nz = avail.shape
+    dy = np.zeros((nx, ny, nz), np.int32)
+    dz = np.zeros((nx, ny, nz), np.int32)
+    for x in range(nx):
+        for z in range(nz):
+            run = 0
+            for y in range(ny - 1, -1, -1):
+                if avail[x, y, z]:
+                    run += 1
+                else:
+                    run = 0
+                dy[x, y, z] = run
+        for y in range(ny):
+            run = 0
+            for z in range(nz - 1, -1, -1):
+                if avail[x, y, z]:
+                    run += 1
+                else:
+                    run = 0
+                dz[x, y, z] = run
+    return dy, dz
+
+
+@njit_cached()
 def _best_box_at(dx, x, y, z, ymax, zmax):
     """Largest box with lower corner (x, y, z): returns volume, X, Y, Z (voxels)."""
     ny = dx.shape[1]
@@ -124,8 +155,7 @@ def grow_boxes(avail, max_boxes, min_voxels, target_voxels):
     avail = avail.copy()
     nx, ny, nz = avail.shape
     dx = runs_along_x(avail)
-    dy = runs_along_x(avail.transpose(1, 0, 2).copy()).transpose(1, 0, 2)
-    dz = runs_along_x(avail.transpose(2, 1, 0).copy()).transpose(2, 1, 0)
+    dy, dz = _runs_along_y_z(avail)
     cells = nx * ny * nz
     shift = 1
     while (1 << shift) <= cells:
