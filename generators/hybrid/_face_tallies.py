@@ -211,8 +211,9 @@ def _all_pairs(quads, q_off, full, pm_off, pixmap, img_w, img_h, c, pptr, hface,
                     cap *= 2
                     nf = np.empty(cap, np.int64)
                     nq = np.empty(cap, np.int64)
-                    nf[:m] = out_f[:m]
-                    nq[:m] = out_q[:m]
+                    for t in range(m):  # a loop: a slice copy compiles numba's shape checks
+                        nf[t] = out_f[t]
+                        nq[t] = out_q[t]
                     out_f, out_q = nf, nq
                 out_f[m] = buf[j]
                 out_q[m] = q
@@ -243,6 +244,21 @@ def _add_quad(q, sign, k, buf, qn, qa, qunit, coef_r, coef_p, loss, relief):
             loss[o] += sign * coef_r[u] * n
         else:
             relief[o] += sign * coef_p[u] * (n - a)
+
+
+@njit_cached()
+def _image_of(q_off, q):  # pragma: no cover
+    """The image of quad ``q``: the last ``i`` with ``q_off[i] <= q``, by bisection (as
+    ``np.searchsorted(q_off, q, side="right") - 1``, whose numba version took about a second
+    to compile)."""
+    lo, hi = 0, len(q_off)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if q_off[mid] <= q:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo - 1
 
 
 @njit_cached()
@@ -284,7 +300,8 @@ def _remove_face(g, plist, refound, a_img, a_loc, quads, q_off, qn, qa, qunit, f
                 if na == cap:
                     cap *= 2
                     grown = np.empty(cap, np.int64)
-                    grown[:na] = affected[:na]
+                    for t in range(na):
+                        grown[t] = affected[t]
                     affected = grown
                 affected[na] = q
                 na += 1
@@ -300,7 +317,7 @@ def _remove_face(g, plist, refound, a_img, a_loc, quads, q_off, qn, qa, qunit, f
     # the quads' images, from their ranges
     for t in range(na):
         q = affected[t]
-        img = np.searchsorted(q_off, q, side="right") - 1
+        img = _image_of(q_off, q)
         stamp += 1
         k = _quad_owners(q, img, quads, pm_off, pixmap, img_w, c, pptr, hface, hback, galive,
                          extra_owner, extra_back, skip_back, mark, stamp, buf)
