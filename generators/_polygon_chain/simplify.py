@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from viscore._jit import njit_cached
+from viscore._sort_kernels import stable_order
 
 __all__ = ["SimplificationChain", "simplification_chain"]
 
@@ -102,41 +103,6 @@ def _is_ear_loose(x, y, alive_list, m, a, b, c):  # pragma: no cover
 
 
 @njit_cached()
-def _stable_order(key, m, a, b):  # pragma: no cover
-    """``np.argsort(key[:m], kind="stable")`` for finite keys: a bottom-up merge sort of
-    indices (ties keep their order) in the scratch arrays ``a`` and ``b`` (at least ``m``
-    long), returning ``a[:m]`` or ``b[:m]``. numba's own stable argsort took about a
-    second to compile."""
-    for i in range(m):
-        a[i] = i
-    src, dst = a, b
-    width = 1
-    while width < m:
-        for lo in range(0, m, 2 * width):
-            mid, hi = min(lo + width, m), min(lo + 2 * width, m)
-            i, j, k = lo, mid, lo
-            while i < mid and j < hi:
-                if key[src[j]] < key[src[i]]:
-                    dst[k] = src[j]
-                    j += 1
-                else:
-                    dst[k] = src[i]
-                    i += 1
-                k += 1
-            while i < mid:
-                dst[k] = src[i]
-                i += 1
-                k += 1
-            while j < hi:
-                dst[k] = src[j]
-                j += 1
-                k += 1
-        src, dst = dst, src
-        width *= 2
-    return src[:m]
-
-
-@njit_cached()
 def _ear_chain(x, y, loose):  # pragma: no cover
     """Removal order and ears of the greedy smallest-ear chain.
 
@@ -169,7 +135,7 @@ def _ear_chain(x, y, loose):  # pragma: no cover
             i = alive_list[t]
             a, c = prv[i], nxt[i]
             cross[t] = (x[i] - x[a]) * (y[c] - y[i]) - (y[i] - y[a]) * (x[c] - x[i])
-        order = _stable_order(cross, m, order_a, order_b)
+        order = stable_order(cross, m, order_a, order_b)
         found = -1
         for t in order:
             if cross[t] < 0:
