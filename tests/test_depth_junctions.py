@@ -125,13 +125,37 @@ def test_the_cover_test_directly_on_one_pixel():
         todo[1, 1] = True
         out = junction_depths(v, [[0, 1, 2], [3, 4, 5]], todo, np.zeros(3), cam.basis,
                               cam._half, cam._half_vertical, 1e-6, 1e-3)
-        assert np.isfinite(out[1, 1]) == expect, push
+        assert out.shape == (1,) and np.isfinite(out[0]) == expect, push
         if expect:  # the far triangle's farthest point over its half: (-0.5, 0) or (0, 0.5)
             far = 7.0 * np.sqrt(1 + 0.5 ** 2)
-            assert far - 1e-6 <= out[1, 1] <= far * (1 + 1e-2)
+            assert far - 1e-6 <= out[0] <= far * (1 + 1e-2)
         alone = junction_depths(t1, [[0, 1, 2]], todo, np.zeros(3), cam.basis, cam._half,
                                 cam._half_vertical, 1e-6, 1e-3)
-        assert not np.isfinite(alone[1, 1])
+        assert not np.isfinite(alone[0])
+
+
+def test_the_rule_answers_for_each_tested_pixel_in_row_major_order():
+    """Three tested pixels of a 4 x 4 buffer, the same two triangles a thousandth of a pixel
+    apart along the diagonal through the pixel (1, 1): the pixel (0, 0), wholly in the near
+    one (z = 5), gets its farthest corner's distance, the pixel (1, 1) stays open, and the
+    pixel (3, 3), wholly in the far one (z = 7), gets its own; the answers come in
+    ``np.nonzero(todo)``'s order."""
+    cam = _one_pixel_cam()
+    def tri(pts, z):
+        return _at(cam, [(x, y, z) for x, y in pts])
+
+    d = 1e-3 / np.sqrt(2) * 0.5
+    t1 = tri([(-2, -1.5), (1.5, 2), (-2, 2)], 5.0)
+    t2 = tri([(-2 + d, -1.5 - d), (1.5 + d, -1.5 - d), (1.5 + d, 2 - d)], 7.0)
+    todo = np.zeros((4, 4), dtype=bool)
+    todo[[3, 0, 1], [3, 0, 1]] = True
+    out = junction_depths(np.vstack([t1, t2]), [[0, 1, 2], [3, 4, 5]], todo, np.zeros(3),
+                          cam.basis, cam._half, cam._half_vertical, 1e-6, 1e-3)
+    assert out.shape == (3,)
+    corner = np.sqrt(1 + 1 + 1)  # the screen's corners, tangents (+-1, +-1)
+    assert 5.0 * corner - 1e-6 <= out[0] <= 5.0 * corner * (1 + 1e-2)
+    assert not np.isfinite(out[1])
+    assert 7.0 * corner - 1e-6 <= out[2] <= 7.0 * corner * (1 + 1e-2)
 
 
 def _random_scene(rng, kind):
@@ -247,10 +271,9 @@ def test_triangles_sharing_edges_cover_the_pixel_and_a_gap_along_one_does_not(ki
     # a plane at z = 6 facing the eye: farthest over the widened pixel at its corner
     # (-0.5, 0.5), at least at the nearest point (0, 0)
     far = 6.0 * np.sqrt(1 + 0.5 ** 2 + 0.5 ** 2)
-    assert 6.0 <= out[1, 1] <= far * (1 + 1e-2)
-    assert not np.isfinite(np.delete(out.ravel(), 5)).any()  # only the tested pixel
+    assert out.shape == (1,) and 6.0 <= out[0] <= far * (1 + 1e-2)
     v, f = _shared_edge_mesh(kind, 1e-3)
-    assert not np.isfinite(junction_depths(v, f, *args)[1, 1])
+    assert not np.isfinite(junction_depths(v, f, *args)[0])
 
 
 def _seam_with_shared_edges(cam, gap_px: float) -> list[trimesh.Trimesh]:

@@ -137,11 +137,13 @@ def _meets(tri2, t, c0, r0, c1, r1):  # pragma: no cover
 
 
 @njit_cached()
-def _bins(tri2, ok, slot, prefix, slack, count, fill, start, cand):  # pragma: no cover
-    """Per pixel of ``slot`` (H, W; -1 not tested), the triangles meeting its widened
-    square: counted into ``count`` when ``fill`` is False, else listed into ``cand`` from
-    ``start``. ``prefix`` (H + 1, W + 1) sums the tested pixels (skips empty boxes)."""
-    h, w = slot.shape
+def _bins(tri2, ok, pix_i, pix_j, row_start, w, slack, count, fill, start, cand
+          ):  # pragma: no cover
+    """Per tested pixel ``(pix_i, pix_j)`` (row-major order; ``row_start`` (H + 1,) the
+    index of each row's first), the triangles meeting its widened square: counted into
+    ``count`` when ``fill`` is False, else listed into ``cand`` from ``start``, in
+    triangle order."""
+    h = len(row_start) - 1
     for t in range(len(tri2)):
         if not ok[t]:
             continue
@@ -153,24 +155,25 @@ def _bins(tri2, ok, slot, prefix, slack, count, fill, start, cand):  # pragma: n
             continue
         j0, j1 = max(0, int(math.floor(cmin)) - 1), min(w - 1, int(math.floor(cmax)) + 1)
         i0, i1 = max(0, int(math.floor(rmin)) - 1), min(h - 1, int(math.floor(rmax)) + 1)
-        if j0 > j1 or i0 > i1:
-            continue
-        if prefix[i1 + 1, j1 + 1] - prefix[i0, j1 + 1] - prefix[i1 + 1, j0] \
-                + prefix[i0, j0] == 0:
+        if j0 > j1 or i0 > i1 or row_start[i1 + 1] == row_start[i0]:
             continue
         for i in range(i0, i1 + 1):
-            for j in range(j0, j1 + 1):
-                s = slot[i, j]
-                if s < 0:
-                    continue
-                if not _meets(tri2, t, j - slack, i - slack, j + 1 + slack, i + 1 + slack):
-                    continue
-                if fill:
-                    if count[s] < start[s + 1] - start[s]:
+            # the row's first tested pixel at a column >= j0 (binary search)
+            lo, hi = row_start[i], row_start[i + 1]
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if pix_j[mid] < j0:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            s = lo
+            while s < row_start[i + 1] and pix_j[s] <= j1:
+                j = pix_j[s]
+                if _meets(tri2, t, j - slack, i - slack, j + 1 + slack, i + 1 + slack):
+                    if fill and count[s] < start[s + 1] - start[s]:
                         cand[start[s] + count[s]] = t
                     count[s] += 1
-                else:
-                    count[s] += 1
+                s += 1
 
 
 @njit_cached()
@@ -482,15 +485,20 @@ def junction_depths(vertices: np.ndarray, faces: np.ndarray, todo: np.ndarray,
 
     Returns
     -------
-    (H, W) float64
-        The reach of the shortest covering prefix of each covered pixel of ``todo``;
-        ``inf`` elsewhere.
+    (k,) float64
+        For each of the ``k`` pixels of ``todo``, in row-major order (that of
+        ``todo[mask]`` and ``np.nonzero(todo)``), the reach of the shortest covering prefix
+        of its triangles; ``inf`` where none covers it.
+
+    Notes
+    -----
+    No array of the frame's size is made: the triangles are binned to the tested pixels
+    through each row's run of them.
     """
     h, w = todo.shape
-    out = np.full((h, w), np.inf)
     pix_i, pix_j = np.nonzero(todo)
     if not len(pix_i):
-        return out
+        return np.full(0, np.inf)
     f, r, u = basis
     rel = np.asarray(vertices, dtype=np.float64) - np.asarray(eye, dtype=np.float64)
     vc = np.ascontiguousarray(np.stack([rel @ r, rel @ u, rel @ f], axis=1))
@@ -498,21 +506,17 @@ def junction_depths(vertices: np.ndarray, faces: np.ndarray, todo: np.ndarray,
     tri2 = np.empty((len(faces), 3, 2))
     ok = np.empty(len(faces), dtype=bool)
     _project(vc, faces, z0, hx, hy, w, h, tri2, ok)
-    slot = np.full((h, w), -1, dtype=np.int64)
-    slot[pix_i, pix_j] = np.arange(len(pix_i))
-    prefix = np.zeros((h + 1, w + 1), dtype=np.int64)
-    prefix[1:, 1:] = np.cumsum(np.cumsum(todo, axis=0), axis=1)
+    row_start = np.searchsorted(pix_i, np.arange(h + 1))
     count = np.zeros(len(pix_i), dtype=np.int64)
     start = np.zeros(len(pix_i) + 1, dtype=np.int64)
     cand = np.zeros(0, dtype=np.int64)
-    _bins(tri2, ok, slot, prefix, slack, count, False, start, cand)
+    _bins(tri2, ok, pix_i, pix_j, row_start, w, slack, count, False, start, cand)
     start[1:] = np.cumsum(np.minimum(count, MAX_CANDIDATES + 1))
     cand = np.zeros(int(start[-1]), dtype=np.int64)
     full = count.copy()
     count[:] = 0
-    _bins(tri2, ok, slot, prefix, slack, count, True, start, cand)
+    _bins(tri2, ok, pix_i, pix_j, row_start, w, slack, count, True, start, cand)
     depth = np.empty(len(pix_i))
     _cover_pixels(tri2, vc, faces, cand, start, pix_i, pix_j, slack, w, h, hx, hy, depth)
     depth[full > MAX_CANDIDATES] = np.inf  # over the budget: listed short, left open
-    out[pix_i, pix_j] = depth
-    return out
+    return depth
