@@ -5,7 +5,9 @@ neither covers alone and no other rule covers (each one's boundary crosses them)
 behind the seam is culled with the rule and not without, and the truth hides it. A gap of a
 fraction of a pixel between them keeps the seam open and the box seen through it kept. On
 random scenes of separate meshes meeting without shared edges, the pixels the rule adds
-are never nearer than the occluders."""
+are never nearer than the occluders. Triangles sharing edges inside a pixel (a fan, a
+quad's halves, a T-junction) cover it, and a thousandth of a pixel opened along the shared
+edge keeps it open."""
 
 import numpy as np
 import pytest
@@ -123,13 +125,37 @@ def test_the_cover_test_directly_on_one_pixel():
         todo[1, 1] = True
         out = junction_depths(v, [[0, 1, 2], [3, 4, 5]], todo, np.zeros(3), cam.basis,
                               cam._half, cam._half_vertical, 1e-6, 1e-3)
-        assert np.isfinite(out[1, 1]) == expect, push
+        assert out.shape == (1,) and np.isfinite(out[0]) == expect, push
         if expect:  # the far triangle's farthest point over its half: (-0.5, 0) or (0, 0.5)
             far = 7.0 * np.sqrt(1 + 0.5 ** 2)
-            assert far - 1e-6 <= out[1, 1] <= far * (1 + 1e-2)
+            assert far - 1e-6 <= out[0] <= far * (1 + 1e-2)
         alone = junction_depths(t1, [[0, 1, 2]], todo, np.zeros(3), cam.basis, cam._half,
                                 cam._half_vertical, 1e-6, 1e-3)
-        assert not np.isfinite(alone[1, 1])
+        assert not np.isfinite(alone[0])
+
+
+def test_the_rule_answers_for_each_tested_pixel_in_row_major_order():
+    """Three tested pixels of a 4 x 4 buffer, the same two triangles a thousandth of a pixel
+    apart along the diagonal through the pixel (1, 1): the pixel (0, 0), wholly in the near
+    one (z = 5), gets its farthest corner's distance, the pixel (1, 1) stays open, and the
+    pixel (3, 3), wholly in the far one (z = 7), gets its own; the answers come in
+    ``np.nonzero(todo)``'s order."""
+    cam = _one_pixel_cam()
+    def tri(pts, z):
+        return _at(cam, [(x, y, z) for x, y in pts])
+
+    d = 1e-3 / np.sqrt(2) * 0.5
+    t1 = tri([(-2, -1.5), (1.5, 2), (-2, 2)], 5.0)
+    t2 = tri([(-2 + d, -1.5 - d), (1.5 + d, -1.5 - d), (1.5 + d, 2 - d)], 7.0)
+    todo = np.zeros((4, 4), dtype=bool)
+    todo[[3, 0, 1], [3, 0, 1]] = True
+    out = junction_depths(np.vstack([t1, t2]), [[0, 1, 2], [3, 4, 5]], todo, np.zeros(3),
+                          cam.basis, cam._half, cam._half_vertical, 1e-6, 1e-3)
+    assert out.shape == (3,)
+    corner = np.sqrt(1 + 1 + 1)  # the screen's corners, tangents (+-1, +-1)
+    assert 5.0 * corner - 1e-6 <= out[0] <= 5.0 * corner * (1 + 1e-2)
+    assert not np.isfinite(out[1])
+    assert 7.0 * corner - 1e-6 <= out[2] <= 7.0 * corner * (1 + 1e-2)
 
 
 def _random_scene(rng, kind):
@@ -187,3 +213,116 @@ def test_random_junctions_are_never_nearer_than_the_occluders(seed):
                                    rng, per=48)
         assert np.isfinite(hits).all()
         assert (hits <= on.depth[new[:, 0], new[:, 1]][:, None]).all()
+
+
+def _one_pixel_cam():
+    """A 4 x 4 buffer of 90 degrees: the pixel (1, 1) spans tangents x in [-0.5, 0] and
+    y in [0, 0.5]."""
+    return PerspectiveCamera((0, 0, 0), (0, 0, 1), up=(0, 1, 0), fov=90, resolution=4,
+                             height=4)
+
+
+def _shared_edge_mesh(kind: str, gap_px: float):
+    """Triangles sharing edges over the pixel (1, 1) of :func:`_one_pixel_cam`, at depth 6,
+    tangent coordinates turned by 0.3 rad around a point inside the pixel: a fan of four
+    around a vertex inside it (``fan``), a quad's two halves along a diagonal through it
+    (``quad``), or a quad's half split again at a point on that diagonal inside the pixel
+    (``tjunction``). ``gap_px`` > 0 moves every triangle but the first that far away from
+    the first across their shared edge (the fan's from its vertex to corner 1, the
+    diagonal), in buffer pixels (0.5 tangent units each): a gap along that edge."""
+    c = np.array([-0.23, 0.31])
+    s, ang = 1.5, 0.3
+    rot = np.array([[np.cos(ang), -np.sin(ang)], [np.sin(ang), np.cos(ang)]])
+    sq = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1.0]]) * s
+    if kind == "fan":  # the edge from the centre to corner 1 shared
+        pts = np.vstack([sq, [0.02, -0.03]])
+        tris = [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]]
+        cut = (4, 1)
+    else:  # the diagonal 0-2 shared
+        tris = [[0, 1, 2], [0, 2, 3]] if kind == "quad" else [[0, 1, 2], [0, 4, 3], [4, 2, 3]]
+        pts = sq if kind == "quad" else np.vstack([sq, 0.48 * sq[0] + 0.52 * sq[2]])
+        cut = (0, 2)
+    e = pts[cut[1]] - pts[cut[0]]
+    normal = np.array([-e[1], e[0]]) / np.linalg.norm(e)
+    if normal @ (pts[tris[0]].mean(axis=0) - pts[cut[0]]) > 0:
+        normal = -normal  # away from the first triangle: the others moved open a gap
+    cam = _one_pixel_cam()
+    verts, faces = [], []
+    for k, t in enumerate(tris):
+        p = pts[t] + (0.5 * gap_px * normal if k else 0.0)
+        faces.append([len(verts), len(verts) + 1, len(verts) + 2])
+        verts.extend(p @ rot.T + c)
+    world = _at(cam, [(x, y, 6.0) for x, y in verts])
+    return world, np.array(faces)
+
+
+@pytest.mark.parametrize("kind", ["fan", "quad", "tjunction"])
+def test_triangles_sharing_edges_cover_the_pixel_and_a_gap_along_one_does_not(kind):
+    """The copies of a shared edge give bit-identical crossings, and the crossings of a fan's
+    edges at its vertex or of a T-junction's lines a rounding apart leave no piece: the
+    pixel is covered, at the plane's farthest point over it; a thousandth of a pixel open
+    along the shared edge keeps it open."""
+    cam = _one_pixel_cam()
+    todo = np.zeros((4, 4), dtype=bool)
+    todo[1, 1] = True
+    args = (todo, np.zeros(3), cam.basis, cam._half, cam._half_vertical, 1e-6, 1e-3)
+    v, f = _shared_edge_mesh(kind, 0.0)
+    out = junction_depths(v, f, *args)
+    # a plane at z = 6 facing the eye: farthest over the widened pixel at its corner
+    # (-0.5, 0.5), at least at the nearest point (0, 0)
+    far = 6.0 * np.sqrt(1 + 0.5 ** 2 + 0.5 ** 2)
+    assert out.shape == (1,) and 6.0 <= out[0] <= far * (1 + 1e-2)
+    v, f = _shared_edge_mesh(kind, 1e-3)
+    assert not np.isfinite(junction_depths(v, f, *args)[0])
+
+
+def _seam_with_shared_edges(cam, gap_px: float) -> list[trimesh.Trimesh]:
+    """:func:`_halves`' seam, overlapping by 0.4 pixel, with each half made of triangles
+    sharing edges inside the seam's column: the left one a fan from a far-left vertex to
+    points along its right edge (the fan's edges reach it inside the seam's pixels), the
+    right one a T-junction: the lower triangles meet at a point of the upper one's lower
+    edge 0.6 pixel right of its left edge (right of the left half's cover), and one of
+    their shared edges runs nearly upright through the seam's column there. ``gap_px`` > 0
+    moves the two triangles right of that shared edge right by that many buffer pixels:
+    a gap along it."""
+    tan = _pixel_tangent()
+    seam = 0.37 * tan
+    a, b = seam + 0.2 * tan, seam - 0.2 * tan
+    ys = [-10.0, -0.21, -0.011, 0.013, 0.11, 10.0]
+    left_pts = [(-10.0, 0.0, 10.0)] + [(a, y, 10.0) for y in ys]
+    left_faces = [[0, k + 2, k + 1] for k in range(len(ys) - 1)]
+    left = trimesh.Trimesh(_at(cam, left_pts), left_faces, process=False)
+    c, y0, d = b + 0.6 * tan, 0.0171, gap_px * tan
+    right_pts = [(b, y0, 12), (10, y0, 12), (b, 10, 12),            # upper: A
+                 (b, -10, 12), (c, y0, 12), (b, y0, 12),            # lower left: B
+                 (b + d, -10, 12), (10 + d, -10, 12), (c + d, y0, 12),  # C1, right of B
+                 (10 + d, -10, 12), (10 + d, y0, 12), (c + d, y0, 12)]  # C2
+    right = trimesh.Trimesh(_at(cam, right_pts), np.arange(12).reshape(4, 3), process=False)
+    return [left, right]
+
+
+def test_a_seam_of_halves_sharing_edges_is_covered_and_a_gap_along_one_keeps_it_open():
+    """Each side of the seam is triangles sharing edges inside the seam's pixels (a fan's
+    edges, a T-junction and a shared edge running along the seam's column): the junction
+    rule covers every pixel of the seam, never nearer than the triangles, and the box
+    behind it is culled, as the truth hides it. A thousandth of a pixel opened along the
+    shared edge keeps its pixels open and the box kept."""
+    cam = PerspectiveCamera((0, 0, 0), (0, 0, 1), up=(0, 1, 0), **_CAM)
+    parts = _seam_with_shared_edges(cam, 0.0)
+    on, off = _buffers(parts, cam)
+    seam_col = 64
+    assert not off.covered[:, seam_col].any()  # no other rule covers the seam
+    assert on.covered.all()
+    hits = _sampled_first_hits(Scene(trimesh.util.concatenate(parts)), cam, on.shape,
+                               np.argwhere(~off.covered), np.random.default_rng(1), per=32)
+    assert np.isfinite(hits).all()
+    assert (hits <= on.depth[:, seam_col][:, None]).all()
+    box = _seam_box(cam)
+    assert not _seen(parts, box, cam)
+    assert on.occluded(*box)[0] and not off.occluded(*box)[0]
+    # the gap runs down the seam's column from the T-junction's row (tangent 0.0171)
+    opened = _seam_with_shared_edges(cam, 1e-3)
+    gap_on, _ = _buffers(opened, cam)
+    below = np.arange(on.shape[0]) > 36 - 0.0171 / _pixel_tangent()
+    assert not gap_on.covered[below, seam_col].any()
+    assert not gap_on.occluded(*box)[0]

@@ -79,10 +79,12 @@ def test_terrain_depths_never_nearer_and_nothing_seen_is_culled(seed):
     buf = ConservativeDepthBuffer.from_occluders(occ, cam)
     without = occ._n_patches
     occ._n_patches = 0
-    occ._sheet_rule = False  # the sheet rule covers a terrain's creases as well
+    # the sheet rule covers a terrain's creases as well, and so does the junction rule (the
+    # union of the triangles sharing edges there)
+    occ._sheet_rule = occ._junction_rule = False
     plain = ConservativeDepthBuffer.from_occluders(occ, cam)
     occ._n_patches = without
-    occ._sheet_rule = True
+    occ._sheet_rule = occ._junction_rule = True
     assert (buf.covered >= plain.covered).all()
     assert buf.covered.sum() > plain.covered.sum()  # the rule covers creases
     pixels = np.argwhere(buf.covered)

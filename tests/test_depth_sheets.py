@@ -16,10 +16,11 @@ from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
 
 
 def _buffers(mesh, cam):
-    """The buffer with the sheet rule and without it."""
+    """The buffer with every rule, and without the sheet rule and the junction rule (which
+    covers the same pixels by the union of the triangles sharing edges there)."""
     occ = OccluderScene([mesh])
     plain = OccluderScene([mesh])
-    plain._sheet_rule = False
+    plain._sheet_rule = plain._junction_rule = False
     return (ConservativeDepthBuffer.from_occluders(occ, cam),
             ConservativeDepthBuffer.from_occluders(plain, cam))
 
@@ -163,9 +164,9 @@ def _crumpled(rng, n=40):
 def test_folded_sheets_and_a_torus_never_nearer_and_nothing_seen_is_culled(seed):
     """Crumpled sheets of small triangles (folding over themselves: several layers over
     a pixel) and a torus of 2,048 (closed, not convex), from random eyes: every pixel the
-    sheet rule covers has all its rays meet them no farther than its depth, the rule
-    covers pixels the others leave open, and no culled box shows in a full-resolution id
-    image."""
+    sheet and junction rules cover has all its rays meet them no farther than its depth,
+    they cover pixels the others leave open, and no culled box shows in a full-resolution
+    id image."""
     rng = np.random.default_rng(seed)
     torus = trimesh.creation.torus(major_radius=4.0, minor_radius=1.5, major_sections=64,
                                    minor_sections=16)

@@ -32,14 +32,17 @@ connected) ``U`` has a boundary point ``p`` inside ``Q`` on an edge ``e`` of som
 ``T_i``, with ``U`` on the outer side of ``e`` near ``p`` (on its inner side lies
 ``T_i``). The test splits each side of ``Q`` and each edge of every ``T_i`` (clipped to
 ``Q``) at every point where another edge crosses or touches it and at the ends of the
-edges along the same line (extra split points are harmless); along each piece between
-two split points no edge meets it, so whether the triangles cover its outer side (for
-``Q``'s sides: the inner side) is the same all along, and is decided at its midpoint: a
-triangle covers that side when the midpoint lies strictly inside it, or on its boundary
-with every edge through the midpoint parallel to the piece and the triangle on the
-tested side. A piece whose side no triangle covers shows ``U`` is not empty; when every
-piece's side is covered, ``U`` has no boundary point inside ``Q``, no uncovered side of
-``Q``, and is empty.
+edges along the same line (extra split points are harmless). Each edge is taken from its
+lexicographically smaller end (column, then row), so that an edge shared by two
+triangles is one segment in both, with the same ends and bit-identical crossings with
+every other edge (its tested side is on the right of the triangle's counter-clockwise
+edge, whichever way it runs). Along each piece between two split points no edge meets
+it, so whether the triangles cover its outer side (for ``Q``'s sides: the inner side) is
+the same all along, and is decided at its midpoint: a triangle covers that side when
+the midpoint lies strictly inside it, or on its boundary with every edge through the
+midpoint parallel to the piece and the triangle on the tested side. A piece whose side
+no triangle covers shows ``U`` is not empty; when every piece's side is covered, ``U``
+has no boundary point inside ``Q``, no uncovered side of ``Q``, and is empty.
 
 Rounding. Coordinates are taken relative to the pixel, in pixels; "strictly inside" is
 by more than :data:`ON_EDGE` times (1 + the largest coordinate of the pixel's
@@ -48,10 +51,16 @@ line count as meeting when they are that close (float rounding of one line compu
 twice), so a gap narrower than that (about a billionth of a pixel for triangles near the
 pixel, up to a thousandth when one of the pixel's triangles reaches ``MAX_COORD``
 pixels away, such as a ground vertex near the eye) is taken as closed; the same number,
-as a sine, decides that two edges are parallel. A midpoint on an edge that is not
-parallel to the piece (a piece shorter than the tolerance) is not covered: a shared edge
-or a T-junction inside the pixel, whose crossing is computed from two triangles with
-different rounding, can leave such a piece and the pixel open (never the other way).
+as a sine, decides that two edges are parallel. A piece no longer than the tolerance is
+not tested: where edges meet at one point in exact arithmetic (the edges of a fan at its
+vertex, a T-junction's vertex a rounding off the edge it lies on, a pixel side crossing
+both lines there), their crossings, computed from different lines, land a rounding apart
+and leave such a piece, whose midpoint lies on an edge through it that is not parallel
+to it, so no triangle would cover it and the pixel would stay open. Hence an uncovered
+part of the pixel whose boundary pieces are each no longer than the tolerance (a hole
+the size of the rounding) is taken as closed, as a gap narrower than the tolerance is.
+A longer piece whose midpoint lies within the tolerance of an edge not parallel to it is
+not covered, leaving the pixel open (never the other way).
 """
 
 from __future__ import annotations
@@ -128,11 +137,13 @@ def _meets(tri2, t, c0, r0, c1, r1):  # pragma: no cover
 
 
 @njit_cached()
-def _bins(tri2, ok, slot, prefix, slack, count, fill, start, cand):  # pragma: no cover
-    """Per pixel of ``slot`` (H, W; -1 not tested), the triangles meeting its widened
-    square: counted into ``count`` when ``fill`` is False, else listed into ``cand`` from
-    ``start``. ``prefix`` (H + 1, W + 1) sums the tested pixels (skips empty boxes)."""
-    h, w = slot.shape
+def _bins(tri2, ok, pix_i, pix_j, row_start, w, slack, count, fill, start, cand
+          ):  # pragma: no cover
+    """Per tested pixel ``(pix_i, pix_j)`` (row-major order; ``row_start`` (H + 1,) the
+    index of each row's first), the triangles meeting its widened square: counted into
+    ``count`` when ``fill`` is False, else listed into ``cand`` from ``start``, in
+    triangle order."""
+    h = len(row_start) - 1
     for t in range(len(tri2)):
         if not ok[t]:
             continue
@@ -144,24 +155,25 @@ def _bins(tri2, ok, slot, prefix, slack, count, fill, start, cand):  # pragma: n
             continue
         j0, j1 = max(0, int(math.floor(cmin)) - 1), min(w - 1, int(math.floor(cmax)) + 1)
         i0, i1 = max(0, int(math.floor(rmin)) - 1), min(h - 1, int(math.floor(rmax)) + 1)
-        if j0 > j1 or i0 > i1:
-            continue
-        if prefix[i1 + 1, j1 + 1] - prefix[i0, j1 + 1] - prefix[i1 + 1, j0] \
-                + prefix[i0, j0] == 0:
+        if j0 > j1 or i0 > i1 or row_start[i1 + 1] == row_start[i0]:
             continue
         for i in range(i0, i1 + 1):
-            for j in range(j0, j1 + 1):
-                s = slot[i, j]
-                if s < 0:
-                    continue
-                if not _meets(tri2, t, j - slack, i - slack, j + 1 + slack, i + 1 + slack):
-                    continue
-                if fill:
-                    if count[s] < start[s + 1] - start[s]:
+            # the row's first tested pixel at a column >= j0 (binary search)
+            lo, hi = row_start[i], row_start[i + 1]
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if pix_j[mid] < j0:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            s = lo
+            while s < row_start[i + 1] and pix_j[s] <= j1:
+                j = pix_j[s]
+                if _meets(tri2, t, j - slack, i - slack, j + 1 + slack, i + 1 + slack):
+                    if fill and count[s] < start[s + 1] - start[s]:
                         cand[start[s] + count[s]] = t
                     count[s] += 1
-                else:
-                    count[s] += 1
+                s += 1
 
 
 @njit_cached()
@@ -266,17 +278,24 @@ def _side_covered(loc, m, mx, my, nx, ny, sx, sy, tol):  # pragma: no cover
 @njit_cached()
 def _segment(loc, s, q0, q1):  # pragma: no cover
     """Segment ``s`` of the cover test: the square's sides (0-3, counter-clockwise: inside
-    on the left), then the triangles' edges (``4 + 3 t + k``): its ends."""
+    on the left), then the triangles' edges (``4 + 3 t + k``): its ends, and whether they
+    are in the triangle's counter-clockwise order. A triangle's edge runs from its
+    lexicographically smaller end (column, then row), so that the copies of an edge shared
+    by two triangles are the same segment and give bit-identical crossings."""
     if s < 4:
         if s == 0:
-            return q0, q0, q1, q0
+            return q0, q0, q1, q0, True
         if s == 1:
-            return q1, q0, q1, q1
+            return q1, q0, q1, q1, True
         if s == 2:
-            return q1, q1, q0, q1
-        return q0, q1, q0, q0
+            return q1, q1, q0, q1, True
+        return q0, q1, q0, q0, True
     t, k = (s - 4) // 3, (s - 4) % 3
-    return loc[t, k, 0], loc[t, k, 1], loc[t, (k + 1) % 3, 0], loc[t, (k + 1) % 3, 1]
+    ax, ay = loc[t, k, 0], loc[t, k, 1]
+    bx, by = loc[t, (k + 1) % 3, 0], loc[t, (k + 1) % 3, 1]
+    if bx < ax or (bx == ax and by < ay):
+        return bx, by, ax, ay, False
+    return ax, ay, bx, by, True
 
 
 @njit_cached()
@@ -316,9 +335,10 @@ def _in_some(loc, m, x, y, tol):  # pragma: no cover
 @njit_cached()
 def _covers(loc, m, q0, q1, tol, params, live):  # pragma: no cover
     """Whether the first ``m`` triangles ``loc`` (pixel-relative, counter-clockwise)
-    cover the square [q0, q1]^2: no piece of a side of the square or of a triangle's edge
-    within it has its tested side uncovered (the module docstring's argument). A point of
-    a 3 x 3 grid over the square in no triangle answers no at once."""
+    cover the square [q0, q1]^2: no piece longer than ``tol`` of a side of the square or
+    of a triangle's edge within it has its tested side uncovered (the module docstring's
+    argument). A point of a 3 x 3 grid over the square in no triangle answers no at
+    once."""
     for a in range(3):
         for b in range(3):
             x = q0 + 0.5 * a * (q1 - q0)
@@ -328,14 +348,14 @@ def _covers(loc, m, q0, q1, tol, params, live):  # pragma: no cover
     # the segments meeting the square (only they can split a piece inside it)
     nlive = 0
     for s in range(4 + 3 * m):
-        px, py, qx, qy = _segment(loc, s, q0, q1)
+        px, py, qx, qy, _ = _segment(loc, s, q0, q1)
         ta, tb = _clipped(px, py, qx - px, qy - py, q0, q1)
         if tb >= ta:
             live[nlive] = s
             nlive += 1
     for si in range(nlive):
         s = live[si]
-        px, py, qx, qy = _segment(loc, s, q0, q1)
+        px, py, qx, qy, ccw = _segment(loc, s, q0, q1)
         dx, dy = qx - px, qy - py
         length = math.sqrt(dx * dx + dy * dy)
         if length == 0.0:
@@ -344,9 +364,9 @@ def _covers(loc, m, q0, q1, tol, params, live):  # pragma: no cover
         if tb <= ta:
             continue
         # the tested side: the square's inside (left of its sides), a triangle's outside
-        # (right of its counter-clockwise edges)
+        # (right of its counter-clockwise edges, left when the edge runs the other way)
         sx, sy = dx / length, dy / length
-        if s < 4:
+        if s < 4 or not ccw:
             nx, ny = -sy, sx
         else:
             nx, ny = sy, -sx
@@ -360,7 +380,7 @@ def _covers(loc, m, q0, q1, tol, params, live):  # pragma: no cover
             o = live[oi]
             if o == s:
                 continue
-            ax, ay, bx, by = _segment(loc, o, q0, q1)
+            ax, ay, bx, by, _ = _segment(loc, o, q0, q1)
             ex, ey = bx - ax, by - ay
             den = dx * ey - dy * ex
             le = math.sqrt(ex * ex + ey * ey)
@@ -377,9 +397,10 @@ def _covers(loc, m, q0, q1, tol, params, live):  # pragma: no cover
                 params[n] = a
                 n += 1
         ps = np.sort(params[:n])
+        short = tol / length  # a piece no longer than the tolerance is not tested
         for k in range(n - 1):
             lo, hi = max(ps[k], ta), min(ps[k + 1], tb)
-            if hi <= lo:
+            if hi - lo <= short:
                 continue
             mid = 0.5 * (lo + hi)
             mx, my = px + mid * dx, py + mid * dy
@@ -464,15 +485,20 @@ def junction_depths(vertices: np.ndarray, faces: np.ndarray, todo: np.ndarray,
 
     Returns
     -------
-    (H, W) float64
-        The reach of the shortest covering prefix of each covered pixel of ``todo``;
-        ``inf`` elsewhere.
+    (k,) float64
+        For each of the ``k`` pixels of ``todo``, in row-major order (that of
+        ``todo[mask]`` and ``np.nonzero(todo)``), the reach of the shortest covering prefix
+        of its triangles; ``inf`` where none covers it.
+
+    Notes
+    -----
+    No array of the frame's size is made: the triangles are binned to the tested pixels
+    through each row's run of them.
     """
     h, w = todo.shape
-    out = np.full((h, w), np.inf)
     pix_i, pix_j = np.nonzero(todo)
     if not len(pix_i):
-        return out
+        return np.full(0, np.inf)
     f, r, u = basis
     rel = np.asarray(vertices, dtype=np.float64) - np.asarray(eye, dtype=np.float64)
     vc = np.ascontiguousarray(np.stack([rel @ r, rel @ u, rel @ f], axis=1))
@@ -480,21 +506,17 @@ def junction_depths(vertices: np.ndarray, faces: np.ndarray, todo: np.ndarray,
     tri2 = np.empty((len(faces), 3, 2))
     ok = np.empty(len(faces), dtype=bool)
     _project(vc, faces, z0, hx, hy, w, h, tri2, ok)
-    slot = np.full((h, w), -1, dtype=np.int64)
-    slot[pix_i, pix_j] = np.arange(len(pix_i))
-    prefix = np.zeros((h + 1, w + 1), dtype=np.int64)
-    prefix[1:, 1:] = np.cumsum(np.cumsum(todo, axis=0), axis=1)
+    row_start = np.searchsorted(pix_i, np.arange(h + 1))
     count = np.zeros(len(pix_i), dtype=np.int64)
     start = np.zeros(len(pix_i) + 1, dtype=np.int64)
     cand = np.zeros(0, dtype=np.int64)
-    _bins(tri2, ok, slot, prefix, slack, count, False, start, cand)
+    _bins(tri2, ok, pix_i, pix_j, row_start, w, slack, count, False, start, cand)
     start[1:] = np.cumsum(np.minimum(count, MAX_CANDIDATES + 1))
     cand = np.zeros(int(start[-1]), dtype=np.int64)
     full = count.copy()
     count[:] = 0
-    _bins(tri2, ok, slot, prefix, slack, count, True, start, cand)
+    _bins(tri2, ok, pix_i, pix_j, row_start, w, slack, count, True, start, cand)
     depth = np.empty(len(pix_i))
     _cover_pixels(tri2, vc, faces, cand, start, pix_i, pix_j, slack, w, h, hx, hy, depth)
     depth[full > MAX_CANDIDATES] = np.inf  # over the budget: listed short, left open
-    out[pix_i, pix_j] = depth
-    return out
+    return depth

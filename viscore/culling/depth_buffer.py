@@ -766,9 +766,10 @@ def _junction_fill(occ: OccluderScene, corner_tri: np.ndarray, depth: np.ndarray
         return
     z0, _ = _near_cut(size, hx, hy)
     found = junction_depths(occ._vertices, occ._faces, todo, np.asarray(eye, dtype=np.float64),
-                            basis, hx, hy, z0, _SEGMENT_SLACK)
+                            basis, hx, hy, z0, _SEGMENT_SLACK)  # todo's pixels, row-major
     new = np.isfinite(found)
-    depth[new] = found[new] + margin
+    ii, jj = np.nonzero(todo)
+    depth[ii[new], jj[new]] = found[new] + margin
 
 
 def _near_patches(occ: OccluderScene, patch: np.ndarray, eye: np.ndarray, reach: float
