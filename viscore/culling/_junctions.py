@@ -70,6 +70,7 @@ import math
 import numpy as np
 
 from .._jit import njit_cached
+from .._sort_kernels import sort_prefix, stable_order
 
 __all__ = ["junction_depths", "MAX_CANDIDATES", "MAX_USED", "ON_EDGE"]
 
@@ -396,7 +397,8 @@ def _covers(loc, m, q0, q1, tol, params, live):  # pragma: no cover
             if b >= -slackb and b <= 1.0 + slackb:
                 params[n] = a
                 n += 1
-        ps = np.sort(params[:n])
+        sort_prefix(params, n)  # params[:n] ascending
+        ps = params
         short = tol / length  # a piece no longer than the tolerance is not tested
         for k in range(n - 1):
             lo, hi = max(ps[k], ta), min(ps[k + 1], tb)
@@ -419,6 +421,8 @@ def _cover_pixels(tri2, vc, faces, cand, start, pix_i, pix_j, slack, w, h, hx, h
     loc = np.empty((MAX_USED, 3, 2))
     params = np.empty(2 + 2 * (4 + 3 * MAX_USED) + 8)
     live = np.empty(4 + 3 * MAX_USED, dtype=np.int64)
+    order_a = np.empty(MAX_CANDIDATES, dtype=np.int64)
+    order_b = np.empty(MAX_CANDIDATES, dtype=np.int64)
     for p in range(len(pix_i)):
         out[p] = np.inf
         n = start[p + 1] - start[p]
@@ -430,7 +434,7 @@ def _cover_pixels(tri2, vc, faces, cand, start, pix_i, pix_j, slack, w, h, hx, h
         for k in range(n):
             reach[k] = _reach(tri2, vc, faces, cand[start[p] + k], c0, r0, c1, r1, w, h, hx,
                               hy, poly, tmp)
-        order = np.argsort(reach)
+        order = stable_order(reach, n, order_a, order_b)
         m = 0
         big = 1.0
         for k in range(n):
