@@ -147,9 +147,10 @@ def _line_distances(x, n, out):  # pragma: no cover
 
 @njit_cached(nogil=True)
 def _root_table(n):  # pragma: no cover
-    """``(n * n + 1,) float64``: ``sqrt(d / 4)`` for every ``d`` up to ``n^2``, the
-    distances (pixels) of :func:`_image_measure` in an image whose sides are at least
-    ``n`` pixels at most (the same operations as computing each one)."""
+    """``(n * n + 1,) float64``: ``sqrt(d / 4)`` for every ``d`` up to ``n^2``: every
+    distance (pixels) :func:`_image_measure` finds in an image whose shorter side is
+    at most ``n`` pixels (a covered pixel's is at most half of each side), by the same
+    operations as computing each one (the same bits)."""
     out = np.empty(n * n + 1)
     for d in range(n * n + 1):
         out[d] = np.sqrt(np.float64(d) * 0.25)
@@ -166,7 +167,7 @@ def _image_measure(img, rows, cols, roots):  # pragma: no cover
     integers; :func:`_line_distances`); ``roots`` is :func:`_root_table` of at least
     ``min(H, W)``.
 
-    A covered pixel's distance is the least, over rows ``i + p`` and columns ``j + p``,
+    A covered pixel's distance is the least, over rows ``i +- p`` and columns ``j +- p``,
     of ``4 p^2`` plus that line's distance at the pixel's column or row; the search
     goes out from ``p = 1`` and stops once ``4 p^2`` reaches the least found (no
     farther line can give less). The border's crossings bound the first value by
