@@ -8,9 +8,6 @@ References
 .. [1] Silvennoinen, A., Saransaari, H., Laine, S., Lehtinen, J. "Occluder
    Simplification using Planar Sections". Computer Graphics Forum 33(1),
    2014, pp. 235-245. :DOI:`10.1111/cgf.12271` (sec. 3)
-.. [2] Felzenszwalb, P. F., Huttenlocher, D. P. "Distance Transforms of
-   Sampled Functions". Theory of Computing 8, 2012, pp. 415-428.
-   :DOI:`10.4086/toc.2012.v008a019`
 """
 
 from __future__ import annotations
@@ -118,118 +115,96 @@ def _fill_polygons(xs, ys, starts, out, k):  # pragma: no cover
 
 
 #: The measure kernel keeps squared distances times 4 as integers (pixel centres and
-#: crossings on a grid of half pixels: exact, and its envelope compares intersections by
-#: cross-multiplying instead of dividing); this stands for "no crossing".
+#: crossings on a grid of half pixels: exact); this stands for "no crossing".
 _FAR = 2**62
 
 
 @njit_cached(nogil=True)
-def _envelope4(f, n, out, v, zn, zd):  # pragma: no cover
-    """``out[q] = min_p 4 (q - p)^2 + f[p]`` for q < n, integers, over the p with ``f[p]`` under
-    :data:`_FAR` (all :data:`_FAR`: ``out`` is :data:`_FAR`).
+def _line_distances(x, n, out):  # pragma: no cover
+    """``out[j]`` (j < n): 4 x the squared distance from pixel j of the line ``x`` to the
+    nearest crossing along the line (half-way between two neighbours that differ;
+    outside the line is background), :data:`_FAR` where the line has none.
 
-    The lower envelope of parabolas (Felzenszwalb, Huttenlocher [2]_, DT(f)), with each
-    intersection kept as a fraction ``zn / zd`` (zd > 0) and compared exactly. Scratch:
-    ``v``, ``zn``, ``zd`` (>= n,) int64.
+    One pass over the line's runs of equal pixels: a run ``[s, e)`` has its crossings
+    at ``2s - 1`` (unless it is background starting the line) and ``2e - 1`` (unless it
+    is background ending it), in half pixels.
     """
-    k = -1
-    for q in range(n):
-        fq = f[q]
-        if fq >= _FAR:
-            continue
-        if k < 0:
-            k = 0
-            v[0] = q
-            continue
-        num = 0
-        den = 1
-        while True:  # intersection with parabola v[k]: (fq + 4q^2 - fp - 4p^2) / (8 (q - p))
-            p = v[k]
-            num = fq + 4 * q * q - f[p] - 4 * p * p
-            den = 8 * (q - p)
-            if k > 0 and num * zd[k] <= zn[k] * den:
-                k -= 1
-            else:
-                break
-        k += 1
-        v[k] = q
-        zn[k] = num
-        zd[k] = den
-    if k < 0:
-        for q in range(n):
-            out[q] = _FAR
-        return
-    last = k
-    k = 0
-    for q in range(n):
-        while k < last and zn[k + 1] < q * zd[k + 1]:
-            k += 1
-        p = v[k]
-        out[q] = 4 * (q - p) * (q - p) + f[p]
+    s = 0
+    while s < n:
+        v = x[s]
+        e = s + 1
+        while e < n and x[e] == v:
+            e += 1
+        left, right = s > 0 or v, e < n or v
+        lc, rc = 2 * s - 1, 2 * e - 1
+        for j in range(s, e):
+            d = (2 * j - lc) * (2 * j - lc) if left else _FAR
+            if right and (rc - 2 * j) * (rc - 2 * j) < d:
+                d = (rc - 2 * j) * (rc - 2 * j)
+            out[j] = d
+        s = e
 
 
 @njit_cached(nogil=True)
-def _image_measure(img, buf_a, buf_b, col, tmp, v, zn, zd):  # pragma: no cover
+def _root_table(n):  # pragma: no cover
+    """``(n * n + 1,) float64``: ``sqrt(d / 4)`` for every ``d`` up to ``n^2``: every
+    distance (pixels) :func:`_image_measure` finds in an image whose shorter side is
+    at most ``n`` pixels (a covered pixel's is at most half of each side), by the same
+    operations as computing each one (the same bits)."""
+    out = np.empty(n * n + 1)
+    for d in range(n * n + 1):
+        out[d] = np.sqrt(np.float64(d) * 0.25)
+    return out
+
+
+@njit_cached(nogil=True)
+def _image_measure(img, rows, cols, roots):  # pragma: no cover
     """Sum over covered pixels of the distance (pixels) to the nearest mid-point crossing.
 
     ``img`` (H, W) bool is taken with a background border around it; the covered
-    pixels are summed row by row. Distances are found squared and times 4, as
-    integers (exact), by :func:`_envelope4`. Buffers (H, W) int64 ``buf_a``,
-    ``buf_b``; ``col``, ``tmp``, ``v``, ``zn``, ``zd`` int64 of length max(H, W).
+    pixels are summed row by row. ``rows`` and ``cols`` (H, W) int64 are scratch for
+    the distances along each row and down each column (4 x squared pixels, exact
+    integers; :func:`_line_distances`); ``roots`` is :func:`_root_table` of at least
+    ``min(H, W)``.
+
+    A covered pixel's distance is the least, over rows ``i +- p`` and columns ``j +- p``,
+    of ``4 p^2`` plus that line's distance at the pixel's column or row; the search
+    goes out from ``p = 1`` and stops once ``4 p^2`` reaches the least found (no
+    farther line can give less). The border's crossings bound the first value by
+    the pixel's distance to every side, so the search stays inside the image, and the
+    integer found is the exact squared distance times 4.
     """
     h, w = img.shape
-    # 1) crossings on rows (between horizontal neighbours), nearest along the row; with
-    # pixel j at 2j, the crossing before it at 2j - 1 and after it at 2j + 1
     for i in range(h):
-        seen, last = False, 0
-        for j in range(w):
-            left = img[i, j - 1] if j > 0 else False
-            if img[i, j] != left:
-                seen, last = True, 2 * j - 1
-            buf_a[i, j] = (2 * j - last) * (2 * j - last) if seen else _FAR
-        seen, nxt = False, 0
-        for j in range(w - 1, -1, -1):
-            right = img[i, j + 1] if j < w - 1 else False
-            if img[i, j] != right:
-                seen, nxt = True, 2 * j + 1
-            if seen:
-                d = (nxt - 2 * j) * (nxt - 2 * j)
-                if d < buf_a[i, j]:
-                    buf_a[i, j] = d
-    for j in range(w):  # envelope down each column
-        for i in range(h):
-            col[i] = buf_a[i, j]
-        _envelope4(col, h, tmp, v, zn, zd)
-        for i in range(h):
-            buf_a[i, j] = tmp[i]
-    # 2) crossings on columns (between vertical neighbours), nearest along the column
+        _line_distances(img[i], w, rows[i])
     for j in range(w):
-        seen, last = False, 0
-        for i in range(h):
-            up = img[i - 1, j] if i > 0 else False
-            if img[i, j] != up:
-                seen, last = True, 2 * i - 1
-            buf_b[i, j] = (2 * i - last) * (2 * i - last) if seen else _FAR
-        seen, nxt = False, 0
-        for i in range(h - 1, -1, -1):
-            down = img[i + 1, j] if i < h - 1 else False
-            if img[i, j] != down:
-                seen, nxt = True, 2 * i + 1
-            if seen:
-                d = (nxt - 2 * i) * (nxt - 2 * i)
-                if d < buf_b[i, j]:
-                    buf_b[i, j] = d
+        _line_distances(img[:, j], h, cols[:, j])
     total = 0.0
-    for i in range(h):  # envelope along each row, then the minimum of both families
+    for i in range(h):
         for j in range(w):
-            col[j] = buf_b[i, j]
-        _envelope4(col, w, tmp, v, zn, zd)
-        for j in range(w):
-            if img[i, j]:
-                d = tmp[j]
-                if buf_a[i, j] < d:
-                    d = buf_a[i, j]
-                total += np.sqrt(np.float64(d) * 0.25)
+            if not img[i, j]:
+                continue
+            best = rows[i, j]
+            if cols[i, j] < best:
+                best = cols[i, j]
+            p = 1
+            pp = 4
+            while pp < best:  # p <= i, h-1-i, j, w-1-j: inside the image
+                d = pp + rows[i - p, j]
+                if d < best:
+                    best = d
+                d = pp + rows[i + p, j]
+                if d < best:
+                    best = d
+                d = pp + cols[i, j - p]
+                if d < best:
+                    best = d
+                d = pp + cols[i, j + p]
+                if d < best:
+                    best = d
+                p += 1
+                pp = 4 * p * p
+            total += roots[best]
     return total
 
 
@@ -242,14 +217,9 @@ def _soup_totals(ids, union, bitmaps, base, use_area, out):  # pragma: no cover
     """
     _, nd, h, w = bitmaps.shape
     img = np.empty((h, w), np.bool_)
-    buf_a = np.empty((h, w), np.int64)
-    buf_b = np.empty((h, w), np.int64)
-    m = max(h, w)
-    col = np.empty(m, np.int64)
-    tmp = np.empty(m, np.int64)
-    env_v = np.empty(m, np.int64)
-    env_zn = np.empty(m, np.int64)
-    env_zd = np.empty(m, np.int64)
+    rows = np.empty((h, w), np.int64)
+    cols = np.empty((h, w), np.int64)
+    roots = _root_table(min(h, w)) if not use_area else np.empty(0)
     for t in range(len(ids)):
         i = ids[t]
         total = 0.0
@@ -272,8 +242,7 @@ def _soup_totals(ids, union, bitmaps, base, use_area, out):  # pragma: no cover
             elif use_area:
                 total += base[k] + adds
             else:  # the covered pixels' bounding box: outside it is background anyway
-                total += _image_measure(img[a0:a1 + 1, b0:b1 + 1], buf_a, buf_b, col, tmp,
-                                        env_v, env_zn, env_zd)
+                total += _image_measure(img[a0:a1 + 1, b0:b1 + 1], rows, cols, roots)
         out[t] = total
     return out
 
@@ -282,16 +251,11 @@ def _soup_totals(ids, union, bitmaps, base, use_area, out):  # pragma: no cover
 def _images_measures(images, out):  # pragma: no cover
     """``out[k]`` = :func:`_image_measure` of ``images[k]`` (pixel units)."""
     h, w = images.shape[1:]
-    m = max(h, w)
-    buf_a = np.empty((h, w), np.int64)
-    buf_b = np.empty((h, w), np.int64)
-    col = np.empty(m, np.int64)
-    tmp = np.empty(m, np.int64)
-    env_v = np.empty(m, np.int64)
-    env_zn = np.empty(m, np.int64)
-    env_zd = np.empty(m, np.int64)
+    rows = np.empty((h, w), np.int64)
+    cols = np.empty((h, w), np.int64)
+    roots = _root_table(min(h, w))
     for k in range(len(images)):
-        out[k] = _image_measure(images[k], buf_a, buf_b, col, tmp, env_v, env_zn, env_zd)
+        out[k] = _image_measure(images[k], rows, cols, roots)
 
 
 #: Fewest items (candidates of a greedy step, images of a measure) per thread: below

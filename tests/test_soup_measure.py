@@ -73,3 +73,47 @@ def test_totals_are_the_definition_of_each_union_bit_for_bit():
         want.append(total)
     assert got.tobytes() == np.array(want).tobytes()
     assert got[2] == base.sum()  # a candidate that adds nothing keeps the union's measure
+
+
+def _deep_images(seed: int) -> np.ndarray:
+    """64 x 64 discs, squares and rings, deep inside (distances of many pixels), an image
+    covered whole, one row and one column: the measure's search reaches far."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[:64, :64]
+    out = [np.ones((64, 64), bool)]
+    for _ in range(4):
+        cy, cx, r = rng.uniform(10, 54, size=2).tolist() + [rng.uniform(8, 40)]
+        disc = (yy - cy) ** 2 + (xx - cx) ** 2 < r * r
+        out.append(disc)
+        out.append(disc & ~((yy - cy) ** 2 + (xx - cx) ** 2 < (r / 2) ** 2))
+    square = np.zeros((64, 64), bool)
+    square[3:61, 5:50] = True
+    out.append(square)
+    line = np.zeros((64, 64), bool)
+    line[40, :] = True
+    line[:, 2] = True
+    out.append(line)
+    return np.array(out)
+
+
+def test_measures_of_deep_images_are_the_definition_bit_for_bit():
+    images = _deep_images(3)
+    got = soup_measures(images, 1.0)
+    want = np.array([_by_definition(img) for img in images])
+    assert got.tobytes() == want.tobytes()
+    # the whole square: a pixel's distance is to the nearest side
+    ii, jj = np.mgrid[:64, :64]
+    side = np.minimum(np.minimum(ii, 63 - ii), np.minimum(jj, 63 - jj)) + 0.5
+    assert got[0] == pytest.approx(side.sum(), rel=1e-12)
+
+
+def test_totals_of_deep_images_in_one_box_are_the_definition_bit_for_bit():
+    images = _deep_images(4)
+    union = np.zeros((2, 64, 64), bool)
+    union[0, 20:30, 20:30] = True  # the candidates add to it, in a box around both
+    bitmaps = images[:, None].repeat(2, axis=1)
+    base = soup_measures(union, 1.0)
+    ids = np.arange(len(images))
+    got = soup_totals(ids, union, bitmaps, base)
+    want = [_by_definition(union[0] | images[i]) + _by_definition(images[i]) for i in ids]
+    assert got.tobytes() == np.array(want).tobytes()
