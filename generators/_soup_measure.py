@@ -18,6 +18,7 @@ import numpy as np
 
 from viscore import camera_basis, directions_fibonacci
 from viscore._jit import njit_cached
+from viscore._sort_kernels import sort_prefix
 from viscore._validate import check_memory
 
 __all__ = ["measure_directions", "measure_bases", "project_candidates", "soup_measures",
@@ -92,7 +93,9 @@ def _fill_polygons(xs, ys, starts, out, k):  # pragma: no cover
     cross = np.empty(len(xs))
     for i in range(n):
         s, e = starts[i], starts[i + 1]
-        ymin, ymax = ys[s:e].min(), ys[s:e].max()
+        ymin = ymax = ys[s]
+        for a in range(s + 1, e):
+            ymin, ymax = min(ymin, ys[a]), max(ymax, ys[a])
         r0 = max(0, int(np.ceil(ymin - 0.5)))
         r1 = min(r - 1, int(np.floor(ymax - 0.5)))
         for row in range(r0, r1 + 1):
@@ -106,7 +109,8 @@ def _fill_polygons(xs, ys, starts, out, k):  # pragma: no cover
                     m += 1
             if m < 2:
                 continue
-            c = np.sort(cross[:m])
+            sort_prefix(cross, m)  # cross[:m] ascending
+            c = cross
             for t in range(0, m - 1, 2):
                 c0 = max(0, int(np.ceil(c[t] - 0.5)))
                 c1 = min(r, int(np.ceil(c[t + 1] - 0.5)))
