@@ -73,10 +73,19 @@ def _selection_kernels() -> dict:
     }
 
 
+def _metric_kernels() -> dict:
+    """The quad tally every occluder score runs (:func:`viscore.metrics.quads.occluder_counts`:
+    the cached quads are int16): kernel -> signatures."""
+    from viscore.metrics.quads import _coverage_tally
+
+    return {_coverage_tally: ["(boolean[:, ::1], int16[:, ::1], int32[::1], int32[::1], "
+                              "int64[::1])"]}
+
+
 def prepare_kernels() -> None:
     """Compile (or load from numba's cache) the kernels every study job and the culling
     column use: the ray core's, box growth, the soup measure, polygon chains, planar
-    sections' slices and hybrid's face tallies.
+    sections' slices, hybrid's face tallies and the quad tally of every score.
 
     Called before forking workers: they start with the kernels compiled. Half
     is compiled in a forked helper (:func:`viscore._jobs.compile_ahead`) while
@@ -88,5 +97,6 @@ def prepare_kernels() -> None:
     from viscore._jit import compile_kernels
     from viscore._jobs import compile_ahead
 
-    compile_ahead([_ray_kernels, lambda: compile_kernels(_selection_kernels())],
+    compile_ahead([_ray_kernels, lambda: compile_kernels(_selection_kernels()),
+                   lambda: compile_kernels(_metric_kernels())],
                   [lambda: compile_kernels(_measure_kernels())])

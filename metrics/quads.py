@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from viscore._jit import njit_cached
+
 __all__ = ["QuadCounts", "sample_quads", "classify_quads", "classify_quads_depth",
            "summed_area_table"]
 
@@ -338,6 +340,12 @@ def occluder_counts(ref: ImageQuads, occluder_region: np.ndarray | None) -> Quad
     """
     if ref.quads is None:
         return QuadCounts(0, 0, 0, 0)
+    if occluder_region is not None and ref.levels is None and occluder_region.dtype == bool:
+        counts = np.zeros(6, dtype=np.int64)
+        _coverage_tally(np.ascontiguousarray(occluder_region), ref.quads, ref.n, ref.a, counts)
+        nt, pf, nf, q_orig, q_occ, q_both = (int(c) for c in counts)
+        return QuadCounts(nt=nt, pf=pf, nf=nf, quads=len(ref.quads), q_orig=q_orig,
+                          q_occ=q_occ, q_both=q_both)
     quads = ref.quads.astype(np.int64)
     if occluder_region is None:
         b = np.zeros(len(quads), dtype=np.int64)
@@ -346,3 +354,37 @@ def occluder_counts(ref: ImageQuads, occluder_region: np.ndarray | None) -> Quad
     else:
         b = rect_sums(occluder_region, quads)
     return tally(ref.n, ref.a, b)  # type: ignore[arg-type]
+
+
+@njit_cached(nogil=True)
+def _coverage_tally(region, quads, n, a, out):  # pragma: no cover - compiled
+    """:func:`tally` of the occluder's coverage ``region`` over ``quads`` (row0, col0, row1,
+    col1 in the region), as :func:`rect_sums` and :func:`tally` count it, in one pass:
+    ``out`` gets nt, pf, nf, q_orig, q_occ, q_both. Integer counts: the same as theirs."""
+    h, w = region.shape
+    sat = np.zeros((h + 1, w + 1), dtype=np.int64)
+    for i in range(h):
+        run = 0
+        for j in range(w):
+            run += region[i, j]
+            sat[i + 1, j + 1] = sat[i, j + 1] + run
+    nt = pf = nf = q_orig = q_occ = q_both = 0
+    for k in range(quads.shape[0]):
+        r0, c0, r1, c1 = quads[k, 0], quads[k, 1], quads[k, 2], quads[k, 3]
+        b = sat[r1, c1] - sat[r0, c1] - sat[r1, c0] + sat[r0, c0]
+        nk, ak = n[k], a[k]
+        full_a = ak == nk
+        full_b = b == nk
+        if full_a:
+            q_orig += 1
+        if full_b:
+            q_occ += 1
+        if full_a and full_b:
+            q_both += 1
+            nt += nk
+        elif full_a:
+            pf += nk
+        elif full_b:
+            nf += nk - ak
+    out[0], out[1], out[2] = nt, pf, nf
+    out[3], out[4], out[5] = q_orig, q_occ, q_both

@@ -70,3 +70,18 @@ def test_generator_kernels_prepared_are_those_the_generators_use():
     occ = generate_aabb_skins(trimesh.creation.box(extents=(2, 1, 1)), voxels=8)
     assert occ.triangles == 12  # one box: the whole solid
     assert _versions(grow_boxes) == before
+
+
+def test_metric_kernel_prepared_is_the_one_a_score_uses():
+    from viscore._jit import compile_kernels
+    from viscore.generators._kernels import _metric_kernels
+    from viscore.metrics.quads import _coverage_tally
+    from viscore.metrics.reference_views import ReferenceViews
+
+    compile_kernels(_metric_kernels())
+    before = _versions(_coverage_tally)
+    assert before >= 1
+    box = trimesh.creation.box()
+    pr = ReferenceViews(box, protocol="orbit", views=4, resolution=32, seed=0).score(box)
+    assert pr.precision == 1.0 and pr.recall == 1.0  # the mesh itself: P = R = 1
+    assert _versions(_coverage_tally) == before

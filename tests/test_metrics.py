@@ -34,6 +34,35 @@ def test_classify_quads_hand_counts():
     assert (c.nt, c.pf, c.nf) == (4, 4, 2)
 
 
+def test_occluder_counts_kernel_matches_hand_and_table_counts():
+    """The one-pass coverage tally counts as the summed-area tables and tally() do: on a
+    hand case, and on random images and quads (int16 as cached, boxes at image edges)."""
+    from viscore.metrics.quads import ImageQuads, occluder_counts, rect_sums, tally
+
+    orig = np.ones((4, 4), bool)
+    occ = orig.copy()
+    occ[0, 0] = False
+    quads = np.array([[0, 0, 2, 2], [2, 2, 4, 4]], dtype=np.int16)
+    n = np.array([4, 4], np.int32)
+    ref = ImageQuads(0, 0, (0, 0, 4, 4), quads, n, rect_sums(orig, quads).astype(np.int32))
+    c = occluder_counts(ref, occ)
+    assert (c.nt, c.pf, c.nf, c.quads, c.q_orig, c.q_occ, c.q_both) == (4, 4, 0, 2, 2, 1, 1)
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        h, w = rng.integers(1, 40, size=2)
+        original = rng.random((h, w)) < rng.random()
+        occluder = rng.random((h, w)) < rng.random()
+        r0 = rng.integers(0, h, 300)
+        c0 = rng.integers(0, w, 300)
+        q = np.stack([r0, c0, rng.integers(r0 + 1, h + 1), rng.integers(c0 + 1, w + 1)],
+                     axis=1).astype(np.int16)
+        n = ((q[:, 2] - q[:, 0]) * (q[:, 3] - q[:, 1])).astype(np.int32)
+        a = rect_sums(original, q.astype(np.int64)).astype(np.int32)
+        ref = ImageQuads(0, 0, (0, 0, h, w), q, n, a)
+        want = tally(n, a, rect_sums(occluder, q.astype(np.int64)))
+        assert occluder_counts(ref, occluder) == want
+
+
 def test_sample_quads_distribution_bounds():
     q = sample_quads((10, 20, 50, 100), 20000, np.random.default_rng(0))
     h, w = q[:, 2] - q[:, 0], q[:, 3] - q[:, 1]
