@@ -85,3 +85,29 @@ def test_metric_kernel_prepared_is_the_one_a_score_uses():
     pr = ReferenceViews(box, protocol="orbit", views=4, resolution=32, seed=0).score(box)
     assert pr.precision == 1.0 and pr.recall == 1.0  # the mesh itself: P = R = 1
     assert _versions(_coverage_tally) == before
+
+
+def test_kernels_compiled_ahead_are_found_by_a_later_call(tmp_path):
+    """A kernel compiled ahead from a signature string is loaded, not compiled again, by
+    the next process that calls it (numba files its cache by the form compile is given)."""
+    import subprocess
+    import sys
+    import textwrap
+
+    (tmp_path / "kernel_mod.py").write_text(textwrap.dedent("""
+        from viscore._jit import njit_cached
+
+        @njit_cached()
+        def twice(a):
+            return 2.0 * a.sum()
+    """))
+    ahead = ("from viscore._jit import compile_kernels; import kernel_mod; "
+             "compile_kernels({kernel_mod.twice: ['(float64[::1],)']})")
+    call = ("import numpy as np, kernel_mod; assert kernel_mod.twice(np.ones(3)) == 6.0; "
+            "s = kernel_mod.twice.stats; print(len(s.cache_hits), len(s.cache_misses))")
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    for code in (ahead, call):
+        done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
+                              capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["1", "0"]  # one version loaded, none compiled

@@ -39,6 +39,22 @@ def njit_cached(**options) -> Callable:
     return decorate
 
 
+def _argument_types(signature) -> tuple:
+    """A kernel signature as the tuple of its argument types, the form numba compiles a
+    call's version for.
+
+    numba keys its disk cache by the signature exactly as ``compile`` is given it: a
+    version compiled from the string ``"(float64[::1],)"`` is filed apart from the same
+    version compiled for a call, and each finds only its own. A kernel compiled ahead
+    from a string was compiled again by the first process that called it (a ``cull``
+    after a ``compare``, the tests), and the reverse.
+    """
+    from numba.core import sigutils
+
+    args, _ = sigutils.normalize_signature(signature)
+    return tuple(args)
+
+
 def pinned_kernels(signatures: Callable[[], dict]) -> Callable[[], None]:
     """A function that compiles (or loads from numba's cache) kernels once, each for the
     signatures ``signatures()`` maps it to, and then forbids it other versions.
@@ -61,7 +77,7 @@ def pinned_kernels(signatures: Callable[[], dict]) -> Callable[[], None]:
                 for kernel, kernel_signatures in signatures().items():
                     if hasattr(kernel, "disable_compile"):  # not under NUMBA_DISABLE_JIT
                         for signature in kernel_signatures:
-                            kernel.compile(signature)
+                            kernel.compile(_argument_types(signature))
                         kernel.disable_compile()
                 ready = True
 
@@ -87,4 +103,4 @@ def compile_kernels(signatures: dict) -> None:
     for kernel, kernel_signatures in signatures.items():
         if hasattr(kernel, "compile"):  # not under NUMBA_DISABLE_JIT
             for signature in kernel_signatures:
-                kernel.compile(signature)
+                kernel.compile(_argument_types(signature))
