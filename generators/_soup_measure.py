@@ -100,7 +100,7 @@ def _fill_polygons(xs, ys, starts, out, k):  # pragma: no cover
         r1 = min(r - 1, int(np.floor(ymax - 0.5)))
         for row in range(r0, r1 + 1):
             yc = row + 0.5
-            m = 0
+            m = np.int64(0)  # not the literal 0: sort_prefix compiled once, for int64
             for a in range(s, e):
                 b = a + 1 if a + 1 < e else s
                 ya, yb = ys[a], ys[b]
@@ -179,8 +179,8 @@ def _image_measure(img, rows, cols, roots):  # pragma: no cover
     integer found is the exact squared distance times 4.
     """
     h, w = img.shape
-    for i in range(h):
-        _line_distances(img[i], w, rows[i])
+    for i in range(h):  # rows[i, ::1]: a view of the columns' layout, one compiled version
+        _line_distances(img[i], w, rows[i, ::1])
     for j in range(w):
         _line_distances(img[:, j], h, cols[:, j])
     total = 0.0
@@ -253,13 +253,25 @@ def _soup_totals(ids, union, bitmaps, base, use_area, out):  # pragma: no cover
 
 @njit_cached(nogil=True)
 def _images_measures(images, out):  # pragma: no cover
-    """``out[k]`` = :func:`_image_measure` of ``images[k]`` (pixel units)."""
+    """``out[k]`` = :func:`_image_measure` of ``images[k]`` (pixel units), measured over
+    its covered pixels' bounding box as :func:`_soup_totals` measures (outside it is
+    background: the same distances, so the same sum; and the same compiled version of
+    :func:`_image_measure`, on a view of that layout)."""
     h, w = images.shape[1:]
     rows = np.empty((h, w), np.int64)
     cols = np.empty((h, w), np.int64)
     roots = _root_table(min(h, w))
     for k in range(len(images)):
-        out[k] = _image_measure(images[k], rows, cols, roots)
+        a0, a1, b0, b1 = h, -1, w, -1
+        for a in range(h):
+            for b in range(w):
+                if images[k, a, b]:
+                    a0 = min(a0, a)
+                    a1 = max(a1, a)
+                    b0 = min(b0, b)
+                    b1 = max(b1, b)
+        out[k] = 0.0 if a1 < 0 else _image_measure(images[k, a0:a1 + 1, b0:b1 + 1], rows,
+                                                    cols, roots)
 
 
 #: Fewest items (candidates of a greedy step, images of a measure) per thread: below

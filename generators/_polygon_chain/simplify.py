@@ -77,11 +77,12 @@ def _is_ear(x, y, nxt, prv, alive_list, m, a, b, c):  # pragma: no cover
         if at_a or at_b or at_c:
             for q in (nxt[p], prv[p]):
                 qx, qy = x[q], y[q]
-                if at_a and _enters(px, py, qx, qy, ax, ay, bx, by, cx, cy, 2):
+                # the arms as int64 values, not literals: one compiled _enters, not three
+                if at_a and _enters(px, py, qx, qy, ax, ay, bx, by, cx, cy, np.int64(2)):
                     return False
-                if at_b and _enters(px, py, qx, qy, bx, by, cx, cy, ax, ay, 0):
+                if at_b and _enters(px, py, qx, qy, bx, by, cx, cy, ax, ay, np.int64(0)):
                     return False
-                if at_c and _enters(px, py, qx, qy, cx, cy, ax, ay, bx, by, 1):
+                if at_c and _enters(px, py, qx, qy, cx, cy, ax, ay, bx, by, np.int64(1)):
                     return False
         elif _in_closed_triangle(px, py, ax, ay, bx, by, cx, cy):
             return False
