@@ -97,6 +97,6 @@ def prepare_kernels() -> None:
     from viscore._jit import compile_kernels
     from viscore._jobs import compile_ahead
 
-    compile_ahead([_ray_kernels, lambda: compile_kernels(_selection_kernels()),
-                   lambda: compile_kernels(_metric_kernels())],
-                  [lambda: compile_kernels(_measure_kernels())])
+    compile_ahead([_ray_kernels, lambda: compile_kernels(_selection_kernels())],
+                  [lambda: compile_kernels(_measure_kernels()),
+                   lambda: compile_kernels(_metric_kernels())])
