@@ -89,6 +89,13 @@ _CLUSTER_FACTORS = (1, 2)
 #: Mesh edges clipped against a piece per batch (bounds the (edges x planes) work).
 _EDGE_BATCH = 1 << 16
 
+#: Inner voxel centres tested against a candidate's planes per batch (:func:`_covered`):
+#: 1024 x 3 x 60 (a hull's most faces) multiply-adds stay under OpenBLAS's threading
+#: threshold (2^18) and 1024 x 60 floats in cache; the CPU of ``_covered`` over the study's
+#: meshes and the city's buildings fell from 4.4 to 0.7 s on 2 busy cores (batches of
+#: 4096 points or all of them at once: 4 s).
+_POINT_BATCH = 1024
+
 
 def _farthest_subset(points: np.ndarray, k: int) -> np.ndarray:
     """Indices of ``k`` points by farthest-point sampling from the first (deterministic)."""
@@ -330,13 +337,30 @@ def _inner_depth(inner: np.ndarray, index: np.ndarray) -> np.ndarray:
     return np.asarray(depth, dtype=np.float64)
 
 
-def _covered(points: np.ndarray, hull: trimesh.Trimesh) -> np.ndarray:
-    """(n,) bool: points inside the convex hull."""
-    n, d = _planes(hull)
-    lo, hi = hull.bounds
-    out = np.zeros(len(points), dtype=bool)
-    near = np.flatnonzero(((points >= lo) & (points <= hi)).all(axis=1))
-    out[near] = ((points[near] @ n.T - d) <= 0).all(axis=1)
+def _covered(points: np.ndarray, hulls: list) -> np.ndarray:
+    """(len(hulls), n) bool: which points lie inside each convex hull (its bounding box,
+    then every plane).
+
+    The plane products run over :data:`_POINT_BATCH` points at a time: the same
+    products (a row's result does not depend on the rows beside it), in a working set
+    that stays in cache and under BLAS's threading threshold (on a busy machine its
+    second thread costs more CPU than it saves, and the full (n, faces) products of a
+    city mesh's millions of inner voxels are hundreds of megabytes).
+    """
+    axes = [np.ascontiguousarray(points[:, a]) for a in range(3)]
+    out = np.zeros((len(hulls), len(points)), dtype=bool)
+    for row, hull in zip(out, hulls, strict=True):
+        n, d = _planes(hull)
+        nt = n.T
+        lo, hi = hull.bounds
+        box = (axes[0] >= lo[0]) & (axes[0] <= hi[0])
+        for a in (1, 2):
+            box &= axes[a] >= lo[a]
+            box &= axes[a] <= hi[a]
+        near = np.flatnonzero(box)
+        for s in range(0, len(near), _POINT_BATCH):  # bounded batches of points
+            at = near[s:s + _POINT_BATCH]
+            row[at] = ((points[at] @ nt - d) <= 0).all(axis=1)
     return out
 
 
@@ -408,8 +432,7 @@ def _solid_candidates(mesh: trimesh.Trimesh, size: dict, box_size: dict, source:
                     if _runtime_solid(hull):
                         candidates.append((hull, "hull", scale))
             n_boxes = len(box_meshes)
-            cover = np.array([_covered(centres, m) for m, _, _ in candidates]).reshape(
-                len(candidates), len(centres))
+            cover = _covered(centres, [m for m, _, _ in candidates])
     except BaseException:
         release(kept + later)
         raise
