@@ -274,6 +274,27 @@ def _shrink_into(hull: trimesh.Trimesh, centre: np.ndarray, test: _Containment,
     return best, low
 
 
+def _kmeans_pp(data: np.ndarray, k: int, rng: np.random.Generator) -> np.ndarray:
+    """``(k, 3) float64``: the k-means++ seeds of ``scipy.cluster.vq.kmeans2(data, k,
+    minit='++', seed=rng)`` (Arthur and Vassilvitskii 2007), drawing the same numbers.
+
+    Each point's squared distance to its nearest seed is kept and lowered by the newest
+    seed alone (the same pairwise distances and minimum as scipy's, which measures every
+    point to every seed again for each new one: k^2 / 2 passes over the points).
+    """
+    from scipy.spatial.distance import cdist
+
+    init = np.empty((k, data.shape[1]))
+    init[0] = data[rng.integers(data.shape[0], dtype=np.int64)]
+    nearest = None
+    for i in range(1, k):  # one pass over the points per seed
+        d2 = cdist(init[i - 1:i], data, metric="sqeuclidean")[0]
+        nearest = d2 if nearest is None else np.minimum(nearest, d2)
+        cumprobs = (nearest / nearest.sum()).cumsum()
+        init[i] = data[int(np.searchsorted(cumprobs, rng.uniform()))]
+    return init
+
+
 def _voxel_hulls(centres: np.ndarray, depth: np.ndarray, pitch: float, solids: int,
                  rng: np.random.Generator, test: _Containment, steps: int) -> list[tuple]:
     """Convex pieces: hulls of k-means clusters of inner voxels, shrunk inside."""
@@ -285,7 +306,7 @@ def _voxel_hulls(centres: np.ndarray, depth: np.ndarray, pitch: float, solids: i
         k = min(len(centres), solids * factor)
         if k < 1:
             continue
-        _, label = kmeans2(centres, k, minit="++", seed=rng)
+        _, label = kmeans2(centres, _kmeans_pp(centres, k, rng), minit="matrix")
         for j in range(k):  # a loop over clusters
             member = np.flatnonzero(label == j)
             if len(member) < 2:
