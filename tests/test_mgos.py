@@ -353,3 +353,23 @@ def test_any_ray_near_false_means_embree_misses(rng):
             misses += 1
             assert scene.first_hit(origin[None], direction[None])[1][0] == -1
     assert misses > 50  # the draw tests both answers
+
+
+def test_state_copy_removals_leave_the_original_unchanged(box_views):
+    """copy() shares the read-only tables: removals in the copy change none of the
+    original's arrays, and give what the same removals give on a fresh state."""
+    occ = _join(_box(), _sheet(1.5, 0.5), _sheet(-0.2, 0.3))
+    state = _State(box_views, occ, skip_unseen=True, skip_backfacing=False)
+    state.refresh_losses()
+    before = {k: v.copy() for k, v in vars(state).items() if isinstance(v, np.ndarray)}
+    trial, fresh = state.copy(), _State(box_views, occ, skip_unseen=True,
+                                        skip_backfacing=False)
+    fresh.refresh_losses()
+    for f in np.random.default_rng(5).permutation(len(occ.faces))[:8]:
+        trial.remove(int(f))
+        fresh.remove(int(f))
+    for k, v in before.items():
+        assert np.array_equal(getattr(state, k), v), k
+    for k in _State._CHANGING:
+        assert np.array_equal(getattr(trial, k), getattr(fresh, k)) or k in ("mark", "sat"), k
+    assert trial.figures() == fresh.figures()

@@ -13,6 +13,7 @@ from viscore.generators.solid_frusta import generator as solid_frusta_module
 from viscore.generators.solid_frusta.generator import (
     _Containment,
     _hull,
+    _inner_depth,
     _line_extremes,
     _segments_meet,
     generate_solid_frusta,
@@ -260,3 +261,24 @@ def test_solid_frusta_one_box_over_every_inner_voxel_skips_the_hulls(monkeypatch
     # a torus: many boxes, the hulls are still built (and win: see the volume-share test)
     generate_solid_frusta(load_mesh("fat-torus"), voxels=24, solids=3)
     assert built
+
+
+@pytest.mark.parametrize("dense", [True, False])
+def test_inner_depth_equals_the_distance_transform(dense):
+    """Both ways (the distance transform of the inner voxels' box where they fill it, a
+    k-d tree of their rim where they are sparse) give the grid's distance transform."""
+    from scipy import ndimage
+
+    inner = np.zeros((20, 24, 18), bool)
+    if dense:
+        inner[3:17, 4:20, 2:15] = True
+        inner[8:11, 9:14, 5:9] = False  # a cavity
+    else:  # two far-apart thin plates: a box of mostly empty cells
+        inner[2:18, 2, 2:16] = True
+        inner[2:18, 21, 2:16] = True
+    index = np.argwhere(inner)
+    box = np.ptp(index, axis=0) + 3
+    assert (np.prod(box) <= solid_frusta_module._EDT_CELLS_PER_VOXEL * len(index)) == dense
+    expected = ndimage.distance_transform_edt(inner)[inner]
+    got = _inner_depth(inner, index)
+    assert got.dtype == np.float64 and np.array_equal(got, expected)

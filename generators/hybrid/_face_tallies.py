@@ -384,13 +384,19 @@ class _State:
         self.seconds_cast = time.perf_counter() - start
         self.zero_loss = 0.5 * float(self.coef_r[self.coef_r > 0].min(initial=np.inf))
 
+    #: The arrays that removals change in place (:meth:`remove`, its kernel and
+    #: :meth:`_recast`) and the kernels' scratch: each copy has its own. Every other array
+    #: is read-only once cast (the hit lists, pixel maps and quads: most of the bytes).
+    _CHANGING = ("alive", "galive", "c", "full", "loss", "relief", "nt", "pf", "nf",
+                 "extra_owner", "extra_back", "sat", "ind", "mark", "buf")
+
     def copy(self) -> _State:
-        """A state that removals change apart from this one: every array and the extra
-        owners' lists copied; the reference, its images and the read-only tables shared."""
+        """A state that removals change apart from this one: the arrays they change
+        (:data:`_CHANGING`) and the extra owners' lists copied; the reference, its images
+        and the read-only tables shared."""
         other = copy.copy(self)
-        for name, value in vars(self).items():
-            if isinstance(value, np.ndarray):
-                setattr(other, name, value.copy())
+        for name in self._CHANGING:
+            setattr(other, name, getattr(self, name).copy())
         other.extras = {k: list(v) for k, v in self.extras.items()}
         return other
 
