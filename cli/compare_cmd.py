@@ -54,7 +54,8 @@ MAX_RESOLUTION = 4096
 #: so that ``viscore compare`` runs every method in about two minutes: 128 s on an idle
 #: 2-core machine, 247 CPU-s (median of 2, paired with b42f7fb's 156 s, 286 CPU-s: x0.82
 #: wall), and 174 s, 334 CPU-s, on a fresh venv's first run (numba compiling), at 2cee924;
-#: at 1b0eb5e 255 s, 464 CPU-s, and 309 s, 575 CPU-s.
+#: at 1b0eb5e 255 s, 464 CPU-s, and 309 s, 575 CPU-s. At 188aa8b, first runs 104 s, 195
+#: CPU-s (paired with eae0d7e's 108 s: x0.96), warm runs about 80 s, 150 CPU-s.
 DEFAULT_SCENES = ("fat-torus", "bunny", "building-house")
 
 #: Frames of the culling column's walk through the built-in city.
