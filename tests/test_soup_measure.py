@@ -30,6 +30,14 @@ def _by_definition(img: np.ndarray) -> float:
     return total
 
 
+def _row_and_column(shape: tuple[int, int], row: int, col: int) -> np.ndarray:
+    """One whole row and one whole column covered: lines a pixel wide, crossing."""
+    img = np.zeros(shape, bool)
+    img[row, :] = True
+    img[:, col] = True
+    return img
+
+
 def _images(seed: int) -> np.ndarray:
     """Blobs, holes, thin lines, a full and an empty image, 24 x 17."""
     rng = np.random.default_rng(seed)
@@ -41,10 +49,7 @@ def _images(seed: int) -> np.ndarray:
         blob &= ~((yy - cy) ** 2 + (xx - cx) ** 2 < (r / 3) ** 2)  # a hole
         blob |= rng.random((24, 17)) < 0.05
         out.append(blob)
-    line = np.zeros((24, 17), bool)
-    line[5, :] = True
-    line[:, 9] = True
-    out.append(line)
+    out.append(_row_and_column((24, 17), 5, 9))
     return np.array(out)
 
 
@@ -89,10 +94,7 @@ def _deep_images(seed: int) -> np.ndarray:
     square = np.zeros((64, 64), bool)
     square[3:61, 5:50] = True
     out.append(square)
-    line = np.zeros((64, 64), bool)
-    line[40, :] = True
-    line[:, 2] = True
-    out.append(line)
+    out.append(_row_and_column((64, 64), 40, 2))
     return np.array(out)
 
 
