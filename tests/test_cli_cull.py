@@ -72,9 +72,11 @@ def test_cull_small_scene_json(run, street, tmp_path, capsys):
 
 def test_cull_text_table(run, street, tmp_path, capsys):
     scene, cameras = street
+    # the paper's box test: the box behind the wall reaches the pixels of the wall's lower
+    # edge, half empty at this size (the triangle test's cover rule culls it)
     code = run(scene, "--path", cameras, "--frames", 1, "--occluders", "wall", "--methods",
                "bbox", "--frusta-method", "bbox", "--width", 32, "--height", 18, "--out",
-               tmp_path / "o", "--quiet")
+               tmp_path / "o", "--quiet", "--bounds", "box")
     captured = capsys.readouterr()
     assert code == 0, captured.err
     assert "depth-buffer:bbox" in captured.out and "ray-cast truth" in captured.out

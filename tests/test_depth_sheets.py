@@ -16,11 +16,12 @@ from viscore.culling.depth_buffer import ConservativeDepthBuffer, OccluderScene
 
 
 def _buffers(mesh, cam):
-    """The buffer with every rule, and without the sheet rule and the junction rule (which
-    covers the same pixels by the union of the triangles sharing edges there)."""
+    """The buffer with every rule, and without the sheet rule, the junction rule (which
+    covers the same pixels by the union of the triangles sharing edges there) and the
+    occludee test's cover rule (which does the same for an occludee's pixels)."""
     occ = OccluderScene([mesh])
     plain = OccluderScene([mesh])
-    plain._sheet_rule = plain._junction_rule = False
+    plain._sheet_rule = plain._junction_rule = plain._cover_rule = False
     return (ConservativeDepthBuffer.from_occluders(occ, cam),
             ConservativeDepthBuffer.from_occluders(plain, cam))
 

@@ -793,14 +793,20 @@ def _clip_to_pyramid(ax, ay, px, py, pz, qx, qy, qz, n):  # pragma: no cover
 
 @njit_cached()
 def _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, plane, px, py, pz, qx, qy, qz,
-                     sc, sr):  # pragma: no cover
+                     sc, sr, rec, nrec):  # pragma: no cover
     """Whether no ray of the buffer's screen meets triangle ``k`` of ``tri`` (m, 3, 3)
     nearer than the buffer's depth: its part in the view pyramid (clipped to the four
     side planes widened by :data:`PYRAMID_SLACK`) is empty, or every buffer pixel that
     part's projection may touch holds a depth nearer than a lower bound of the triangle's
     distance along any ray through the pixel, or is covered by one plane (``plane``,
     :func:`_fill`) that the whole clipped part lies behind. ``px`` ... ``sr`` are scratch
-    arrays of at least 8 entries."""
+    arrays of at least 8 entries.
+
+    ``rec`` (L, 3) int64 and ``nrec`` (1,) int64: with ``L > 0``, a pixel that fails is
+    listed as ``(k, row, column)`` at ``rec[nrec[0]]`` (``nrec[0]`` then grows) instead
+    of answering False, while there is room; the answer True then means hidden in every
+    pixel not listed (the listed ones are left to the cover rule of
+    :mod:`viscore.culling._occludee_cover`)."""
     h, w = depth.shape
     for m in range(3):
         dx = tri[k, m, 0] - eye[0]
@@ -888,20 +894,33 @@ def _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, plane, px, py, pz, qx,
                 # of it) before the part, which lies wholly behind it: a point that is
                 # behind the plane everywhere is behind it in this pixel too
                 tau = plane[i, j, 3]
-                if not tau < np.inf:
-                    return False
-                for m in range(n):
-                    if not plane[i, j, 0] * px[m] + plane[i, j, 1] * py[m] \
-                            + plane[i, j, 2] * pz[m] >= tau:
+                behind = tau < np.inf
+                if behind:
+                    for m in range(n):
+                        if not plane[i, j, 0] * px[m] + plane[i, j, 1] * py[m] \
+                                + plane[i, j, 2] * pz[m] >= tau:
+                            behind = False
+                            break
+                if not behind:
+                    if nrec[0] >= rec.shape[0]:
                         return False
+                    rec[nrec[0], 0] = k
+                    rec[nrec[0], 1] = i
+                    rec[nrec[0], 2] = j
+                    nrec[0] += 1
     return True
 
 
 @njit_cached()
-def occluded_triangles(tri, start, eye, r, u, f, hx, hy, depth, plane, out):
+def occluded_triangles(tri, start, eye, r, u, f, hx, hy, depth, plane, out, rec, rec_start):
     """Set ``out[g]`` for the groups of triangles (``tri[start[g]:start[g + 1]]``) of which
     every triangle is hidden in the buffer (:func:`_triangle_hidden`); a group stops at its
-    first triangle that is not."""
+    first triangle that is not.
+
+    ``rec`` (L, 3) int64 and ``rec_start`` (g + 1,) int64: with ``L > 0``, up to
+    ``L // g`` failing pixels per group are listed (:func:`_triangle_hidden`) as
+    ``rec[rec_start[g]:rec_start[g + 1]]``, and ``out[g]`` is True when every other
+    pixel passes; with ``L == 0`` nothing is listed."""
     px = np.empty(8)
     py = np.empty(8)
     pz = np.empty(8)
@@ -910,11 +929,19 @@ def occluded_triangles(tri, start, eye, r, u, f, hx, hy, depth, plane, out):
     qz = np.empty(8)
     sc = np.empty(8)
     sr = np.empty(8)
-    for g in range(start.shape[0] - 1):
+    groups = start.shape[0] - 1
+    per = rec.shape[0] // max(groups, 1)
+    nrec = np.zeros(1, dtype=np.int64)
+    for g in range(groups):
         hidden = True
+        rec_start[g] = nrec[0]
+        room = rec[rec_start[g]:rec_start[g] + per]
+        nrec[0] = 0
         for k in range(start[g], start[g + 1]):
             if not _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, plane, px, py,
-                                    pz, qx, qy, qz, sc, sr):
+                                    pz, qx, qy, qz, sc, sr, room, nrec):
                 hidden = False
                 break
+        nrec[0] = rec_start[g] + (nrec[0] if hidden else 0)
         out[g] = hidden
+    rec_start[groups] = nrec[0]

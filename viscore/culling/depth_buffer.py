@@ -64,6 +64,16 @@ SHEET_RULE = True
 #: from any sheets or meshes, covers its square (decided exactly).
 JUNCTION_RULE = True
 
+#: Whether :meth:`ConservativeDepthBuffer.occluded_triangles` decides the pixels where a
+#: triangle fails the depth test by the cover rule (:mod:`viscore.culling._occludee_cover`):
+#: occluder triangles it lies behind cover the pixel, or every part of it the triangle's
+#: projection meets.
+COVER_RULE = True
+
+#: Failing pixels (of all its triangles) an occludee may leave to the cover rule; one with
+#: more is kept (visible objects fail in many pixels and stop here).
+COVER_PIXELS = 64
+
 #: Side of the coarsest tiles, in buffer pixels (a power of two).
 _TILE = 16
 
@@ -371,6 +381,9 @@ class OccluderScene:
         self._sheet_rule = SHEET_RULE
         #: whether the junction rule covers pixels (off only to measure it)
         self._junction_rule = JUNCTION_RULE
+        #: whether the occludee test's cover rule decides the pixels a triangle fails
+        #: (off only to measure it)
+        self._cover_rule = COVER_RULE
         self._sheet_folds = True
         self._facet = np.concatenate(facet)
         raw_solid = np.concatenate(solid)
@@ -878,6 +891,11 @@ class ConservativeDepthBuffer:
         whose depth alone does not (a floor or road under the ground seen at a grazing
         angle, where the plane's farthest depth over the pixel is far). None: no
         planes (a buffer made from depths alone).
+    occluders : OccluderScene or None
+        The occluders the buffer was made from, for the cover rule of
+        :meth:`occluded_triangles` (None: a buffer made from depths alone, no rule).
+    margin : float
+        The depth margin its depths carry, world units (the cover rule's too).
     """
 
     depth: np.ndarray
@@ -885,6 +903,8 @@ class ConservativeDepthBuffer:
     hits: int
     rays: int = 0
     plane: np.ndarray | None = None
+    occluders: OccluderScene | None = None
+    margin: float = 0.0
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -1019,7 +1039,8 @@ class ConservativeDepthBuffer:
                            eye, basis, hx, hy, size, margin)
         if CONTOUR_RULE and not np.isfinite(depth).all():
             _contour_depths(occ, eye, basis, hx, hy, depth, margin)
-        return cls(depth=depth, camera=camera, hits=hits, rays=rays, plane=plane)
+        return cls(depth=depth, camera=camera, hits=hits, rays=rays, plane=plane,
+                   occluders=occ, margin=margin)
 
     def screen_rectangles(self, lower: npt.ArrayLike, upper: npt.ArrayLike
                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -1183,7 +1204,39 @@ class ConservativeDepthBuffer:
         f, r, u = cam.basis
         out = np.zeros(len(start) - 1, dtype=bool)
         plane = self.plane if self.plane is not None else np.full((*self.shape, 4), np.inf)
-        occluded_triangles(tri, start.astype(np.int64), np.asarray(cam.position,
-                           dtype=np.float64), r, u, f, cam._half, cam._half_vertical,
-                           self.depth, plane, out)
+        eye = np.asarray(cam.position, dtype=np.float64)
+        groups = len(start) - 1
+        rule = (self.occluders is not None and self.occluders._cover_rule
+                and len(self.occluders._faces) > 0)
+        rec = np.zeros((COVER_PIXELS * groups if rule else 0, 3), dtype=np.int64)
+        rec_start = np.zeros(groups + 1, dtype=np.int64)
+        occluded_triangles(tri, start.astype(np.int64), eye, r, u, f, cam._half,
+                           cam._half_vertical, self.depth, plane, out, rec, rec_start)
+        if rule and rec_start[-1]:
+            out &= self._cover_rule(tri, rec, rec_start)
         return out
+
+    def _cover_rule(self, tri: np.ndarray, rec: np.ndarray, rec_start: np.ndarray
+                    ) -> np.ndarray:
+        """(g,) bool: whether each group's listed (triangle, pixel) pairs all pass the cover
+        rule (:mod:`viscore.culling._occludee_cover`); True for a group with none."""
+        from ._occludee_cover import cover_pairs, frame_tiles
+
+        occ = self.occluders
+        assert occ is not None  # checked by the caller
+        cam = self.camera
+        f, r, u = cam.basis
+        h, w = self.depth.shape
+        eye = np.asarray(cam.position, dtype=np.float64)
+        size = occ.scene.diagonal + float(np.linalg.norm(eye - occ._center))
+        z0, _ = _near_cut(size, cam._half, cam._half_vertical)
+        vc, faces, tri2, tile_start, tiles = frame_tiles(
+            occ._vertices, occ._faces, eye, cam.basis, cam._half, cam._half_vertical, w, h, z0)
+        counts = np.diff(rec_start)  # each group's pairs follow the previous group's
+        pairs = np.ascontiguousarray(rec[:rec_start[-1]])
+        ok = np.empty(len(pairs), dtype=bool)
+        cover_pairs(tri, pairs, eye, r, u, f, cam._half, cam._half_vertical, w, h,
+                    self.margin, vc, faces, tri2, tile_start, tiles, ok)
+        bad = np.zeros(len(counts), dtype=np.int64)
+        np.add.at(bad, np.repeat(np.arange(len(counts)), counts), ~ok)
+        return bad == 0
