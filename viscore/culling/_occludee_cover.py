@@ -96,7 +96,7 @@ def _tile_lists(tri2, ok, w, h, tile, count, fill, start, lst):  # pragma: no co
 def frame_tiles(vertices: np.ndarray, faces: np.ndarray, eye: np.ndarray, basis, hx: float,
                 hy: float, w: int, h: int, z0: float) -> tuple:
     """The frame's occluder triangles in camera coordinates, projected, and listed per
-    tile of :data:`TILE` pixels: ``(vc, tri2, start, lst)`` for :func:`cover_pairs`."""
+    tile of :data:`TILE` pixels: ``(vc, faces, tri2, start, lst)`` for :func:`cover_pairs`."""
     f, r, u = basis
     rel = np.asarray(vertices, dtype=np.float64) - np.asarray(eye, dtype=np.float64)
     vc = np.ascontiguousarray(np.stack([rel @ r, rel @ u, rel @ f], axis=1))
@@ -264,10 +264,11 @@ def _pair_hidden(tri, k, i, j, eye, r, u, f, hx, hy, w, h, margin, vc, faces, tr
 
 
 @njit_cached()
-def cover_pairs(tri, rec, eye, r, u, f, hx, hy, w, h, margin, vc, faces, tri2, start, lst,
-                out):  # pragma: no cover
-    """``out[p]`` for each listed pair ``rec[p]`` = (triangle, row, column): whether the
-    triangle is hidden in that pixel by the cover rule (module docstring)."""
+def cover_pairs(tri, rec, rec_start, eye, r, u, f, hx, hy, w, h, margin, vc, faces, tri2,
+                start, lst, out):  # pragma: no cover
+    """``out[g]`` for each group of listed pairs ``rec[rec_start[g]:rec_start[g + 1]]``, each
+    (triangle, row, column): whether every pair's triangle is hidden in its pixel by the
+    cover rule (module docstring); a group stops at its first pair that is not."""
     px = np.empty(8)
     py = np.empty(8)
     pz = np.empty(8)
@@ -281,7 +282,11 @@ def cover_pairs(tri, rec, eye, r, u, f, hx, hy, w, h, margin, vc, faces, tri2, s
     params = np.empty(2 + 2 * (4 + 3 * MAX_KEPT) + 8)
     live = np.empty(4 + 3 * MAX_KEPT, dtype=np.int64)
     stack = np.empty((3 * LEVELS + 4, 3))
-    for p in range(rec.shape[0]):
-        out[p] = _pair_hidden(tri, rec[p, 0], rec[p, 1], rec[p, 2], eye, r, u, f, hx, hy, w,
-                              h, margin, vc, faces, tri2, start, lst, px, py, pz, qx, qy,
-                              qz, sc, sr, loc, sub, params, live, stack)
+    for g in range(rec_start.shape[0] - 1):
+        out[g] = True
+        for p in range(rec_start[g], rec_start[g + 1]):
+            if not _pair_hidden(tri, rec[p, 0], rec[p, 1], rec[p, 2], eye, r, u, f, hx, hy,
+                                w, h, margin, vc, faces, tri2, start, lst, px, py, pz, qx,
+                                qy, qz, sc, sr, loc, sub, params, live, stack):
+                out[g] = False
+                break

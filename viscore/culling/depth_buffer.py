@@ -1232,11 +1232,7 @@ class ConservativeDepthBuffer:
         z0, _ = _near_cut(size, cam._half, cam._half_vertical)
         vc, faces, tri2, tile_start, tiles = frame_tiles(
             occ._vertices, occ._faces, eye, cam.basis, cam._half, cam._half_vertical, w, h, z0)
-        counts = np.diff(rec_start)  # each group's pairs follow the previous group's
-        pairs = np.ascontiguousarray(rec[:rec_start[-1]])
-        ok = np.empty(len(pairs), dtype=bool)
-        cover_pairs(tri, pairs, eye, r, u, f, cam._half, cam._half_vertical, w, h,
+        ok = np.empty(len(rec_start) - 1, dtype=bool)
+        cover_pairs(tri, rec, rec_start, eye, r, u, f, cam._half, cam._half_vertical, w, h,
                     self.margin, vc, faces, tri2, tile_start, tiles, ok)
-        bad = np.zeros(len(counts), dtype=np.int64)
-        np.add.at(bad, np.repeat(np.arange(len(counts)), counts), ~ok)
-        return bad == 0
+        return ok
