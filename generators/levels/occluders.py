@@ -31,6 +31,7 @@ from viscore.level.scene_graph import SceneObjects
 from .._held_logs import call_held, release, report_parts
 from ..occluder import Occluder
 from ..registry import generate, get_generator
+from .districts import district_budgets, district_labels
 
 __all__ = ["scene_occluders", "scene_hierarchy", "transform_occluder", "file_occluder",
            "OCCLUDE_MANIFEST", "JOINED_METHODS", "joined_occluder", "generate_held"]
@@ -216,6 +217,15 @@ def joined_occluder(objects: SceneObjects, indices: Sequence[int] | np.ndarray, 
     share of the input's face area, surface-patches') is the method's
     default over the number of objects: a share of the mean object's area.
 
+    A level of many triangles (at least four times
+    :data:`~generators.levels.districts.DISTRICT_TRIANGLES`) is made district by district
+    (:mod:`generators.levels.districts`): the ground cut into up to 8 x 8 squares, each
+    square's planar pieces generated together with its share of the budget (by the square
+    root of its triangles) and the same smallest area in world units, the results joined:
+    a district's candidates compete only with each other, so a town's street walls are not
+    outbid by the large sheets of the ground around it. ``info["districts"]`` says how
+    many were made (1: whole).
+
     Parameters
     ----------
     objects : SceneObjects
@@ -267,9 +277,81 @@ def joined_occluder(objects: SceneObjects, indices: Sequence[int] | np.ndarray, 
         faces.append(np.asarray(objects.meshes[objects.mesh_ids[i]].faces) + offset)
         offset += len(v)
     mesh = trimesh.Trimesh(np.concatenate(verts), np.concatenate(faces), process=False)
-    occ = generate(method, mesh, seed=seed, **params)
-    occ.info["joined_objects"] = len(indices)
-    return occ
+    label, side = district_labels(mesh.vertices, mesh.faces, objects.up)
+    if side == 1 or "budget" not in params or params["budget"] is None:
+        occ = generate(method, mesh, seed=seed, **params)
+        occ.info["joined_objects"] = len(indices)
+        occ.info["districts"] = 1
+        return occ
+    return _district_occluder(mesh, label, method, seed, params, len(indices))
+
+
+def _district_occluder(mesh: trimesh.Trimesh, label: np.ndarray, method: str, seed: int,
+                       params: dict, joined: int) -> Occluder:
+    """The joined occluder made district by district (:mod:`.districts`): each district's
+    faces with its share of the budget and the same smallest area in world units."""
+    import time
+
+    start = time.perf_counter()
+    used, counts = np.unique(label, return_counts=True)
+    budgets = district_budgets(counts, int(params["budget"]))
+    area = mesh.area_faces
+    total = float(area.sum())
+    made, weights, held = [], [], []
+    for d, b in zip(used.tolist(), budgets.tolist(), strict=True):
+        if b < 1:
+            continue
+        keep = label == d
+        part = trimesh.Trimesh(mesh.vertices, mesh.faces[keep], process=False)
+        part.remove_unreferenced_vertices()
+        own = dict(params, budget=int(b))
+        share = float(area[keep].sum())
+        if "min_area" in params and share > 0:  # the same floor in world units
+            own["min_area"] = min(1.0, float(params["min_area"]) * total / share)
+        occ, records = call_held(generate, method, part, seed=seed, **own)
+        held.extend((len(made), r) for r in records)
+        made.append(occ)
+        weights.append(share / total if total > 0 else 0.0)
+    report_parts(held, len(made), what="districts", label=method)
+    meshes = [o.mesh for o in made if len(o.mesh.faces)]
+    joined_mesh = (trimesh.util.concatenate(meshes) if meshes
+                   else trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64),
+                                        process=False))
+    parts: dict = {}
+    for o in made:
+        for key, value in o.parts.items():
+            if isinstance(value, list):
+                parts.setdefault(key, []).extend(value)
+            elif isinstance(value, np.ndarray):
+                parts[key] = (np.concatenate([parts[key], value]) if key in parts else value)
+    info = _merged_info([o.info for o in made], weights)
+    info["joined_objects"] = joined
+    info["districts"] = len(made)
+    return Occluder(mesh=joined_mesh, method=made[0].method, params=dict(made[0].params,
+                    budget=int(params["budget"])), double_sided=all(o.double_sided for o in made),
+                    seconds=time.perf_counter() - start, parts=parts, info=info)
+
+
+def _merged_info(infos: list[dict], weights: list[float]) -> dict:
+    """One ``info`` of the districts' (:func:`_district_occluder`): counts added up,
+    ``area_kept`` weighted by the districts' areas, the guarantees all held, a budget
+    over when one was, ``seconds_steps`` added up; any other entry the largest
+    district's."""
+    base = dict(infos[int(np.argmax(weights))])
+    for key in base:
+        values = [i.get(key) for i in infos]
+        if key == "area_kept":
+            base[key] = float(sum(w * float(v or 0.0) for w, v in zip(weights, values,
+                                                                         strict=True)))
+        elif key == "over_budget":
+            base[key] = any(bool(v) for v in values)
+        elif key.endswith("guaranteed"):
+            base[key] = all(v is not False for v in values)
+        elif key == "seconds_steps" and all(isinstance(v, dict) for v in values):
+            base[key] = {k: sum(float(v.get(k, 0.0)) for v in values) for k in base[key]}
+        elif all(isinstance(v, int) and not isinstance(v, bool) for v in values):
+            base[key] = int(sum(values))
+    return base
 
 
 def scene_hierarchy(objects: SceneObjects, indices: Sequence[int] | np.ndarray, method: str, *,

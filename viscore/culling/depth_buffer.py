@@ -891,9 +891,12 @@ class ConservativeDepthBuffer:
         whose depth alone does not (a floor or road under the ground seen at a grazing
         angle, where the plane's farthest depth over the pixel is far). None: no
         planes (a buffer made from depths alone).
-    occluders : OccluderScene or None
-        The occluders the buffer was made from, for the cover rule of
-        :meth:`occluded_triangles` (None: a buffer made from depths alone, no rule).
+    cover : tuple or None
+        For the cover rule of :meth:`occluded_triangles`: the occluders' vertices (V, 3),
+        triangles (T, 3) and the near cut in front of the eye (world units) that a
+        triangle must lie beyond to be used; None: no rule (a buffer made from depths
+        alone, or an :class:`OccluderScene` with the rule off). Arrays only, so that a
+        buffer kept does not keep the occluders' Embree scene alive.
     margin : float
         The depth margin its depths carry, world units (the cover rule's too).
     """
@@ -903,7 +906,7 @@ class ConservativeDepthBuffer:
     hits: int
     rays: int = 0
     plane: np.ndarray | None = None
-    occluders: OccluderScene | None = None
+    cover: tuple | None = None
     margin: float = 0.0
 
     @property
@@ -1040,7 +1043,9 @@ class ConservativeDepthBuffer:
         if CONTOUR_RULE and not np.isfinite(depth).all():
             _contour_depths(occ, eye, basis, hx, hy, depth, margin)
         return cls(depth=depth, camera=camera, hits=hits, rays=rays, plane=plane,
-                   occluders=occ, margin=margin)
+                   cover=((occ._vertices, occ._faces, _near_cut(size, hx, hy)[0])
+                          if occ._cover_rule and len(occ._faces) else None),
+                   margin=margin)
 
     def screen_rectangles(self, lower: npt.ArrayLike, upper: npt.ArrayLike
                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -1206,8 +1211,7 @@ class ConservativeDepthBuffer:
         plane = self.plane if self.plane is not None else np.full((*self.shape, 4), np.inf)
         eye = np.asarray(cam.position, dtype=np.float64)
         groups = len(start) - 1
-        rule = (self.occluders is not None and self.occluders._cover_rule
-                and len(self.occluders._faces) > 0)
+        rule = self.cover is not None
         rec = np.zeros((COVER_PIXELS * groups if rule else 0, 3), dtype=np.int64)
         rec_start = np.zeros(groups + 1, dtype=np.int64)
         occluded_triangles(tri, start.astype(np.int64), eye, r, u, f, cam._half,
@@ -1222,16 +1226,14 @@ class ConservativeDepthBuffer:
         rule (:mod:`viscore.culling._occludee_cover`); True for a group with none."""
         from ._occludee_cover import cover_pairs, frame_tiles
 
-        occ = self.occluders
-        assert occ is not None  # checked by the caller
+        assert self.cover is not None  # checked by the caller
+        vertices, faces, z0 = self.cover
         cam = self.camera
         f, r, u = cam.basis
         h, w = self.depth.shape
         eye = np.asarray(cam.position, dtype=np.float64)
-        size = occ.scene.diagonal + float(np.linalg.norm(eye - occ._center))
-        z0, _ = _near_cut(size, cam._half, cam._half_vertical)
         vc, faces, tri2, tile_start, tiles = frame_tiles(
-            occ._vertices, occ._faces, eye, cam.basis, cam._half, cam._half_vertical, w, h, z0)
+            vertices, faces, eye, cam.basis, cam._half, cam._half_vertical, w, h, z0)
         ok = np.empty(len(rec_start) - 1, dtype=bool)
         cover_pairs(tri, rec, rec_start, eye, r, u, f, cam._half, cam._half_vertical, w, h,
                     self.margin, vc, faces, tri2, tile_start, tiles, ok)
