@@ -297,7 +297,9 @@ def _district_occluder(mesh: trimesh.Trimesh, label: np.ndarray, method: str, se
     budgets = district_budgets(counts, int(params["budget"]))
     area = mesh.area_faces
     total = float(area.sum())
-    made, weights, held = [], [], []
+    made: list[Occluder] = []
+    weights: list[float] = []
+    held: list[tuple[int, logging.LogRecord]] = []
     for d, b in zip(used.tolist(), budgets.tolist(), strict=True):
         if b < 1:
             continue
@@ -313,10 +315,17 @@ def _district_occluder(mesh: trimesh.Trimesh, label: np.ndarray, method: str, se
         made.append(occ)
         weights.append(share / total if total > 0 else 0.0)
     report_parts(held, len(made), what="districts", label=method)
+    if not made:  # a budget under one triangle a district: made whole
+        occ = generate(method, mesh, seed=seed, **params)
+        occ.info["joined_objects"] = joined
+        occ.info["districts"] = 1
+        return occ
     meshes = [o.mesh for o in made if len(o.mesh.faces)]
-    joined_mesh = (trimesh.util.concatenate(meshes) if meshes
-                   else trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64),
-                                        process=False))
+    joined_mesh = trimesh.Trimesh(
+        np.concatenate([m.vertices for m in meshes]) if meshes else np.zeros((0, 3)),
+        np.concatenate([m.faces + k for m, k in zip(
+            meshes, np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]]), strict=True)])
+        if meshes else np.zeros((0, 3), dtype=np.int64), process=False)
     parts: dict = {}
     for o in made:
         for key, value in o.parts.items():
@@ -339,7 +348,7 @@ def _merged_info(infos: list[dict], weights: list[float]) -> dict:
     district's."""
     base = dict(infos[int(np.argmax(weights))])
     for key in base:
-        values = [i.get(key) for i in infos]
+        values: list = [i.get(key) for i in infos]
         if key == "area_kept":
             base[key] = float(sum(w * float(v or 0.0) for w, v in zip(weights, values,
                                                                          strict=True)))
