@@ -277,13 +277,20 @@ def joined_occluder(objects: SceneObjects, indices: Sequence[int] | np.ndarray, 
         faces.append(np.asarray(objects.meshes[objects.mesh_ids[i]].faces) + offset)
         offset += len(v)
     mesh = trimesh.Trimesh(np.concatenate(verts), np.concatenate(faces), process=False)
-    label, side = district_labels(mesh.vertices, mesh.faces, objects.up)
-    if side == 1 or "budget" not in params or params["budget"] is None:
-        occ = generate(method, mesh, seed=seed, **params)
-        occ.info["joined_objects"] = len(indices)
-        occ.info["districts"] = 1
-        return occ
-    return _district_occluder(mesh, label, method, seed, params, len(indices))
+    if params.get("budget") is not None:  # no budget to share: made whole
+        label, side = district_labels(mesh.vertices, mesh.faces, objects.up)
+        if side > 1:
+            return _district_occluder(mesh, label, method, seed, params, len(indices))
+    return _whole_occluder(mesh, method, seed, params, len(indices))
+
+
+def _whole_occluder(mesh: trimesh.Trimesh, method: str, seed: int, params: dict,
+                    joined: int) -> Occluder:
+    """The joined occluder made in one piece."""
+    occ = generate(method, mesh, seed=seed, **params)
+    occ.info["joined_objects"] = joined
+    occ.info["districts"] = 1
+    return occ
 
 
 def _district_occluder(mesh: trimesh.Trimesh, label: np.ndarray, method: str, seed: int,
@@ -316,10 +323,7 @@ def _district_occluder(mesh: trimesh.Trimesh, label: np.ndarray, method: str, se
         weights.append(share / total if total > 0 else 0.0)
     report_parts(held, len(made), what="districts", label=method)
     if not made:  # a budget under one triangle a district: made whole
-        occ = generate(method, mesh, seed=seed, **params)
-        occ.info["joined_objects"] = joined
-        occ.info["districts"] = 1
-        return occ
+        return _whole_occluder(mesh, method, seed, params, joined)
     meshes = [o.mesh for o in made if len(o.mesh.faces)]
     joined_mesh = trimesh.Trimesh(
         np.concatenate([m.vertices for m in meshes]) if meshes else np.zeros((0, 3)),

@@ -30,7 +30,13 @@ import math
 import numpy as np
 
 from .._jit import njit_cached
-from ._depth_kernel import PYRAMID_SLACK, TOUCH_SLACK, _clip_to_pyramid, _side
+from ._depth_kernel import (
+    PYRAMID_SLACK,
+    TOUCH_SLACK,
+    _camera_triangle,
+    _clip_to_pyramid,
+    _side,
+)
 
 #: A fold is told from a smooth edge when both opposite vertices lie off the plane through
 #: the eye and the edge by more than this fraction of (edge plane normal length x their
@@ -187,13 +193,7 @@ def farthest_touching(tri, eye, r, u, f, hx, hy, far):
     qy = np.empty(8)
     qz = np.empty(8)
     for k in range(tri.shape[0]):
-        for m in range(3):
-            dx = tri[k, m, 0] - eye[0]
-            dy = tri[k, m, 1] - eye[1]
-            dz = tri[k, m, 2] - eye[2]
-            px[m] = dx * r[0] + dy * r[1] + dz * r[2]
-            py[m] = dx * u[0] + dy * u[1] + dz * u[2]
-            pz[m] = dx * f[0] + dy * f[1] + dz * f[2]
+        _camera_triangle(tri, k, eye, r, u, f, px, py, pz)
         n = _clip_to_pyramid(ax, ay, px, py, pz, qx, qy, qz, 3)
         if n == 0:
             continue

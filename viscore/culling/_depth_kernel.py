@@ -792,6 +792,39 @@ def _clip_to_pyramid(ax, ay, px, py, pz, qx, qy, qz, n):  # pragma: no cover
 
 
 @njit_cached()
+def _camera_triangle(tri, k, eye, r, u, f, px, py, pz):  # pragma: no cover
+    """Triangle ``k`` of ``tri`` (m, 3, 3) in camera coordinates (along ``r``, ``u``, ``f``
+    from ``eye``) into ``px``, ``py``, ``pz`` [0:3]."""
+    for m in range(3):
+        dx = tri[k, m, 0] - eye[0]
+        dy = tri[k, m, 1] - eye[1]
+        dz = tri[k, m, 2] - eye[2]
+        px[m] = dx * r[0] + dy * r[1] + dz * r[2]
+        py[m] = dx * u[0] + dy * u[1] + dz * u[2]
+        pz[m] = dx * f[0] + dy * f[1] + dz * f[2]
+
+
+@njit_cached()
+def _outside_an_edge(sc, sr, n, orient, c0, r0, c1, r1):  # pragma: no cover
+    """Whether the rectangle [c0, c1] x [r0, r1] lies wholly outside one edge of the convex
+    polygon ``(sc, sr)[:n]`` (screen coordinates; ``orient`` the sign of its doubled area),
+    by more than :data:`TOUCH_SLACK` times the edge's length: a separating axis."""
+    for m in range(n):
+        e = m + 1 if m + 1 < n else 0
+        ex = sc[e] - sc[m]
+        ey = sr[e] - sr[m]
+        reach = TOUCH_SLACK * math.sqrt(ex * ex + ey * ey)
+        apart = True
+        for y in (r0, r1):
+            for x in (c0, c1):
+                if orient * (ex * (y - sr[m]) - ey * (x - sc[m])) >= -reach:
+                    apart = False
+        if apart:
+            return True
+    return False
+
+
+@njit_cached()
 def _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, plane, px, py, pz, qx, qy, qz,
                      sc, sr, rec, nrec):  # pragma: no cover
     """Whether no ray of the buffer's screen meets triangle ``k`` of ``tri`` (m, 3, 3)
@@ -808,13 +841,7 @@ def _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, plane, px, py, pz, qx,
     pixel not listed (the listed ones are left to the cover rule of
     :mod:`viscore.culling._occludee_cover`)."""
     h, w = depth.shape
-    for m in range(3):
-        dx = tri[k, m, 0] - eye[0]
-        dy = tri[k, m, 1] - eye[1]
-        dz = tri[k, m, 2] - eye[2]
-        px[m] = dx * r[0] + dy * r[1] + dz * r[2]
-        py[m] = dx * u[0] + dy * u[1] + dz * u[2]
-        pz[m] = dx * f[0] + dy * f[1] + dz * f[2]
+    _camera_triangle(tri, k, eye, r, u, f, px, py, pz)
     # the plane in camera coordinates, before clipping: n . p = c
     e1x, e1y, e1z = px[1] - px[0], py[1] - py[0], pz[1] - pz[0]
     e2x, e2y, e2z = px[2] - px[0], py[2] - py[0], pz[2] - pz[0]
@@ -860,23 +887,9 @@ def _triangle_hidden(tri, k, eye, r, u, f, hx, hy, depth, plane, px, py, pz, qx,
     for i in range(r0, r1 + 1):
         yb = _nearest_to_centre(i, h, hy)
         for j in range(c0, c1 + 1):
-            if edges:  # separating axis: an edge of the polygon with the square outside
-                apart = False
-                for m in range(n):
-                    e = m + 1 if m + 1 < n else 0
-                    ex = sc[e] - sc[m]
-                    ey = sr[e] - sr[m]
-                    reach = TOUCH_SLACK * math.sqrt(ex * ex + ey * ey)
-                    apart = True
-                    for a in range(2):
-                        for b in range(2):
-                            cross = ex * (i + a - sr[m]) - ey * (j + b - sc[m])
-                            if orient * cross >= -reach:
-                                apart = False
-                    if apart:
-                        break
-                if apart:
-                    continue
+            # separating axis: an edge of the polygon with the square outside
+            if edges and _outside_an_edge(sc, sr, n, orient, j, i, j + 1, i + 1):
+                continue
             zb = zlow
             if use_plane:  # 1/z is affine on the screen: its largest over the square
                 inv = -np.inf

@@ -138,6 +138,17 @@ def _meets(tri2, t, c0, r0, c1, r1):  # pragma: no cover
 
 
 @njit_cached()
+def _widened_box(tri2, t, slack):  # pragma: no cover
+    """Projected triangle ``t``'s bounding box widened by ``slack``: (cmin, cmax, rmin,
+    rmax), buffer pixels."""
+    cmin = min(tri2[t, 0, 0], tri2[t, 1, 0], tri2[t, 2, 0]) - slack
+    cmax = max(tri2[t, 0, 0], tri2[t, 1, 0], tri2[t, 2, 0]) + slack
+    rmin = min(tri2[t, 0, 1], tri2[t, 1, 1], tri2[t, 2, 1]) - slack
+    rmax = max(tri2[t, 0, 1], tri2[t, 1, 1], tri2[t, 2, 1]) + slack
+    return cmin, cmax, rmin, rmax
+
+
+@njit_cached()
 def _bins(tri2, ok, pix_i, pix_j, row_start, w, slack, count, fill, start, cand
           ):  # pragma: no cover
     """Per tested pixel ``(pix_i, pix_j)`` (row-major order; ``row_start`` (H + 1,) the
@@ -148,10 +159,7 @@ def _bins(tri2, ok, pix_i, pix_j, row_start, w, slack, count, fill, start, cand
     for t in range(len(tri2)):
         if not ok[t]:
             continue
-        cmin = min(tri2[t, 0, 0], tri2[t, 1, 0], tri2[t, 2, 0]) - slack
-        cmax = max(tri2[t, 0, 0], tri2[t, 1, 0], tri2[t, 2, 0]) + slack
-        rmin = min(tri2[t, 0, 1], tri2[t, 1, 1], tri2[t, 2, 1]) - slack
-        rmax = max(tri2[t, 0, 1], tri2[t, 1, 1], tri2[t, 2, 1]) + slack
+        cmin, cmax, rmin, rmax = _widened_box(tri2, t, slack)
         if cmax < 0 or rmax < 0 or cmin > w or rmin > h:
             continue
         j0, j1 = max(0, int(math.floor(cmin)) - 1), min(w - 1, int(math.floor(cmax)) + 1)

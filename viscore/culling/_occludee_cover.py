@@ -41,8 +41,14 @@ import math
 import numpy as np
 
 from .._jit import njit_cached
-from ._depth_kernel import PYRAMID_SLACK, TOUCH_SLACK, _clip_to_pyramid
-from ._junctions import MAX_COORD, ON_EDGE, _covers, _meets, _project
+from ._depth_kernel import (
+    PYRAMID_SLACK,
+    TOUCH_SLACK,
+    _camera_triangle,
+    _clip_to_pyramid,
+    _outside_an_edge,
+)
+from ._junctions import MAX_COORD, ON_EDGE, _covers, _meets, _project, _widened_box
 
 __all__ = ["cover_pairs", "frame_tiles", "LEVELS", "MAX_KEPT", "TILE"]
 
@@ -75,10 +81,7 @@ def _tile_lists(tri2, ok, w, h, tile, count, fill, start, lst):  # pragma: no co
     for t in range(len(tri2)):
         if not ok[t]:
             continue
-        cmin = min(tri2[t, 0, 0], tri2[t, 1, 0], tri2[t, 2, 0]) - SLACK
-        cmax = max(tri2[t, 0, 0], tri2[t, 1, 0], tri2[t, 2, 0]) + SLACK
-        rmin = min(tri2[t, 0, 1], tri2[t, 1, 1], tri2[t, 2, 1]) - SLACK
-        rmax = max(tri2[t, 0, 1], tri2[t, 1, 1], tri2[t, 2, 1]) + SLACK
+        cmin, cmax, rmin, rmax = _widened_box(tri2, t, SLACK)
         if cmax < 0 or rmax < 0 or cmin > w or rmin > h:
             continue
         a0 = max(0, int(math.floor(rmin)) // tile)
@@ -134,19 +137,7 @@ def _part_meets(sc, sr, n, c0, r0, c1, r1):  # pragma: no cover
         return False
     if abs(area) <= TOUCH_SLACK:
         return True  # a sliver seen edge-on: its box decides
-    orient = 1.0 if area > 0.0 else -1.0
-    for m in range(n):
-        e = m + 1 if m + 1 < n else 0
-        ex, ey = sc[e] - sc[m], sr[e] - sr[m]
-        reach = TOUCH_SLACK * math.sqrt(ex * ex + ey * ey)
-        apart = True
-        for cy in (r0, r1):
-            for cx in (c0, c1):
-                if orient * (ex * (cy - sr[m]) - ey * (cx - sc[m])) >= -reach:
-                    apart = False
-        if apart:
-            return False
-    return True
+    return not _outside_an_edge(sc, sr, n, 1.0 if area > 0.0 else -1.0, c0, r0, c1, r1)
 
 
 @njit_cached()
@@ -155,13 +146,7 @@ def _pair_hidden(tri, k, i, j, eye, r, u, f, hx, hy, w, h, margin, vc, faces, tr
                  ):  # pragma: no cover
     """Whether triangle ``k`` of ``tri`` is hidden in buffer pixel (``i``, ``j``) by the
     rule of the module docstring."""
-    for m in range(3):
-        dx = tri[k, m, 0] - eye[0]
-        dy = tri[k, m, 1] - eye[1]
-        dz = tri[k, m, 2] - eye[2]
-        px[m] = dx * r[0] + dy * r[1] + dz * r[2]
-        py[m] = dx * u[0] + dy * u[1] + dz * u[2]
-        pz[m] = dx * f[0] + dy * f[1] + dz * f[2]
+    _camera_triangle(tri, k, eye, r, u, f, px, py, pz)
     n = _clip_to_pyramid(hx * (1.0 + PYRAMID_SLACK), hy * (1.0 + PYRAMID_SLACK), px, py, pz,
                          qx, qy, qz, 3)
     if n == 0:
